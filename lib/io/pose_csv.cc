@@ -1,0 +1,151 @@
+#include "io/pose_csv.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+#include "core/error.h"
+
+namespace pano {
+
+const char* const kPoseCsvHeader = "frame,time_s,x,y,theta_rad,status,n_landmarks,residual";
+
+const char* pose_status_name(PoseStatus s) {
+  switch (s) {
+    case PoseStatus::kOk: return "ok";
+    case PoseStatus::kLost: return "lost";
+    case PoseStatus::kInit: return "init";
+  }
+  return "?";
+}
+
+namespace {
+
+std::vector<std::string> SplitCsv(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cur;
+  for (char c : line) {
+    if (c == ',') {
+      out.push_back(cur);
+      cur.clear();
+    } else if (c != '\r') {
+      cur += c;
+    }
+  }
+  out.push_back(cur);
+  return out;
+}
+
+double ParseDouble(const std::string& s, const std::string& where, const char* column) {
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(s.c_str(), &end);
+  if (s.empty() || end != s.c_str() + s.size() || errno == ERANGE || !std::isfinite(v))
+    throw Error(where + ": column " + column + ": expected a finite number, got '" + s + "'");
+  return v;
+}
+
+int ParseInt(const std::string& s, const std::string& where, const char* column) {
+  char* end = nullptr;
+  errno = 0;
+  const long v = std::strtol(s.c_str(), &end, 10);
+  if (s.empty() || end != s.c_str() + s.size() || errno == ERANGE || v < 0 || v > 2147483647L)
+    throw Error(where + ": column " + column + ": expected a non-negative integer, got '" + s + "'");
+  return static_cast<int>(v);
+}
+
+}  // namespace
+
+std::vector<PoseRow> ReadPoseCsv(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw Error(path + ": cannot open the file");
+  std::string line;
+  if (!std::getline(in, line)) throw Error(path + ": empty file (expected the header '" +
+                                           std::string(kPoseCsvHeader) + "')");
+  if (!line.empty() && line.back() == '\r') line.pop_back();
+  if (line.compare(0, std::strlen(kPoseCsvHeader), kPoseCsvHeader) != 0)
+    throw Error(path + ": line 1: expected the header '" + std::string(kPoseCsvHeader) + "'");
+  const size_t n_cols = SplitCsv(line).size();
+  std::vector<PoseRow> rows;
+  for (int lineno = 2; std::getline(in, line); ++lineno) {
+    if (line.empty() || line == "\r") continue;
+    const std::string where = path + ": line " + std::to_string(lineno);
+    const std::vector<std::string> f = SplitCsv(line);
+    if (f.size() != n_cols)
+      throw Error(where + ": expected " + std::to_string(n_cols) + " columns, got " +
+                  std::to_string(f.size()));
+    PoseRow r;
+    r.frame = ParseInt(f[0], where, "frame");
+    r.time_s = ParseDouble(f[1], where, "time_s");
+    if (f[5] == "ok") r.status = PoseStatus::kOk;
+    else if (f[5] == "lost") r.status = PoseStatus::kLost;
+    else if (f[5] == "init") r.status = PoseStatus::kInit;
+    else throw Error(where + ": column status: expected ok, lost or init, got '" + f[5] + "'");
+    if (r.status == PoseStatus::kLost) {
+      if (!f[2].empty() || !f[3].empty() || !f[4].empty())
+        throw Error(where + ": a 'lost' row must leave x, y and theta_rad empty");
+    } else {
+      r.pose.x = ParseDouble(f[2], where, "x");
+      r.pose.y = ParseDouble(f[3], where, "y");
+      r.pose.theta = ParseDouble(f[4], where, "theta_rad");
+    }
+    r.n_landmarks = ParseInt(f[6], where, "n_landmarks");
+    r.residual = f[7].empty() ? 0.0 : ParseDouble(f[7], where, "residual");
+    r.extra.assign(f.begin() + 8, f.end());
+    if (!rows.empty() && r.frame <= rows.back().frame)
+      throw Error(where + ": frame numbers must increase (" + f[0] + " after " +
+                  std::to_string(rows.back().frame) + ")");
+    rows.push_back(std::move(r));
+  }
+  return rows;
+}
+
+std::string FormatPoseRow(const PoseRow& r) {
+  char buf[256];
+  if (r.status == PoseStatus::kLost) {
+    std::snprintf(buf, sizeof buf, "%d,%.6f,,,,%s,%d,", r.frame, r.time_s,
+                  pose_status_name(r.status), r.n_landmarks);
+  } else {
+    std::snprintf(buf, sizeof buf, "%d,%.6f,%.4f,%.4f,%.6f,%s,%d,%.4f", r.frame, r.time_s,
+                  r.pose.x, r.pose.y, wrap_angle(r.pose.theta), pose_status_name(r.status),
+                  r.n_landmarks, r.residual);
+  }
+  std::string s = buf;
+  for (const std::string& e : r.extra) s += "," + e;
+  return s;
+}
+
+PoseCsvWriter::PoseCsvWriter(const std::string& path, const std::vector<std::string>& extra)
+    : path_(path), n_extra_(extra.size()) {
+  file_ = std::fopen(path.c_str(), "w");
+  if (!file_) throw Error(path + ": cannot write: " + std::strerror(errno));
+  std::string header = kPoseCsvHeader;
+  for (const std::string& c : extra) header += "," + c;
+  std::fprintf(file_, "%s\n", header.c_str());
+  std::fflush(file_);
+}
+
+PoseCsvWriter::~PoseCsvWriter() {
+  if (file_) std::fclose(file_);
+}
+
+void PoseCsvWriter::Write(const PoseRow& row) {
+  if (!file_) throw Error(path_ + ": write after close");
+  PoseRow r = row;
+  r.extra.resize(n_extra_);
+  const std::string line = FormatPoseRow(r);
+  if (std::fprintf(file_, "%s\n", line.c_str()) < 0 || std::fflush(file_) != 0)
+    throw Error(path_ + ": write failed: " + std::strerror(errno));
+}
+
+void PoseCsvWriter::Close() {
+  if (file_ && std::fclose(file_) != 0) {
+    file_ = nullptr;
+    throw Error(path_ + ": close failed: " + std::strerror(errno));
+  }
+  file_ = nullptr;
+}
+
+}  // namespace pano

@@ -1,0 +1,281 @@
+#include "lut/radius_table.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "io/map.h"
+
+namespace pano {
+
+namespace {
+
+constexpr char kMagic[8] = {'P', 'A', 'N', 'O', 'L', 'U', 'T', '\0'};
+constexpr uint32_t kVersion = 1;
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+uint64_t Fnv1a64(const uint8_t* data, size_t n) {
+  uint64_t h = 1469598103934665603ULL;
+  for (size_t i = 0; i < n; ++i) {
+    h ^= data[i];
+    h *= 1099511628211ULL;
+  }
+  return h;
+}
+
+// Fixed-layout header, all little-endian doubles/ints as on x86-64 and ARM64.
+struct Header {
+  char magic[8];
+  uint32_t version;
+  uint32_t model;
+  int32_t image_width, image_height;
+  double params[11];
+  double ranges[4];
+  int32_t n_distance, n_elevation, n_radius, n_height;
+};
+
+void PackParams(const Sensor& s, double* out) {
+  const SensorParams<double>& p = s.params;
+  const double v[11] = {p.focal_px, p.cx, p.cy, p.aspect, p.azimuth_offset, p.k1, p.k2,
+                        p.curvature_radius, p.conic_constant, p.vertex_distance, p.rim_radius};
+  std::memcpy(out, v, sizeof v);
+}
+
+// Bilinear interpolation of grid g (ny rows of nx) at fractional (fx, fy).
+inline bool Bilinear(const std::vector<float>& g, int nx, int ny, double fx, double fy,
+                     double* out) {
+  if (!(fx >= 0.0) || !(fy >= 0.0) || fx > nx - 1 || fy > ny - 1) return false;
+  int ix = std::min(static_cast<int>(fx), nx - 2);
+  int iy = std::min(static_cast<int>(fy), ny - 2);
+  const double tx = fx - ix, ty = fy - iy;
+  const float* r0 = &g[static_cast<size_t>(iy) * nx + ix];
+  const float* r1 = r0 + nx;
+  const double v = (1 - ty) * ((1 - tx) * r0[0] + tx * r0[1]) + ty * ((1 - tx) * r1[0] + tx * r1[1]);
+  if (std::isnan(v)) return false;
+  *out = v;
+  return true;
+}
+
+}  // namespace
+
+void LutRanges::Check(const std::string& what) const {
+  if (!(d_min > 0.0) || !(d_max > d_min) || !std::isfinite(d_max))
+    throw Error(what + ": distance range: expected 0 < d_min < d_max");
+  if (!(z_max > z_min) || !std::isfinite(z_min) || !std::isfinite(z_max))
+    throw Error(what + ": height range: expected z_min < z_max");
+}
+
+void LutSize::Check(const std::string& what) const {
+  if (n_distance < 2 || n_elevation < 2 || n_radius < 2 || n_height < 2)
+    throw Error(what + ": table size: expected at least 2 nodes along every axis");
+  if (static_cast<double>(n_distance) * n_elevation > 1e8 ||
+      static_cast<double>(n_radius) * n_height > 1e8)
+    throw Error(what + ": table size: more than 1e8 nodes");
+}
+
+LutRanges RangesForMap(const Map& map, const Sensor& sensor) {
+  // Farthest distance: the diagonal of the room (or of the landmarks' extent).
+  Eigen::Vector2d lo(1e300, 1e300), hi(-1e300, -1e300);
+  double z_top = map.sensor_height;
+  auto add = [&](const Eigen::Vector2d& p) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  };
+  if (map.room.present) {
+    add(map.room.min);
+    add(map.room.max);
+    z_top = std::max(z_top, map.room.height);
+  }
+  for (const MapRectangle& r : map.rectangles) {
+    add(r.from);
+    add(r.to);
+    z_top = std::max(z_top, r.z1);
+  }
+  for (const MapRectangle& r : map.distractors) {
+    add(r.from);
+    add(r.to);
+    z_top = std::max(z_top, r.z1);
+  }
+  for (const MapBox& b : map.boxes) {
+    add(b.min.head<2>());
+    add(b.max.head<2>());
+    z_top = std::max(z_top, b.max.z());
+  }
+  LutRanges r;
+  const double diag = (hi - lo).norm();
+  r.d_min = std::max(2.0 * sensor.mirror_distance(), 1e-3 * diag);
+  r.d_max = 1.5 * diag + r.d_min;
+  r.z_min = -map.sensor_height - 1e-6;
+  r.z_max = z_top - map.sensor_height + 1e-6;
+  return r;
+}
+
+LutRanges DefaultRanges(const Sensor& sensor) {
+  const double scale = sensor.params.vertex_distance + sensor.params.curvature_radius;
+  LutRanges r;
+  r.d_min = 2.0 * scale;
+  r.d_max = 400.0 * scale;
+  r.z_min = -0.5 * r.d_max;
+  r.z_max = 0.5 * r.d_max;
+  return r;
+}
+
+void RadiusTable::SetGeometry() {
+  log_d_min_ = std::log(ranges_.d_min);
+  log_d_step_ = (std::log(ranges_.d_max) - log_d_min_) / (size_.n_distance - 1);
+  // Elevation range of the (D, Z) box, seen from the pinhole.
+  const double e[4] = {std::atan2(ranges_.z_min, ranges_.d_min), std::atan2(ranges_.z_min, ranges_.d_max),
+                       std::atan2(ranges_.z_max, ranges_.d_min), std::atan2(ranges_.z_max, ranges_.d_max)};
+  elev_min_ = *std::min_element(e, e + 4);
+  elev_step_ = (*std::max_element(e, e + 4) - elev_min_) / (size_.n_elevation - 1);
+  r_max_ = sensor_.limb_radius();
+  r_step_ = r_max_ / (size_.n_radius - 1);
+  z_step_ = (ranges_.z_max - ranges_.z_min) / (size_.n_height - 1);
+}
+
+RadiusTable RadiusTable::Build(const Sensor& sensor, const LutRanges& ranges, const LutSize& size) {
+  sensor.Check("lookup table");
+  ranges.Check("lookup table");
+  size.Check("lookup table");
+  RadiusTable t;
+  t.sensor_ = sensor;
+  t.ranges_ = ranges;
+  t.size_ = size;
+  t.SetGeometry();
+  const int nd = size.n_distance, ne = size.n_elevation;
+  t.forward_.assign(static_cast<size_t>(nd) * ne, kNaN);
+#pragma omp parallel for schedule(dynamic, 8)
+  for (int j = 0; j < ne; ++j) {
+    const double elev = t.elev_min_ + j * t.elev_step_;
+    const double tan_e = std::tan(elev);
+    for (int i = 0; i < nd; ++i) {
+      const double D = std::exp(t.log_d_min_ + i * t.log_d_step_);
+      double R;
+      if (sensor.image_radius(D, D * tan_e, &R))
+        t.forward_[static_cast<size_t>(j) * nd + i] = static_cast<float>(R);
+    }
+  }
+  const int nr = size.n_radius, nz = size.n_height;
+  t.inverse_.assign(static_cast<size_t>(nr) * nz, kNaN);
+  const double d_lo = 0.5 * ranges.d_min, d_hi = 2.0 * ranges.d_max;
+#pragma omp parallel for schedule(static)
+  for (int j = 0; j < nz; ++j) {
+    const double Z = ranges.z_min + j * t.z_step_;
+    for (int i = 0; i < nr; ++i) {
+      double D;
+      if (sensor.inverse_image_radius(i * t.r_step_, Z, &D) && D >= d_lo && D <= d_hi)
+        t.inverse_[static_cast<size_t>(j) * nr + i] = static_cast<float>(D);
+    }
+  }
+  return t;
+}
+
+bool RadiusTable::radius(double D, double Z, double* R) const {
+  if (!(D > 0.0)) return false;
+  const double fx = (std::log(D) - log_d_min_) / log_d_step_;
+  const double fy = (std::atan2(Z, D) - elev_min_) / elev_step_;
+  return Bilinear(forward_, size_.n_distance, size_.n_elevation, fx, fy, R);
+}
+
+bool RadiusTable::distance(double R, double Z, double* D) const {
+  const double fx = R / r_step_;
+  const double fy = (Z - ranges_.z_min) / z_step_;
+  return Bilinear(inverse_, size_.n_radius, size_.n_height, fx, fy, D);
+}
+
+bool RadiusTable::Covers(const LutRanges& r) const {
+  return !empty() && ranges_.d_min <= r.d_min && ranges_.d_max >= r.d_max &&
+         ranges_.z_min <= r.z_min && ranges_.z_max >= r.z_max;
+}
+
+bool RadiusTable::Matches(const Sensor& s) const {
+  if (s.model != sensor_.model) return false;
+  double a[11], b[11];
+  PackParams(s, a);
+  PackParams(sensor_, b);
+  for (int i = 0; i < 11; ++i)
+    if (std::abs(a[i] - b[i]) > 1e-9 * (1.0 + std::abs(a[i]))) return false;
+  return true;
+}
+
+void RadiusTable::Save(const std::string& path) const {
+  if (empty()) throw Error(path + ": cannot save an empty lookup table");
+  Header h{};
+  std::memcpy(h.magic, kMagic, 8);
+  h.version = kVersion;
+  h.model = static_cast<uint32_t>(sensor_.model);
+  h.image_width = sensor_.image_width;
+  h.image_height = sensor_.image_height;
+  PackParams(sensor_, h.params);
+  h.ranges[0] = ranges_.d_min;
+  h.ranges[1] = ranges_.d_max;
+  h.ranges[2] = ranges_.z_min;
+  h.ranges[3] = ranges_.z_max;
+  h.n_distance = size_.n_distance;
+  h.n_elevation = size_.n_elevation;
+  h.n_radius = size_.n_radius;
+  h.n_height = size_.n_height;
+  std::string blob(reinterpret_cast<const char*>(&h), sizeof h);
+  blob.append(reinterpret_cast<const char*>(forward_.data()), forward_.size() * sizeof(float));
+  blob.append(reinterpret_cast<const char*>(inverse_.data()), inverse_.size() * sizeof(float));
+  const uint64_t sum = Fnv1a64(reinterpret_cast<const uint8_t*>(blob.data()), blob.size());
+  blob.append(reinterpret_cast<const char*>(&sum), sizeof sum);
+  WriteFileAtomic(path, blob);
+}
+
+RadiusTable RadiusTable::Load(const std::string& path, const Sensor* expected) {
+  const std::string blob = ReadFile(path);
+  if (blob.size() < sizeof(Header) + sizeof(uint64_t))
+    throw Error(path + ": truncated lookup table (" + std::to_string(blob.size()) + " bytes)");
+  Header h;
+  std::memcpy(&h, blob.data(), sizeof h);
+  if (std::memcmp(h.magic, kMagic, 8) != 0)
+    throw Error(path + ": not a panotrack lookup table (bad magic)");
+  if (h.version != kVersion)
+    throw Error(path + ": lookup table version " + std::to_string(h.version) + ", expected " +
+                std::to_string(kVersion) + " (rebuild it with panocalib lut)");
+  RadiusTable t;
+  t.size_ = {h.n_distance, h.n_elevation, h.n_radius, h.n_height};
+  if (h.n_distance < 2 || h.n_elevation < 2 || h.n_radius < 2 || h.n_height < 2 ||
+      h.n_distance > 100000 || h.n_elevation > 100000 || h.n_radius > 100000 || h.n_height > 100000)
+    throw Error(path + ": corrupt lookup table header (table sizes)");
+  const size_t n_fwd = static_cast<size_t>(h.n_distance) * h.n_elevation;
+  const size_t n_inv = static_cast<size_t>(h.n_radius) * h.n_height;
+  const size_t want = sizeof(Header) + (n_fwd + n_inv) * sizeof(float) + sizeof(uint64_t);
+  if (blob.size() != want)
+    throw Error(path + ": truncated or padded lookup table (" + std::to_string(blob.size()) +
+                " bytes, expected " + std::to_string(want) + ")");
+  uint64_t stored;
+  std::memcpy(&stored, blob.data() + want - sizeof stored, sizeof stored);
+  if (Fnv1a64(reinterpret_cast<const uint8_t*>(blob.data()), want - sizeof stored) != stored)
+    throw Error(path + ": corrupt lookup table (checksum mismatch)");
+  if (h.model > 1) throw Error(path + ": corrupt lookup table header (model)");
+  t.sensor_.model = static_cast<MirrorModel>(h.model);
+  t.sensor_.image_width = h.image_width;
+  t.sensor_.image_height = h.image_height;
+  SensorParams<double>& p = t.sensor_.params;
+  double* fields[11] = {&p.focal_px, &p.cx, &p.cy, &p.aspect, &p.azimuth_offset, &p.k1, &p.k2,
+                        &p.curvature_radius, &p.conic_constant, &p.vertex_distance, &p.rim_radius};
+  for (int i = 0; i < 11; ++i) *fields[i] = h.params[i];
+  t.sensor_.Check(path);
+  t.ranges_ = {h.ranges[0], h.ranges[1], h.ranges[2], h.ranges[3]};
+  t.ranges_.Check(path);
+  if (expected && !t.Matches(*expected))
+    throw Error(path + ": lookup table was built for other sensor parameters than the calibration "
+                       "(rebuild it with panocalib lut)");
+  t.SetGeometry();
+  t.forward_.resize(n_fwd);
+  t.inverse_.resize(n_inv);
+  std::memcpy(t.forward_.data(), blob.data() + sizeof(Header), n_fwd * sizeof(float));
+  std::memcpy(t.inverse_.data(), blob.data() + sizeof(Header) + n_fwd * sizeof(float),
+              n_inv * sizeof(float));
+  return t;
+}
+
+}  // namespace pano

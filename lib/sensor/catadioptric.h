@@ -1,0 +1,360 @@
+// Catadioptric sensor model: a pinhole camera on the axis of a convex mirror
+// that is a quadric of revolution (sphere, ellipsoid, paraboloid, hyperboloid).
+//
+// Everything here is templated on the scalar T so that ceres::Jet passes
+// through (the calibrator differentiates projections by automatic
+// differentiation, the reflection solve included).
+//
+// Frames (spec ../shared/spec/formats.md, sections 1-2): the sensor frame has
+// its origin at the pinhole, z up along the mirror axis. The camera looks up;
+//   u - cx = f * x / z,   v - cy = f * aspect * y / z
+// so the image azimuth atan2((v-cy)/aspect, u-cx) equals the bearing
+// atan2(y, x) (plus azimuth_offset for a camera turned about its axis).
+//
+// Work is done in the meridian plane through the axis and the point:
+// s = horizontal distance from the axis, z = height above the pinhole. A camera
+// ray is (s, z) = t (m, 1), where m = tan(angle from the axis) is the
+// normalised image radius: image_radius = focal_px * distort(m).
+#pragma once
+
+#include <cmath>
+#include <limits>
+#include <type_traits>
+
+namespace pano {
+
+// Scalar value of a double, or of a ceres::Jet (anything with a member `a`),
+// without making this header depend on Ceres.
+inline double scalar_value(double x) { return x; }
+inline double scalar_value(float x) { return x; }
+template <typename T>
+auto scalar_value(const T& x) -> decltype(scalar_value(x.a)) {
+  return scalar_value(x.a);
+}
+
+// Mirror: a quadric of revolution with its vertex (lowest point) on the axis.
+// Its profile, with w the height above the vertex:
+//   s^2 = 2 R w - (1 + k) w^2
+// R = curvature_radius at the vertex, k = conic_constant (0 sphere,
+// -1 paraboloid, < -1 hyperboloid, (-1,0) prolate and > 0 oblate ellipsoid).
+// A sphere of radius r centred d above the pinhole is R = r, k = 0,
+// vertex_distance = d - r.
+template <typename T>
+struct SensorParams {
+  T focal_px = T(0);
+  T cx = T(0);
+  T cy = T(0);
+  T aspect = T(1);
+  T azimuth_offset = T(0);  // image azimuth = bearing + azimuth_offset
+  T k1 = T(0);              // lens radial distortion on m: m_d = m (1 + k1 m^2 + k2 m^4)
+  T k2 = T(0);
+  T curvature_radius = T(0);
+  T conic_constant = T(0);
+  T vertex_distance = T(0);  // height of the mirror's vertex above the pinhole
+  T rim_radius = T(0);       // mirror's physical radius (s at its rim); 0: up to the limb
+
+  template <typename U>
+  SensorParams<U> cast() const {
+    SensorParams<U> p;
+    p.focal_px = U(scalar_value(focal_px));
+    p.cx = U(scalar_value(cx));
+    p.cy = U(scalar_value(cy));
+    p.aspect = U(scalar_value(aspect));
+    p.azimuth_offset = U(scalar_value(azimuth_offset));
+    p.k1 = U(scalar_value(k1));
+    p.k2 = U(scalar_value(k2));
+    p.curvature_radius = U(scalar_value(curvature_radius));
+    p.conic_constant = U(scalar_value(conic_constant));
+    p.vertex_distance = U(scalar_value(vertex_distance));
+    p.rim_radius = U(scalar_value(rim_radius));
+    return p;
+  }
+};
+
+// Sphere of radius r whose centre is d above the pinhole (spec section 2).
+template <typename T>
+void set_sphere_mirror(SensorParams<T>* p, const T& mirror_radius, const T& mirror_distance) {
+  p->curvature_radius = mirror_radius;
+  p->conic_constant = T(0);
+  p->vertex_distance = mirror_distance - mirror_radius;
+}
+
+// Largest normalised image radius m that sees the mirror: the limb (where the
+// camera ray grazes the mirror) or the rim, whichever is nearer the axis.
+// Infinity when neither limits (a hyperboloid whose asymptotic cone holds the
+// pinhole, with no rim given).
+template <typename T>
+T max_normalized_radius(const SensorParams<T>& p) {
+  using std::sqrt;
+  const T& R = p.curvature_radius;
+  const T& zv = p.vertex_distance;
+  const T one_k = T(1) + p.conic_constant;
+  // disc(m) = R^2 - m^2 (2 R zv + (1+k) zv^2) of the ray/profile quadratic.
+  const T denom = zv * (T(2) * R + one_k * zv);
+  T m_max = T(std::numeric_limits<double>::infinity());
+  if (denom > T(0)) m_max = R / sqrt(denom);
+  if (p.rim_radius > T(0)) {
+    const T& sr = p.rim_radius;
+    const T inner = R * R - one_k * sr * sr;
+    if (inner >= T(0)) {
+      const T w_rim = sr * sr / (R + sqrt(inner));
+      const T m_rim = sr / (zv + w_rim);
+      if (m_rim < m_max) m_max = m_rim;
+    }
+  }
+  return m_max;
+}
+
+// Camera ray t (m, 1) against the mirror: the first hit, from below.
+// Returns false when the ray misses (beyond the limb).
+template <typename T>
+bool mirror_hit(const SensorParams<T>& p, const T& m, T* s, T* z) {
+  using std::sqrt;
+  const T& R = p.curvature_radius;
+  const T& zv = p.vertex_distance;
+  const T m2 = m * m;
+  // With w = t - zv: (m^2 + 1 + k) w^2 - 2 (R - m^2 zv) w + m^2 zv^2 = 0.
+  const T A = m2 + T(1) + p.conic_constant;
+  const T q = R - m2 * zv;
+  const T C = m2 * zv * zv;
+  const T disc = q * q - A * C;
+  if (disc < T(0)) return false;
+  const T den = q + sqrt(disc);
+  if (!(den > T(0))) return false;
+  const T w = C / den;  // stable form of the smaller root
+  const T t = zv + w;
+  *s = t * m;
+  *z = t;
+  return true;
+}
+
+// Reflection in the meridian plane of the camera ray of normalised radius m:
+// the point on the mirror (ps, pz) and the reflected unit direction (ds, dz).
+template <typename T>
+bool reflect_meridian(const SensorParams<T>& p, const T& m, T* ps, T* pz, T* ds, T* dz) {
+  using std::sqrt;
+  if (!mirror_hit(p, m, ps, pz)) return false;
+  const T w = *pz - p.vertex_distance;
+  // Outward (downward-facing) normal: gradient of s^2 - 2 R w + (1+k) w^2.
+  T ns = *ps;
+  T nz = (T(1) + p.conic_constant) * w - p.curvature_radius;
+  const T nn = sqrt(ns * ns + nz * nz);
+  ns /= nn;
+  nz /= nn;
+  const T vn_len = sqrt(m * m + T(1));
+  const T vs = m / vn_len, vz = T(1) / vn_len;
+  const T dot = vs * ns + vz * nz;
+  *ds = vs - T(2) * dot * ns;
+  *dz = vz - T(2) * dot * nz;
+  return true;
+}
+
+// Lens distortion on the normalised radius.
+template <typename T>
+T distort_radius(const SensorParams<T>& p, const T& m) {
+  const T m2 = m * m;
+  return m * (T(1) + p.k1 * m2 + p.k2 * m2 * m2);
+}
+
+// Inverse of distort_radius by Newton's method (monotone for sensible k1, k2).
+template <typename T>
+bool undistort_radius(const SensorParams<T>& p, const T& md, T* m) {
+  using std::abs;
+  T x = md;
+  for (int i = 0; i < 30; ++i) {
+    const T x2 = x * x;
+    const T f = x * (T(1) + p.k1 * x2 + p.k2 * x2 * x2) - md;
+    const T df = T(1) + T(3) * p.k1 * x2 + T(5) * p.k2 * x2 * x2;
+    if (!(df > T(0))) return false;
+    const T step = f / df;
+    x -= step;
+    if (abs(scalar_value(step)) < 1e-15 * (1.0 + abs(scalar_value(x)))) {
+      // One more step so that Jet derivatives are those of the converged root.
+      const T x2b = x * x;
+      x -= (x * (T(1) + p.k1 * x2b + p.k2 * x2b * x2b) - md) /
+           (T(1) + T(3) * p.k1 * x2b + T(5) * p.k2 * x2b * x2b);
+      *m = x;
+      return true;
+    }
+  }
+  return false;
+}
+
+namespace detail {
+// Signed distance-like residual of the meridian solve: cross product of the
+// reflected direction with the vector from the mirror point to the target.
+// Positive while the target lies above the reflected ray; it falls through
+// zero as m grows (the reflected ray turns upwards).
+template <typename T>
+bool meridian_residual(const SensorParams<T>& p, const T& m, const T& D, const T& Z, T* g,
+                       T* along) {
+  T ps, pz, ds, dz;
+  if (!reflect_meridian(p, m, &ps, &pz, &ds, &dz)) return false;
+  const T qs = D - ps, qz = Z - pz;
+  *g = ds * qz - dz * qs;
+  if (along) *along = ds * qs + dz * qz;
+  return true;
+}
+
+// Root of the meridian residual in double precision: bracketing bisection
+// safeguarding Newton steps (derivative by a central difference).
+// Returns false when the point is not visible.
+inline bool solve_meridian_double(const SensorParams<double>& p, double D, double Z, double* m_out) {
+  if (!(D > 0.0) || !std::isfinite(D) || !std::isfinite(Z)) return false;
+  const double m_max = max_normalized_radius(p);
+  double lo = 0.0;
+  double hi = std::isfinite(m_max) ? m_max * (1.0 - 1e-12) : 1e3;
+  double g_lo, g_hi;
+  if (!meridian_residual(p, lo, D, Z, &g_lo, static_cast<double*>(nullptr))) return false;
+  if (!meridian_residual(p, hi, D, Z, &g_hi, static_cast<double*>(nullptr))) return false;
+  if (!(g_lo > 0.0) || !(g_hi < 0.0)) return false;  // outside the visible cap
+  double m = 0.5 * (lo + hi);
+  for (int it = 0; it < 200; ++it) {
+    double g;
+    if (!meridian_residual(p, m, D, Z, &g, static_cast<double*>(nullptr))) return false;
+    if (g > 0.0) lo = m; else hi = m;
+    const double h = 1e-7 * (m + 1e-3);
+    double gp, gm;
+    double m_next;
+    if (meridian_residual(p, m + h, D, Z, &gp, static_cast<double*>(nullptr)) &&
+        meridian_residual(p, m - h, D, Z, &gm, static_cast<double*>(nullptr)) && gp != gm) {
+      m_next = m - g * (2.0 * h) / (gp - gm);
+      if (!(m_next > lo && m_next < hi)) m_next = 0.5 * (lo + hi);
+    } else {
+      m_next = 0.5 * (lo + hi);
+    }
+    const double step = std::abs(m_next - m);
+    m = m_next;
+    if (step < 1e-15 * (1.0 + m) || hi - lo < 1e-16) break;
+  }
+  double along;
+  double g;
+  if (!meridian_residual(p, m, D, Z, &g, &along)) return false;
+  if (!(along > 0.0)) return false;  // the point is behind the reflected ray
+  *m_out = m;
+  return true;
+}
+}  // namespace detail
+
+// Normalised radius m of the camera ray that sees the point at horizontal
+// distance D and height Z (sensor frame) in the mirror. Solves the 1-D
+// reflection problem (Alhazen's problem for the sphere) in double, then takes
+// one Newton step in T so that Jet derivatives follow the implicit function
+// theorem exactly.
+template <typename T>
+bool solve_meridian(const SensorParams<T>& p, const T& D, const T& Z, T* m) {
+  const SensorParams<double> pd = p.template cast<double>();
+  double m0;
+  if (!detail::solve_meridian_double(pd, scalar_value(D), scalar_value(Z), &m0)) return false;
+  if constexpr (std::is_same<T, double>::value) {
+    *m = m0;
+  } else {
+    const double h = 1e-7 * (m0 + 1e-3);
+    double gp, gm;
+    if (!detail::meridian_residual(pd, m0 + h, scalar_value(D), scalar_value(Z), &gp,
+                                   static_cast<double*>(nullptr)) ||
+        !detail::meridian_residual(pd, m0 - h, scalar_value(D), scalar_value(Z), &gm,
+                                   static_cast<double*>(nullptr)))
+      return false;
+    const double dg_dm = (gp - gm) / (2.0 * h);
+    T g;
+    if (!detail::meridian_residual(p, T(m0), D, Z, &g, static_cast<T*>(nullptr))) return false;
+    *m = T(m0) - g / T(dg_dm);
+  }
+  return true;
+}
+
+// E(D, Z): image radius (in u pixels, aspect removed) of a point at
+// horizontal distance D from the axis and height Z above the pinhole.
+template <typename T>
+bool image_radius(const SensorParams<T>& p, const T& D, const T& Z, T* radius) {
+  T m;
+  if (!solve_meridian(p, D, Z, &m)) return false;
+  *radius = p.focal_px * distort_radius(p, m);
+  return true;
+}
+
+// Inverse of E at fixed height: the horizontal distance D at which a point of
+// height Z appears at image radius `radius`. Closed form: back-project the
+// pixel ray and cut it with the plane z = Z.
+template <typename T>
+bool inverse_image_radius(const SensorParams<T>& p, const T& radius, const T& Z, T* D) {
+  T m;
+  if (!undistort_radius(p, radius / p.focal_px, &m)) return false;
+  if (!(m >= T(0)) || !(m < max_normalized_radius(p))) return false;
+  T ps, pz, ds, dz;
+  if (!reflect_meridian(p, m, &ps, &pz, &ds, &dz)) return false;
+  if (dz == T(0)) return false;
+  const T t = (Z - pz) / dz;
+  if (!(t > T(0))) return false;
+  *D = ps + t * ds;
+  return *D > T(0);
+}
+
+// Projects a point given in the sensor frame to pixel (u, v).
+template <typename T>
+bool project(const SensorParams<T>& p, const T* point_sensor, T* u, T* v) {
+  using std::atan2;
+  using std::cos;
+  using std::sin;
+  using std::sqrt;
+  const T& x = point_sensor[0];
+  const T& y = point_sensor[1];
+  const T& z = point_sensor[2];
+  const T D2 = x * x + y * y;
+  if (!(D2 > T(0))) return false;  // on the axis: hidden by the camera or the mirror
+  const T D = sqrt(D2);
+  T radius;
+  if (!image_radius(p, D, z, &radius)) return false;
+  // cos/sin of the image azimuth, bearing + azimuth_offset, without atan2 at
+  // the common zero offset.
+  const T cb = x / D, sb = y / D;
+  const T co = cos(p.azimuth_offset), so = sin(p.azimuth_offset);
+  const T ca = cb * co - sb * so;
+  const T sa = sb * co + cb * so;
+  *u = p.cx + radius * ca;
+  *v = p.cy + p.aspect * radius * sa;
+  return true;
+}
+
+// Back-projects pixel (u, v) to the reflected ray: its origin on the mirror
+// and unit direction, both in the sensor frame. Closed form.
+template <typename T>
+bool backproject(const SensorParams<T>& p, const T& u, const T& v, T* origin, T* direction) {
+  using std::atan2;
+  using std::cos;
+  using std::sin;
+  using std::sqrt;
+  const T du = u - p.cx;
+  const T dv = (v - p.cy) / p.aspect;
+  const T radius = sqrt(du * du + dv * dv);
+  T m;
+  if (!undistort_radius(p, radius / p.focal_px, &m)) return false;
+  if (!(m < max_normalized_radius(p))) return false;
+  T ps, pz, ds, dz;
+  if (!reflect_meridian(p, m, &ps, &pz, &ds, &dz)) return false;
+  // On the axis the azimuth is undefined; any will do (ps = ds_horizontal = 0).
+  T ca = T(1), sa = T(0);
+  if (radius > T(0)) {
+    ca = du / radius;
+    sa = dv / radius;
+  }
+  const T co = cos(p.azimuth_offset), so = sin(p.azimuth_offset);
+  const T cb = ca * co + sa * so;  // bearing = image azimuth - azimuth_offset
+  const T sb = sa * co - ca * so;
+  origin[0] = ps * cb;
+  origin[1] = ps * sb;
+  origin[2] = pz;
+  direction[0] = ds * cb;
+  direction[1] = ds * sb;
+  direction[2] = dz;
+  return true;
+}
+
+// Image radius of the mirror's visible edge (limb or rim) in pixels.
+template <typename T>
+T limb_radius_px(const SensorParams<T>& p) {
+  return p.focal_px * distort_radius(p, max_normalized_radius(p));
+}
+
+}  // namespace pano

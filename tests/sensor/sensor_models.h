@@ -1,0 +1,47 @@
+// The sensor models every sensor test runs over: the round-trip harness is
+// one function applied to each of them.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "sensor/sensor.h"
+
+namespace pano::test {
+
+struct NamedSensor {
+  std::string name;
+  Sensor sensor;
+};
+
+inline std::vector<NamedSensor> AllSensorModels() {
+  std::vector<NamedSensor> out;
+  // The paper's real sensor (f 590 px, r 4.9 cm, d 15.1 cm), 640 x 480.
+  out.push_back({"sphere/paper-real", make_sphere_sensor(640, 480, 590, 319.5, 239.5, 1.0, 4.9, 15.1)});
+  // The paper's synthetic sensor: 500 x 500 px, horizon radius about 157 px.
+  out.push_back({"sphere/paper-synthetic",
+                 make_sphere_sensor(500, 500, 438.0, 249.5, 249.5, 1.0, 4.9, 15.1)});
+  // Non-square pixels, a turned camera.
+  out.push_back({"sphere/aspect-offset",
+                 make_sphere_sensor(752, 480, 400, 370.2, 241.7, 0.93, 3.0, 11.0, 0.4)});
+  // Hyperboloid with a rim, and lens distortion.
+  Sensor hyper = make_sphere_sensor(752, 480, 300, 376, 240, 1.0, 1, 1);
+  hyper.model = MirrorModel::kConic;
+  hyper.params.curvature_radius = 2.0;
+  hyper.params.conic_constant = -2.2;
+  hyper.params.vertex_distance = 6.0;
+  hyper.params.rim_radius = 3.0;
+  hyper.params.k1 = -0.05;
+  hyper.params.k2 = 0.01;
+  out.push_back({"conic/hyperboloid-distorted", hyper});
+  // Prolate ellipsoid, no rim (limb-limited).
+  Sensor ell = make_sphere_sensor(640, 640, 500, 320, 320, 1.0, 1, 1);
+  ell.model = MirrorModel::kConic;
+  ell.params.curvature_radius = 3.0;
+  ell.params.conic_constant = -0.4;
+  ell.params.vertex_distance = 9.0;
+  out.push_back({"conic/ellipsoid", ell});
+  return out;
+}
+
+}  // namespace pano::test
