@@ -1,0 +1,14 @@
+// Subcommands of panocalib. Each registers itself on the CLI11 app and runs
+// one tested library function; main() catches pano::Error and prints it.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace pano::app {
+
+// project / backproject: check a calibration by hand.
+void AddProjectCommands(CLI::App& app);
+// lut: build the E(D,Z) lookup table of a calibration.
+void AddLutCommand(CLI::App& app);
+
+}  // namespace pano::app

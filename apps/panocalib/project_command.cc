@@ -1,0 +1,109 @@
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "commands.h"
+#include "core/error.h"
+#include "io/calibration.h"
+#include "io/map.h"
+#include "lut/radius_table.h"
+
+namespace pano::app {
+
+namespace {
+
+// Parses "a,b,c" into exactly n finite numbers.
+std::vector<double> ParseNumbers(const std::string& text, size_t n, const std::string& option) {
+  std::vector<double> out;
+  size_t start = 0;
+  while (start <= text.size()) {
+    const size_t comma = text.find(',', start);
+    const std::string field = text.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+    char* end = nullptr;
+    const double v = std::strtod(field.c_str(), &end);
+    if (field.empty() || end != field.c_str() + field.size() || !std::isfinite(v))
+      throw Error(option + ": expected " + std::to_string(n) + " comma-separated numbers, got '" + text + "'");
+    out.push_back(v);
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  if (out.size() != n)
+    throw Error(option + ": expected " + std::to_string(n) + " comma-separated numbers, got '" + text + "'");
+  return out;
+}
+
+}  // namespace
+
+void AddProjectCommands(CLI::App& app) {
+  auto calib = std::make_shared<std::string>();
+  auto point = std::make_shared<std::string>();
+  auto pixel = std::make_shared<std::string>();
+  CLI::App* proj = app.add_subcommand(
+      "project",
+      "Print the pixel 'u v' at which a point (sensor frame: x forward, y left, z up from the "
+      "pinhole, in the calibration's units) appears, or 'not visible'.");
+  proj->add_option("--calib", *calib, "Calibration YAML")->required();
+  proj->add_option("--point", *point, "x,y,z in the sensor frame")->required();
+  proj->callback([calib, point]() {
+    const Calibration c = ReadCalibration(*calib);
+    const std::vector<double> p = ParseNumbers(*point, 3, "--point");
+    Eigen::Vector2d px;
+    if (!c.sensor.project({p[0], p[1], p[2]}, &px)) {
+      std::printf("not visible\n");
+      return;
+    }
+    std::printf("%.6f %.6f\n", px.x(), px.y());
+    if (!c.sensor.inside_image(px))
+      std::fprintf(stderr, "panocalib: note: the pixel lies outside the %dx%d image\n",
+                   c.sensor.image_width, c.sensor.image_height);
+  });
+
+  auto calib2 = std::make_shared<std::string>();
+  CLI::App* back = app.add_subcommand(
+      "backproject",
+      "Print the reflected ray of a pixel: its origin on the mirror and its unit direction, "
+      "sensor frame ('ox oy oz dx dy dz'), or 'no mirror' outside the mirror's visible disc.");
+  back->add_option("--calib", *calib2, "Calibration YAML")->required();
+  back->add_option("--pixel", *pixel, "u,v (column, row; origin at the top-left pixel's centre)")->required();
+  back->callback([calib2, pixel]() {
+    const Calibration c = ReadCalibration(*calib2);
+    const std::vector<double> p = ParseNumbers(*pixel, 2, "--pixel");
+    Eigen::Vector3d o, d;
+    if (!c.sensor.backproject({p[0], p[1]}, &o, &d)) {
+      std::printf("no mirror\n");
+      return;
+    }
+    std::printf("%.9f %.9f %.9f %.9f %.9f %.9f\n", o.x(), o.y(), o.z(), d.x(), d.y(), d.z());
+  });
+}
+
+void AddLutCommand(CLI::App& app) {
+  struct Opts {
+    std::string calib, map, out;
+    int n = 1024;
+  };
+  auto o = std::make_shared<Opts>();
+  CLI::App* lut = app.add_subcommand(
+      "lut",
+      "Build the E(D,Z) lookup table of a calibration (image radius of a point at horizontal "
+      "distance D and height Z) and its inverse. Ranges come from --map when given, else from the "
+      "sensor (2 to 400 mirror distances).");
+  lut->add_option("--calib", o->calib, "Calibration YAML")->required();
+  lut->add_option("--map", o->map, "Map YAML whose room and landmarks the table must cover");
+  lut->add_option("-o,--output", o->out, "Output table file (.lut)")->required();
+  lut->add_option("--size", o->n, "Nodes along each axis of the forward table")->capture_default_str();
+  lut->callback([o]() {
+    const Calibration c = ReadCalibration(o->calib);
+    if (o->n < 16 || o->n > 8192) throw Error("--size: expected 16..8192, got " + std::to_string(o->n));
+    LutRanges ranges = o->map.empty() ? DefaultRanges(c.sensor) : RangesForMap(ReadMap(o->map), c.sensor);
+    LutSize size;
+    size.n_distance = size.n_elevation = size.n_radius = o->n;
+    const RadiusTable t = RadiusTable::Build(c.sensor, ranges, size);
+    t.Save(o->out);
+    std::printf("wrote %s: D %.4g..%.4g, Z %.4g..%.4g %s, %dx%d nodes\n", o->out.c_str(), ranges.d_min,
+                ranges.d_max, ranges.z_min, ranges.z_max, c.units.c_str(), o->n, o->n);
+  });
+}
+
+}  // namespace pano::app
