@@ -3,12 +3,15 @@
 
 set(PANO_WARNING_FLAGS -Wall -Wextra -Wpedantic -Wshadow=local -Wno-unknown-pragmas)
 
-# Adds every immediate subdirectory of DIR that has a CMakeLists.txt, sorted.
+set(PANO_EXCLUDE "" CACHE STRING "Folder names under lib/, apps/, tools/, tests/ to leave out of the build")
+
+# Adds every immediate subdirectory of DIR that has a CMakeLists.txt, sorted,
+# except those named in PANO_EXCLUDE.
 function(pano_add_subdirectories dir)
   file(GLOB children RELATIVE ${CMAKE_CURRENT_SOURCE_DIR}/${dir} ${CMAKE_CURRENT_SOURCE_DIR}/${dir}/*)
   list(SORT children)
   foreach(child ${children})
-    if(EXISTS ${CMAKE_CURRENT_SOURCE_DIR}/${dir}/${child}/CMakeLists.txt)
+    if(EXISTS ${CMAKE_CURRENT_SOURCE_DIR}/${dir}/${child}/CMakeLists.txt AND NOT child IN_LIST PANO_EXCLUDE)
       add_subdirectory(${dir}/${child})
     endif()
   endforeach()

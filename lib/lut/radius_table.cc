@@ -135,7 +135,6 @@ void RadiusTable::SetGeometry() {
   elev_min_ = *std::min_element(e, e + 4);
   elev_step_ = (*std::max_element(e, e + 4) - elev_min_) / (size_.n_elevation - 1);
   r_max_ = sensor_.limb_radius();
-  r_step_ = r_max_ / (size_.n_radius - 1);
   z_step_ = (ranges_.z_max - ranges_.z_min) / (size_.n_height - 1);
 }
 
@@ -163,14 +162,26 @@ RadiusTable RadiusTable::Build(const Sensor& sensor, const LutRanges& ranges, co
   }
   const int nr = size.n_radius, nz = size.n_height;
   t.inverse_.assign(static_cast<size_t>(nr) * nz, kNaN);
-  const double d_lo = 0.5 * ranges.d_min, d_hi = 2.0 * ranges.d_max;
+  // Radius nodes are spaced evenly in sqrt(1 - R / R_limb): near the limb
+  // D(R) behaves like sqrt(R_limb - R) (grazing rays), which this makes smooth.
+  // The inverse is stored as inverse distance 1/D, which stays smooth where
+  // the ray runs parallel to the plane z = Z (D -> infinity) and turns
+  // negative beyond: bilinear interpolation of D itself would fail there.
+  const SensorParams<double>& p = sensor.params;
+  const double m_limb = max_normalized_radius(p) * (1.0 - 1e-12);
 #pragma omp parallel for schedule(static)
   for (int j = 0; j < nz; ++j) {
     const double Z = ranges.z_min + j * t.z_step_;
     for (int i = 0; i < nr; ++i) {
-      double D;
-      if (sensor.inverse_image_radius(i * t.r_step_, Z, &D) && D >= d_lo && D <= d_hi)
-        t.inverse_[static_cast<size_t>(j) * nr + i] = static_cast<float>(D);
+      double m, ps, pz, ds, dz;
+      const double x = 1.0 - static_cast<double>(i) / (nr - 1);
+      if (!undistort_radius(p, t.r_max_ * (1.0 - x * x) / p.focal_px, &m)) continue;
+      m = std::min(m, m_limb);  // the last node sits on the limb
+      if (!reflect_meridian(p, m, &ps, &pz, &ds, &dz)) continue;
+      // 1 / D with D = ps + (Z - pz) ds / dz.
+      const double den = ps * dz + (Z - pz) * ds;
+      if (den == 0.0) continue;
+      t.inverse_[static_cast<size_t>(j) * nr + i] = static_cast<float>(dz / den);
     }
   }
   return t;
@@ -184,9 +195,14 @@ bool RadiusTable::radius(double D, double Z, double* R) const {
 }
 
 bool RadiusTable::distance(double R, double Z, double* D) const {
-  const double fx = R / r_step_;
+  if (!(R >= 0.0) || R > r_max_) return false;
+  const double fx = (1.0 - std::sqrt(1.0 - R / r_max_)) * (size_.n_radius - 1);
   const double fy = (Z - ranges_.z_min) / z_step_;
-  return Bilinear(inverse_, size_.n_radius, size_.n_height, fx, fy, D);
+  double inv_d;
+  if (!Bilinear(inverse_, size_.n_radius, size_.n_height, fx, fy, &inv_d) || !(inv_d > 0.0))
+    return false;
+  *D = 1.0 / inv_d;
+  return true;
 }
 
 bool RadiusTable::Covers(const LutRanges& r) const {

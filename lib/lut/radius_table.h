@@ -2,7 +2,8 @@
 // and height Z (sensor frame), tabulated on a grid in log distance and
 // elevation angle so that the bilinear interpolation error is even across the
 // table, plus the inverse D = E^-1(R, Z) on a grid in (R, Z) that the
-// Panoramic Hough Transform needs (paper Eqns 4-8).
+// Panoramic Hough Transform needs (paper Eqns 4-8). The inverse's radius
+// axis is spaced evenly in sqrt(1 - R / R_limb).
 #pragma once
 
 #include <string>
@@ -32,7 +33,7 @@ struct LutSize {
   int n_distance = 1024;   // forward table: log D nodes
   int n_elevation = 1024;  // forward table: elevation nodes
   int n_radius = 1024;     // inverse table: image radius nodes
-  int n_height = 256;      // inverse table: height nodes
+  int n_height = 1024;     // inverse table: height nodes
   void Check(const std::string& what) const;
 };
 
@@ -68,7 +69,6 @@ class RadiusTable {
   double elev_min() const { return elev_min_; }
   double elev_step() const { return elev_step_; }
   double r_max() const { return r_max_; }
-  double r_step() const { return r_step_; }
   double z_step() const { return z_step_; }
 
  private:
@@ -77,9 +77,9 @@ class RadiusTable {
   LutRanges ranges_;
   LutSize size_;
   double log_d_min_ = 0, log_d_step_ = 0, elev_min_ = 0, elev_step_ = 0;
-  double r_max_ = 0, r_step_ = 0, z_step_ = 0;
+  double r_max_ = 0, z_step_ = 0;
   std::vector<float> forward_;  // [elevation][distance], NaN: not visible
-  std::vector<float> inverse_;  // [height][radius], NaN: none
+  std::vector<float> inverse_;  // [height][radius] of 1/D (<= 0: behind), NaN: no mirror
 };
 
 }  // namespace pano
