@@ -1,2 +1,0 @@
-# Empty dependencies file for panocalib.
-# This may be replaced when dependencies are built.

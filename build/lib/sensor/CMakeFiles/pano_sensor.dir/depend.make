@@ -1,2 +1,0 @@
-# Empty dependencies file for pano_sensor.
-# This may be replaced when dependencies are built.

@@ -1,3 +1,0 @@
-file(REMOVE_RECURSE
-  "libpano_test_main.a"
-)
