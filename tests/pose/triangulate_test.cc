@@ -1,0 +1,141 @@
+// Pose from bearings: exact for exact bearings, spread as predicted to first
+// order for noisy ones, degenerate geometry detected, outliers rejected.
+#include <catch2/catch.hpp>
+
+#include <Eigen/Dense>
+#include <cmath>
+
+#include "pose/triangulate.h"
+#include "test_rng.h"
+
+namespace pano {
+namespace {
+
+std::vector<BearingObservation> Observe(const Pose2& pose, const std::vector<Eigen::Vector2d>& lms) {
+  std::vector<BearingObservation> obs;
+  for (size_t i = 0; i < lms.size(); ++i) {
+    BearingObservation o;
+    o.landmark = lms[i];
+    o.bearing = wrap_angle(std::atan2(lms[i].y() - pose.y, lms[i].x() - pose.x) - pose.theta);
+    o.id = static_cast<int>(i);
+    obs.push_back(o);
+  }
+  return obs;
+}
+
+// Corners of rectangles around a 200 x 200 room, about 70 units away.
+const std::vector<Eigen::Vector2d> kLandmarks = {{0, 60},   {0, 95},   {40, 200}, {75, 200},
+                                                 {200, 130}, {200, 90}, {150, 0},  {110, 0}};
+
+TEST_CASE("noise-free bearings give the exact pose", "[exact]") {
+  for (const Pose2 truth : {Pose2{100, 100, 0.3}, Pose2{60, 130, -2.5}, Pose2{150, 40, 3.1}}) {
+    const auto obs = Observe(truth, kLandmarks);
+    // Start the heading 20 degrees off: Newton-Raphson on Eqn 2 converges.
+    const TriangulationResult r = Triangulate(obs, {0, 0, truth.theta + 0.35});
+    REQUIRE(r.ok);
+    CHECK(std::abs(r.pose.x - truth.x) < 1e-9);
+    CHECK(std::abs(r.pose.y - truth.y) < 1e-9);
+    CHECK(std::abs(wrap_angle(r.pose.theta - truth.theta)) < 1e-9);
+    CHECK(r.residual < 1e-9);
+    CHECK(r.inliers.size() == kLandmarks.size());
+    // The paper's solve alone (Eqns 1-2) is exact too.
+    TriangulationOptions paper;
+    paper.refine = false;
+    const TriangulationResult p = Triangulate(obs, {0, 0, truth.theta - 0.35}, paper);
+    REQUIRE(p.ok);
+    CHECK(std::abs(p.pose.x - truth.x) < 1e-9);
+    CHECK(std::abs(p.pose.y - truth.y) < 1e-9);
+    // Eqn 1 at the true heading.
+    Eigen::Vector2d pos;
+    double s;
+    REQUIRE(PositionFromBearings(obs, truth.theta, &pos, &s));
+    CHECK((pos - Eigen::Vector2d(truth.x, truth.y)).norm() < 1e-9);
+    CHECK(s < 1e-18);
+  }
+}
+
+TEST_CASE("noisy bearings: the error spread matches the first-order prediction", "[noise]") {
+  PANO_SEEDED_RNG(42);
+  const Pose2 truth{95, 110, 0.8};
+  const double sigma = 0.1 * M_PI / 180;  // 0.1 degree per bearing
+  std::normal_distribution<double> noise(0.0, sigma);
+  const int trials = 2000;
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d predicted = Eigen::Matrix3d::Zero();
+  TriangulationOptions opt;
+  opt.outlier_threshold = 10 * sigma;
+  opt.huber = 10 * sigma;  // Gaussian noise: plain least squares
+  for (int t = 0; t < trials; ++t) {
+    auto obs = Observe(truth, kLandmarks);
+    for (auto& o : obs) o.bearing += noise(rng);
+    const TriangulationResult r = Triangulate(obs, truth, opt);
+    REQUIRE(r.ok);
+    const Eigen::Vector3d e(r.pose.x - truth.x, r.pose.y - truth.y,
+                            wrap_angle(r.pose.theta - truth.theta));
+    mean += e;
+    scatter += e * e.transpose();
+    predicted += r.covariance;
+  }
+  mean /= trials;
+  scatter /= trials;
+  predicted /= trials;
+  INFO("empirical cov\n" << scatter << "\npredicted\n" << predicted);
+  // Unbiased to first order: the mean error is within 4 standard errors.
+  for (int k = 0; k < 3; ++k) CHECK(std::abs(mean[k]) < 4.0 * std::sqrt(scatter(k, k) / trials));
+  // Variances agree within 15 % (the standard error of a variance estimate
+  // from 2000 samples is about 3 %).
+  for (int k = 0; k < 3; ++k) CHECK(scatter(k, k) == Approx(predicted(k, k)).epsilon(0.15));
+  // The position's standard deviation for 0.1 degree bearings ~70 units away
+  // is of order 70 * 0.1 deg = 0.12 units.
+  const double std_xy = std::sqrt(scatter(0, 0) + scatter(1, 1));
+  CHECK(std_xy > 0.03);
+  CHECK(std_xy < 0.3);
+  WARN("0.1 deg bearing noise: position std " << std_xy << " units (predicted "
+                                               << std::sqrt(predicted(0, 0) + predicted(1, 1)) << ")");
+}
+
+TEST_CASE("degenerate geometry: landmarks on one line through the camera", "[degenerate]") {
+  const Pose2 truth{100, 100, 0.0};
+  // All on the line y = x through the camera, on both sides.
+  const std::vector<Eigen::Vector2d> line = {{20, 20}, {50, 50}, {150, 150}, {180, 180}};
+  const TriangulationResult r = Triangulate(Observe(truth, line), truth);
+  CHECK_FALSE(r.ok);
+  CHECK(r.failure.find("degenerate") != std::string::npos);
+  TriangulationOptions paper;
+  paper.refine = false;
+  const TriangulationResult p = Triangulate(Observe(truth, line), truth, paper);
+  CHECK_FALSE(p.ok);
+  CHECK(p.failure.find("degenerate") != std::string::npos);
+}
+
+TEST_CASE("an outlying bearing is rejected", "[outliers]") {
+  const Pose2 truth{80, 120, -1.0};
+  auto obs = Observe(truth, kLandmarks);
+  obs[3].bearing += 5.0 * M_PI / 180;  // a wrong junction
+  const TriangulationResult r = Triangulate(obs, truth);
+  REQUIRE(r.ok);
+  CHECK(r.inliers.size() == kLandmarks.size() - 1);
+  CHECK(std::find(r.inliers.begin(), r.inliers.end(), 3) == r.inliers.end());
+  CHECK(std::hypot(r.pose.x - truth.x, r.pose.y - truth.y) < 1e-9);
+  CHECK(std::abs(r.bearing_residuals[3]) == Approx(5.0 * M_PI / 180).epsilon(1e-6));
+}
+
+TEST_CASE("too few or bad observations fail with a reason", "[bad_input]") {
+  const Pose2 truth{100, 100, 0.0};
+  auto obs = Observe(truth, {{0, 50}, {200, 50}});
+  TriangulationResult r = Triangulate(obs, truth);
+  CHECK_FALSE(r.ok);
+  CHECK(r.failure.find("too few") != std::string::npos);
+  obs = Observe(truth, kLandmarks);
+  obs[0].bearing = std::nan("");
+  r = Triangulate(obs, truth);
+  CHECK_FALSE(r.ok);
+  CHECK(r.failure.find("non-finite") != std::string::npos);
+  TriangulationOptions bad;
+  bad.min_landmarks = 1;
+  CHECK_THROWS(Triangulate(Observe(truth, kLandmarks), truth, bad));
+}
+
+}  // namespace
+}  // namespace pano
