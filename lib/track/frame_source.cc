@@ -1,0 +1,121 @@
+#include "track/frame_source.h"
+
+#include <algorithm>
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "core/error.h"
+
+namespace pano {
+
+namespace fs = std::filesystem;
+
+namespace {
+bool IsImageFile(const fs::path& p) {
+  std::string ext = p.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
+  return ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".pgm" || ext == ".bmp" ||
+         ext == ".tif" || ext == ".tiff" || ext == ".ppm";
+}
+
+void ToGrey(const cv::Mat& in, cv::Mat* out) {
+  if (in.channels() == 3) cv::cvtColor(in, *out, cv::COLOR_BGR2GRAY);
+  else if (in.channels() == 4) cv::cvtColor(in, *out, cv::COLOR_BGRA2GRAY);
+  else *out = in.clone();
+  if (out->depth() != CV_8U) out->convertTo(*out, CV_8U);
+}
+}  // namespace
+
+FrameSource::FrameSource(const std::string& path, int prefetch) : path_(path), capacity_(prefetch) {
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) {
+    for (const auto& e : fs::directory_iterator(path))
+      if (e.is_regular_file() && IsImageFile(e.path())) files_.push_back(e.path().string());
+    std::sort(files_.begin(), files_.end());
+    if (files_.empty()) throw Error(path + ": no image files in this folder");
+  } else if (path.find('%') != std::string::npos) {
+    capture_.open(path, cv::CAP_IMAGES);
+    if (!capture_.isOpened()) throw Error(path + ": no images match this pattern");
+  } else {
+    if (!fs::exists(path, ec)) throw Error(path + ": no such file");
+    capture_.open(path, cv::CAP_FFMPEG);
+    if (!capture_.isOpened()) throw Error(path + ": cannot open as a video (unreadable or not a video)");
+    fps_ = capture_.get(cv::CAP_PROP_FPS);
+    const double n = capture_.get(cv::CAP_PROP_FRAME_COUNT);
+    if (n > 0) count_ = static_cast<int>(n);
+  }
+  if (!files_.empty()) count_ = static_cast<int>(files_.size());
+  if (!ReadDirect(&first_) || first_.empty()) throw Error(path + ": no frames (empty or corrupt input)");
+  width_ = first_.cols;
+  height_ = first_.rows;
+  if (!(fps_ > 0.0 && fps_ < 1e4)) fps_ = 0.0;
+  worker_ = std::thread([this] { Decode(); });
+}
+
+FrameSource::~FrameSource() {
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    stop_ = true;
+  }
+  cv_.notify_all();
+  if (worker_.joinable()) worker_.join();
+}
+
+bool FrameSource::ReadDirect(cv::Mat* grey) {
+  cv::Mat frame;
+  if (!files_.empty()) {
+    if (next_file_ >= files_.size()) return false;
+    const std::string& f = files_[next_file_++];
+    frame = cv::imread(f, cv::IMREAD_UNCHANGED);
+    if (frame.empty()) throw Error(f + ": cannot decode the image");
+  } else {
+    if (!capture_.read(frame) || frame.empty()) return false;
+  }
+  ToGrey(frame, grey);
+  return true;
+}
+
+void FrameSource::Decode() {
+  for (;;) {
+    cv::Mat grey;
+    bool ok = false;
+    std::string err;
+    try {
+      ok = ReadDirect(&grey);
+    } catch (const std::exception& e) {
+      err = e.what();
+    }
+    std::unique_lock<std::mutex> lock(mu_);
+    if (!ok) {
+      done_ = true;
+      error_ = err;
+      cv_.notify_all();
+      return;
+    }
+    cv_.wait(lock, [this] { return stop_ || static_cast<int>(queue_.size()) < capacity_; });
+    if (stop_) return;
+    queue_.push_back(std::move(grey));
+    cv_.notify_all();
+  }
+}
+
+bool FrameSource::Read(cv::Mat* grey) {
+  if (!first_.empty()) {
+    *grey = first_;
+    first_.release();
+    return true;
+  }
+  std::unique_lock<std::mutex> lock(mu_);
+  cv_.wait(lock, [this] { return !queue_.empty() || done_; });
+  if (!queue_.empty()) {
+    *grey = std::move(queue_.front());
+    queue_.pop_front();
+    cv_.notify_all();
+    return true;
+  }
+  if (!error_.empty()) throw Error(error_);
+  return false;
+}
+
+}  // namespace pano

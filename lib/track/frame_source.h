@@ -1,0 +1,54 @@
+// Frames from a video file, a folder of images (sorted by name) or a printf
+// pattern ("frames/frame_%04d.png"), converted to 8-bit grey, decoded ahead
+// on a thread of their own so that decoding overlaps tracking.
+#pragma once
+
+#include <condition_variable>
+#include <deque>
+#include <mutex>
+#include <opencv2/core.hpp>
+#include <opencv2/videoio.hpp>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace pano {
+
+class FrameSource {
+ public:
+  // Opens the input and reads its first frame; throws pano::Error naming the
+  // path when it cannot be opened or holds no frame.
+  explicit FrameSource(const std::string& path, int prefetch = 8);
+  ~FrameSource();
+  FrameSource(const FrameSource&) = delete;
+  FrameSource& operator=(const FrameSource&) = delete;
+
+  // Next frame; false at the end. Throws pano::Error for a frame that cannot
+  // be decoded in a folder of images.
+  bool Read(cv::Mat* grey);
+  int width() const { return width_; }
+  int height() const { return height_; }
+  double fps() const { return fps_; }    // 0 when unknown (image folders)
+  int frame_count() const { return count_; }  // -1 when unknown
+
+ private:
+  bool ReadDirect(cv::Mat* grey);
+  void Decode();
+  std::string path_;
+  cv::VideoCapture capture_;
+  std::vector<std::string> files_;  // folder input
+  size_t next_file_ = 0;
+  int width_ = 0, height_ = 0, count_ = -1;
+  double fps_ = 0.0;
+  cv::Mat first_;
+  // Prefetch queue.
+  int capacity_;
+  std::thread worker_;
+  std::mutex mu_;
+  std::condition_variable cv_;
+  std::deque<cv::Mat> queue_;
+  bool done_ = false, stop_ = false;
+  std::string error_;
+};
+
+}  // namespace pano

@@ -1,0 +1,152 @@
+#include "track/localizer.h"
+
+#include <omp.h>
+
+#include <cmath>
+
+#include "core/error.h"
+
+namespace pano {
+
+const char* tracking_method_name(TrackingMethod m) {
+  return m == TrackingMethod::kJunction ? "junction" : "vertex";
+}
+
+void LocalizerOptions::Check() const {
+  prediction.Check();
+  junction.Check();
+  triangulation.Check();
+  if (!(search_px > 0) || !(refine_search_px > 0) || !(max_search_px >= search_px))
+    throw Error("localiser: search widths must be positive (and max_search_px >= search_px)");
+  if (refine_passes < 0 || refine_passes > 5) throw Error("localiser: refine_passes: expected 0..5");
+  if (!(lost_search_growth >= 1.0)) throw Error("localiser: lost_search_growth: expected >= 1");
+}
+
+std::unique_ptr<LandmarkTracker> MakeTracker(TrackingMethod method, const Sensor& sensor,
+                                             std::shared_ptr<const RadiusTable> table,
+                                             const LocalizerOptions& options) {
+  if (method != TrackingMethod::kJunction)
+    throw Error(std::string("localiser: tracking method '") + tracking_method_name(method) +
+                "' is not available in this build");
+  auto cache = std::make_shared<PhTableCache>(table);
+  return std::make_unique<JunctionTracker>(sensor, cache, options.junction);
+}
+
+Localizer::Localizer(const Calibration& calib, const Map& map,
+                     std::shared_ptr<const RadiusTable> table, const LocalizerOptions& options)
+    : calib_(calib), map_(map), scene_(Scene::FromMap(map, /*with_distractors=*/false)),
+      table_(std::move(table)), opt_(options), landmarks_(LandmarksFromMap(map)) {
+  opt_.Check();
+  if (!table_ || table_->empty()) throw Error("localiser: no E(D,Z) lookup table");
+  tracker_ = MakeTracker(opt_.method, calib_.sensor, table_, opt_);
+}
+
+void Localizer::Reset(const Pose2& initial) {
+  initial_ = last_ = previous_ = initial;
+  n_good_ = 0;
+  n_lost_ = 0;
+  started_ = true;
+}
+
+void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out) const {
+  out->predicted = PredictLandmarks(landmarks_, map_, scene_, calib_.sensor, pose, opt_.prediction);
+  out->measurements.assign(out->predicted.size(), LandmarkMeasurement());
+  const int n = static_cast<int>(out->predicted.size());
+  // Landmarks are independent: track them in parallel.
+#pragma omp parallel for schedule(dynamic, 1) if (n > 4)
+  for (int i = 0; i < n; ++i) out->measurements[i] = tracker_->Measure(out->predicted[i], search_px);
+}
+
+TriangulationResult Localizer::Solve(const FrameResult& fr, const Pose2& prior) const {
+  std::vector<BearingObservation> obs;
+  for (size_t i = 0; i < fr.predicted.size(); ++i) {
+    const LandmarkMeasurement& m = fr.measurements[i];
+    if (!m.found) continue;
+    BearingObservation o;
+    o.landmark = fr.predicted[i].landmark->corner.head<2>();
+    o.bearing = calib_.sensor.bearing_of_azimuth(m.azimuth);
+    o.weight = m.weight;
+    o.id = static_cast<int>(i);
+    obs.push_back(o);
+  }
+  return Triangulate(obs, prior, opt_.triangulation);
+}
+
+FrameResult Localizer::Process(const cv::Mat& grey, int frame, double time_s) {
+  if (!started_) throw Error("localiser: Process() before Reset()");
+  if (grey.type() != CV_8UC1 || grey.cols != calib_.sensor.image_width ||
+      grey.rows != calib_.sensor.image_height)
+    throw Error("frame " + std::to_string(frame) + ": expected an 8-bit grey image of " +
+                std::to_string(calib_.sensor.image_width) + "x" +
+                std::to_string(calib_.sensor.image_height));
+  FrameResult fr;
+  // Prediction: the last pose, moved on by the last frame-to-frame motion.
+  Pose2 pred = last_;
+  if (opt_.constant_velocity && n_good_ >= 2) {
+    pred.x += last_.x - previous_.x;
+    pred.y += last_.y - previous_.y;
+    pred.theta = wrap_angle(pred.theta + wrap_angle(last_.theta - previous_.theta));
+  }
+  fr.predicted_pose = pred;
+  const double search =
+      std::min(opt_.max_search_px, opt_.search_px * std::pow(opt_.lost_search_growth, std::min(n_lost_, 8)));
+  tracker_->BeginFrame(grey);
+  Measure(pred, search, &fr);
+  TriangulationResult tri = Solve(fr, pred);
+  // A sudden turn or lurch moves the edges beyond the search: widen it
+  // within the same frame before declaring the frame lost.
+  for (double wider = 2.0 * search; !tri.ok && wider <= 2.0 * opt_.max_search_px; wider *= 2.0) {
+    Measure(pred, wider, &fr);
+    tri = Solve(fr, pred);
+  }
+  for (int pass = 0; pass < opt_.refine_passes && tri.ok; ++pass) {
+    FrameResult again;
+    again.predicted_pose = pred;
+    Measure(tri.pose, opt_.refine_search_px, &again);
+    TriangulationResult tri2 = Solve(again, tri.pose);
+    if (!tri2.ok) break;
+    fr.predicted = std::move(again.predicted);
+    fr.measurements = std::move(again.measurements);
+    tri = tri2;
+  }
+  fr.triangulation = tri;
+  PoseRow& row = fr.row;
+  row.frame = frame;
+  row.time_s = time_s;
+  int n_found = 0;
+  for (const auto& m : fr.measurements) n_found += m.found;
+  if (tri.ok) {
+    row.status = PoseStatus::kOk;
+    row.pose = tri.pose;
+    row.n_landmarks = static_cast<int>(tri.inliers.size());
+    row.residual = tri.residual;
+    row.extra.clear();
+    for (int k = 0; k < 3; ++k) {
+      char buf[32];
+      std::snprintf(buf, sizeof buf, k < 2 ? "%.4f" : "%.6f", std::sqrt(std::max(0.0, tri.covariance(k, k))));
+      row.extra.push_back(buf);
+    }
+    previous_ = n_good_ > 0 ? last_ : tri.pose;
+    last_ = tri.pose;
+    ++n_good_;
+    n_lost_ = 0;
+  } else if (frame == 0 || !n_good_) {
+    // No measurement yet: report the user's initial pose as such.
+    row.status = n_good_ == 0 && frame == 0 ? PoseStatus::kInit : PoseStatus::kLost;
+    row.pose = initial_;
+    row.n_landmarks = n_found;
+    row.extra = {"", "", ""};
+    n_good_ = 0;
+    ++n_lost_;
+  } else {
+    // Lost: tracking goes on from the last good pose.
+    row.status = PoseStatus::kLost;
+    row.n_landmarks = n_found;
+    row.extra = {"", "", ""};
+    n_good_ = 0;
+    ++n_lost_;
+  }
+  return fr;
+}
+
+}  // namespace pano

@@ -1,0 +1,85 @@
+// The per-frame localiser: predict the landmarks in view from the current
+// pose estimate and the map, track each one in the frame, and triangulate
+// the pose from their azimuths (paper sections 2-4). A second pass re-predicts
+// from the solved pose with a narrow search, which centres the linear samples
+// and the PH window on the edges.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "io/calibration.h"
+#include "io/map.h"
+#include "io/pose_csv.h"
+#include "lut/radius_table.h"
+#include "pose/triangulate.h"
+#include "scene/scene.h"
+#include "track/junction_tracker.h"
+#include "track/landmarks.h"
+#include "track/tracker.h"
+
+namespace pano {
+
+enum class TrackingMethod { kJunction, kVertex };
+const char* tracking_method_name(TrackingMethod m);
+
+struct LocalizerOptions {
+  TrackingMethod method = TrackingMethod::kJunction;
+  PredictionOptions prediction;
+  JunctionOptions junction;
+  TriangulationOptions triangulation;
+  double search_px = 8.0;         // half-width of the first pass's linear samples
+  double refine_search_px = 3.0;  // second pass, around the solved pose
+  int refine_passes = 1;
+  bool constant_velocity = true;  // predict with the last frame-to-frame motion
+  double lost_search_growth = 1.5;  // search widens by this after a lost frame
+  double max_search_px = 20.0;
+  void Check() const;
+};
+
+struct FrameResult {
+  PoseRow row;
+  Pose2 predicted_pose;
+  std::vector<PredictedLandmark> predicted;
+  std::vector<LandmarkMeasurement> measurements;  // one per predicted landmark
+  TriangulationResult triangulation;
+};
+
+// Builds the tracker of `method` (the vertex tracker lives in track/vertex_tracker.h).
+std::unique_ptr<LandmarkTracker> MakeTracker(TrackingMethod method, const Sensor& sensor,
+                                             std::shared_ptr<const RadiusTable> table,
+                                             const LocalizerOptions& options);
+
+class Localizer {
+ public:
+  Localizer(const Calibration& calib, const Map& map, std::shared_ptr<const RadiusTable> table,
+            const LocalizerOptions& options);
+  // Starts a sequence at a known pose.
+  void Reset(const Pose2& initial);
+  // Processes one grey frame (CV_8UC1 of the calibration's size).
+  FrameResult Process(const cv::Mat& grey, int frame, double time_s);
+
+  const Map& map() const { return map_; }
+  const Sensor& sensor() const { return calib_.sensor; }
+  const std::vector<Landmark>& landmarks() const { return landmarks_; }
+
+ private:
+  void Measure(const Pose2& pose, double search_px, FrameResult* out) const;
+  TriangulationResult Solve(const FrameResult& fr, const Pose2& prior) const;
+
+  Calibration calib_;
+  Map map_;
+  Scene scene_;
+  std::shared_ptr<const RadiusTable> table_;
+  LocalizerOptions opt_;
+  std::vector<Landmark> landmarks_;
+  std::unique_ptr<LandmarkTracker> tracker_;
+  Pose2 initial_;
+  Pose2 last_, previous_;
+  int n_good_ = 0;   // consecutive good frames (for the velocity model)
+  int n_lost_ = 0;   // consecutive lost frames
+  bool started_ = false;
+};
+
+}  // namespace pano
