@@ -20,6 +20,9 @@ void LocalizerOptions::Check() const {
     throw Error("localiser: search widths must be positive (and max_search_px >= search_px)");
   if (refine_passes < 0 || refine_passes > 5) throw Error("localiser: refine_passes: expected 0..5");
   if (!(lost_search_growth >= 1.0)) throw Error("localiser: lost_search_growth: expected >= 1");
+  if (relocalize_after < 0 || relocalize_min_landmarks < 3)
+    throw Error("localiser: relocalize_after >= 0 and relocalize_min_landmarks >= 3 expected");
+  relocalize.Check();
 }
 
 std::unique_ptr<LandmarkTracker> MakeTracker(TrackingMethod method, const Sensor& sensor,
@@ -35,7 +38,8 @@ std::unique_ptr<LandmarkTracker> MakeTracker(TrackingMethod method, const Sensor
 Localizer::Localizer(const Calibration& calib, const Map& map,
                      std::shared_ptr<const RadiusTable> table, const LocalizerOptions& options)
     : calib_(calib), map_(map), scene_(Scene::FromMap(map, /*with_distractors=*/false)),
-      table_(std::move(table)), opt_(options), landmarks_(LandmarksFromMap(map)) {
+      table_(std::move(table)), opt_(options), landmarks_(LandmarksFromMap(map)),
+      compass_(calib.sensor) {
   opt_.Check();
   if (!table_ || table_->empty()) throw Error("localiser: no E(D,Z) lookup table");
   tracker_ = MakeTracker(opt_.method, calib_.sensor, table_, opt_);
@@ -46,6 +50,7 @@ void Localizer::Reset(const Pose2& initial) {
   n_good_ = 0;
   n_lost_ = 0;
   started_ = true;
+  last_signature_.clear();
 }
 
 void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out) const {
@@ -72,6 +77,47 @@ TriangulationResult Localizer::Solve(const FrameResult& fr, const Pose2& prior) 
   return Triangulate(obs, prior, opt_.triangulation);
 }
 
+bool Localizer::TrackFrom(const Pose2& pose, double search_px, FrameResult* fr,
+                          TriangulationResult* tri) const {
+  Measure(pose, search_px, fr);
+  *tri = Solve(*fr, pose);
+  for (int pass = 0; pass < 1 + opt_.refine_passes && Acceptable(*fr, *tri); ++pass) {
+    FrameResult again;
+    Measure(tri->pose, opt_.refine_search_px, &again);
+    TriangulationResult tri2 = Solve(again, tri->pose);
+    if (!Acceptable(again, tri2)) break;
+    fr->predicted = std::move(again.predicted);
+    fr->measurements = std::move(again.measurements);
+    *tri = tri2;
+  }
+  return Acceptable(*fr, *tri);
+}
+
+bool Localizer::Relocalize(const cv::Mat& grey, FrameResult* fr, TriangulationResult* tri) const {
+  const std::vector<PoseHypothesis> hyps = RelocalizationHypotheses(
+      grey, calib_.sensor, map_, scene_, landmarks_, opt_.prediction, opt_.relocalize);
+  bool found = false;
+  for (const PoseHypothesis& h : hyps) {
+    FrameResult cand;
+    TriangulationResult t;
+    if (!TrackFrom(h.pose, opt_.max_search_px, &cand, &t)) continue;
+    if (static_cast<int>(t.inliers.size()) < opt_.relocalize_min_landmarks) continue;
+    if (!found || t.inliers.size() > tri->inliers.size()) {
+      *fr = std::move(cand);
+      *tri = t;
+      found = true;
+    }
+  }
+  return found;
+}
+
+bool Localizer::Acceptable(const FrameResult& fr, const TriangulationResult& tri) const {
+  if (!tri.ok) return false;
+  const double n_pred = static_cast<double>(fr.predicted.size());
+  return tri.rms_bearing <= opt_.max_rms_bearing &&
+         (n_pred < 8 || tri.inliers.size() >= opt_.min_inlier_fraction * n_pred);
+}
+
 FrameResult Localizer::Process(const cv::Mat& grey, int frame, double time_s) {
   if (!started_) throw Error("localiser: Process() before Reset()");
   if (grey.type() != CV_8UC1 || grey.cols != calib_.sensor.image_width ||
@@ -87,6 +133,16 @@ FrameResult Localizer::Process(const cv::Mat& grey, int frame, double time_s) {
     pred.y += last_.y - previous_.y;
     pred.theta = wrap_angle(pred.theta + wrap_angle(last_.theta - previous_.theta));
   }
+  // The visual compass predicts the heading from the images themselves.
+  std::vector<float> signature;
+  if (opt_.compass) {
+    signature = compass_.Signature(grey);
+    if (!last_signature_.empty() && n_good_ >= 1) {
+      double score;
+      const double turn = compass_.Rotation(last_signature_, signature, opt_.compass_max_rotation, &score);
+      if (score >= opt_.compass_min_score) pred.theta = wrap_angle(last_.theta + turn);
+    }
+  }
   fr.predicted_pose = pred;
   const double search =
       std::min(opt_.max_search_px, opt_.search_px * std::pow(opt_.lost_search_growth, std::min(n_lost_, 8)));
@@ -95,16 +151,16 @@ FrameResult Localizer::Process(const cv::Mat& grey, int frame, double time_s) {
   TriangulationResult tri = Solve(fr, pred);
   // A sudden turn or lurch moves the edges beyond the search: widen it
   // within the same frame before declaring the frame lost.
-  for (double wider = 2.0 * search; !tri.ok && wider <= 2.0 * opt_.max_search_px; wider *= 2.0) {
+  for (double wider = 2.0 * search; !Acceptable(fr, tri) && wider <= 2.0 * opt_.max_search_px; wider *= 2.0) {
     Measure(pred, wider, &fr);
     tri = Solve(fr, pred);
   }
-  for (int pass = 0; pass < opt_.refine_passes && tri.ok; ++pass) {
+  for (int pass = 0; pass < opt_.refine_passes && Acceptable(fr, tri); ++pass) {
     FrameResult again;
     again.predicted_pose = pred;
     Measure(tri.pose, opt_.refine_search_px, &again);
     TriangulationResult tri2 = Solve(again, tri.pose);
-    if (!tri2.ok) break;
+    if (!Acceptable(again, tri2)) break;
     fr.predicted = std::move(again.predicted);
     fr.measurements = std::move(again.measurements);
     tri = tri2;
@@ -115,7 +171,20 @@ FrameResult Localizer::Process(const cv::Mat& grey, int frame, double time_s) {
   row.time_s = time_s;
   int n_found = 0;
   for (const auto& m : fr.measurements) n_found += m.found;
-  if (tri.ok) {
+  // Lost for a while (the robot may have been carried): search the room.
+  if (!Acceptable(fr, tri) && opt_.relocalize_after > 0 && n_lost_ + 1 >= opt_.relocalize_after) {
+    FrameResult found;
+    TriangulationResult t;
+    if (Relocalize(grey, &found, &t)) {
+      found.predicted_pose = pred;
+      fr.predicted = std::move(found.predicted);
+      fr.measurements = std::move(found.measurements);
+      tri = t;
+      n_good_ = 0;  // no velocity across the jump
+    }
+  }
+  if (opt_.compass) last_signature_ = std::move(signature);
+  if (Acceptable(fr, tri)) {
     row.status = PoseStatus::kOk;
     row.pose = tri.pose;
     row.n_landmarks = static_cast<int>(tri.inliers.size());

@@ -15,8 +15,10 @@
 #include "lut/radius_table.h"
 #include "pose/triangulate.h"
 #include "scene/scene.h"
+#include "track/compass.h"
 #include "track/junction_tracker.h"
 #include "track/landmarks.h"
+#include "track/relocalize.h"
 #include "track/tracker.h"
 
 namespace pano {
@@ -33,6 +35,20 @@ struct LocalizerOptions {
   double refine_search_px = 3.0;  // second pass, around the solved pose
   int refine_passes = 1;
   bool constant_velocity = true;  // predict with the last frame-to-frame motion
+  bool compass = true;            // predict the heading with the visual compass
+  double compass_max_rotation = 60.0 * M_PI / 180;  // per frame
+  double compass_min_score = 0.5;
+  // A solution is accepted only with a bearing RMS below this (radians) and
+  // at least this fraction of the predicted landmarks as inliers (when at
+  // least 8 were predicted): a few wrong junctions can triangulate exactly.
+  double max_rms_bearing = 0.5 * M_PI / 180;
+  double min_inlier_fraction = 0.2;
+  // After this many consecutive lost frames, search the whole room for the
+  // pose (0: never). Relocalisation accepts a pose only with at least
+  // relocalize_min_landmarks inliers.
+  int relocalize_after = 2;
+  int relocalize_min_landmarks = 6;
+  RelocalizeOptions relocalize;
   double lost_search_growth = 1.5;  // search widens by this after a lost frame
   double max_search_px = 20.0;
   void Check() const;
@@ -67,6 +83,10 @@ class Localizer {
  private:
   void Measure(const Pose2& pose, double search_px, FrameResult* out) const;
   TriangulationResult Solve(const FrameResult& fr, const Pose2& prior) const;
+  bool Acceptable(const FrameResult& fr, const TriangulationResult& tri) const;
+  // Tracks from `pose` (first a wide, then a narrow search); true if accepted.
+  bool TrackFrom(const Pose2& pose, double search_px, FrameResult* fr, TriangulationResult* tri) const;
+  bool Relocalize(const cv::Mat& grey, FrameResult* fr, TriangulationResult* tri) const;
 
   Calibration calib_;
   Map map_;
@@ -75,10 +95,13 @@ class Localizer {
   LocalizerOptions opt_;
   std::vector<Landmark> landmarks_;
   std::unique_ptr<LandmarkTracker> tracker_;
+  AzimuthCompass compass_;
+  std::vector<float> last_signature_;
   Pose2 initial_;
   Pose2 last_, previous_;
   int n_good_ = 0;   // consecutive good frames (for the velocity model)
   int n_lost_ = 0;   // consecutive lost frames
+  bool relocalized_ = false;  // the last frame's pose came from relocalisation
   bool started_ = false;
 };
 

@@ -1,0 +1,80 @@
+#include "track/compass.h"
+
+#include <cmath>
+
+#include "core/error.h"
+
+namespace pano {
+
+AzimuthCompass::AzimuthCompass(const Sensor& s, int bins, double inner, double outer)
+    : bins_(bins), width_(s.image_width), height_(s.image_height) {
+  if (bins < 36 || !(inner >= 0.0) || !(outer > inner) || outer > 1.0)
+    throw Error("compass: expected at least 36 bins and 0 <= inner < outer <= 1");
+  const double limb = s.limb_radius();
+  for (int v = 0; v < height_; ++v)
+    for (int u = 0; u < width_; ++u) {
+      double r, az;
+      s.to_polar(u, v, &r, &az);
+      if (r < inner * limb || r > outer * limb) continue;
+      int b = static_cast<int>(std::floor((az + M_PI) / (2 * M_PI) * bins));
+      b = (b % bins + bins) % bins;
+      pixel_offset_.push_back(v * width_ + u);
+      pixel_bin_.push_back(b);
+    }
+}
+
+std::vector<float> AzimuthCompass::Signature(const cv::Mat& grey) const {
+  if (grey.type() != CV_8UC1 || grey.cols != width_ || grey.rows != height_ || !grey.isContinuous())
+    throw Error("compass: expected a continuous 8-bit grey frame of the calibration's size");
+  std::vector<double> sum(bins_, 0.0);
+  std::vector<int> count(bins_, 0);
+  const uchar* data = grey.ptr<uchar>(0);
+  for (size_t i = 0; i < pixel_offset_.size(); ++i) {
+    sum[pixel_bin_[i]] += data[pixel_offset_[i]];
+    ++count[pixel_bin_[i]];
+  }
+  std::vector<float> mean(bins_);
+  for (int b = 0; b < bins_; ++b) mean[b] = count[b] ? static_cast<float>(sum[b] / count[b]) : 0.0f;
+  // High-pass: minus a moving average over 1/12 of the circle, so that
+  // slow illumination changes do not pull the correlation.
+  const int h = bins_ / 24;
+  std::vector<float> sig(bins_);
+  double acc = 0;
+  for (int k = -h; k <= h; ++k) acc += mean[(k + bins_) % bins_];
+  for (int b = 0; b < bins_; ++b) {
+    sig[b] = mean[b] - static_cast<float>(acc / (2 * h + 1));
+    acc += mean[(b + h + 1) % bins_] - mean[(b - h + bins_) % bins_];
+  }
+  double norm = 0;
+  for (float v : sig) norm += v * v;
+  norm = std::sqrt(norm);
+  if (norm > 0)
+    for (float& v : sig) v = static_cast<float>(v / norm);
+  return sig;
+}
+
+double AzimuthCompass::Rotation(const std::vector<float>& prev, const std::vector<float>& cur,
+                                double max_rotation, double* score) const {
+  if (static_cast<int>(prev.size()) != bins_ || static_cast<int>(cur.size()) != bins_)
+    throw Error("compass: signatures of the wrong size");
+  const int max_shift = std::min(bins_ / 2 - 1, static_cast<int>(std::ceil(max_rotation / (2 * M_PI) * bins_)));
+  // current(a) = previous(a + d): correlate cur[i] with prev[i + s].
+  std::vector<double> corr(2 * max_shift + 1);
+  int best = 0;
+  for (int s = -max_shift; s <= max_shift; ++s) {
+    double c = 0;
+    for (int i = 0; i < bins_; ++i) c += cur[i] * prev[((i + s) % bins_ + bins_) % bins_];
+    corr[s + max_shift] = c;
+    if (c > corr[best]) best = s + max_shift;
+  }
+  double shift = best - max_shift;
+  if (best > 0 && best < 2 * max_shift) {
+    const double a = corr[best - 1], b = corr[best], c = corr[best + 1];
+    const double den = a - 2 * b + c;
+    if (den < 0) shift += 0.5 * (a - c) / den;
+  }
+  *score = corr[best];
+  return shift * 2 * M_PI / bins_;
+}
+
+}  // namespace pano
