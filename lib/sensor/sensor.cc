@@ -8,6 +8,7 @@
 namespace pano {
 
 double wrap_angle(double a) {
+  if (a > -M_PI && a <= M_PI) return a;  // the common case, without a division
   a = std::remainder(a, 2.0 * M_PI);
   if (a <= -M_PI) a += 2.0 * M_PI;
   return a;

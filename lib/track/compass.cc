@@ -1,5 +1,6 @@
 #include "track/compass.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/error.h"
@@ -11,8 +12,8 @@ AzimuthCompass::AzimuthCompass(const Sensor& s, int bins, double inner, double o
   if (bins < 36 || !(inner >= 0.0) || !(outer > inner) || outer > 1.0)
     throw Error("compass: expected at least 36 bins and 0 <= inner < outer <= 1");
   const double limb = s.limb_radius();
-  for (int v = 0; v < height_; ++v)
-    for (int u = 0; u < width_; ++u) {
+  for (int v = 0; v < height_; v += 2)
+    for (int u = (v / 2) % 2; u < width_; u += 2) {
       double r, az;
       s.to_polar(u, v, &r, &az);
       if (r < inner * limb || r > outer * limb) continue;
@@ -58,17 +59,34 @@ double AzimuthCompass::Rotation(const std::vector<float>& prev, const std::vecto
   if (static_cast<int>(prev.size()) != bins_ || static_cast<int>(cur.size()) != bins_)
     throw Error("compass: signatures of the wrong size");
   const int max_shift = std::min(bins_ / 2 - 1, static_cast<int>(std::ceil(max_rotation / (2 * M_PI) * bins_)));
-  // current(a) = previous(a + d): correlate cur[i] with prev[i + s].
-  std::vector<double> corr(2 * max_shift + 1);
-  int best = 0;
-  for (int s = -max_shift; s <= max_shift; ++s) {
-    double c = 0;
-    for (int i = 0; i < bins_; ++i) c += cur[i] * prev[((i + s) % bins_ + bins_) % bins_];
-    corr[s + max_shift] = c;
-    if (c > corr[best]) best = s + max_shift;
+  // current(a) = previous(a + d): correlate cur[i] with prev[i + s]. Coarse
+  // to fine: every 4th shift first (the high-passed signatures are smooth
+  // over a few bins), then every shift around the best.
+  // prev twice over, so that prev[(i + s) mod bins] = prev2[i + s + bins]
+  // without a division in the inner loop (which then vectorises).
+  std::vector<float> prev2(3 * bins_);
+  for (int k = 0; k < 3; ++k) std::copy(prev.begin(), prev.end(), prev2.begin() + k * bins_);
+  auto corr_at = [&](int s) {
+    const float* p2 = prev2.data() + bins_ + s;
+    float c = 0;
+    for (int i = 0; i < bins_; ++i) c += cur[i] * p2[i];
+    return static_cast<double>(c);
+  };
+  int coarse = 0;
+  double coarse_best = -1e300;
+  for (int s = -max_shift; s <= max_shift; s += 4) {
+    const double c = corr_at(s);
+    if (c > coarse_best) coarse_best = c, coarse = s;
+  }
+  const int lo = std::max(-max_shift, coarse - 4), hi = std::min(max_shift, coarse + 4);
+  std::vector<double> corr(2 * max_shift + 1, -1e300);
+  int best = lo + max_shift;
+  for (int s = lo; s <= hi; ++s) {
+    corr[s + max_shift] = corr_at(s);
+    if (corr[s + max_shift] > corr[best]) best = s + max_shift;
   }
   double shift = best - max_shift;
-  if (best > 0 && best < 2 * max_shift) {
+  if (best > 0 && best < 2 * max_shift && corr[best - 1] > -1e299 && corr[best + 1] > -1e299) {
     const double a = corr[best - 1], b = corr[best], c = corr[best + 1];
     const double den = a - 2 * b + c;
     if (den < 0) shift += 0.5 * (a - c) / den;

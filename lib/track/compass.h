@@ -18,11 +18,11 @@ class AzimuthCompass {
  public:
   // Bins of the signature over 2 pi; the annulus between the two fractions
   // of the limb radius is used.
-  AzimuthCompass(const Sensor& sensor, int bins = 1440, double inner_fraction = 0.3,
+  AzimuthCompass(const Sensor& sensor, int bins = 720, double inner_fraction = 0.3,
                  double outer_fraction = 0.97);
-  // Zero-mean, unit-norm signature of a grey frame of the sensor's size:
-  // per azimuth bin, the mean of the azimuthal intensity derivative's
-  // absolute value is not used; the plain mean intensity, high-passed.
+  // Zero-mean, unit-norm signature of a grey frame of the sensor's size: per
+  // azimuth bin the mean intensity (every other pixel of every other row),
+  // high-passed.
   std::vector<float> Signature(const cv::Mat& grey) const;
   // Rotation of the robot from the frame of `previous` to that of `current`
   // (radians, counter-clockwise positive), searched within +-max_rotation;

@@ -132,8 +132,12 @@ LandmarkMeasurement JunctionTracker::Measure(const PredictedLandmark& p, double 
   w.theta_main = p.theta_main;
   w.r_halfwidth = half + 1.0;
   w.r_bin = 0.5;
-  w.theta_bin = std::max(0.5 / p.r_main, 0.05 * M_PI / 180);
-  w.theta_halfwidth = std::min(60.0 * M_PI / 180, 2.0 * (half + 1.0) / p.r_main);
+  // theta_main moves with the robot's turn (predicted by the compass) and,
+  // for a near line, with its translation: about as far as the edge itself.
+  w.theta_bin = std::max(1.0 / p.r_main, 0.05 * M_PI / 180);
+  w.theta_halfwidth = std::min(60.0 * M_PI / 180, (half + 1.0) / p.r_main);
+  // The horizontal edge validates the junction; a few robust steps suffice.
+  w.refine_iterations = 3;
   const TrackingResult tr = TrackHorizontalLine(*ph, w, votes);
   if (!tr.found || tr.score < o.min_ph_score || tr.n_inliers < o.min_horizontal_points) {
     m.why = "no PH peak for the horizontal edge";

@@ -1,5 +1,6 @@
 #include "track/landmarks.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/error.h"
@@ -80,7 +81,7 @@ double ShadeTowards(const Scene& scene, const Eigen::Vector3d& eye, const Eigen:
 
 std::vector<PredictedLandmark> PredictLandmarks(const std::vector<Landmark>& landmarks,
                                                 const Map& map, const Scene& scene,
-                                                const Sensor& sensor,
+                                                const Sensor& sensor, const RadiusTable& table,
                                                 const Pose2& pose, const PredictionOptions& opt) {
   std::vector<PredictedLandmark> out;
   const double limb = sensor.limb_radius();
@@ -100,17 +101,18 @@ std::vector<PredictedLandmark> PredictLandmarks(const std::vector<Landmark>& lan
     const Eigen::Vector3d c = sensor_from_world(pose, map.sensor_height, l.corner);
     const Eigen::Vector3d h = sensor_from_world(pose, map.sensor_height, l.h_end);
     const Eigen::Vector3d v = sensor_from_world(pose, map.sensor_height, l.v_end);
-    if (!sensor.project(c, &p.corner_px)) continue;
-    if (!sensor.inside_image(p.corner_px, opt.image_margin)) continue;
-    sensor.to_polar(p.corner_px.x(), p.corner_px.y(), &p.corner_radius, &p.azimuth);
-    if (p.corner_radius < r_lo || p.corner_radius > r_hi) continue;
     p.distance = c.head<2>().norm();
+    if (!(p.distance > 0.0) || !table.radius(p.distance, c.z(), &p.corner_radius)) continue;
+    if (p.corner_radius < r_lo || p.corner_radius > r_hi) continue;
+    p.azimuth = sensor.image_azimuth(std::atan2(c.y(), c.x()));
+    p.corner_px = sensor.from_polar(p.corner_radius, p.azimuth);
+    if (!sensor.inside_image(p.corner_px, opt.image_margin)) continue;
     const double dist3 = (l.corner - eye).norm();
     if (scene.Occluded(eye, l.corner, 1e-3 * dist3 + 1e-6)) continue;
     // Vertical edge: radial, from the corner to the other end (clamped to the
     // usable annulus).
     double rv;
-    if (!sensor.image_radius(p.distance, v.z(), &rv)) rv = v.z() > c.z() ? r_hi : r_lo;
+    if (!table.radius(p.distance, v.z(), &rv)) rv = v.z() > c.z() ? r_hi : r_lo;
     p.v_radius = std::clamp(rv, r_lo, r_hi);
     if (std::abs(p.v_radius - p.corner_radius) < opt.min_edge_px) continue;
     // Horizontal edge: its line's closest point to the axis (Eqn 4).
@@ -120,7 +122,7 @@ std::vector<PredictedLandmark> PredictLandmarks(const std::vector<Landmark>& lan
     const Eigen::Vector2d foot = c2 - (c2.dot(dir) / len2) * dir;
     const double d_main = foot.norm();
     p.h_height = c.z();
-    if (!(d_main > 0.0) || !sensor.image_radius(d_main, p.h_height, &p.r_main)) continue;
+    if (!(d_main > 0.0) || !table.radius(d_main, p.h_height, &p.r_main)) continue;
     p.theta_main = sensor.image_azimuth(std::atan2(foot.y(), foot.x()));
     p.h_end_azimuth = sensor.image_azimuth(std::atan2(h.y(), h.x()));
     const double dtheta_edge = wrap_angle(p.h_end_azimuth - p.azimuth);
@@ -139,6 +141,27 @@ std::vector<PredictedLandmark> PredictLandmarks(const std::vector<Landmark>& lan
     if (p.v_polarity == 0 || p.h_polarity == 0) continue;
     out.push_back(p);
   }
+  return out;
+}
+
+std::vector<PredictedLandmark> SelectSpread(std::vector<PredictedLandmark> all, int max_count) {
+  if (max_count <= 0 || static_cast<int>(all.size()) <= max_count) return all;
+  // Nearest first: a near landmark pins the position down most.
+  std::stable_sort(all.begin(), all.end(), [](const PredictedLandmark& a, const PredictedLandmark& b) {
+    return a.distance < b.distance;
+  });
+  std::vector<PredictedLandmark> out;
+  std::vector<char> taken(all.size(), 0), sector_used(max_count, 0);
+  for (size_t i = 0; i < all.size(); ++i) {
+    int sector = static_cast<int>((all[i].azimuth + M_PI) / (2 * M_PI) * max_count);
+    sector = std::clamp(sector, 0, max_count - 1);
+    if (sector_used[sector]) continue;
+    sector_used[sector] = 1;
+    taken[i] = 1;
+    out.push_back(all[i]);
+  }
+  for (size_t i = 0; i < all.size() && static_cast<int>(out.size()) < max_count; ++i)
+    if (!taken[i]) out.push_back(all[i]);
   return out;
 }
 

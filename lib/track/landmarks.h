@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "io/map.h"
+#include "lut/radius_table.h"
 #include "scene/scene.h"
 #include "sensor/sensor.h"
 
@@ -75,9 +76,14 @@ struct PredictionOptions {
 
 // Predicts the landmarks in view from `pose`: inside the image and the
 // mirror's annulus, not hidden by map surfaces, with contrast on both edges.
+// Image radii come from the E(D,Z) table (within 0.002 px of the model).
 std::vector<PredictedLandmark> PredictLandmarks(const std::vector<Landmark>& landmarks,
                                                 const Map& map, const Scene& scene,
-                                                const Sensor& sensor,
+                                                const Sensor& sensor, const RadiusTable& table,
                                                 const Pose2& pose, const PredictionOptions& opt);
+
+// At most `max_count` of the predicted landmarks (0: all), spread in azimuth:
+// the nearest in each of max_count equal sectors, then the nearest of the rest.
+std::vector<PredictedLandmark> SelectSpread(std::vector<PredictedLandmark> all, int max_count);
 
 }  // namespace pano

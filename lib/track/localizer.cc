@@ -18,6 +18,7 @@ void LocalizerOptions::Check() const {
   triangulation.Check();
   if (!(search_px > 0) || !(refine_search_px > 0) || !(max_search_px >= search_px))
     throw Error("localiser: search widths must be positive (and max_search_px >= search_px)");
+  if (max_landmarks != 0 && max_landmarks < 3) throw Error("localiser: max_landmarks: expected 0 or >= 3");
   if (refine_passes < 0 || refine_passes > 5) throw Error("localiser: refine_passes: expected 0..5");
   if (!(lost_search_growth >= 1.0)) throw Error("localiser: lost_search_growth: expected >= 1");
   if (relocalize_after < 0 || relocalize_min_landmarks < 3)
@@ -54,7 +55,9 @@ void Localizer::Reset(const Pose2& initial) {
 }
 
 void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out) const {
-  out->predicted = PredictLandmarks(landmarks_, map_, scene_, calib_.sensor, pose, opt_.prediction);
+  out->predicted = SelectSpread(
+      PredictLandmarks(landmarks_, map_, scene_, calib_.sensor, *table_, pose, opt_.prediction),
+      opt_.max_landmarks);
   out->measurements.assign(out->predicted.size(), LandmarkMeasurement());
   const int n = static_cast<int>(out->predicted.size());
   // Landmarks are independent: track them in parallel.
@@ -95,7 +98,7 @@ bool Localizer::TrackFrom(const Pose2& pose, double search_px, FrameResult* fr,
 
 bool Localizer::Relocalize(const cv::Mat& grey, FrameResult* fr, TriangulationResult* tri) const {
   const std::vector<PoseHypothesis> hyps = RelocalizationHypotheses(
-      grey, calib_.sensor, map_, scene_, landmarks_, opt_.prediction, opt_.relocalize);
+      grey, calib_.sensor, *table_, map_, scene_, landmarks_, opt_.prediction, opt_.relocalize);
   bool found = false;
   for (const PoseHypothesis& h : hyps) {
     FrameResult cand;

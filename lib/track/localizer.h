@@ -32,6 +32,9 @@ struct LocalizerOptions {
   JunctionOptions junction;
   TriangulationOptions triangulation;
   double search_px = 8.0;         // half-width of the first pass's linear samples
+  // Landmarks tracked per frame: at most this many, spread in azimuth (one
+  // per sector, the nearest first). 0: all in view.
+  int max_landmarks = 20;
   double refine_search_px = 3.0;  // second pass, around the solved pose
   int refine_passes = 1;
   bool constant_velocity = true;  // predict with the last frame-to-frame motion

@@ -48,7 +48,8 @@ std::vector<float> RadialEdgeHistogram(const cv::Mat& grey, const Sensor& s, int
 }
 
 std::vector<PoseHypothesis> RelocalizationHypotheses(const cv::Mat& grey, const Sensor& sensor,
-                                                     const Map& map, const Scene& scene,
+                                                     const RadiusTable& table, const Map& map,
+                                                     const Scene& scene,
                                                      const std::vector<Landmark>& landmarks,
                                                      const PredictionOptions& prediction,
                                                      const RelocalizeOptions& opt) {
@@ -80,7 +81,7 @@ std::vector<PoseHypothesis> RelocalizationHypotheses(const cv::Mat& grey, const 
   for (int i = 0; i < static_cast<int>(positions.size()); ++i) {
     const Pose2 at0{positions[i].x(), positions[i].y(), 0.0};
     const std::vector<PredictedLandmark> pred =
-        PredictLandmarks(landmarks, map, scene, sensor, at0, prediction);
+        PredictLandmarks(landmarks, map, scene, sensor, table, at0, prediction);
     // Distinct vertical edges (a rectangle's two corners share one).
     std::vector<int> edge_bins;
     for (const PredictedLandmark& p : pred) {

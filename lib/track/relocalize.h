@@ -33,7 +33,8 @@ struct PoseHypothesis {
 };
 
 std::vector<PoseHypothesis> RelocalizationHypotheses(const cv::Mat& grey, const Sensor& sensor,
-                                                     const Map& map, const Scene& scene,
+                                                     const RadiusTable& table, const Map& map,
+                                                     const Scene& scene,
                                                      const std::vector<Landmark>& landmarks,
                                                      const PredictionOptions& prediction,
                                                      const RelocalizeOptions& options);

@@ -360,8 +360,11 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
   std::shared_ptr<const RadiusTable> table = TableForMap(calib, map, opt.quiet);
   const int n_jobs = std::max(1, std::min<int>(opt.jobs > 0 ? opt.jobs : static_cast<int>(std::thread::hardware_concurrency()),
                                                static_cast<int>(jobs.size())));
-  // Parallel across videos, or across landmarks within one video.
-  if (n_jobs > 1) omp_set_num_threads(1);
+  // Parallel across videos, or across landmarks within one video. Each video
+  // has a decoding thread of its own: leave it a core, since OpenMP's
+  // spinning barriers collapse when the cores are oversubscribed.
+  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  omp_set_num_threads(n_jobs > 1 ? 1 : std::max(1, cores - 1));
   std::vector<VideoSummary> out(jobs.size());
   std::atomic<long> done{0};
   std::atomic<size_t> next{0};
