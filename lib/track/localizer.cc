@@ -20,6 +20,7 @@ void LocalizerOptions::Check() const {
     throw Error("localiser: search widths must be positive (and max_search_px >= search_px)");
   if (max_landmarks != 0 && max_landmarks < 3) throw Error("localiser: max_landmarks: expected 0 or >= 3");
   if (refine_passes < 0 || refine_passes > 5) throw Error("localiser: refine_passes: expected 0..5");
+  if (!(refine_threshold_px >= 0.0)) throw Error("localiser: refine_threshold_px: expected >= 0");
   if (!(lost_search_growth >= 1.0)) throw Error("localiser: lost_search_growth: expected >= 1");
   if (relocalize_after < 0 || relocalize_min_landmarks < 3)
     throw Error("localiser: relocalize_after >= 0 and relocalize_min_landmarks >= 3 expected");
@@ -158,7 +159,14 @@ FrameResult Localizer::Process(const cv::Mat& grey, int frame, double time_s) {
     Measure(pred, wider, &fr);
     tri = Solve(fr, pred);
   }
-  for (int pass = 0; pass < opt_.refine_passes && Acceptable(fr, tri); ++pass) {
+  // How far the found landmarks lie from their predictions (px).
+  double max_shift = 0.0;
+  for (size_t i = 0; i < fr.predicted.size(); ++i)
+    if (fr.measurements[i].found)
+      max_shift = std::max(max_shift, std::abs(wrap_angle(fr.measurements[i].azimuth - fr.predicted[i].azimuth)) *
+                                          fr.predicted[i].corner_radius);
+  for (int pass = 0; pass < opt_.refine_passes && max_shift > opt_.refine_threshold_px && Acceptable(fr, tri);
+       ++pass) {
     FrameResult again;
     again.predicted_pose = pred;
     Measure(tri.pose, opt_.refine_search_px, &again);

@@ -34,9 +34,12 @@ struct LocalizerOptions {
   double search_px = 8.0;         // half-width of the first pass's linear samples
   // Landmarks tracked per frame: at most this many, spread in azimuth (one
   // per sector, the nearest first). 0: all in view.
-  int max_landmarks = 20;
+  int max_landmarks = 16;
   double refine_search_px = 3.0;  // second pass, around the solved pose
   int refine_passes = 1;
+  // The second pass runs only when some landmark was found further than
+  // this from its prediction (px): otherwise the windows were centred.
+  double refine_threshold_px = 1.0;
   bool constant_velocity = true;  // predict with the last frame-to-frame motion
   bool compass = true;            // predict the heading with the visual compass
   double compass_max_rotation = 60.0 * M_PI / 180;  // per frame
