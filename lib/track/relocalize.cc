@@ -34,11 +34,15 @@ std::vector<float> RadialEdgeHistogram(const cv::Mat& grey, const Sensor& s, int
       h[(b % bins + bins) % bins] += std::abs(g_tan);
     }
   }
-  // Smooth by +-1 bin and normalise to a maximum of 1.
+  // Smooth with a triangle of half-width 2 degrees (a candidate position a
+  // grid step off shifts near bearings by that much) and normalise to a
+  // maximum of 1.
+  const int half = std::max(1, static_cast<int>(std::lround(2.0 / 360.0 * bins)));
   std::vector<float> out(bins);
   double mx = 0;
   for (int b = 0; b < bins; ++b) {
-    const double v = 0.25 * h[(b + bins - 1) % bins] + 0.5 * h[b] + 0.25 * h[(b + 1) % bins];
+    double v = 0;
+    for (int k = -half; k <= half; ++k) v += (half + 1 - std::abs(k)) * h[((b + k) % bins + bins) % bins];
     out[b] = static_cast<float>(v);
     mx = std::max(mx, v);
   }
@@ -68,7 +72,7 @@ std::vector<PoseHypothesis> RelocalizationHypotheses(const cv::Mat& grey, const 
       hi = hi.cwiseMax(l.corner.head<2>());
     }
   }
-  const double step = opt.grid_step > 0 ? opt.grid_step : std::max(hi.x() - lo.x(), hi.y() - lo.y()) / 30.0;
+  const double step = opt.grid_step > 0 ? opt.grid_step : std::max(hi.x() - lo.x(), hi.y() - lo.y()) / 40.0;
   const double margin = opt.wall_margin > 0 ? opt.wall_margin : step;
   std::vector<Eigen::Vector2d> positions;
   for (double x = lo.x() + margin; x <= hi.x() - margin; x += step)
@@ -95,7 +99,9 @@ std::vector<PoseHypothesis> RelocalizationHypotheses(const cv::Mat& grey, const 
       for (int t = 0; t < bins; ++t) {
         double sum = 0;
         for (int b : edge_bins) sum += hist[(b - t + bins) % bins];
-        const double score = sum / std::sqrt(static_cast<double>(edge_bins.size()));
+        // Support of the predicted edges, less a little for each predicted
+        // edge: a pose that predicts edges where there are none is worse.
+        const double score = sum - 0.15 * edge_bins.size();
         if (score > best.score) {
           best.score = score;
           best.pose.theta = wrap_angle((t + 0.5) * 2 * M_PI / bins);

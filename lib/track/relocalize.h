@@ -16,10 +16,10 @@
 namespace pano {
 
 struct RelocalizeOptions {
-  double grid_step = 0.0;   // map units between candidate positions; 0: room size / 30
+  double grid_step = 0.0;   // map units between candidate positions; 0: room size / 40
   double wall_margin = 0.0; // keep candidates this far from walls; 0: grid_step
   int heading_bins = 720;
-  int hypotheses = 6;       // best distinct hypotheses returned
+  int hypotheses = 20;      // best distinct hypotheses returned (each verified by tracking)
   void Check() const;
 };
 

@@ -1,0 +1,153 @@
+// The localiser's parts: landmarks and their prediction, the step detector,
+// the visual compass, relocalisation, and the accuracy summary.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+#include "test_rng.h"
+#include "track/compass.h"
+#include "track/edge_profile.h"
+#include "track_fixture.h"
+
+namespace pano {
+namespace {
+
+Map OneRoom() {
+  Map m;
+  m.sensor_height = 30;
+  m.room.present = true;
+  m.room.min = {0, 0};
+  m.room.max = {200, 200};
+  m.room.height = 120;
+  m.rectangles.push_back({"door", {0.5, 50}, {0.5, 90}, 0, 100, 0.1});
+  m.boxes.push_back({"crate", {120, 40, 0}, {150, 70, 45}, 0.9});
+  return m;
+}
+
+TEST_CASE("landmarks: ids, prediction geometry, polarity, box silhouettes, occlusion", "[landmarks]") {
+  const Map m = OneRoom();
+  const std::vector<Landmark> lms = LandmarksFromMap(m);
+  CHECK(lms.size() == 4 + 8 * 2);
+  CHECK(lms[0].id == "door/from-bottom");
+  CHECK(lms[3].id == "door/to-top");
+  const Sensor s = make_sphere_sensor(500, 500, 590, 249.5, 249.5, 1.0, 4.9, 15.1);
+  const Scene scene = Scene::FromMap(m, false);
+  const RadiusTable table = RadiusTable::Build(s, RangesForMap(m, s));
+  const Pose2 pose{60, 110, 0.3};
+  const std::vector<PredictedLandmark> pred = PredictLandmarks(lms, m, scene, s, table, pose, PredictionOptions());
+  int doors = 0;
+  for (const PredictedLandmark& p : pred) {
+    const Landmark& l = *p.landmark;
+    // The corner's predicted pixel is its exact projection (table: 0.002 px).
+    Eigen::Vector2d px;
+    REQUIRE(s.project(sensor_from_world(pose, m.sensor_height, l.corner), &px));
+    CHECK((px - p.corner_px).norm() < 0.01);
+    if (l.id.rfind("door/", 0) == 0) {
+      ++doors;
+      CHECK(p.v_polarity == -1);  // a dark door on a lighter wall
+      // Top corners: the face lies below, at smaller radius.
+      CHECK(p.inside_radius_sign == (l.id.find("top") != std::string::npos ? -1 : 1));
+    }
+    if (l.box) {
+      // Box corners: silhouette vertical edges only, on faces seen by the camera.
+      const Eigen::Vector2d to_cam = Eigen::Vector2d(pose.x, pose.y) - l.corner.head<2>();
+      CHECK(to_cam.dot(l.face_normal) > 0);
+      CHECK(to_cam.dot(l.other_face_normal) <= 0);
+    }
+  }
+  CHECK(doors == 4);
+  // From behind the crate, the door... is still visible; the crate's far
+  // corners are hidden by its own faces.
+  const Pose2 behind{180, 55, M_PI};
+  for (const PredictedLandmark& p : PredictLandmarks(lms, m, scene, s, table, behind, PredictionOptions()))
+    CHECK(p.landmark->id.find("x0") == std::string::npos);  // the x = 120 side faces away
+  // SelectSpread keeps at most N, spread over the circle.
+  const std::vector<PredictedLandmark> few = SelectSpread(pred, 3);
+  CHECK(few.size() == std::min<size_t>(3, pred.size()));
+}
+
+TEST_CASE("step detector: sub-sample location of blurred steps, polarity, threshold", "[edge_step]") {
+  PANO_SEEDED_RNG(3);
+  std::uniform_real_distribution<double> pos(10.0, 20.0);
+  for (int trial = 0; trial < 200; ++trial) {
+    const double edge = pos(rng);  // in samples
+    float p[33];
+    for (int i = 0; i < 33; ++i) p[i] = static_cast<float>(60 + 100 / (1 + std::exp(-(i - edge) / 1.2)));
+    StepEdge e;
+    REQUIRE(FindStep(p, 33, +1, 4, 12.0, &e));
+    // 0.1 sample = 0.05 px at panoloc's 0.5 px sampling: linear interpolation
+    // of the midpoint crossing on a sigmoid is off by up to ~0.06 sample.
+    CHECK(std::abs(e.location - edge) < 0.1);
+    CHECK(e.strength > 80);
+    CHECK_FALSE(FindStep(p, 33, -1, 4, 12.0, &e));  // wrong polarity
+    CHECK_FALSE(FindStep(p, 33, +1, 4, 150.0, &e)); // below the threshold
+  }
+}
+
+TEST_CASE("visual compass: the rotation between two frames at one position", "[compass]") {
+  const SequenceCase c = MakePreset("paper-synthetic");
+  const Scene scene = Scene::FromMap(c.map, true);
+  const Renderer renderer(c.calib.sensor, scene, c.map.sensor_height, c.options);
+  const AzimuthCompass compass(c.calib.sensor);
+  Pose2 a = c.poses[10];
+  for (double turn_deg : {-25.0, -7.0, 3.3, 14.0}) {
+    Pose2 b = a;
+    b.theta += turn_deg * M_PI / 180;
+    double score;
+    const double turn = compass.Rotation(compass.Signature(renderer.Render(a)),
+                                         compass.Signature(renderer.Render(b)), M_PI / 3, &score);
+    INFO("turn " << turn_deg << " deg, estimated " << turn * 180 / M_PI);
+    CHECK(std::abs(turn * 180 / M_PI - turn_deg) < 0.3);
+    CHECK(score > 0.8);
+  }
+}
+
+TEST_CASE("relocalisation: a robot started at a wrong pose finds itself", "[relocalize]") {
+  const test::RenderedCase r = test::RenderPreset("paper-synthetic", 6, 30);
+  Pose2 wrong = r.c.poses[30];
+  wrong.x = r.c.map.room.max.x() - wrong.x;
+  wrong.y = r.c.map.room.max.y() - wrong.y;
+  wrong.theta += 2.0;
+  const std::vector<PoseRow> rows = test::Localize(r, LocalizerOptions(), wrong);
+  // Lost at first, then relocalised after relocalize_after lost frames.
+  int first_ok = -1;
+  for (size_t i = 0; i < rows.size(); ++i)
+    if (rows[i].status == PoseStatus::kOk) {
+      first_ok = static_cast<int>(i);
+      break;
+    }
+  REQUIRE(first_ok >= 0);
+  CHECK(first_ok <= 2);
+  for (size_t i = first_ok; i < rows.size(); ++i) {
+    REQUIRE(rows[i].status == PoseStatus::kOk);
+    CHECK(std::hypot(rows[i].pose.x - r.truth[i].pose.x, rows[i].pose.y - r.truth[i].pose.y) < 0.1);
+  }
+}
+
+TEST_CASE("accuracy summary: RMS, std, max, outliers, tracked frames", "[accuracy]") {
+  std::vector<PoseRow> truth, est;
+  for (int i = 0; i < 10; ++i) {
+    PoseRow t;
+    t.frame = i;
+    t.pose = {10.0 * i, 5.0, 0.0};
+    truth.push_back(t);
+    PoseRow e = t;
+    e.pose.x += (i % 2 ? 0.1 : -0.1);  // errors of +-0.1, zero mean
+    if (i == 7) e.pose.y += 3.0;       // one outlier
+    if (i == 9) e.status = PoseStatus::kLost;
+    e.pose.theta = 0.01;
+    est.push_back(e);
+  }
+  const AccuracySummary a = CompareToGroundTruth(est, truth);
+  CHECK(a.frames == 10);
+  CHECK(a.tracked == 9);
+  CHECK(a.compared == 9);
+  CHECK(a.outliers == 1);
+  CHECK(a.max == Approx(std::hypot(0.1, 3.0)));
+  CHECK(a.rms == Approx(std::sqrt((8 * 0.01 + 0.01 + 9.0) / 9)));
+  CHECK(a.std_inliers == Approx(0.1).epsilon(0.1));
+  CHECK(a.heading_rms_deg == Approx(0.01 * 180 / M_PI));
+}
+
+}  // namespace
+}  // namespace pano

@@ -1,0 +1,50 @@
+// Rendered test sequences for the localiser's tests: the first frames of
+// panosim's presets, rendered in memory (no video codec in the way).
+#pragma once
+
+#include <vector>
+
+#include "render/presets.h"
+#include "render/render.h"
+#include "scene/scene.h"
+#include "track/localizer.h"
+#include "track/run.h"
+
+namespace pano::test {
+
+struct RenderedCase {
+  SequenceCase c;
+  std::vector<cv::Mat> frames;
+  std::vector<PoseRow> truth;
+  std::shared_ptr<const RadiusTable> table;
+};
+
+inline RenderedCase RenderPreset(const std::string& name, int n_frames, int first = 0) {
+  RenderedCase r;
+  r.c = MakePreset(name);
+  const Scene scene = Scene::FromMap(r.c.map, true);
+  const Renderer renderer(r.c.calib.sensor, scene, r.c.map.sensor_height, r.c.options);
+  for (int i = first; i < first + n_frames && i < static_cast<int>(r.c.poses.size()); ++i) {
+    r.frames.push_back(renderer.Render(r.c.poses[i], i));
+    PoseRow row;
+    row.frame = i - first;
+    row.pose = r.c.poses[i];
+    r.truth.push_back(row);
+  }
+  Map no_distractors = r.c.map;
+  no_distractors.distractors.clear();
+  r.c.map = no_distractors;
+  r.table = TableForMap(r.c.calib, r.c.map, true);
+  return r;
+}
+
+inline std::vector<PoseRow> Localize(const RenderedCase& r, const LocalizerOptions& opt, const Pose2& init) {
+  Localizer loc(r.c.calib, r.c.map, r.table, opt);
+  loc.Reset(init);
+  std::vector<PoseRow> rows;
+  for (size_t i = 0; i < r.frames.size(); ++i)
+    rows.push_back(loc.Process(r.frames[i], static_cast<int>(i), i / r.c.fps).row);
+  return rows;
+}
+
+}  // namespace pano::test
