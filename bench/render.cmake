@@ -1,0 +1,1 @@
+pano_add_benchmark(render pano_render)

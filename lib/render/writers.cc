@@ -1,0 +1,177 @@
+#include "render/writers.h"
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+#include <sstream>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "io/calibration.h"
+#include "io/pose_csv.h"
+#include "io/yaml_util.h"
+
+namespace fs = std::filesystem;
+
+namespace pano {
+
+void WritePng(const std::string& path, const cv::Mat& image) {
+  AtomicFile f(path);
+  bool ok = false;
+  try {
+    ok = cv::imwrite(f.temp_path(), image);
+  } catch (const cv::Exception& e) {
+    throw Error(path + ": cannot write the PNG: " + e.what());
+  }
+  if (!ok) throw Error(path + ": cannot write the PNG (is the folder writable, the name *.png?)");
+  f.Commit();
+}
+
+StagingDir::StagingDir(const std::string& final_dir, bool overwrite, const std::string& option)
+    : final_(final_dir), overwrite_(overwrite) {
+  if (final_.empty()) throw Error(option + ": expected an output folder");
+  while (final_.size() > 1 && final_.back() == '/') final_.pop_back();
+  std::error_code ec;
+  const fs::path parent = fs::path(final_).parent_path();
+  if (!parent.empty() && !fs::is_directory(parent, ec))
+    throw Error(option + ": '" + final_ + "': the parent folder '" + parent.string() + "' does not exist");
+  if (fs::exists(final_, ec)) {
+    if (!fs::is_directory(final_, ec)) throw Error(option + ": '" + final_ + "' exists and is not a folder");
+    if (!fs::is_empty(final_, ec) && !overwrite_)
+      throw Error(option + ": '" + final_ + "' exists and is not empty (use --force to replace it)");
+  }
+  temp_ = final_ + ".tmp-" + std::to_string(::getpid());
+  fs::remove_all(temp_, ec);
+  if (!fs::create_directory(temp_, ec))
+    throw Error(option + ": cannot create '" + temp_ + "': " + ec.message());
+}
+
+StagingDir::~StagingDir() {
+  if (!committed_) {
+    std::error_code ec;
+    fs::remove_all(temp_, ec);
+  }
+}
+
+void StagingDir::Commit() {
+  std::error_code ec;
+  std::string old;
+  if (fs::exists(final_, ec)) {
+    old = final_ + ".old-" + std::to_string(::getpid());
+    fs::remove_all(old, ec);
+    fs::rename(final_, old, ec);
+    if (ec) throw Error(final_ + ": cannot move the old folder aside: " + ec.message());
+  }
+  fs::rename(temp_, final_, ec);
+  if (ec) {
+    std::error_code ec2;
+    if (!old.empty()) fs::rename(old, final_, ec2);
+    throw Error(final_ + ": cannot move the finished folder into place: " + ec.message());
+  }
+  committed_ = true;
+  if (!old.empty()) fs::remove_all(old, ec);
+}
+
+namespace {
+
+std::string Quote(const std::string& s) {
+  std::string o = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') o += '\\';
+    o += c;
+  }
+  return o + "\"";
+}
+
+}  // namespace
+
+std::string CaseYaml(const SequenceCase& c, const std::string& codec) {
+  std::ostringstream o;
+  const RenderOptions& r = c.options;
+  o << "# panosim test case: ground truth is gt.csv (spec section 5), map.yaml and calib.yaml.\n";
+  o << "preset: " << c.name << "\n";
+  o << "description: " << Quote(c.description) << "\n";
+  o << "units: " << c.map.units << "\n";
+  o << "frames: " << c.poses.size() << "\n";
+  o << "fps: " << YamlDouble(c.fps) << "\n";
+  o << "seed: " << r.seed << "\n";
+  o << "initial_pose:\n  x: " << YamlDouble(c.poses.front().x) << "\n  y: " << YamlDouble(c.poses.front().y)
+    << "\n  theta: " << YamlDouble(c.poses.front().theta) << "\n";
+  if (c.kidnap_frame >= 0) o << "kidnap_frame: " << c.kidnap_frame << "\n";
+  if (!codec.empty()) o << "video: video.mp4\nvideo_codec: " << codec << "\n";
+  o << "render:\n  supersample: " << r.supersample << "\n  noise_sigma: " << YamlDouble(r.noise_sigma)
+    << "\n  blur_3x3: " << (r.blur ? "true" : "false") << "\n  illumination: " << YamlDouble(r.illumination)
+    << "\n  gradient: " << YamlDouble(r.gradient) << "\n  gradient_angle: " << YamlDouble(r.gradient_angle)
+    << "\n  distractors: " << c.map.distractors.size() << "\n  camera_radius_px: " << YamlDouble(r.camera_radius_px)
+    << "\n";
+  return o.str();
+}
+
+SequenceWriteResult WriteSequence(const SequenceCase& c, const std::string& dir,
+                                  const SequenceWriteOptions& wo) {
+  CheckCase(c, c.name == "custom" ? "sequence" : "preset '" + c.name + "'");
+  if (!wo.video && !wo.frames) throw Error("--no-video: nothing to write (give --frames)");
+  StagingDir sd(dir, wo.overwrite);
+  const Sensor& sensor = c.calib.sensor;
+  const Scene scene = Scene::FromMap(c.map, c.options.distractors);
+  const Renderer renderer(sensor, scene, c.map.sensor_height, c.options);
+  SequenceWriteResult res;
+  cv::VideoWriter video;
+  const cv::Size size(sensor.image_width, sensor.image_height);
+  if (wo.video) {
+    const std::string vpath = sd.File("video.mp4");
+    if (video.open(vpath, cv::VideoWriter::fourcc('a', 'v', 'c', '1'), c.fps, size, true)) {
+      res.codec = "h264";
+    } else if (video.open(vpath, cv::VideoWriter::fourcc('m', 'p', '4', 'v'), c.fps, size, true)) {
+      res.codec = "mp4v";
+      std::cerr << "panosim: warning: H.264 encoding is not available in this OpenCV; "
+                   "video.mp4 uses MPEG-4 part 2 (mp4v)\n";
+    } else {
+      throw Error(dir + "/video.mp4: OpenCV cannot open a video writer (neither avc1 nor mp4v)");
+    }
+  }
+  if (wo.frames) fs::create_directory(sd.File("frames"));
+  PoseCsvWriter gt(sd.File("gt.csv"));
+  const int n = static_cast<int>(c.poses.size());
+  cv::Mat bgr;
+  for (int i = 0; i < n; ++i) {
+    const Pose2& pose = c.poses[static_cast<size_t>(i)];
+    const cv::Mat img = renderer.Render(pose, i);
+    if (wo.video) {
+      cv::cvtColor(img, bgr, cv::COLOR_GRAY2BGR);
+      video.write(bgr);
+    }
+    if (wo.frames) {
+      char name[64];
+      std::snprintf(name, sizeof(name), "frames/frame_%04d.png", i);
+      WritePng(sd.File(name), img);
+    }
+    PoseRow row;
+    row.frame = i;
+    row.time_s = i / c.fps;
+    row.status = PoseStatus::kOk;
+    row.pose = pose;
+    row.n_landmarks = static_cast<int>(VisibleCorners(sensor, c.map, scene, pose).size());
+    row.residual = 0.0;
+    gt.Write(row);
+    if (!wo.quiet && ((i + 1) % 10 == 0 || i + 1 == n))
+      std::cerr << "panosim: frame " << i + 1 << "/" << n << "\n";
+  }
+  gt.Close();
+  if (wo.video) video.release();
+  WriteMap(sd.File("map.yaml"), c.map, false);
+  Calibration calib = c.calib;
+  calib.lut.clear();
+  WriteCalibration(sd.File("calib.yaml"), calib);
+  WriteFileAtomic(sd.File("case.yaml"), CaseYaml(c, res.codec));
+  sd.Commit();
+  res.frames = n;
+  return res;
+}
+
+}  // namespace pano
