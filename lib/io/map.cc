@@ -1,5 +1,6 @@
 #include "io/map.h"
 
+#include <algorithm>
 #include <set>
 #include <sstream>
 
@@ -18,6 +19,21 @@ bool Map::IsFree(double x, double y) const {
         b.min.z() <= sensor_height && b.max.z() >= 0.0)
       return false;
   return true;
+}
+
+void Map::Extent(Eigen::Vector2d* lo, Eigen::Vector2d* hi, double* top) const {
+  *lo = Eigen::Vector2d(1e300, 1e300);
+  *hi = Eigen::Vector2d(-1e300, -1e300);
+  *top = 0.0;
+  auto add = [&](const Eigen::Vector2d& p, double z) {
+    *lo = lo->cwiseMin(p);
+    *hi = hi->cwiseMax(p);
+    *top = std::max(*top, z);
+  };
+  if (room.present) add(room.min, room.height), add(room.max, room.height);
+  for (const MapRectangle& r : rectangles) add(r.from, r.z1), add(r.to, r.z1);
+  for (const MapRectangle& r : distractors) add(r.from, r.z1), add(r.to, r.z1);
+  for (const MapBox& b : boxes) add(b.min.head<2>(), b.max.z()), add(b.max.head<2>(), b.max.z());
 }
 
 namespace {

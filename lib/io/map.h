@@ -47,6 +47,9 @@ struct Map {
 
   // True when (x, y) is inside the room (or there is no room) and not inside a box.
   bool IsFree(double x, double y) const;
+  // Horizontal extent of the room, rectangles, distractors and boxes, and
+  // the height of the highest of them.
+  void Extent(Eigen::Vector2d* lo, Eigen::Vector2d* hi, double* top) const;
 };
 
 // Reads and checks a map; throws pano::Error naming the file, key and problem.

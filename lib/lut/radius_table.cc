@@ -81,32 +81,10 @@ void LutSize::Check(const std::string& what) const {
 
 LutRanges RangesForMap(const Map& map, const Sensor& sensor) {
   // Farthest distance: the diagonal of the room (or of the landmarks' extent).
-  Eigen::Vector2d lo(1e300, 1e300), hi(-1e300, -1e300);
-  double z_top = map.sensor_height;
-  auto add = [&](const Eigen::Vector2d& p) {
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-  };
-  if (map.room.present) {
-    add(map.room.min);
-    add(map.room.max);
-    z_top = std::max(z_top, map.room.height);
-  }
-  for (const MapRectangle& r : map.rectangles) {
-    add(r.from);
-    add(r.to);
-    z_top = std::max(z_top, r.z1);
-  }
-  for (const MapRectangle& r : map.distractors) {
-    add(r.from);
-    add(r.to);
-    z_top = std::max(z_top, r.z1);
-  }
-  for (const MapBox& b : map.boxes) {
-    add(b.min.head<2>());
-    add(b.max.head<2>());
-    z_top = std::max(z_top, b.max.z());
-  }
+  Eigen::Vector2d lo, hi;
+  double z_top;
+  map.Extent(&lo, &hi, &z_top);
+  z_top = std::max(z_top, map.sensor_height);
   LutRanges r;
   const double diag = (hi - lo).norm();
   r.d_min = std::max(2.0 * sensor.mirror_distance(), 1e-3 * diag);

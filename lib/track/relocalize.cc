@@ -61,17 +61,8 @@ std::vector<PoseHypothesis> RelocalizationHypotheses(const cv::Mat& grey, const 
   const int bins = opt.heading_bins;
   const std::vector<float> hist = RadialEdgeHistogram(grey, sensor, bins);
   Eigen::Vector2d lo, hi;
-  if (map.room.present) {
-    lo = map.room.min;
-    hi = map.room.max;
-  } else {
-    lo = Eigen::Vector2d(1e300, 1e300);
-    hi = -lo;
-    for (const Landmark& l : landmarks) {
-      lo = lo.cwiseMin(l.corner.head<2>());
-      hi = hi.cwiseMax(l.corner.head<2>());
-    }
-  }
+  double top;
+  map.Extent(&lo, &hi, &top);
   const double step = opt.grid_step > 0 ? opt.grid_step : std::max(hi.x() - lo.x(), hi.y() - lo.y()) / 40.0;
   const double margin = opt.wall_margin > 0 ? opt.wall_margin : step;
   std::vector<Eigen::Vector2d> positions;

@@ -180,19 +180,14 @@ void DrawDebug(const cv::Mat& grey, const Sensor& s, const FrameResult& fr, cv::
 // truth (green), written atomically as PNG.
 void WritePlot(const std::string& path, const Map& map, const std::vector<PoseRow>& est,
                const std::vector<PoseRow>& gt) {
-  Eigen::Vector2d lo(1e300, 1e300), hi(-1e300, -1e300);
-  auto add = [&](const Eigen::Vector2d& p) {
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-  };
-  if (map.room.present) {
-    add(map.room.min);
-    add(map.room.max);
-  }
-  for (const auto& r : map.rectangles) add(r.from), add(r.to);
-  for (const auto& b : map.boxes) add(b.min.head<2>()), add(b.max.head<2>());
+  Eigen::Vector2d lo, hi;
+  double top;
+  map.Extent(&lo, &hi, &top);
   for (const auto& r : est)
-    if (r.status != PoseStatus::kLost) add({r.pose.x, r.pose.y});
+    if (r.status != PoseStatus::kLost) {
+      lo = lo.cwiseMin(Eigen::Vector2d(r.pose.x, r.pose.y));
+      hi = hi.cwiseMax(Eigen::Vector2d(r.pose.x, r.pose.y));
+    }
   const int size = 800, margin = 40;
   const double scale = (size - 2 * margin) / std::max(hi.x() - lo.x(), hi.y() - lo.y());
   cv::Mat img(size, size, CV_8UC3, cv::Scalar(255, 255, 255));
