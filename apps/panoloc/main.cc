@@ -50,8 +50,10 @@ int main(int argc, char** argv) {
   app.add_option("--debug-video", o.debug_video,
                  "Annotated video: predicted edges, found edge points, junctions, landmark ids");
   app.add_option("--plot", o.plot, "PNG of the map from above with the trajectory (and ground truth)");
-  app.add_option("--method", method, "Tracking method: junction (PH line junctions)")
-      ->check(CLI::IsMember({"junction"}))
+  app.add_option("--method", method,
+                 "Tracking method: junction (PH line junctions) or vertex (corner templates in the "
+                 "quasi-cylindrical view)")
+      ->check(CLI::IsMember({"junction", "vertex"}))
       ->capture_default_str();
   app.add_option("--search-px", o.localizer.search_px,
                  "Half-width of the linear samples: the largest expected image motion per frame (px)")
@@ -64,7 +66,7 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
     if (!init.empty()) o.init = ParsePose(init);
-    o.localizer.method = pano::TrackingMethod::kJunction;
+    o.localizer.method = method == "vertex" ? pano::TrackingMethod::kVertex : pano::TrackingMethod::kJunction;
     const std::vector<pano::VideoSummary> results = pano::RunPanoloc(o);
     int failed = 0;
     for (const pano::VideoSummary& s : results) {

@@ -15,6 +15,7 @@ const char* tracking_method_name(TrackingMethod m) {
 void LocalizerOptions::Check() const {
   prediction.Check();
   junction.Check();
+  vertex.Check();
   triangulation.Check();
   if (!(search_px > 0) || !(refine_search_px > 0) || !(max_search_px >= search_px))
     throw Error("localiser: search widths must be positive (and max_search_px >= search_px)");
@@ -30,9 +31,7 @@ void LocalizerOptions::Check() const {
 std::unique_ptr<LandmarkTracker> MakeTracker(TrackingMethod method, const Sensor& sensor,
                                              std::shared_ptr<const RadiusTable> table,
                                              const LocalizerOptions& options) {
-  if (method != TrackingMethod::kJunction)
-    throw Error(std::string("localiser: tracking method '") + tracking_method_name(method) +
-                "' is not available in this build");
+  if (method == TrackingMethod::kVertex) return std::make_unique<VertexTracker>(sensor, options.vertex);
   auto cache = std::make_shared<PhTableCache>(table);
   return std::make_unique<JunctionTracker>(sensor, cache, options.junction);
 }
@@ -104,7 +103,9 @@ bool Localizer::Relocalize(const cv::Mat& grey, FrameResult* fr, TriangulationRe
   for (const PoseHypothesis& h : hyps) {
     FrameResult cand;
     TriangulationResult t;
-    if (!TrackFrom(h.pose, opt_.max_search_px, &cand, &t)) continue;
+    // The normal search first: a wide one invites wrong edges.
+    if (!TrackFrom(h.pose, opt_.search_px, &cand, &t) && !TrackFrom(h.pose, opt_.max_search_px, &cand, &t))
+      continue;
     if (static_cast<int>(t.inliers.size()) < opt_.relocalize_min_landmarks) continue;
     if (!found || t.inliers.size() > tri->inliers.size()) {
       *fr = std::move(cand);

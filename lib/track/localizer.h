@@ -20,6 +20,7 @@
 #include "track/landmarks.h"
 #include "track/relocalize.h"
 #include "track/tracker.h"
+#include "track/vertex_tracker.h"
 
 namespace pano {
 
@@ -30,6 +31,7 @@ struct LocalizerOptions {
   TrackingMethod method = TrackingMethod::kJunction;
   PredictionOptions prediction;
   JunctionOptions junction;
+  VertexOptions vertex;
   TriangulationOptions triangulation;
   double search_px = 8.0;         // half-width of the first pass's linear samples
   // Landmarks tracked per frame: at most this many, spread in azimuth (one
@@ -48,7 +50,7 @@ struct LocalizerOptions {
   // at least this fraction of the predicted landmarks as inliers (when at
   // least 8 were predicted): a few wrong junctions can triangulate exactly.
   double max_rms_bearing = 0.5 * M_PI / 180;
-  double min_inlier_fraction = 0.2;
+  double min_inlier_fraction = 0.35;
   // After this many consecutive lost frames, search the whole room for the
   // pose (0: never). Relocalisation accepts a pose only with at least
   // relocalize_min_landmarks inliers.
