@@ -17,6 +17,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", PANO_VERSION);
   pano::app::AddProjectCommands(app);
   pano::app::AddLutCommand(app);
+  pano::app::AddCalibrateCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

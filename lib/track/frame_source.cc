@@ -46,7 +46,9 @@ FrameSource::FrameSource(const std::string& path, int prefetch) : path_(path), c
     if (n > 0) count_ = static_cast<int>(n);
   }
   if (!files_.empty()) count_ = static_cast<int>(files_.size());
-  if (!ReadDirect(&first_) || first_.empty()) throw Error(path + ": no frames (empty or corrupt input)");
+  cv::Mat raw;
+  if (!ReadDirect(&raw) || raw.empty()) throw Error(path + ": no frames (empty or corrupt input)");
+  ToGrey(raw, &first_);
   width_ = first_.cols;
   height_ = first_.rows;
   if (!(fps_ > 0.0 && fps_ < 1e4)) fps_ = 0.0;
@@ -62,27 +64,27 @@ FrameSource::~FrameSource() {
   if (worker_.joinable()) worker_.join();
 }
 
-bool FrameSource::ReadDirect(cv::Mat* grey) {
-  cv::Mat frame;
+bool FrameSource::ReadDirect(cv::Mat* frame) {
   if (!files_.empty()) {
     if (next_file_ >= files_.size()) return false;
     const std::string& f = files_[next_file_++];
-    frame = cv::imread(f, cv::IMREAD_UNCHANGED);
-    if (frame.empty()) throw Error(f + ": cannot decode the image");
-  } else {
-    if (!capture_.read(frame) || frame.empty()) return false;
+    *frame = cv::imread(f, cv::IMREAD_UNCHANGED);
+    if (frame->empty()) throw Error(f + ": cannot decode the image");
+    return true;
   }
-  ToGrey(frame, grey);
+  cv::Mat decoded;
+  if (!capture_.read(decoded) || decoded.empty()) return false;
+  *frame = decoded;
   return true;
 }
 
 void FrameSource::Decode() {
   for (;;) {
-    cv::Mat grey;
+    cv::Mat frame;
     bool ok = false;
     std::string err;
     try {
-      ok = ReadDirect(&grey);
+      ok = ReadDirect(&frame);
     } catch (const std::exception& e) {
       err = e.what();
     }
@@ -95,7 +97,7 @@ void FrameSource::Decode() {
     }
     cv_.wait(lock, [this] { return stop_ || static_cast<int>(queue_.size()) < capacity_; });
     if (stop_) return;
-    queue_.push_back(std::move(grey));
+    queue_.push_back(std::move(frame));
     cv_.notify_all();
   }
 }
@@ -109,9 +111,13 @@ bool FrameSource::Read(cv::Mat* grey) {
   std::unique_lock<std::mutex> lock(mu_);
   cv_.wait(lock, [this] { return !queue_.empty() || done_; });
   if (!queue_.empty()) {
-    *grey = std::move(queue_.front());
+    cv::Mat frame = std::move(queue_.front());
     queue_.pop_front();
     cv_.notify_all();
+    lock.unlock();
+    // Converted here, on the consumer's thread: the decoding thread is the
+    // pipeline's bottleneck.
+    ToGrey(frame, grey);
     return true;
   }
   if (!error_.empty()) throw Error(error_);

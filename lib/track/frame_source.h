@@ -32,7 +32,7 @@ class FrameSource {
   int frame_count() const { return count_; }  // -1 when unknown
 
  private:
-  bool ReadDirect(cv::Mat* grey);
+  bool ReadDirect(cv::Mat* frame);  // the next frame as decoded
   void Decode();
   std::string path_;
   cv::VideoCapture capture_;
@@ -46,7 +46,7 @@ class FrameSource {
   std::thread worker_;
   std::mutex mu_;
   std::condition_variable cv_;
-  std::deque<cv::Mat> queue_;
+  std::deque<cv::Mat> queue_;  // decoded frames, converted to grey by Read()
   bool done_ = false, stop_ = false;
   std::string error_;
 };

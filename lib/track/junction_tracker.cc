@@ -10,7 +10,8 @@
 namespace pano {
 
 void JunctionOptions::Check() const {
-  if (!(sample_spacing_px > 0) || !(sample_step_px > 0) || !(corner_gap_px >= 0) || max_samples < 3)
+  if (!(sample_spacing_px > 0) || !(sample_step_px > 0) || !(corner_gap_px >= 0) || max_samples < 3 ||
+      max_horizontal_samples < 3)
     throw Error("junction tracker: sample spacing, step, gap and count must be positive");
   if (!(min_step > 0)) throw Error("junction tracker: min_step: expected > 0 grey levels");
   if (!(truncation_px > 0) || !(junction_tolerance_px > 0))
@@ -109,11 +110,11 @@ LandmarkMeasurement JunctionTracker::Measure(const PredictedLandmark& p, double 
   const int h_pol = p.h_polarity * p.inside_radius_sign;
   const double arc = std::abs(wrap_angle(p.h_end_azimuth - p.azimuth));
   const double h_spacing = std::max(o.sample_spacing_px / p.corner_radius,
-                                    (arc - 2 * o.corner_gap_px / p.corner_radius) / o.max_samples);
+                                    (arc - 2 * o.corner_gap_px / p.corner_radius) / o.max_horizontal_samples);
   std::vector<TrackingVote> votes;
   std::vector<Step> h_steps;
   for (double dt = o.corner_gap_px / p.corner_radius;
-       dt < arc - o.corner_gap_px / p.corner_radius && static_cast<int>(votes.size()) < o.max_samples;
+       dt < arc - o.corner_gap_px / p.corner_radius && static_cast<int>(votes.size()) < o.max_horizontal_samples;
        dt += h_spacing) {
     const double theta = wrap_angle(p.azimuth + h_sgn * dt);
     double r_pred;

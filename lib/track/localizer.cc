@@ -30,20 +30,22 @@ void LocalizerOptions::Check() const {
 
 std::unique_ptr<LandmarkTracker> MakeTracker(TrackingMethod method, const Sensor& sensor,
                                              std::shared_ptr<const RadiusTable> table,
-                                             const LocalizerOptions& options) {
+                                             const LocalizerOptions& options,
+                                             std::shared_ptr<PhTableCache> ph_tables) {
   if (method == TrackingMethod::kVertex) return std::make_unique<VertexTracker>(sensor, options.vertex);
-  auto cache = std::make_shared<PhTableCache>(table);
-  return std::make_unique<JunctionTracker>(sensor, cache, options.junction);
+  if (!ph_tables) ph_tables = std::make_shared<PhTableCache>(table);
+  return std::make_unique<JunctionTracker>(sensor, ph_tables, options.junction);
 }
 
 Localizer::Localizer(const Calibration& calib, const Map& map,
-                     std::shared_ptr<const RadiusTable> table, const LocalizerOptions& options)
+                     std::shared_ptr<const RadiusTable> table, const LocalizerOptions& options,
+                     std::shared_ptr<PhTableCache> ph_tables)
     : calib_(calib), map_(map), scene_(Scene::FromMap(map, /*with_distractors=*/false)),
       table_(std::move(table)), opt_(options), landmarks_(LandmarksFromMap(map)),
       compass_(calib.sensor) {
   opt_.Check();
   if (!table_ || table_->empty()) throw Error("localiser: no E(D,Z) lookup table");
-  tracker_ = MakeTracker(opt_.method, calib_.sensor, table_, opt_);
+  tracker_ = MakeTracker(opt_.method, calib_.sensor, table_, opt_, std::move(ph_tables));
 }
 
 void Localizer::Reset(const Pose2& initial) {

@@ -71,14 +71,17 @@ struct FrameResult {
 };
 
 // Builds the tracker of `method` (the vertex tracker lives in track/vertex_tracker.h).
+// `ph_tables` (built on first use, per edge height) may be shared by every
+// localiser of one calibration and map; null: a cache of its own.
 std::unique_ptr<LandmarkTracker> MakeTracker(TrackingMethod method, const Sensor& sensor,
                                              std::shared_ptr<const RadiusTable> table,
-                                             const LocalizerOptions& options);
+                                             const LocalizerOptions& options,
+                                             std::shared_ptr<PhTableCache> ph_tables = nullptr);
 
 class Localizer {
  public:
   Localizer(const Calibration& calib, const Map& map, std::shared_ptr<const RadiusTable> table,
-            const LocalizerOptions& options);
+            const LocalizerOptions& options, std::shared_ptr<PhTableCache> ph_tables = nullptr);
   // Starts a sequence at a known pose.
   void Reset(const Pose2& initial);
   // Processes one grey frame (CV_8UC1 of the calibration's size).

@@ -243,7 +243,7 @@ VideoSummary LocalizeVideo(const std::string& input, const std::string& output,
                            std::shared_ptr<const RadiusTable> table, const PanolocOptions& options,
                            const Pose2& init, const std::string& gt_path,
                            const std::string& debug_video, const std::string& plot,
-                           std::atomic<long>* frames_done) {
+                           std::atomic<long>* frames_done, std::shared_ptr<PhTableCache> ph_tables) {
   VideoSummary sum;
   sum.input = input;
   sum.output = output;
@@ -259,7 +259,7 @@ VideoSummary LocalizeVideo(const std::string& input, const std::string& output,
                   std::to_string(s.image_width) + "x" + std::to_string(s.image_height) + " (" +
                   options.calib_path + ")");
     const double fps = options.fps > 0 ? options.fps : (source.fps() > 0 ? source.fps() : 10.0);
-    Localizer loc(calib, map, table, options.localizer);
+    Localizer loc(calib, map, table, options.localizer, std::move(ph_tables));
     loc.Reset(init);
     std::unique_ptr<AtomicFile> dbg_file;
     cv::VideoWriter dbg;
@@ -353,6 +353,9 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
     jobs.push_back(j);
   }
   std::shared_ptr<const RadiusTable> table = TableForMap(calib, map, opt.quiet);
+  // One set of PH tables for every input (they depend on the sensor and the
+  // map's edge heights only).
+  auto ph_tables = std::make_shared<PhTableCache>(table);
   const int n_jobs = std::max(1, std::min<int>(opt.jobs > 0 ? opt.jobs : static_cast<int>(std::thread::hardware_concurrency()),
                                                static_cast<int>(jobs.size())));
   // Parallel across videos, or across landmarks within one video. Each video
@@ -398,7 +401,7 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
         const Job& j = jobs[i];
         out[i] = LocalizeVideo(j.input, j.output, calib, map, table, opt, j.init, j.gt,
                                jobs.size() == 1 ? opt.debug_video : "", jobs.size() == 1 ? opt.plot : "",
-                               &done);
+                               &done, ph_tables);
       }
     });
   }

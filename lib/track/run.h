@@ -60,13 +60,15 @@ struct VideoSummary {
   AccuracySummary accuracy;
 };
 
-// Localises one input with an already loaded calibration and map.
+// Localises one input with an already loaded calibration and map. The PH
+// tables may be shared between inputs of one calibration and map.
 VideoSummary LocalizeVideo(const std::string& input, const std::string& output,
                            const Calibration& calib, const Map& map,
                            std::shared_ptr<const RadiusTable> table, const PanolocOptions& options,
                            const Pose2& init, const std::string& gt_path,
                            const std::string& debug_video, const std::string& plot,
-                           std::atomic<long>* frames_done = nullptr);
+                           std::atomic<long>* frames_done = nullptr,
+                           std::shared_ptr<PhTableCache> ph_tables = nullptr);
 
 // Loads the calibration, map and table, then localises every input (in
 // parallel, --jobs), printing progress and summaries to stderr/stdout.

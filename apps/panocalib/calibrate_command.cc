@@ -1,0 +1,88 @@
+// panocalib calibrate: fit the sensor model to chessboard images (issue 6).
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "calibrate/calibrate.h"
+#include "commands.h"
+#include "core/error.h"
+#include "io/targets.h"
+
+namespace pano::app {
+
+void AddCalibrateCommand(CLI::App& app) {
+  struct Opts {
+    std::string targets, out, lut, report, model = "sphere", distortion = "auto";
+    double huber = 1.0, max_rms = 5.0;
+    int max_iterations = 200;
+    bool no_aspect = false, ignore_poses = false, no_unwarp = false, verbose = false;
+  };
+  auto o = std::make_shared<Opts>();
+  CLI::App* cmd = app.add_subcommand(
+      "calibrate",
+      "Fit the sensor model to images of a chessboard (target file: spec section 6). Writes the "
+      "calibration YAML (spec section 3) with standard deviations and RMS reprojection errors, "
+      "optionally the E(D,Z) lookup table and a report PNG, and prints a summary. Boards with "
+      "rvec/tvec given are 'known targets' (only the sensor is fitted); otherwise every board pose "
+      "is estimated too. Nothing is written when the calibration fails.");
+  cmd->add_option("targets", o->targets, "Calibration target file (YAML)")->required();
+  cmd->add_option("-o,--output", o->out, "Output calibration file (YAML)")->required();
+  cmd->add_option("--lut", o->lut, "Also write the E(D,Z) lookup table here (referenced from the YAML)");
+  cmd->add_option("--report", o->report, "Also write a report PNG (per-image RMS, residual vectors)");
+  cmd->add_option("--model", o->model, "Mirror profile: sphere (spec section 2) or conic (quadric of revolution)")
+      ->capture_default_str();
+  cmd->add_option("--distortion", o->distortion,
+                  "Lens radial distortion terms fitted: auto (none for sphere, k1 k2 for conic), 0, 1 or 2")
+      ->capture_default_str();
+  cmd->add_option("--huber", o->huber, "Huber loss threshold in pixels (0: plain least squares)")
+      ->capture_default_str();
+  cmd->add_option("--max-rms", o->max_rms, "Fail when the RMS reprojection error exceeds this (pixels)")
+      ->capture_default_str();
+  cmd->add_option("--max-iterations", o->max_iterations, "Ceres iterations at most")->capture_default_str();
+  cmd->add_flag("--fix-aspect", o->no_aspect, "Hold the pixel aspect ratio at 1");
+  cmd->add_flag("--ignore-poses", o->ignore_poses, "Estimate the board poses even when the target file gives them");
+  cmd->add_flag("--no-unwarp", o->no_unwarp, "Do not retry images without a board in unwarped views");
+  cmd->add_flag("-v,--verbose", o->verbose, "Print the solver's reports");
+  cmd->callback([o]() {
+    CalibrateOptions opt;
+    if (o->model == "sphere") opt.model = MirrorModel::kSphere;
+    else if (o->model == "conic") opt.model = MirrorModel::kConic;
+    else throw Error("--model: expected sphere or conic, got '" + o->model + "'");
+    if (o->distortion == "auto") opt.distortion_terms = -1;
+    else if (o->distortion == "0" || o->distortion == "1" || o->distortion == "2") opt.distortion_terms = std::stoi(o->distortion);
+    else throw Error("--distortion: expected auto, 0, 1 or 2, got '" + o->distortion + "'");
+    opt.huber_px = o->huber;
+    opt.max_rms_px = o->max_rms;
+    opt.max_iterations = o->max_iterations;
+    opt.fit_aspect = !o->no_aspect;
+    opt.ignore_known_poses = o->ignore_poses;
+    opt.unwarp_fallback = !o->no_unwarp;
+    opt.verbose = o->verbose;
+    opt.Check();
+    const TargetSet targets = ReadTargets(o->targets);
+    const std::vector<cv::Mat> images = LoadTargetImages(targets);
+    const CalibrationResult r = Calibrate(targets, images, opt);
+    cv::Mat report;
+    if (!o->report.empty()) {
+      // The worst image shows the residuals best.
+      int worst = 0;
+      for (size_t i = 1; i < r.image_rms.size(); ++i)
+        if (r.image_rms[i] > r.image_rms[worst]) worst = static_cast<int>(i);
+      const cv::Mat& im = r.views.empty() ? cv::Mat() : images[r.views[worst].image_index];
+      report = DrawReport(r, im, worst);
+    }
+    CalibrationOutputs out;
+    out.calibration = o->out;
+    out.lut = o->lut;
+    out.report = o->report;
+    WriteCalibrationOutputs(r, out, report);
+    std::printf("%s", Summary(r).c_str());
+    std::printf("wrote %s%s%s%s%s\n", o->out.c_str(), o->lut.empty() ? "" : ", ", o->lut.c_str(),
+                o->report.empty() ? "" : ", ", o->report.c_str());
+    for (const std::string& w : r.warnings) std::fprintf(stderr, "panocalib: warning: %s\n", w.c_str());
+  });
+}
+
+}  // namespace pano::app

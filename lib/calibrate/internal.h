@@ -1,0 +1,130 @@
+// Internals of lib/calibrate shared by its .cc files (not installed API).
+#pragma once
+
+#include <ceres/rotation.h>
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+#include <vector>
+
+#include "calibrate/calibrate.h"
+#include "sensor/catadioptric.h"
+#include "sensor/sensor.h"
+
+namespace pano::calib_internal {
+
+// The sensor parameter block of the fit.
+enum SensorIndex {
+  kFocal = 0,
+  kCx,
+  kCy,
+  kAspect,
+  kAzimuth,
+  kK1,
+  kK2,
+  kRadius,   // curvature radius at the vertex
+  kConic,    // conic constant (0 for the sphere)
+  kVertex,   // vertex distance above the pinhole
+  kNumSensor
+};
+
+template <typename T>
+SensorParams<T> ParamsFromBlock(const T* s) {
+  SensorParams<T> p;
+  p.focal_px = s[kFocal];
+  p.cx = s[kCx];
+  p.cy = s[kCy];
+  p.aspect = s[kAspect];
+  p.azimuth_offset = s[kAzimuth];
+  p.k1 = s[kK1];
+  p.k2 = s[kK2];
+  p.curvature_radius = s[kRadius];
+  p.conic_constant = s[kConic];
+  p.vertex_distance = s[kVertex];
+  p.rim_radius = T(0);
+  return p;
+}
+
+inline std::array<double, kNumSensor> BlockFromParams(const SensorParams<double>& p) {
+  std::array<double, kNumSensor> s{};
+  s[kFocal] = p.focal_px;
+  s[kCx] = p.cx;
+  s[kCy] = p.cy;
+  s[kAspect] = p.aspect;
+  s[kAzimuth] = p.azimuth_offset;
+  s[kK1] = p.k1;
+  s[kK2] = p.k2;
+  s[kRadius] = p.curvature_radius;
+  s[kConic] = p.conic_constant;
+  s[kVertex] = p.vertex_distance;
+  return s;
+}
+
+// Physically meaningful parameter values (the fit rejects steps outside).
+template <typename T>
+bool PlausibleParams(const SensorParams<T>& p) {
+  return p.focal_px > T(0) && p.aspect > T(0.2) && p.aspect < T(5.0) &&
+         p.curvature_radius > T(0) && p.vertex_distance > T(0);
+}
+
+// Reprojection residual of one board corner (pixels): sensor block, pose
+// block (angle-axis, translation).
+// Rim that caps the visible mirror at normalised radius m_cap when the limb
+// lies beyond it (a hyperboloid has none: its rays would run off to infinity).
+inline double RimForRadius(SensorParams<double> p, double m_cap) {
+  p.rim_radius = 0.0;
+  const double m_limb = max_normalized_radius(p);
+  if (!(m_cap > 0.0) || (std::isfinite(m_limb) && m_limb <= m_cap)) return 0.0;
+  // Rays steeper than a hyperboloid's asymptote never meet it.
+  if (p.conic_constant < -1.0) m_cap = std::min(m_cap, 0.999 * std::sqrt(-(1.0 + p.conic_constant)));
+  double s, z;
+  for (int i = 0; i < 100; ++i, m_cap *= 0.95)
+    if (mirror_hit(p, m_cap, &s, &z)) return s;
+  return 0.0;
+}
+
+struct CornerCost {
+  // cap_px: image radius (pixels) beyond which the mirror is taken to end.
+  CornerCost(const Eigen::Vector3d& board_point, const Eigen::Vector2d& pixel, double cap_px)
+      : X(board_point), obs(pixel), cap(cap_px) {}
+  template <typename T>
+  bool operator()(const T* sensor, const T* pose, T* residual) const {
+    SensorParams<T> p = ParamsFromBlock(sensor);
+    if (!PlausibleParams(p)) return false;
+    p.rim_radius = T(RimForRadius(p.template cast<double>(), cap / scalar_value(p.focal_px)));
+    const T Xb[3] = {T(X.x()), T(X.y()), T(X.z())};
+    T Xs[3];
+    ceres::AngleAxisRotatePoint(pose, Xb, Xs);
+    Xs[0] += pose[3];
+    Xs[1] += pose[4];
+    Xs[2] += pose[5];
+    T u, v;
+    if (!project(p, Xs, &u, &v)) return false;
+    residual[0] = u - T(obs.x());
+    residual[1] = v - T(obs.y());
+    return true;
+  }
+  Eigen::Vector3d X;
+  Eigen::Vector2d obs;
+  double cap;
+};
+
+// The image radius that caps the mirror in the fit: 1.5 x the half-diagonal.
+inline double CapRadiusPx(int width, int height) { return 0.75 * std::hypot(width, height); }
+
+// Pose of one more board through an already fitted sensor (the linear
+// in-plane solve, then its height along the corners' rays). False on failure.
+bool InitialPoseFromSensor(const BoardView& view, const TargetBoard& board, const Sensor& sensor,
+                           std::array<double, 6>* pose);
+
+// Indices of the sensor block held fixed for this model and these options.
+std::vector<int> FixedSensorIndices(bool poses_known, const CalibrateOptions& o);
+
+// For a hyperboloid without a limb: the rim that keeps the whole image on the
+// mirror (so that Sensor::Check passes and back-projection works everywhere).
+void SetRimForImage(Sensor* sensor);
+
+}  // namespace pano::calib_internal
