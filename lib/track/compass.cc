@@ -11,17 +11,21 @@ AzimuthCompass::AzimuthCompass(const Sensor& s, int bins, double inner, double o
     : bins_(bins), width_(s.image_width), height_(s.image_height) {
   if (bins < 36 || !(inner >= 0.0) || !(outer > inner) || outer > 1.0)
     throw Error("compass: expected at least 36 bins and 0 <= inner < outer <= 1");
+  // Eight rings across the annulus, one nearest-pixel sample per bin and
+  // ring: cheap, and enough to correlate (every ring sees every landmark).
   const double limb = s.limb_radius();
-  for (int v = 0; v < height_; v += 2)
-    for (int u = (v / 2) % 2; u < width_; u += 2) {
-      double r, az;
-      s.to_polar(u, v, &r, &az);
-      if (r < inner * limb || r > outer * limb) continue;
-      int b = static_cast<int>(std::floor((az + M_PI) / (2 * M_PI) * bins));
-      b = (b % bins + bins) % bins;
+  const int rings = 8;
+  for (int k = 0; k < rings; ++k) {
+    const double r = (inner + (outer - inner) * (k + 0.5) / rings) * limb;
+    for (int b = 0; b < bins; ++b) {
+      const double az = -M_PI + (b + 0.5) * 2 * M_PI / bins;
+      const Eigen::Vector2d px = s.from_polar(r, az);
+      const int u = static_cast<int>(std::lround(px.x())), v = static_cast<int>(std::lround(px.y()));
+      if (u < 0 || v < 0 || u >= width_ || v >= height_) continue;
       pixel_offset_.push_back(v * width_ + u);
       pixel_bin_.push_back(b);
     }
+  }
 }
 
 std::vector<float> AzimuthCompass::Signature(const cv::Mat& grey) const {

@@ -21,7 +21,7 @@ class AzimuthCompass {
   AzimuthCompass(const Sensor& sensor, int bins = 720, double inner_fraction = 0.3,
                  double outer_fraction = 0.97);
   // Zero-mean, unit-norm signature of a grey frame of the sensor's size: per
-  // azimuth bin the mean intensity (every other pixel of every other row),
+  // azimuth bin the mean intensity over eight rings of the annulus,
   // high-passed.
   std::vector<float> Signature(const cv::Mat& grey) const;
   // Rotation of the robot from the frame of `previous` to that of `current`

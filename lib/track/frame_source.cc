@@ -22,7 +22,7 @@ bool IsImageFile(const fs::path& p) {
 void ToGrey(const cv::Mat& in, cv::Mat* out) {
   if (in.channels() == 3) cv::cvtColor(in, *out, cv::COLOR_BGR2GRAY);
   else if (in.channels() == 4) cv::cvtColor(in, *out, cv::COLOR_BGRA2GRAY);
-  else *out = in.clone();
+  else in.copyTo(*out);  // into *out's buffer when it has the size already
   if (out->depth() != CV_8U) out->convertTo(*out, CV_8U);
 }
 }  // namespace
@@ -39,11 +39,19 @@ FrameSource::FrameSource(const std::string& path, int prefetch) : path_(path), c
     if (!capture_.isOpened()) throw Error(path + ": no images match this pattern");
   } else {
     if (!fs::exists(path, ec)) throw Error(path + ": no such file");
-    capture_.open(path, cv::CAP_FFMPEG);
-    if (!capture_.isOpened()) throw Error(path + ": cannot open as a video (unreadable or not a video)");
-    fps_ = capture_.get(cv::CAP_PROP_FPS);
-    const double n = capture_.get(cv::CAP_PROP_FRAME_COUNT);
-    if (n > 0) count_ = static_cast<int>(n);
+    luma_ = std::make_unique<LumaDecoder>();
+    std::string why;
+    if (luma_->Open(path, &why)) {
+      fps_ = luma_->fps();
+      count_ = static_cast<int>(luma_->frame_count());
+    } else {
+      luma_.reset();
+      capture_.open(path, cv::CAP_FFMPEG);
+      if (!capture_.isOpened()) throw Error(path + ": cannot open as a video (unreadable or not a video)");
+      fps_ = capture_.get(cv::CAP_PROP_FPS);
+      const double n = capture_.get(cv::CAP_PROP_FRAME_COUNT);
+      if (n > 0) count_ = static_cast<int>(n);
+    }
   }
   if (!files_.empty()) count_ = static_cast<int>(files_.size());
   cv::Mat raw;
@@ -72,15 +80,21 @@ bool FrameSource::ReadDirect(cv::Mat* frame) {
     if (frame->empty()) throw Error(f + ": cannot decode the image");
     return true;
   }
-  cv::Mat decoded;
-  if (!capture_.read(decoded) || decoded.empty()) return false;
-  *frame = decoded;
-  return true;
+  // Decodes into *frame's buffer when it has the right size already.
+  if (luma_) return luma_->Read(frame);
+  return capture_.read(*frame) && !frame->empty();
 }
 
 void FrameSource::Decode() {
   for (;;) {
     cv::Mat frame;
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      if (!free_.empty()) {
+        frame = std::move(free_.back());
+        free_.pop_back();
+      }
+    }
     bool ok = false;
     std::string err;
     try {
@@ -117,7 +131,9 @@ bool FrameSource::Read(cv::Mat* grey) {
     lock.unlock();
     // Converted here, on the consumer's thread: the decoding thread is the
     // pipeline's bottleneck.
-    ToGrey(frame, grey);
+    ToGrey(frame, grey);  // a copy: the buffer can be decoded into again
+    std::lock_guard<std::mutex> relock(mu_);
+    free_.push_back(std::move(frame));
     return true;
   }
   if (!error_.empty()) throw Error(error_);

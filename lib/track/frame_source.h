@@ -1,16 +1,21 @@
 // Frames from a video file, a folder of images (sorted by name) or a printf
 // pattern ("frames/frame_%04d.png"), converted to 8-bit grey, decoded ahead
-// on a thread of their own so that decoding overlaps tracking.
+// on a thread of their own so that decoding overlaps tracking. Video files
+// are decoded to their luma plane directly where FFmpeg allows
+// (LumaDecoder), else through cv::VideoCapture.
 #pragma once
 
 #include <condition_variable>
 #include <deque>
+#include <memory>
 #include <mutex>
 #include <opencv2/core.hpp>
 #include <opencv2/videoio.hpp>
 #include <string>
 #include <thread>
 #include <vector>
+
+#include "track/luma_decoder.h"
 
 namespace pano {
 
@@ -35,7 +40,8 @@ class FrameSource {
   bool ReadDirect(cv::Mat* frame);  // the next frame as decoded
   void Decode();
   std::string path_;
-  cv::VideoCapture capture_;
+  std::unique_ptr<LumaDecoder> luma_;  // video files with a luma plane
+  cv::VideoCapture capture_;           // other videos and printf patterns
   std::vector<std::string> files_;  // folder input
   size_t next_file_ = 0;
   int width_ = 0, height_ = 0, count_ = -1;
@@ -47,6 +53,9 @@ class FrameSource {
   std::mutex mu_;
   std::condition_variable cv_;
   std::deque<cv::Mat> queue_;  // decoded frames, converted to grey by Read()
+  // Buffers handed back by Read() for the decoder to fill again: a fresh
+  // frame-sized allocation per frame costs page faults on every frame.
+  std::vector<cv::Mat> free_;
   bool done_ = false, stop_ = false;
   std::string error_;
 };

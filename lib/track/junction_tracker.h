@@ -22,7 +22,7 @@ namespace pano {
 struct JunctionOptions {
   double sample_spacing_px = 1.5;   // between linear samples along an edge
   double corner_gap_px = 3.0;       // no samples this close to the junction
-  int max_samples = 12;             // per vertical edge, spread along it
+  int max_samples = 10;             // per vertical edge, spread along it
   int max_horizontal_samples = 8;   // per horizontal edge (it validates the junction)
   double sample_step_px = 0.5;      // along a linear sample
   double min_step = 12.0;           // grey levels across an edge (over 2 px)

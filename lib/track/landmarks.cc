@@ -161,6 +161,12 @@ std::vector<PredictedLandmark> SelectSpread(std::vector<PredictedLandmark> all, 
     out.push_back(all[i]);
   }
   for (size_t i = 0; i < all.size() && static_cast<int>(out.size()) < max_count; ++i)
+    if (!taken[i]) {
+      taken[i] = 1;
+      out.push_back(all[i]);
+    }
+  // The rest follow, nearest first: the caller tracks them only if needed.
+  for (size_t i = 0; i < all.size(); ++i)
     if (!taken[i]) out.push_back(all[i]);
   return out;
 }

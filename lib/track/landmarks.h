@@ -82,8 +82,9 @@ std::vector<PredictedLandmark> PredictLandmarks(const std::vector<Landmark>& lan
                                                 const Sensor& sensor, const RadiusTable& table,
                                                 const Pose2& pose, const PredictionOptions& opt);
 
-// At most `max_count` of the predicted landmarks (0: all), spread in azimuth:
-// the nearest in each of max_count equal sectors, then the nearest of the rest.
+// The predicted landmarks reordered so that the first `max_count` (0: all)
+// are spread in azimuth: the nearest in each of max_count equal sectors, then
+// the nearest of the rest; the others follow, nearest first.
 std::vector<PredictedLandmark> SelectSpread(std::vector<PredictedLandmark> all, int max_count);
 
 }  // namespace pano

@@ -57,14 +57,30 @@ void Localizer::Reset(const Pose2& initial) {
 }
 
 void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out) const {
-  out->predicted = SelectSpread(
+  std::vector<PredictedLandmark> ordered = SelectSpread(
       PredictLandmarks(landmarks_, map_, scene_, calib_.sensor, *table_, pose, opt_.prediction),
       opt_.max_landmarks);
-  out->measurements.assign(out->predicted.size(), LandmarkMeasurement());
-  const int n = static_cast<int>(out->predicted.size());
-  // Landmarks are independent: track them in parallel.
-#pragma omp parallel for schedule(dynamic, 1) if (n > 4)
-  for (int i = 0; i < n; ++i) out->measurements[i] = tracker_->Measure(out->predicted[i], search_px);
+  const int n_all = static_cast<int>(ordered.size());
+  const int n_first = opt_.max_landmarks > 0 ? std::min(n_all, opt_.max_landmarks) : n_all;
+  std::vector<LandmarkMeasurement> meas(n_all);
+  auto measure = [&](int begin, int end) {
+    // Landmarks are independent: track them in parallel.
+#pragma omp parallel for schedule(dynamic, 1) if (end - begin > 4)
+    for (int i = begin; i < end; ++i) meas[i] = tracker_->Measure(ordered[i], search_px);
+  };
+  measure(0, n_first);
+  int found = 0;
+  for (int i = 0; i < n_first; ++i) found += meas[i].found;
+  // Too few of the chosen ones (occluded, off their edges): track the rest.
+  int used = n_first;
+  if (found < std::max(opt_.triangulation.min_landmarks + 3, n_first / 2) && n_first < n_all) {
+    measure(n_first, n_all);
+    used = n_all;
+  }
+  ordered.resize(used);
+  meas.resize(used);
+  out->predicted = std::move(ordered);
+  out->measurements = std::move(meas);
 }
 
 TriangulationResult Localizer::Solve(const FrameResult& fr, const Pose2& prior) const {
@@ -140,27 +156,44 @@ FrameResult Localizer::Process(const cv::Mat& grey, int frame, double time_s) {
     pred.y += last_.y - previous_.y;
     pred.theta = wrap_angle(pred.theta + wrap_angle(last_.theta - previous_.theta));
   }
-  // The visual compass predicts the heading from the images themselves.
+  // The visual compass measures the turn since the last frame from the
+  // images. Translation biases it by a few degrees in a small room, so the
+  // constant-velocity prediction goes first and the compass's heading is
+  // tried when that fails: it keeps sudden turns in view.
   std::vector<float> signature;
+  std::vector<Pose2> predictions{pred};
   if (opt_.compass) {
     signature = compass_.Signature(grey);
     if (!last_signature_.empty() && n_good_ >= 1) {
       double score;
       const double turn = compass_.Rotation(last_signature_, signature, opt_.compass_max_rotation, &score);
-      if (score >= opt_.compass_min_score) pred.theta = wrap_angle(last_.theta + turn);
+      Pose2 by_compass = pred;
+      by_compass.theta = wrap_angle(last_.theta + turn);
+      if (score >= opt_.compass_min_score && std::abs(wrap_angle(by_compass.theta - pred.theta)) > 0.5 * M_PI / 180)
+        predictions.push_back(by_compass);
     }
   }
   fr.predicted_pose = pred;
   const double search =
       std::min(opt_.max_search_px, opt_.search_px * std::pow(opt_.lost_search_growth, std::min(n_lost_, 8)));
   tracker_->BeginFrame(grey);
-  Measure(pred, search, &fr);
-  TriangulationResult tri = Solve(fr, pred);
-  // A sudden turn or lurch moves the edges beyond the search: widen it
-  // within the same frame before declaring the frame lost.
+  TriangulationResult tri;
+  for (const Pose2& p : predictions) {
+    Measure(p, search, &fr);
+    tri = Solve(fr, p);
+    if (Acceptable(fr, tri)) {
+      fr.predicted_pose = pred = p;
+      break;
+    }
+  }
+  // A sudden lurch moves the edges beyond the search: widen it within the
+  // same frame before declaring the frame lost.
   for (double wider = 2.0 * search; !Acceptable(fr, tri) && wider <= 2.0 * opt_.max_search_px; wider *= 2.0) {
-    Measure(pred, wider, &fr);
-    tri = Solve(fr, pred);
+    for (const Pose2& p : predictions) {
+      Measure(p, wider, &fr);
+      tri = Solve(fr, p);
+      if (Acceptable(fr, tri)) break;
+    }
   }
   // How far the found landmarks lie from their predictions (px).
   double max_shift = 0.0;

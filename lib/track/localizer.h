@@ -36,7 +36,7 @@ struct LocalizerOptions {
   double search_px = 8.0;         // half-width of the first pass's linear samples
   // Landmarks tracked per frame: at most this many, spread in azimuth (one
   // per sector, the nearest first). 0: all in view.
-  int max_landmarks = 16;
+  int max_landmarks = 12;
   double refine_search_px = 3.0;  // second pass, around the solved pose
   int refine_passes = 1;
   // The second pass runs only when some landmark was found further than

@@ -131,6 +131,7 @@ std::shared_ptr<const RadiusTable> TableForMap(const Calibration& calib, const M
 
 std::optional<Pose2> InitialPoseBeside(const std::string& input) {
   fs::path dir = fs::is_directory(input) ? fs::path(input) : fs::path(input).parent_path();
+  if (dir.empty()) dir = ".";  // a file in the current folder
   for (int up = 0; up < 2 && !dir.empty(); ++up, dir = dir.parent_path()) {
     const fs::path p = dir / "case.yaml";
     if (!fs::exists(p)) continue;
@@ -336,7 +337,9 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
       j.output = opt.output;
     }
     if (opt.gt == "auto") {
-      const fs::path g = (fs::is_directory(in) ? fs::path(in) : fs::path(in).parent_path()) / "gt.csv";
+      fs::path dir = fs::is_directory(in) ? fs::path(in) : fs::path(in).parent_path();
+      if (dir.empty()) dir = ".";
+      const fs::path g = dir / "gt.csv";
       if (fs::exists(g)) j.gt = g.string();
     } else {
       j.gt = opt.gt;
