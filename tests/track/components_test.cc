@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <set>
 
 #include "test_rng.h"
 #include "track/compass.h"
@@ -61,9 +62,16 @@ TEST_CASE("landmarks: ids, prediction geometry, polarity, box silhouettes, occlu
   const Pose2 behind{180, 55, M_PI};
   for (const PredictedLandmark& p : PredictLandmarks(lms, m, scene, s, table, behind, PredictionOptions()))
     CHECK(p.landmark->id.find("x0") == std::string::npos);  // the x = 120 side faces away
-  // SelectSpread keeps at most N, spread over the circle.
-  const std::vector<PredictedLandmark> few = SelectSpread(pred, 3);
-  CHECK(few.size() == std::min<size_t>(3, pred.size()));
+  // SelectSpread puts N spread over the circle first (one per third of the
+  // circle where the thirds hold landmarks), and keeps the rest after them.
+  const std::vector<PredictedLandmark> ordered = SelectSpread(pred, 3);
+  REQUIRE(ordered.size() == pred.size());
+  std::set<int> thirds_with_landmarks, thirds_chosen;
+  for (const PredictedLandmark& p : pred)
+    thirds_with_landmarks.insert(std::min(2, static_cast<int>((p.azimuth + M_PI) / (2 * M_PI) * 3)));
+  for (size_t i = 0; i < std::min<size_t>(3, ordered.size()); ++i)
+    thirds_chosen.insert(std::min(2, static_cast<int>((ordered[i].azimuth + M_PI) / (2 * M_PI) * 3)));
+  CHECK(thirds_chosen.size() == std::min<size_t>(3, thirds_with_landmarks.size()));
 }
 
 TEST_CASE("step detector: sub-sample location of blurred steps, polarity, threshold", "[edge_step]") {
