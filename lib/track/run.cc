@@ -323,6 +323,7 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
   struct Job {
     std::string input, output, gt;
     Pose2 init;
+    std::string error;  // set-up failure of this input alone
   };
   std::vector<Job> jobs;
   for (const std::string& in : opt.inputs) {
@@ -347,11 +348,15 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
     if (opt.init) {
       j.init = *opt.init;
     } else {
-      std::optional<Pose2> p = InitialPoseBeside(in);
-      if (!p) throw Error(in + ": no --init given and no case.yaml with initial_pose beside it");
-      if (!map.IsFree(p->x, p->y))
-        throw Error(in + ": the initial pose in case.yaml lies outside the room of " + opt.map_path);
-      j.init = *p;
+      try {
+        std::optional<Pose2> p = InitialPoseBeside(in);
+        if (!p) throw Error(in + ": no --init given and no case.yaml with initial_pose beside it");
+        if (!map.IsFree(p->x, p->y))
+          throw Error(in + ": the initial pose in case.yaml lies outside the room of " + opt.map_path);
+        j.init = *p;
+      } catch (const Error& e) {
+        j.error = e.what();
+      }
     }
     jobs.push_back(j);
   }
@@ -402,6 +407,12 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
     workers.emplace_back([&] {
       for (size_t i; (i = next++) < jobs.size();) {
         const Job& j = jobs[i];
+        if (!j.error.empty()) {
+          out[i].input = j.input;
+          out[i].output = j.output;
+          out[i].error = j.error;
+          continue;
+        }
         out[i] = LocalizeVideo(j.input, j.output, calib, map, table, opt, j.init, j.gt,
                                jobs.size() == 1 ? opt.debug_video : "", jobs.size() == 1 ? opt.plot : "",
                                &done, ph_tables);

@@ -1,0 +1,122 @@
+// The programs as users run them: what they print, their exit codes, and
+// their one-line errors.
+#include <catch2/catch.hpp>
+
+#include <array>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <sys/wait.h>
+
+#include "io/calibration.h"
+#include "test_paths.h"
+
+namespace pano {
+namespace {
+
+struct Run {
+  int code = -1;
+  std::string out;  // stdout and stderr together
+};
+
+Run Exec(const std::string& args) {
+  const char* dir = std::getenv("PANO_BIN_DIR");
+  REQUIRE(dir != nullptr);
+  const std::string cmd = std::string(dir) + "/" + args + " 2>&1";
+  Run r;
+  FILE* p = popen(cmd.c_str(), "r");
+  REQUIRE(p != nullptr);
+  std::array<char, 4096> buf;
+  size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
+  const int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+int Lines(const std::string& s) {
+  int n = 0;
+  for (char c : s) n += c == '\n';
+  return n;
+}
+
+TEST_CASE("panocalib project/backproject agree with the sensor model; bad input fails cleanly",
+          "[panocalib_project]") {
+  const std::string calib = test::SourcePath("calib/paper-real.yaml");
+  const Sensor s = ReadCalibration(calib).sensor;
+  // A point 100 cm ahead, 20 cm left, 10 cm below the pinhole.
+  Run r = Exec("panocalib project --calib " + calib + " --point 100,20,-10");
+  INFO(r.out);
+  REQUIRE(r.code == 0);
+  double u, v;
+  REQUIRE(std::sscanf(r.out.c_str(), "%lf %lf", &u, &v) == 2);
+  Eigen::Vector2d px;
+  REQUIRE(s.project({100, 20, -10}, &px));
+  CHECK(std::abs(u - px.x()) < 1e-5);
+  CHECK(std::abs(v - px.y()) < 1e-5);
+  // The ray of that pixel passes through the point.
+  r = Exec("panocalib backproject --calib " + calib + " --pixel " + std::to_string(u) + "," +
+           std::to_string(v));
+  REQUIRE(r.code == 0);
+  double o[3], d[3];
+  REQUIRE(std::sscanf(r.out.c_str(), "%lf %lf %lf %lf %lf %lf", &o[0], &o[1], &o[2], &d[0], &d[1], &d[2]) == 6);
+  const Eigen::Vector3d to_point = Eigen::Vector3d(100, 20, -10) - Eigen::Vector3d(o[0], o[1], o[2]);
+  const Eigen::Vector3d ray(d[0], d[1], d[2]);
+  CHECK((to_point - to_point.dot(ray) * ray).norm() < 1e-3);  // printed to 9 decimals
+  // Not visible; no mirror.
+  r = Exec("panocalib project --calib " + calib + " --point 0,0,100");
+  CHECK(r.code == 0);
+  CHECK(r.out == "not visible\n");
+  r = Exec("panocalib backproject --calib " + calib + " --pixel 5,5");
+  CHECK(r.out == "no mirror\n");
+  // Bad input: one line naming the file or option, non-zero exit.
+  r = Exec("panocalib project --calib /nonexistent/c.yaml --point 1,2,3");
+  CHECK(r.code != 0);
+  CHECK(Lines(r.out) == 1);
+  CHECK(r.out.find("/nonexistent/c.yaml") != std::string::npos);
+  r = Exec("panocalib project --calib " + calib + " --point 1,nan,3");
+  CHECK(r.code != 0);
+  CHECK(r.out.find("--point") != std::string::npos);
+  const std::string dir = test::ScratchDir("apps_cli");
+  std::ofstream(dir + "/bad.yaml") << "model: sphere\nunits: cm\nimage_width: 640\n";
+  r = Exec("panocalib project --calib " + dir + "/bad.yaml --point 1,2,3");
+  CHECK(r.code != 0);
+  CHECK(Lines(r.out) == 1);
+  CHECK(r.out.find("image_height") != std::string::npos);
+}
+
+TEST_CASE("panoloc: exit codes and errors of the command", "[panoloc_cli]") {
+  const std::string dir = test::ScratchDir("apps_panoloc");
+  // A tiny sequence from panosim.
+  Run r = Exec("panosim sequence --preset paper-synthetic -o " + dir + "/seq --quiet --force");
+  INFO(r.out);
+  REQUIRE(r.code == 0);
+  // Every input fine: exit 0 and a CSV per input.
+  r = Exec("panoloc " + dir + "/seq/video.mp4 --calib " + dir + "/seq/calib.yaml --map " + dir +
+           "/seq/map.yaml -o " + dir + "/est.csv --gt " + dir + "/seq/gt.csv");
+  CHECK(r.code == 0);
+  CHECK(r.out.find("66 frames, 66 ok") != std::string::npos);
+  CHECK(r.out.find("position error: RMS") != std::string::npos);
+  // One input missing: the other is done, the exit code says not all succeeded.
+  r = Exec("panoloc " + dir + "/seq/video.mp4 " + dir + "/none.mp4 --calib " + dir +
+           "/seq/calib.yaml --map " + dir + "/seq/map.yaml --out-dir " + dir + "/out -q");
+  CHECK(r.code == 1);
+  CHECK(Lines(r.out) == 1);
+  CHECK(r.out.find("none.mp4") != std::string::npos);
+  CHECK(std::filesystem::exists(dir + "/out/seq_video.csv"));
+  // Initial pose outside the room.
+  r = Exec("panoloc " + dir + "/seq/video.mp4 --calib " + dir + "/seq/calib.yaml --map " + dir +
+           "/seq/map.yaml -o " + dir + "/x.csv --init -40,10,0");
+  CHECK(r.code == 1);
+  CHECK(r.out.find("outside the room") != std::string::npos);
+  // A malformed --init.
+  r = Exec("panoloc " + dir + "/seq/video.mp4 --calib " + dir + "/seq/calib.yaml --map " + dir +
+           "/seq/map.yaml -o " + dir + "/x.csv --init 1,2");
+  CHECK(r.code == 1);
+  CHECK(r.out.find("--init") != std::string::npos);
+}
+
+}  // namespace
+}  // namespace pano
