@@ -33,7 +33,7 @@ struct Fixture {
     w.overwrite = true;
     pano::WriteSequence(c, dir, w);
     table = pano::TableForMap(c.calib, pano::ReadMap(dir + "/map.yaml"), true);
-    ph_tables = std::make_shared<pano::PhTableCache>(table);
+    ph_tables = pano::MakeTrackingPhTables(table);
   }
 };
 

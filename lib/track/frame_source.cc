@@ -27,7 +27,7 @@ void ToGrey(const cv::Mat& in, cv::Mat* out) {
 }
 }  // namespace
 
-FrameSource::FrameSource(const std::string& path, int prefetch) : path_(path), capacity_(prefetch) {
+FrameSource::FrameSource(const std::string& path, size_t prefetch_bytes) : path_(path), capacity_(8) {
   std::error_code ec;
   if (fs::is_directory(path, ec)) {
     for (const auto& e : fs::directory_iterator(path))
@@ -59,8 +59,27 @@ FrameSource::FrameSource(const std::string& path, int prefetch) : path_(path), c
   ToGrey(raw, &first_);
   width_ = first_.cols;
   height_ = first_.rows;
+  const size_t frame_bytes = raw.total() * raw.elemSize();
+  capacity_ = static_cast<int>(std::clamp<size_t>(prefetch_bytes / std::max<size_t>(frame_bytes, 1), 8, 4096));
   if (!(fps_ > 0.0 && fps_ < 1e4)) fps_ = 0.0;
   worker_ = std::thread([this] { Decode(); });
+}
+
+int FrameSource::FrameCount(const std::string& path) {
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) {
+    int n = 0;
+    for (const auto& e : fs::directory_iterator(path, ec))
+      if (e.is_regular_file() && IsImageFile(e.path())) ++n;
+    return n;
+  }
+  if (path.find('%') != std::string::npos || !fs::exists(path, ec)) return -1;
+  LumaDecoder luma;
+  std::string why;
+  if (luma.Open(path, &why)) return static_cast<int>(luma.frame_count());
+  cv::VideoCapture cap(path, cv::CAP_FFMPEG);
+  const double n = cap.isOpened() ? cap.get(cv::CAP_PROP_FRAME_COUNT) : -1;
+  return n > 0 ? static_cast<int>(n) : -1;
 }
 
 FrameSource::~FrameSource() {

@@ -22,11 +22,17 @@ namespace pano {
 class FrameSource {
  public:
   // Opens the input and reads its first frame; throws pano::Error naming the
-  // path when it cannot be opened or holds no frame.
-  explicit FrameSource(const std::string& path, int prefetch = 8);
+  // path when it cannot be opened or holds no frame. Decoding runs ahead by
+  // up to `prefetch_bytes` of frames (at least 8), so that it goes on while
+  // the tracker starts up.
+  explicit FrameSource(const std::string& path, size_t prefetch_bytes = size_t(64) << 20);
   ~FrameSource();
   FrameSource(const FrameSource&) = delete;
   FrameSource& operator=(const FrameSource&) = delete;
+
+  // Number of frames of an input without decoding it; -1 when unknown or
+  // unreadable (for a progress display).
+  static int FrameCount(const std::string& path);
 
   // Next frame; false at the end. Throws pano::Error for a frame that cannot
   // be decoded in a folder of images.

@@ -70,6 +70,9 @@ struct FrameResult {
   TriangulationResult triangulation;
 };
 
+// The PH tables the junction tracker uses, built per edge height on first use.
+std::shared_ptr<PhTableCache> MakeTrackingPhTables(std::shared_ptr<const RadiusTable> table);
+
 // Builds the tracker of `method` (the vertex tracker lives in track/vertex_tracker.h).
 // `ph_tables` (built on first use, per edge height) may be shared by every
 // localiser of one calibration and map; null: a cache of its own.

@@ -363,7 +363,7 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
   std::shared_ptr<const RadiusTable> table = TableForMap(calib, map, opt.quiet);
   // One set of PH tables for every input (they depend on the sensor and the
   // map's edge heights only).
-  auto ph_tables = std::make_shared<PhTableCache>(table);
+  auto ph_tables = MakeTrackingPhTables(table);
   const int n_jobs = std::max(1, std::min<int>(opt.jobs > 0 ? opt.jobs : static_cast<int>(std::thread::hardware_concurrency()),
                                                static_cast<int>(jobs.size())));
   // Parallel across videos, or across landmarks within one video. Each video
@@ -375,15 +375,10 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
   std::atomic<long> done{0};
   std::atomic<size_t> next{0};
   std::atomic<bool> finished{false};
-  long total = 0;
-  for (const Job& j : jobs) {
-    try {
-      FrameSource probe(j.input, 1);
-      total += probe.frame_count() > 0 ? probe.frame_count() : 0;
-    } catch (const Error&) {
-    }
-  }
   const bool show = opt.progress && !opt.quiet && ::isatty(2);
+  long total = 0;
+  if (show)
+    for (const Job& j : jobs) total += std::max(0, FrameSource::FrameCount(j.input));
   const auto t0 = std::chrono::steady_clock::now();
   std::thread reporter;
   if (show) {
