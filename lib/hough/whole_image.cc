@@ -405,6 +405,10 @@ void PhWholeImage::Finish(int32_t* padded, WholeImageResult* result) const {
   const int a = options_.nms_theta, b = options_.nms_r;
   const int32_t thr = options_.min_votes;
   constexpr int kChunk = 16;
+  // Planes are independent: searched in parallel, their peaks joined in plane
+  // order afterwards, so the result is the sequential one for any thread count.
+  std::vector<std::vector<HorizontalPeak>> plane_peaks(P);
+#pragma omp parallel for schedule(dynamic, 1) if (P > 1)
   for (int p = 0; p < P; ++p) {
     const int32_t* g = padded + p * PaddedPlaneSize();  // rows of cols ints
     for (int k = 0; k < NT; ++k) {
@@ -448,11 +452,12 @@ void PhWholeImage::Finish(int32_t* padded, WholeImageResult* result) const {
           pk.r_main = (j + 0.5 + ox) * options_.r_bin;
           pk.theta_main = WrapPi((k + 0.5 + oy) * theta_bin_);
           pk.votes = v;
-          res.peaks.push_back(pk);
+          plane_peaks[p].push_back(pk);
         }
       }
     }
   }
+  for (const std::vector<HorizontalPeak>& pp : plane_peaks) res.peaks.insert(res.peaks.end(), pp.begin(), pp.end());
   std::stable_sort(res.peaks.begin(), res.peaks.end(),
                    [](const HorizontalPeak& x, const HorizontalPeak& y) { return x.votes > y.votes; });
   if (options_.explain_away) ExplainAway(&res);
