@@ -169,6 +169,28 @@ CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>
   CalibrationResult res =
       CalibrateViews(det.views, targets.board, det.image_width, det.image_height, units, options);
 
+  // Step 3b: corners located again on the board plane through the fitted
+  // model, then the model fitted again from where it was.
+  for (int pass = 0; pass < options.refine_passes; ++pass) {
+    std::vector<BoardView> views = res.views;
+    if (RefineCornersThroughModel(images, targets.board, res.calib.sensor, &views) == 0) break;
+    InitialEstimate start;
+    start.sensor = res.calib.sensor;
+    start.summary = "refit on corners refined through the model; " + res.init_summary;
+    for (const BoardView& v : views)
+      start.poses.push_back({v.rvec.x(), v.rvec.y(), v.rvec.z(), v.tvec.x(), v.tvec.y(), v.tvec.z()});
+    try {
+      CalibrationResult again = FitCalibration(views, targets.board, start, poses_known, options);
+      Finish(&again, poses_known, units, options, {});
+      again.seconds_fit += res.seconds_fit;
+      again.not_found = res.not_found;
+      again.not_found_files = res.not_found_files;
+      res = again;
+    } catch (const Error&) {
+      break;  // the previous fit stands
+    }
+  }
+
   // Step 4: images without a board, in views unwarped through the fitted model.
   if (options.unwarp_fallback && !det.not_found.empty()) {
     std::vector<double> dist, hgt;

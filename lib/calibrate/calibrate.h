@@ -46,6 +46,11 @@ struct CalibrateOptions {
   double huber_px = 1.0;
   // Retry images without a board in unwarped views through the fitted model.
   bool unwarp_fallback = true;
+  // Passes of model-based corner refinement: each corner is located again in
+  // a patch of the image resampled on the board plane through the fitted
+  // model (where the squares are straight, so the detector's curvature bias
+  // goes), then the model is fitted again. 0: off.
+  int refine_passes = 1;
   int max_iterations = 200;
   // A fit whose RMS reprojection error exceeds this is a failure (pixels).
   double max_rms_px = 5.0;
@@ -154,6 +159,14 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
 CalibrationResult CalibrateViews(const std::vector<BoardView>& views, const TargetBoard& board,
                                  int width, int height, const std::string& units,
                                  const CalibrateOptions& options);
+
+// Step 3b: locates every corner of every view again in a patch resampled on
+// the board plane through `sensor` and the view's fitted pose, where the
+// squares are straight (so the detector's curvature bias goes), and moves it
+// to the projection of the junction found there. Corners whose patch leaves
+// the image or the mirror keep their position. Returns the number refined.
+int RefineCornersThroughModel(const std::vector<cv::Mat>& images, const TargetBoard& board,
+                              const Sensor& sensor, std::vector<BoardView>* views);
 
 // The whole pipeline on a target file's images (steps 1-4).
 CalibrationResult Calibrate(const TargetSet& targets, const CalibrateOptions& options);
