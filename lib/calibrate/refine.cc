@@ -6,22 +6,12 @@
 #include <opencv2/imgproc.hpp>
 
 #include "calibrate/calibrate.h"
+#include "core/grey_sample.h"
 #include "sensor/catadioptric.h"
 
 namespace pano {
 
 namespace {
-
-// Bilinear grey value of an 8-bit image; false outside.
-bool Sample(const cv::Mat& img, double x, double y, float* out) {
-  if (!(x >= 0.0) || !(y >= 0.0) || x > img.cols - 1.001 || y > img.rows - 1.001) return false;
-  const int ix = static_cast<int>(x), iy = static_cast<int>(y);
-  const double fx = x - ix, fy = y - iy;
-  const uchar* r0 = img.ptr<uchar>(iy) + ix;
-  const uchar* r1 = img.ptr<uchar>(iy + 1) + ix;
-  *out = static_cast<float>((1 - fy) * ((1 - fx) * r0[0] + fx * r0[1]) + fy * ((1 - fx) * r1[0] + fx * r1[1]));
-  return true;
-}
 
 // Pixel of the board point (x, y, 0) for a view's pose.
 bool ProjectBoardPoint(const Sensor& s, const BoardView& v, double x, double y, Eigen::Vector2d* px) {
@@ -57,7 +47,7 @@ int RefineCornersThroughModel(const std::vector<cv::Mat>& images, const TargetBo
         for (int j = 0; j < kN && ok; ++j) {
           Eigen::Vector2d px;
           ok = ProjectBoardPoint(sensor, v, x0 + (j - kHalf) * step, y0 + (i - kHalf) * step, &px) &&
-               Sample(grey, px.x(), px.y(), &patch.at<float>(i, j));
+               SampleGrey(grey, px.x(), px.y(), &patch.at<float>(i, j));
         }
       if (!ok) continue;
       // The X-junction of the straightened squares: the saddle point of the

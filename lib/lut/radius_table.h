@@ -68,8 +68,6 @@ class RadiusTable {
   double log_d_step() const { return log_d_step_; }
   double elev_min() const { return elev_min_; }
   double elev_step() const { return elev_step_; }
-  double r_max() const { return r_max_; }
-  double z_step() const { return z_step_; }
 
  private:
   void SetGeometry();
