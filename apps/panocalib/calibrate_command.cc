@@ -15,7 +15,7 @@ namespace pano::app {
 void AddCalibrateCommand(CLI::App& app) {
   struct Opts {
     std::string targets, out, lut, report, model = "sphere", distortion = "auto";
-    double huber = 1.0, max_rms = 5.0;
+    double huber = 1.0, max_rms = 5.0, full_weight = CalibrateOptions().full_weight_px;
     int max_iterations = 200;
     bool no_aspect = false, ignore_poses = false, no_unwarp = false, verbose = false;
   };
@@ -38,6 +38,10 @@ void AddCalibrateCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--huber", o->huber, "Huber loss threshold in pixels (0: plain least squares)")
       ->capture_default_str();
+  cmd->add_option("--full-weight", o->full_weight,
+                  "Corners whose squares are squeezed below this many pixels (near the limb) or whose lines "
+                  "cross at an acute angle count less, as they are located less precisely (0: uniform weights)")
+      ->capture_default_str();
   cmd->add_option("--max-rms", o->max_rms, "Fail when the RMS reprojection error exceeds this (pixels)")
       ->capture_default_str();
   cmd->add_option("--max-iterations", o->max_iterations, "Ceres iterations at most")->capture_default_str();
@@ -55,6 +59,7 @@ void AddCalibrateCommand(CLI::App& app) {
     else throw Error("--distortion: expected auto, 0, 1 or 2, got '" + o->distortion + "'");
     opt.huber_px = o->huber;
     opt.max_rms_px = o->max_rms;
+    opt.full_weight_px = o->full_weight;
     opt.max_iterations = o->max_iterations;
     opt.fit_aspect = !o->no_aspect;
     opt.ignore_known_poses = o->ignore_poses;

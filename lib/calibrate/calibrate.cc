@@ -30,6 +30,8 @@ void CalibrateOptions::Check() const {
   if (max_iterations < 1 || max_iterations > 100000)
     throw Error("--max-iterations: expected 1..100000, got " + std::to_string(max_iterations));
   if (!(max_rms_px > 0.0)) throw Error("--max-rms: expected a positive number of pixels");
+  if (!std::isfinite(full_weight_px))
+    throw Error("--full-weight: expected a number of pixels per square (0: uniform weights)");
   if (!(scale_warning_rel_std > 0.0)) throw Error("scale warning threshold: expected a positive fraction");
 }
 
@@ -126,23 +128,35 @@ CalibrationResult CalibrateViews(const std::vector<BoardView>& views_in, const T
     warnings.push_back("some images have board poses and some not: all poses are estimated");
   if (poses_known) OrderCornersByKnownPose(board, 0.5 * (width - 1), 0.5 * (height - 1), &views);
   const InitialEstimate init = Initialize(views, board, width, height, poses_known, options);
-  CalibrationResult res = FitCalibration(views, board, init, poses_known, options);
-  // Other starts (the conic's basins along its near-degenerate valley): the
-  // better final fit is kept.
-  for (const InitialEstimate& alt : init.alternatives) {
+  // The best start and the other starts (the conic's basins along its
+  // near-degenerate valley), fitted in parallel; the best final fit is kept,
+  // the earlier start on a tie, so the result does not depend on threads.
+  std::vector<const InitialEstimate*> starts = {&init};
+  for (const InitialEstimate& alt : init.alternatives) starts.push_back(&alt);
+  const int n = static_cast<int>(starts.size());
+  std::vector<CalibrationResult> fits(n);
+  std::vector<std::string> errors(n);
+  std::vector<char> ok(n, 0);
+#pragma omp parallel for schedule(dynamic) if (n > 1)
+  for (int k = 0; k < n; ++k) {
     try {
-      CalibrationResult other = FitCalibration(views, board, alt, poses_known, options);
-      other.seconds_fit += res.seconds_fit;
-      if (other.rms_px < res.rms_px) {
-        other.init_summary = alt.summary + " (kept); " + init.summary;
-        res = other;
-      } else {
-        res.seconds_fit = other.seconds_fit;
-      }
-    } catch (const Error&) {
-      // That start failed; the others stand.
+      fits[k] = FitCalibration(views, board, *starts[k], poses_known, options, n > 1 ? 1 : 0);
+      ok[k] = 1;
+    } catch (const Error& e) {
+      errors[k] = e.what();  // that start failed; the others stand
     }
   }
+  int best = -1;
+  double seconds = 0.0;
+  for (int k = 0; k < n; ++k) {
+    if (!ok[k]) continue;
+    seconds += fits[k].seconds_fit;
+    if (best < 0 || fits[k].rms_px < fits[best].rms_px) best = k;
+  }
+  if (best < 0) throw Error(errors[0]);
+  CalibrationResult res = fits[best];
+  res.seconds_fit = seconds;
+  if (best > 0) res.init_summary = starts[best]->summary + " (kept); " + init.summary;
   Finish(&res, poses_known, units, options, warnings);
   return res;
 }
@@ -163,35 +177,22 @@ CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>
     if (images[i].size() != images[0].size())
       throw Error(targets.images[i].resolved + ": image size differs from the first image's");
   DetectionResult det = DetectBoards(targets, images, options);
+  auto phase = [&, last = t0](const char* what) mutable {
+    const auto now = std::chrono::steady_clock::now();
+    if (options.verbose)
+      std::fprintf(stderr, "[%s: %.2f s]\n", what, std::chrono::duration<double>(now - last).count());
+    last = now;
+  };
+  phase("raw detection");
   const bool poses_known = targets.AllPosesKnown() && !options.ignore_known_poses;
   CheckViewCount(det.views.size(), images.size(), poses_known, options, det.not_found_files);
   const std::string units = targets.units;
   CalibrationResult res =
       CalibrateViews(det.views, targets.board, det.image_width, det.image_height, units, options);
 
-  // Step 3b: corners located again on the board plane through the fitted
-  // model, then the model fitted again from where it was.
-  for (int pass = 0; pass < options.refine_passes; ++pass) {
-    std::vector<BoardView> views = res.views;
-    if (RefineCornersThroughModel(images, targets.board, res.calib.sensor, &views) == 0) break;
-    InitialEstimate start;
-    start.sensor = res.calib.sensor;
-    start.summary = "refit on corners refined through the model; " + res.init_summary;
-    for (const BoardView& v : views)
-      start.poses.push_back({v.rvec.x(), v.rvec.y(), v.rvec.z(), v.tvec.x(), v.tvec.y(), v.tvec.z()});
-    try {
-      CalibrationResult again = FitCalibration(views, targets.board, start, poses_known, options);
-      Finish(&again, poses_known, units, options, {});
-      again.seconds_fit += res.seconds_fit;
-      again.not_found = res.not_found;
-      again.not_found_files = res.not_found_files;
-      res = again;
-    } catch (const Error&) {
-      break;  // the previous fit stands
-    }
-  }
-
-  // Step 4: images without a board, in views unwarped through the fitted model.
+  phase("initialisation and first fit");
+  const bool any_missing = !det.not_found.empty();
+  // Step 3b: images without a board, in views unwarped through the first fit.
   if (options.unwarp_fallback && !det.not_found.empty()) {
     std::vector<double> dist, hgt;
     for (const BoardView& v : res.views) {
@@ -280,6 +281,30 @@ CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>
       }
     }
   }
+  if (options.unwarp_fallback && any_missing) phase("unwarped detection and refit");
+  // Step 4: every corner (the unwarped boards' too) located again on the
+  // board plane through the fitted model, then the model fitted again from
+  // where it was. Corners left biased here bias the whole fit, so this comes
+  // last.
+  for (int pass = 0; pass < options.refine_passes; ++pass) {
+    std::vector<BoardView> views = res.views;
+    if (RefineCornersThroughModel(images, targets.board, res.calib.sensor, &views) == 0) break;
+    InitialEstimate start;
+    start.sensor = res.calib.sensor;
+    start.summary = "refit on corners refined through the model; " + res.init_summary;
+    for (const BoardView& v : views)
+      start.poses.push_back({v.rvec.x(), v.rvec.y(), v.rvec.z(), v.tvec.x(), v.tvec.y(), v.tvec.z()});
+    try {
+      CalibrationResult again = FitCalibration(views, targets.board, start, poses_known, options);
+      Finish(&again, poses_known, units, options, {});
+      again.seconds_fit += res.seconds_fit;
+      res = again;
+    } catch (const Error&) {
+      break;  // the previous fit stands
+    }
+  }
+
+  phase("corner refinement and refit");
   res.not_found = det.not_found;
   res.not_found_files = det.not_found_files;
   res.seconds_detect = det.seconds;

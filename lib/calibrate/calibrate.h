@@ -51,6 +51,11 @@ struct CalibrateOptions {
   // model (where the squares are straight, so the detector's curvature bias
   // goes), then the model is fitted again. 0: off.
   int refine_passes = 1;
+  // Corner weighting (calib_internal::CornerWeights): corners whose squares
+  // are squeezed below this many pixels (near a mirror's limb), or whose
+  // lines cross at an acute angle, count less in the fit, as their position
+  // is less certain. <= 0: every corner counts the same in pixels.
+  double full_weight_px = 10.0;
   int max_iterations = 200;
   // A fit whose RMS reprojection error exceeds this is a failure (pixels).
   double max_rms_px = 5.0;
@@ -151,9 +156,10 @@ InitialEstimate Initialize(const std::vector<BoardView>& views, const TargetBoar
 
 // Step 3: the Ceres fit from an initial estimate, with covariance. Throws on
 // failure (non-finite values, no convergence, RMS above options.max_rms_px).
+// threads: Ceres threads (0: every hardware thread).
 CalibrationResult FitCalibration(const std::vector<BoardView>& views, const TargetBoard& board,
                                  const InitialEstimate& init, bool poses_known,
-                                 const CalibrateOptions& options);
+                                 const CalibrateOptions& options, int threads = 0);
 
 // Steps 2-3 on detected (or synthetic) corners.
 CalibrationResult CalibrateViews(const std::vector<BoardView>& views, const TargetBoard& board,

@@ -38,6 +38,33 @@ std::vector<int> FixedSensorIndices(bool poses_known, const CalibrateOptions& o)
   return fixed;
 }
 
+std::vector<Eigen::Matrix2d> CornerWeights(const BoardView& view, const TargetBoard& board, double full_px) {
+  const int cols = board.cols, rows = board.rows;
+  std::vector<Eigen::Matrix2d> out(view.corners.size(), Eigen::Matrix2d::Identity());
+  if (!(full_px > 0.0) || static_cast<int>(view.corners.size()) != cols * rows) return out;
+  auto at = [&](int i, int j) { return view.corners[static_cast<size_t>(j * cols + i)]; };
+  for (int j = 0; j < rows; ++j)
+    for (int i = 0; i < cols; ++i) {
+      // Image of one square step along the board's x and y (pixels).
+      const Eigen::Vector2d dx = (at(std::min(i + 1, cols - 1), j) - at(std::max(i - 1, 0), j)) /
+                                 (std::min(i + 1, cols - 1) - std::max(i - 1, 0));
+      const Eigen::Vector2d dy = (at(i, std::min(j + 1, rows - 1)) - at(i, std::max(j - 1, 0))) /
+                                 (std::min(j + 1, rows - 1) - std::max(j - 1, 0));
+      if (!dx.allFinite() || !dy.allFinite() || !(dx.norm() > 0.0) || !(dy.norm() > 0.0)) continue;
+      Eigen::Matrix2d grid;
+      grid << dx, dy;
+      const double squeeze = Eigen::JacobiSVD<Eigen::Matrix2d>(grid).singularValues()(1);
+      const Eigen::Vector2d n1 = Eigen::Vector2d(-dx.y(), dx.x()).normalized();
+      const Eigen::Vector2d n2 = Eigen::Vector2d(-dy.y(), dy.x()).normalized();
+      const double g = std::min(1.0, squeeze / full_px);
+      // A small floor keeps a degenerate (parallel) crossing positive definite.
+      const Eigen::Matrix2d info =
+          g * g * (n1 * n1.transpose() + n2 * n2.transpose() + 1e-3 * Eigen::Matrix2d::Identity());
+      const Eigen::LLT<Eigen::Matrix2d> llt(info);
+      if (llt.info() == Eigen::Success) out[static_cast<size_t>(j * cols + i)] = llt.matrixU();
+    }
+  return out;
+}
 
 }  // namespace calib_internal
 
@@ -53,7 +80,7 @@ bool AllFinite(const double* v, int n) {
 
 CalibrationResult FitCalibration(const std::vector<BoardView>& views, const TargetBoard& board,
                                  const InitialEstimate& init, bool poses_known,
-                                 const CalibrateOptions& options) {
+                                 const CalibrateOptions& options, int threads) {
   const auto t0 = std::chrono::steady_clock::now();
   if (views.size() != init.poses.size()) throw Error("calibration fit: internal: poses/views mismatch");
   const std::vector<Eigen::Vector3d> pts = BoardPoints(board);
@@ -75,6 +102,7 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
     const BoardView& bv = views[i];
     if (bv.corners.size() != pts.size())
       throw Error(bv.file + ": internal: expected " + std::to_string(pts.size()) + " corners");
+    const std::vector<Eigen::Matrix2d> weights = CornerWeights(bv, board, options.full_weight_px);
     for (size_t j = 0; j < pts.size(); ++j) {
       CornerCost probe(pts[j], bv.corners[j], cap);
       double r[2];
@@ -84,7 +112,7 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
       }
       ceres::LossFunction* loss = options.huber_px > 0 ? new ceres::HuberLoss(options.huber_px) : nullptr;
       problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CornerCost, 2, kNumSensor, 6>(
-                                   new CornerCost(pts[j], bv.corners[j], cap)),
+                                   new CornerCost(pts[j], bv.corners[j], cap, weights[j])),
                                loss, s.data(), poses[i].data());
       ++n_obs;
     }
@@ -97,7 +125,7 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
   ceres::Solver::Options so;
   so.linear_solver_type = poses_known ? ceres::DENSE_QR : ceres::DENSE_SCHUR;
   so.max_num_iterations = options.max_iterations;
-  so.num_threads = std::max(1u, std::thread::hardware_concurrency());
+  so.num_threads = threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   so.function_tolerance = 1e-12;
   so.parameter_tolerance = 1e-12;
   so.gradient_tolerance = 1e-12;

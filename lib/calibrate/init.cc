@@ -23,7 +23,6 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
-#include <thread>
 
 #include "calibrate/calibrate.h"
 #include "calibrate/internal.h"
@@ -258,7 +257,7 @@ ShapeFit FitShape(const std::vector<double>& rho, const std::vector<double>& ele
 // Short joint refinement; returns the RMS (infinity when it cannot start).
 double QuickFit(const std::vector<BoardView>& views, const std::vector<Eigen::Vector3d>& pts,
                 std::array<double, kNumSensor>* s, std::vector<std::array<double, 6>>* poses,
-                bool poses_known, const CalibrateOptions& options, int iterations, double cap) {
+                bool poses_known, const CalibrateOptions& options, int iterations, double cap, int threads) {
   ceres::Problem problem;
   problem.AddParameterBlock(s->data(), kNumSensor);
   std::vector<int> fixed = FixedSensorIndices(poses_known, options);
@@ -288,7 +287,7 @@ double QuickFit(const std::vector<BoardView>& views, const std::vector<Eigen::Ve
   ceres::Solver::Options so;
   so.max_num_iterations = iterations;
   so.linear_solver_type = poses_known ? ceres::DENSE_QR : ceres::DENSE_SCHUR;
-  so.num_threads = std::max(1u, std::thread::hardware_concurrency());
+  so.num_threads = threads;
   ceres::Solver::Summary sum;
   ceres::Solve(so, &problem, &sum);
   if (sum.termination_type == ceres::FAILURE) return kInf;
@@ -515,76 +514,100 @@ InitialEstimate Initialize(const std::vector<BoardView>& views, const TargetBoar
       elev.push_back(e);
     }
     if (!monotone) log << "centre (" << cm.cx << ", " << cm.cy << "): central elevation curve not monotone; ";
-    for (double R0 : {0.1, 0.25, 0.5, 1.0, 2.0}) {
-    double group_rms = kInf;
-    InitialEstimate group_best;
-    const ShapeFit shape = FitShape(rho, elev, conic, R0);
-    if (!std::isfinite(shape.cost)) {
-      log << "centre (" << cm.cx << ", " << cm.cy << ") R/zv " << R0 << ": no mirror shape fits the central model; ";
-      continue;
-    }
-
-    // Scale candidates.
-    std::vector<double> scales;
-    if (poses_known && h_view > 0 && shape.h > 0) {
-      scales.push_back(h_view / shape.h);
-    } else {
-      std::vector<double> dist;
-      if (poses_known) {
-        for (const BoardView& v : views) dist.push_back(v.tvec.norm());
-      } else {
-        for (const Eigen::Vector3d& t : ts) dist.push_back(t.norm());
-      }
-      std::nth_element(dist.begin(), dist.begin() + dist.size() / 2, dist.end());
-      for (double c : {0.03, 0.1, 0.3}) scales.push_back(dist[dist.size() / 2] * c / (1.0 + shape.R));
-    }
-    for (size_t si = 0; si < scales.size(); ++si) {
-      const double sc = scales[si];
+    // Every start (mirror shape group R/zv x scale guess) first, then their
+    // short refinements in parallel, then the bookkeeping in start order, so
+    // the result does not depend on the thread count.
+    struct Start {
+      double R0 = 0.0;
+      ShapeFit shape;
       InitialEstimate est;
-      est.sensor.model = options.model;
-      est.sensor.image_width = width;
-      est.sensor.image_height = height;
-      SensorParams<double>& p = est.sensor.params;
-      p.focal_px = shape.f;
-      p.cx = cm.cx;
-      p.cy = cm.cy;
-      p.aspect = 1.0;
-      p.azimuth_offset = azimuth_offset;
-      p.curvature_radius = shape.R * sc;
-      p.conic_constant = conic ? shape.k : 0.0;
-      p.vertex_distance = sc;
-      est.poses.resize(views.size());
-      for (size_t i = 0; i < views.size(); ++i) {
+      std::array<double, kNumSensor> s{};
+      double rms = kInf;
+    };
+    std::vector<Start> starts;
+    for (double R0 : {0.1, 0.25, 0.5, 1.0, 2.0}) {
+      const ShapeFit shape = FitShape(rho, elev, conic, R0);
+      if (!std::isfinite(shape.cost)) {
+        log << "centre (" << cm.cx << ", " << cm.cy << ") R/zv " << R0 << ": no mirror shape fits the central model; ";
+        continue;
+      }
+      // Scale candidates.
+      std::vector<double> scales;
+      if (poses_known && h_view > 0 && shape.h > 0) {
+        scales.push_back(h_view / shape.h);
+      } else {
+        std::vector<double> dist;
         if (poses_known) {
-          est.poses[i] = {views[i].rvec.x(), views[i].rvec.y(), views[i].rvec.z(),
-                          views[i].tvec.x(), views[i].tvec.y(), views[i].tvec.z()};
+          for (const BoardView& v : views) dist.push_back(v.tvec.norm());
         } else {
-          est.poses[i] = PoseFromRt(Rs[i], ts[i] + Eigen::Vector3d(0, 0, sc * shape.h));
+          for (const Eigen::Vector3d& t : ts) dist.push_back(t.norm());
+        }
+        std::nth_element(dist.begin(), dist.begin() + dist.size() / 2, dist.end());
+        for (double c : {0.03, 0.1, 0.3}) scales.push_back(dist[dist.size() / 2] * c / (1.0 + shape.R));
+      }
+      for (const double sc : scales) {
+        Start st;
+        st.R0 = R0;
+        st.shape = shape;
+        InitialEstimate& est = st.est;
+        est.sensor.model = options.model;
+        est.sensor.image_width = width;
+        est.sensor.image_height = height;
+        SensorParams<double>& p = est.sensor.params;
+        p.focal_px = shape.f;
+        p.cx = cm.cx;
+        p.cy = cm.cy;
+        p.aspect = 1.0;
+        p.azimuth_offset = azimuth_offset;
+        p.curvature_radius = shape.R * sc;
+        p.conic_constant = conic ? shape.k : 0.0;
+        p.vertex_distance = sc;
+        est.poses.resize(views.size());
+        for (size_t i = 0; i < views.size(); ++i) {
+          if (poses_known) {
+            est.poses[i] = {views[i].rvec.x(), views[i].rvec.y(), views[i].rvec.z(),
+                            views[i].tvec.x(), views[i].tvec.y(), views[i].tvec.z()};
+          } else {
+            est.poses[i] = PoseFromRt(Rs[i], ts[i] + Eigen::Vector3d(0, 0, sc * shape.h));
+          }
+        }
+        st.s = BlockFromParams(p);
+        starts.push_back(st);
+      }
+    }
+#pragma omp parallel for schedule(dynamic)
+    for (int k = 0; k < static_cast<int>(starts.size()); ++k)
+      starts[k].rms = QuickFit(views, pts, &starts[k].s, &starts[k].est.poses, poses_known, options, 30,
+                               CapRadiusPx(width, height), 1);
+    for (size_t k = 0; k < starts.size();) {
+      // One R/zv group at a time.
+      double group_rms = kInf;
+      InitialEstimate group_best;
+      const double R0 = starts[k].R0;
+      for (; k < starts.size() && starts[k].R0 == R0; ++k) {
+        Start& st = starts[k];
+        log << "centre (" << cm.cx << ", " << cm.cy << ") shape f " << st.shape.f << " R/zv " << st.shape.R
+            << " k " << st.shape.k << " scale " << st.est.sensor.params.vertex_distance << ": RMS " << st.rms
+            << " px; ";
+        st.est.sensor.params = ParamsFromBlock(st.s.data());
+        if (conic && st.rms < group_rms) {
+          // The conic's landscape has several basins along the valley where
+          // only f R / zv is seen (far camera with a flat mirror, near
+          // single-viewpoint hyperboloid...), and 30 iterations do not rank
+          // them reliably: the caller refines the best start of every group.
+          group_rms = st.rms;
+          group_best = st.est;
+        }
+        if (st.rms < best_rms) {
+          best_rms = st.rms;
+          best = st.est;
         }
       }
-      std::array<double, kNumSensor> s = BlockFromParams(p);
-      const double rms = QuickFit(views, pts, &s, &est.poses, poses_known, options, 30, CapRadiusPx(width, height));
-      log << "centre (" << cm.cx << ", " << cm.cy << ") shape f " << shape.f << " R/zv " << shape.R
-          << " k " << shape.k << " scale " << sc << ": RMS " << rms << " px; ";
-      if (conic && rms < group_rms) {
-        // The conic's landscape has several basins along the valley where
-        // only f R / zv is seen (far camera with a flat mirror, near
-        // single-viewpoint hyperboloid...), and 30 iterations do not rank them
-        // reliably: the caller refines the best start of every R/zv group.
-        group_rms = rms;
-        group_best = est;
-        group_best.sensor.params = ParamsFromBlock(s.data());
+      if (std::isfinite(group_rms)) {
+        group_best.summary =
+            "start R/zv " + std::to_string(R0) + " (RMS after 30 iterations " + std::to_string(group_rms) + " px)";
+        groups.push_back({group_rms, group_best});
       }
-      if (rms < best_rms) {
-        best_rms = rms;
-        est.sensor.params = ParamsFromBlock(s.data());
-        best = est;
-      }
-    }
-    if (std::isfinite(group_rms)) {
-      group_best.summary = "start R/zv " + std::to_string(R0) + " (RMS after 30 iterations " + std::to_string(group_rms) + " px)";
-      groups.push_back({group_rms, group_best});
-    }
     }
     if (best_rms < 3.0) break;  // good enough: no other centre needed
   }

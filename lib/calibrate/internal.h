@@ -88,8 +88,11 @@ inline double RimForRadius(SensorParams<double> p, double m_cap) {
 
 struct CornerCost {
   // cap_px: image radius (pixels) beyond which the mirror is taken to end.
-  CornerCost(const Eigen::Vector3d& board_point, const Eigen::Vector2d& pixel, double cap_px)
-      : X(board_point), obs(pixel), cap(cap_px) {}
+  // sqrt_info: the residual is sqrt_info * (projected - observed), a square
+  // root of the corner's information matrix (CornerWeights); identity: pixels.
+  CornerCost(const Eigen::Vector3d& board_point, const Eigen::Vector2d& pixel, double cap_px,
+             const Eigen::Matrix2d& sqrt_info = Eigen::Matrix2d::Identity())
+      : X(board_point), obs(pixel), cap(cap_px), L(sqrt_info) {}
   template <typename T>
   bool operator()(const T* sensor, const T* pose, T* residual) const {
     SensorParams<T> p = ParamsFromBlock(sensor);
@@ -103,14 +106,27 @@ struct CornerCost {
     Xs[2] += pose[5];
     T u, v;
     if (!project(p, Xs, &u, &v)) return false;
-    residual[0] = u - T(obs.x());
-    residual[1] = v - T(obs.y());
+    const T du = u - T(obs.x()), dv = v - T(obs.y());
+    residual[0] = T(L(0, 0)) * du + T(L(0, 1)) * dv;
+    residual[1] = T(L(1, 0)) * du + T(L(1, 1)) * dv;
     return true;
   }
   Eigen::Vector3d X;
   Eigen::Vector2d obs;
   double cap;
+  Eigen::Matrix2d L;
 };
+
+// Square roots of the corners' information matrices, from the detected grid
+// alone. A corner is the crossing of the board's two lines: with unit normals
+// n1, n2 of their images its position has information N^T N (N = [n1 n2]^T),
+// poor along the bisector of an acute crossing. Each line is located to a
+// fixed fraction of a square, so a board squeezed to s px per square (the
+// grid's smaller singular value, near a mirror's limb) scales that by
+// (s / full_px)^2, capped at 1 where the squares are large. A square, upright
+// grid gives the identity. Measured on rendered boards (docs/calibration.md):
+// the whitened error is flat across squeeze and crossing angle.
+std::vector<Eigen::Matrix2d> CornerWeights(const BoardView& view, const TargetBoard& board, double full_px);
 
 // The image radius that caps the mirror in the fit: 1.5 x the half-diagonal.
 inline double CapRadiusPx(int width, int height) { return 0.75 * std::hypot(width, height); }

@@ -98,16 +98,20 @@ std::vector<BoardPose> AutoBoardPoses(const Sensor& sensor, const TargetBoard& b
   std::uniform_real_distribution<double> uni(0.0, 1.0);
   const double w = (board.cols + 1) * board.square, h = (board.rows + 1) * board.square;
   const double diag = std::hypot(w, h);
-  const double d_min = std::max(1.5 * sensor.mirror_distance(), 0.6 * diag), d_max = d_min + diag;
+  // Near boards at every height from 20 degrees below the mirror to 60 above
+  // it: with unknown board poses the focal length and the mirror's size are
+  // told apart only by corners that span the mirror's radial mapping out to
+  // the limb, where it bends most, and by parallax (docs/calibration.md).
+  const double d_min = std::max(0.8 * sensor.mirror_distance(), 0.33 * diag), d_max = d_min + 0.63 * diag;
   const Eigen::Vector3d mirror(0, 0, sensor.params.vertex_distance);
   std::vector<BoardPose> out;
   for (int k = 0; k < n; ++k) {
     bool ok = false;
-    for (int attempt = 0; attempt < 4000 && !ok; ++attempt) {
+    for (int attempt = 0; attempt < 20000 && !ok; ++attempt) {
       const double beta = 2.0 * M_PI * (k + 0.8 * (uni(rng) - 0.5)) / n;
-      const double D = d_min + (d_max - d_min) * uni(rng) * uni(rng);
-      const double elev = (-50.0 + 65.0 * uni(rng)) * M_PI / 180.0;
-      const Eigen::Vector3d C(D * std::cos(beta), D * std::sin(beta), D * std::tan(elev));
+      const double D = d_min + (d_max - d_min) * uni(rng);
+      const double elev = (-20.0 + 80.0 * uni(rng)) * M_PI / 180.0;
+      const Eigen::Vector3d C(D * std::cos(beta), D * std::sin(beta), mirror.z() + D * std::tan(elev));
       const Eigen::Vector3d z = (C - mirror).normalized();
       Eigen::Vector3d x(std::sin(beta), -std::cos(beta), 0.0);
       x = (x - x.dot(z) * z).normalized();

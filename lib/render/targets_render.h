@@ -27,7 +27,7 @@ std::vector<Eigen::Vector3d> BoardCornersSensor(const TargetBoard& board, const 
 // True when every inner corner projects inside the image and inside the
 // annulus [inner, outer] * limb radius, and the board faces the mirror with its -z side.
 bool BoardFullyVisible(const Sensor& sensor, const TargetBoard& board, const BoardPose& pose,
-                       double inner = 0.25, double outer = 0.95);
+                       double inner = 0.1, double outer = 0.98);
 
 // `n` random board poses around the mirror (bearings spread over the circle),
 // each fully visible; deterministic in `seed`. Throws when the board is too

@@ -196,8 +196,39 @@ bool meridian_residual(const SensorParams<T>& p, const T& m, const T& D, const T
   return true;
 }
 
+// Forward-mode dual number (value a, derivative v): the meridian residual's
+// exact slope in m for the Newton solve, without a finite difference that
+// would step off the mirror near its limb.
+struct Dual {
+  double a = 0.0, v = 0.0;
+  Dual() = default;
+  Dual(double value, double slope = 0.0) : a(value), v(slope) {}
+  Dual& operator/=(const Dual& o) { return *this = Dual(a / o.a, (v * o.a - a * o.v) / (o.a * o.a)); }
+};
+inline Dual operator+(const Dual& x, const Dual& y) { return {x.a + y.a, x.v + y.v}; }
+inline Dual operator-(const Dual& x, const Dual& y) { return {x.a - y.a, x.v - y.v}; }
+inline Dual operator-(const Dual& x) { return {-x.a, -x.v}; }
+inline Dual operator*(const Dual& x, const Dual& y) { return {x.a * y.a, x.v * y.a + x.a * y.v}; }
+inline Dual operator/(const Dual& x, const Dual& y) { return {x.a / y.a, (x.v * y.a - x.a * y.v) / (y.a * y.a)}; }
+inline bool operator<(const Dual& x, const Dual& y) { return x.a < y.a; }
+inline bool operator>(const Dual& x, const Dual& y) { return x.a > y.a; }
+inline Dual sqrt(const Dual& x) {
+  const double r = std::sqrt(x.a);
+  return {r, x.v / (2.0 * r)};
+}
+
+// The meridian residual g(m) and its slope dg/dm. False where g is undefined.
+inline bool meridian_residual_slope(const SensorParams<Dual>& pd, double m, double D, double Z, double* g,
+                                    double* slope) {
+  Dual gd;
+  if (!meridian_residual(pd, Dual(m, 1.0), Dual(D), Dual(Z), &gd, static_cast<Dual*>(nullptr))) return false;
+  *g = gd.a;
+  *slope = gd.v;
+  return std::isfinite(gd.v) && gd.v != 0.0;
+}
+
 // Root of the meridian residual in double precision: bracketing bisection
-// safeguarding Newton steps (derivative by a central difference).
+// safeguarding Newton steps (exact slope from a dual number).
 // Returns false when the point is not visible.
 inline bool solve_meridian_double(const SensorParams<double>& p, double D, double Z, double* m_out) {
   if (!(D > 0.0) || !std::isfinite(D) || !std::isfinite(Z)) return false;
@@ -209,18 +240,22 @@ inline bool solve_meridian_double(const SensorParams<double>& p, double D, doubl
   if (!meridian_residual(p, hi, D, Z, &g_hi, static_cast<double*>(nullptr))) return false;
   if (!(g_lo > 0.0) || !(g_hi < 0.0)) return false;  // outside the visible cap
   double m = 0.5 * (lo + hi);
+  const SensorParams<Dual> pd = p.cast<Dual>();
   for (int it = 0; it < 200; ++it) {
-    double g;
-    if (!meridian_residual(p, m, D, Z, &g, static_cast<double*>(nullptr))) return false;
-    if (g > 0.0) lo = m; else hi = m;
-    const double h = 1e-7 * (m + 1e-3);
-    double gp, gm;
+    double g, slope;
     double m_next;
-    if (meridian_residual(p, m + h, D, Z, &gp, static_cast<double*>(nullptr)) &&
-        meridian_residual(p, m - h, D, Z, &gm, static_cast<double*>(nullptr)) && gp != gm) {
-      m_next = m - g * (2.0 * h) / (gp - gm);
+    if (meridian_residual_slope(pd, m, D, Z, &g, &slope)) {
+      if (g > 0.0) lo = m; else hi = m;
+      m_next = m - g / slope;
+      // Converged: the Newton step may land on the bracket's end it just set.
+      if (std::abs(m_next - m) < 1e-15 * (1.0 + m)) {
+        m = m_next;
+        break;
+      }
       if (!(m_next > lo && m_next < hi)) m_next = 0.5 * (lo + hi);
     } else {
+      if (!meridian_residual(p, m, D, Z, &g, static_cast<double*>(nullptr))) return false;
+      if (g > 0.0) lo = m; else hi = m;
       m_next = 0.5 * (lo + hi);
     }
     const double step = std::abs(m_next - m);
@@ -249,14 +284,10 @@ bool solve_meridian(const SensorParams<T>& p, const T& D, const T& Z, T* m) {
   if constexpr (std::is_same<T, double>::value) {
     *m = m0;
   } else {
-    const double h = 1e-7 * (m0 + 1e-3);
-    double gp, gm;
-    if (!detail::meridian_residual(pd, m0 + h, scalar_value(D), scalar_value(Z), &gp,
-                                   static_cast<double*>(nullptr)) ||
-        !detail::meridian_residual(pd, m0 - h, scalar_value(D), scalar_value(Z), &gm,
-                                   static_cast<double*>(nullptr)))
+    double g0, dg_dm;
+    if (!detail::meridian_residual_slope(pd.template cast<detail::Dual>(), m0, scalar_value(D), scalar_value(Z),
+                                         &g0, &dg_dm))
       return false;
-    const double dg_dm = (gp - gm) / (2.0 * h);
     T g;
     if (!detail::meridian_residual(p, T(m0), D, Z, &g, static_cast<T*>(nullptr))) return false;
     *m = T(m0) - g / T(dg_dm);

@@ -29,21 +29,28 @@ TEST_CASE("refined corners remove the detector's bias (rendered boards, known po
   WriteTargetImages(dir + "/t", truth, board, AutoBoardPoses(truth.sensor, board, 10, 5), ro, wo);
   const TargetSet targets = ReadTargets(dir + "/t/targets.yaml");
   const std::vector<cv::Mat> images = LoadTargetImages(targets);
-  auto distance_error = [&](int passes) {
+  struct Outcome {
+    double rms_px, distance_error;
+  };
+  auto calibrate = [&](int passes) {
     CalibrateOptions o;
     o.refine_passes = passes;
     const CalibrationResult r = Calibrate(targets, images, o);
     INFO("passes " << passes << ": focal " << r.calib.sensor.params.focal_px << ", distance "
                    << r.calib.sensor.mirror_distance() << ", RMS " << r.rms_px);
-    CHECK(r.rms_px < 0.3);
-    return std::abs(r.calib.sensor.mirror_distance() / truth.sensor.mirror_distance() - 1.0);
+    return Outcome{r.rms_px, std::abs(r.calib.sensor.mirror_distance() / truth.sensor.mirror_distance() - 1.0)};
   };
-  const double before = distance_error(0), after = distance_error(1);
-  WARN("mirror distance error: " << 100 * before << " % detected, " << 100 * after << " % refined");
-  // Known poses: the issue's bound is 1 %; the refinement must not make it
-  // worse and must meet it.
-  CHECK(after < 0.01);
-  CHECK(after <= before + 0.002);
+  const Outcome before = calibrate(0), after = calibrate(1);
+  WARN("detected corners: RMS " << before.rms_px << " px, mirror distance error " << 100 * before.distance_error
+                                << " %; refined: RMS " << after.rms_px << " px, " << 100 * after.distance_error
+                                << " %");
+  // The issue's bounds with known poses: RMS 0.3 px, mirror distance 1 %.
+  // The boards reach the limb, where the detector's corners are off by up to
+  // a pixel; the refinement must bring them under the bound.
+  CHECK(after.rms_px < 0.3);
+  CHECK(after.rms_px < before.rms_px);
+  CHECK(after.distance_error < 0.01);
+  CHECK(after.distance_error <= before.distance_error + 0.002);
 }
 
 }  // namespace
