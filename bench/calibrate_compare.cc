@@ -130,12 +130,14 @@ int main(int argc, char** argv) {
       std::vector<pano::BoardView> refined = full.views;
       for (pano::BoardView& v : refined) v.has_pose = false;
       const pano::CalibrationResult rc2 = pano::CalibrateViews(refined, t.board, W, H, t.units, conic);
+      const pano::CalibrationResult rcl2 = pano::CalibrateViews(refined, t.board, W, H, t.units, conic_ls);
       const pano::CalibrationResult rs2 = pano::CalibrateViews(refined, t.board, W, H, t.units, sphere);
       int u3 = 0;
       double t3 = 0;
       const double omni2 = OmnidirRms(refined, t.board, cv::Size(W, H), &u3, &t3);
       std::printf("\nsame %zu boards, corners refined through the model (step 3b):\n", refined.size());
       std::printf("  panotrack conic (k1,k2)   RMS %.4f px\n", rc2.rms_px);
+      std::printf("  panotrack conic, no Huber RMS %.4f px\n", rcl2.rms_px);
       std::printf("  panotrack sphere          RMS %.4f px\n", rs2.rms_px);
       std::printf("  OpenCV omnidir (Mei)      RMS %.4f px  (%d boards kept)\n", omni2, u3);
     }

@@ -108,6 +108,16 @@ void Finish(CalibrationResult* result, bool poses_known, const std::string& unit
   c.sensor.Check("calibration result");
 }
 
+// A start at a previous fit: its sensor and its boards' poses.
+InitialEstimate StartFrom(const CalibrationResult& fit, const std::string& summary) {
+  InitialEstimate start;
+  start.sensor = fit.calib.sensor;
+  start.summary = summary;
+  for (const BoardView& v : fit.views)
+    start.poses.push_back({v.rvec.x(), v.rvec.y(), v.rvec.z(), v.tvec.x(), v.tvec.y(), v.tvec.z()});
+  return start;
+}
+
 }  // namespace
 
 CalibrationResult CalibrateViews(const std::vector<BoardView>& views_in, const TargetBoard& board, int width,
@@ -127,10 +137,16 @@ CalibrationResult CalibrateViews(const std::vector<BoardView>& views_in, const T
   if (any_known && !all_known && !options.ignore_known_poses)
     warnings.push_back("some images have board poses and some not: all poses are estimated");
   if (poses_known) OrderCornersByKnownPose(board, 0.5 * (width - 1), 0.5 * (height - 1), &views);
+  const auto t_init = std::chrono::steady_clock::now();
   const InitialEstimate init = Initialize(views, board, width, height, poses_known, options);
+  if (options.verbose)
+    std::fprintf(stderr, "[initialisation: %.2f s, %zu starts to refine]\n",
+                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t_init).count(),
+                 1 + init.alternatives.size());
   // The best start and the other starts (the conic's basins along its
-  // near-degenerate valley), fitted in parallel; the best final fit is kept,
-  // the earlier start on a tie, so the result does not depend on threads.
+  // near-degenerate valley, whose fits converge slowly and rank only at the
+  // end) are fitted in parallel; the best final fit is kept, the earlier
+  // start on a tie, so the result does not depend on the thread count.
   std::vector<const InitialEstimate*> starts = {&init};
   for (const InitialEstimate& alt : init.alternatives) starts.push_back(&alt);
   const int n = static_cast<int>(starts.size());
@@ -207,20 +223,28 @@ CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>
     std::nth_element(dist.begin(), dist.begin() + dist.size() / 2, dist.end());
     std::nth_element(hgt.begin(), hgt.begin() + hgt.size() / 2, hgt.end());
     const double d_med = dist[dist.size() / 2], h_med = hgt[hgt.size() / 2];
+    // In parallel over images (each search is then serial); one image
+    // searches its views in parallel instead.
+    const int n_missing = static_cast<int>(det.not_found.size());
+    std::vector<BoardView> found(n_missing);
+    std::vector<char> ok(n_missing, 0);
+#pragma omp parallel for schedule(dynamic) if (n_missing > 1)
+    for (int k = 0; k < n_missing; ++k)
+      ok[k] = DetectBoardUnwarped(images[det.not_found[k]], targets.board, res.calib.sensor, d_med, h_med,
+                                  &found[k].corners);
     std::vector<BoardView> extra;
-    for (size_t k = 0; k < det.not_found.size(); ++k) {
+    for (int k = 0; k < n_missing; ++k) {
+      if (!ok[k]) continue;
       const int i = det.not_found[k];
-      BoardView v;
-      if (DetectBoardUnwarped(images[i], targets.board, res.calib.sensor, d_med, h_med, &v.corners)) {
-        const TargetImage& ti = targets.images[i];
-        v.image_index = i;
-        v.file = ti.file;
-        v.method = "unwarped";
-        v.has_pose = ti.has_pose;
-        v.rvec = Eigen::Vector3d(ti.rvec[0], ti.rvec[1], ti.rvec[2]);
-        v.tvec = Eigen::Vector3d(ti.tvec[0], ti.tvec[1], ti.tvec[2]);
-        extra.push_back(v);
-      }
+      BoardView& v = found[k];
+      const TargetImage& ti = targets.images[i];
+      v.image_index = i;
+      v.file = ti.file;
+      v.method = "unwarped";
+      v.has_pose = ti.has_pose;
+      v.rvec = Eigen::Vector3d(ti.rvec[0], ti.rvec[1], ti.rvec[2]);
+      v.tvec = Eigen::Vector3d(ti.tvec[0], ti.tvec[1], ti.tvec[2]);
+      extra.push_back(v);
     }
     if (!extra.empty()) {
       // Refit from the fitted model: the new boards' poses through it.
@@ -289,11 +313,7 @@ CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>
   for (int pass = 0; pass < options.refine_passes; ++pass) {
     std::vector<BoardView> views = res.views;
     if (RefineCornersThroughModel(images, targets.board, res.calib.sensor, &views) == 0) break;
-    InitialEstimate start;
-    start.sensor = res.calib.sensor;
-    start.summary = "refit on corners refined through the model; " + res.init_summary;
-    for (const BoardView& v : views)
-      start.poses.push_back({v.rvec.x(), v.rvec.y(), v.rvec.z(), v.tvec.x(), v.tvec.y(), v.tvec.z()});
+    const InitialEstimate start = StartFrom(res, "refit on corners refined through the model; " + res.init_summary);
     try {
       CalibrationResult again = FitCalibration(views, targets.board, start, poses_known, options);
       Finish(&again, poses_known, units, options, {});

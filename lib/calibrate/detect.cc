@@ -1,6 +1,7 @@
 // Step 1 and 4: chessboard corners in raw mirror images, and in views
 // unwarped through a fitted model where the raw image fails.
 #include <ceres/rotation.h>
+#include <omp.h>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -45,11 +46,15 @@ namespace {
 bool FindRaw(const cv::Mat& image, const TargetBoard& board, std::vector<Eigen::Vector2d>* corners) {
   std::vector<cv::Point2f> c;
   bool ok = false;
-  try {
-    ok = cv::findChessboardCornersSB(image, cv::Size(board.cols, board.rows), c,
-                                     cv::CALIB_CB_EXHAUSTIVE | cv::CALIB_CB_ACCURACY);
-  } catch (const cv::Exception&) {
-    ok = false;
+  // The quick search first (a third of the time), the exhaustive one where
+  // it fails; the corners' accuracy comes later (RefineCornersThroughModel).
+  for (const int flags : {0, cv::CALIB_CB_EXHAUSTIVE | cv::CALIB_CB_ACCURACY}) {
+    try {
+      ok = cv::findChessboardCornersSB(image, cv::Size(board.cols, board.rows), c, flags);
+    } catch (const cv::Exception&) {
+      ok = false;
+    }
+    if (ok) break;
   }
   if (!ok || c.size() != static_cast<size_t>(board.cols * board.rows)) return false;
   corners->clear();
@@ -266,9 +271,11 @@ bool DetectBoardUnwarped(const cv::Mat& image, const TargetBoard& board, const S
   const int n = static_cast<int>(dirs.size());
   std::vector<std::vector<cv::Point2f>> found(n);
   std::vector<char> ok(n, 0);
-  // In batches of 3 so that an early success stops the search.
-  for (int b0 = 0; b0 < n; b0 += 3) {
-    const int b1 = std::min(n, b0 + 3);
+  // In batches of one view per thread so that an early success stops the
+  // search (one at a time when the caller already runs images in parallel).
+  const int batch = omp_in_parallel() ? 1 : std::max(1, omp_get_max_threads());
+  for (int b0 = 0; b0 < n; b0 += batch) {
+    const int b1 = std::min(n, b0 + batch);
 #pragma omp parallel for schedule(dynamic)
     for (int k = b0; k < b1; ++k)
       ok[k] = CornersInView(image, board, sensor, dirs[k].first, dirs[k].second, distance, &found[k]);

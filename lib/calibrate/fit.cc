@@ -58,8 +58,9 @@ std::vector<Eigen::Matrix2d> CornerWeights(const BoardView& view, const TargetBo
       const Eigen::Vector2d n2 = Eigen::Vector2d(-dy.y(), dy.x()).normalized();
       const double g = std::min(1.0, squeeze / full_px);
       // A small floor keeps a degenerate (parallel) crossing positive definite.
-      const Eigen::Matrix2d info =
-          g * g * (n1 * n1.transpose() + n2 * n2.transpose() + 1e-3 * Eigen::Matrix2d::Identity());
+      const Eigen::Matrix2d crossing = n1 * n1.transpose() + n2 * n2.transpose() + 1e-3 * Eigen::Matrix2d::Identity();
+      const double b = std::min(1.0, (1.0 - g) / 0.2);
+      const Eigen::Matrix2d info = g * g * (b * crossing + (1.0 - b) * Eigen::Matrix2d::Identity());
       const Eigen::LLT<Eigen::Matrix2d> llt(info);
       if (llt.info() == Eigen::Success) out[static_cast<size_t>(j * cols + i)] = llt.matrixU();
     }

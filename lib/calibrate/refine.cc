@@ -32,63 +32,74 @@ int RefineCornersThroughModel(const std::vector<cv::Mat>& images, const TargetBo
   // A patch of +-0.4 squares around each corner, 33 x 33 samples.
   constexpr int kN = 33, kHalf = kN / 2;
   const double step = 0.8 * board.square / (kN - 1);
-  int refined = 0;
-  for (BoardView& v : *views) {
+  // One task per corner (OpenMP), each writing only its own corner.
+  std::vector<cv::Mat> greys(views->size());
+  std::vector<std::pair<int, int>> tasks;  // (view, corner)
+  const std::vector<Eigen::Vector3d> points = BoardPoints(board);
+  for (size_t i = 0; i < views->size(); ++i) {
+    const BoardView& v = (*views)[i];
     if (v.image_index < 0 || v.image_index >= static_cast<int>(images.size())) continue;
     cv::Mat grey = images[v.image_index];
     if (grey.channels() != 1) cv::cvtColor(grey, grey, cv::COLOR_BGR2GRAY);
     if (grey.depth() != CV_8U) continue;
-    const std::vector<Eigen::Vector3d> points = BoardPoints(board);
-    for (size_t k = 0; k < points.size() && k < v.corners.size(); ++k) {
-      const double x0 = points[k].x(), y0 = points[k].y();
-      cv::Mat patch(kN, kN, CV_32FC1);
-      bool ok = true;
-      for (int i = 0; i < kN && ok; ++i)
-        for (int j = 0; j < kN && ok; ++j) {
-          Eigen::Vector2d px;
-          ok = ProjectBoardPoint(sensor, v, x0 + (j - kHalf) * step, y0 + (i - kHalf) * step, &px) &&
-               SampleGrey(grey, px.x(), px.y(), &patch.at<float>(i, j));
-        }
-      if (!ok) continue;
-      // The X-junction of the straightened squares: the saddle point of the
-      // patch smoothed by a Gaussian, from a quadratic surface fitted by least
-      // squares around it (Lucchese and Mitra), iterated as the centre moves.
-      cv::GaussianBlur(patch, patch, cv::Size(0, 0), 3.0);
-      double cx = kHalf, cy = kHalf;
-      bool fitted = false;
-      for (int it = 0; it < 3; ++it) {
-        const int ix = static_cast<int>(std::lround(cx)), iy = static_cast<int>(std::lround(cy));
-        constexpr int kW = 5;
-        if (ix - kW < 0 || iy - kW < 0 || ix + kW >= kN || iy + kW >= kN) break;
-        Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();
-        Eigen::Matrix<double, 6, 1> b = Eigen::Matrix<double, 6, 1>::Zero();
-        for (int i = -kW; i <= kW; ++i)
-          for (int j = -kW; j <= kW; ++j) {
-            Eigen::Matrix<double, 6, 1> row;
-            row << j * j, j * i, i * i, j, i, 1.0;
-            A += row * row.transpose();
-            b += row * patch.at<float>(iy + i, ix + j);
-          }
-        const Eigen::Matrix<double, 6, 1> q = A.ldlt().solve(b);
-        Eigen::Matrix2d H;
-        H << 2 * q[0], q[1], q[1], 2 * q[2];
-        if (!(H.determinant() < 0)) break;  // not a saddle
-        const Eigen::Vector2d off = -H.inverse() * Eigen::Vector2d(q[3], q[4]);
-        if (!off.allFinite() || off.norm() > kW) break;
-        cx = ix + off.x();
-        cy = iy + off.y();
-        fitted = true;
-        if (off.norm() < 0.5) break;
+    greys[i] = grey;
+    for (size_t k = 0; k < points.size() && k < v.corners.size(); ++k)
+      tasks.push_back({static_cast<int>(i), static_cast<int>(k)});
+  }
+  int refined = 0;
+#pragma omp parallel for schedule(dynamic, 16) reduction(+ : refined)
+  for (int t = 0; t < static_cast<int>(tasks.size()); ++t) {
+    BoardView& v = (*views)[tasks[t].first];
+    const cv::Mat& grey = greys[tasks[t].first];
+    const size_t k = static_cast<size_t>(tasks[t].second);
+    const double x0 = points[k].x(), y0 = points[k].y();
+    cv::Mat patch(kN, kN, CV_32FC1);
+    bool ok = true;
+    for (int i = 0; i < kN && ok; ++i)
+      for (int j = 0; j < kN && ok; ++j) {
+        Eigen::Vector2d px;
+        ok = ProjectBoardPoint(sensor, v, x0 + (j - kHalf) * step, y0 + (i - kHalf) * step, &px) &&
+             SampleGrey(grey, px.x(), px.y(), &patch.at<float>(i, j));
       }
-      if (!fitted) continue;
-      const double dx = (cx - kHalf) * step, dy = (cy - kHalf) * step;
-      // A move of more than a fifth of a square is no refinement: keep the corner.
-      if (!std::isfinite(dx) || !std::isfinite(dy) || std::hypot(dx, dy) > 0.2 * board.square) continue;
-      Eigen::Vector2d px;
-      if (!ProjectBoardPoint(sensor, v, x0 + dx, y0 + dy, &px)) continue;
-      v.corners[k] = px;
-      ++refined;
+    if (!ok) continue;
+    // The X-junction of the straightened squares: the saddle point of the
+    // patch smoothed by a Gaussian, from a quadratic surface fitted by least
+    // squares around it (Lucchese and Mitra), iterated as the centre moves.
+    cv::GaussianBlur(patch, patch, cv::Size(0, 0), 3.0);
+    double cx = kHalf, cy = kHalf;
+    bool fitted = false;
+    for (int it = 0; it < 3; ++it) {
+      const int ix = static_cast<int>(std::lround(cx)), iy = static_cast<int>(std::lround(cy));
+      constexpr int kW = 5;
+      if (ix - kW < 0 || iy - kW < 0 || ix + kW >= kN || iy + kW >= kN) break;
+      Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();
+      Eigen::Matrix<double, 6, 1> b = Eigen::Matrix<double, 6, 1>::Zero();
+      for (int i = -kW; i <= kW; ++i)
+        for (int j = -kW; j <= kW; ++j) {
+          Eigen::Matrix<double, 6, 1> row;
+          row << j * j, j * i, i * i, j, i, 1.0;
+          A += row * row.transpose();
+          b += row * patch.at<float>(iy + i, ix + j);
+        }
+      const Eigen::Matrix<double, 6, 1> q = A.ldlt().solve(b);
+      Eigen::Matrix2d H;
+      H << 2 * q[0], q[1], q[1], 2 * q[2];
+      if (!(H.determinant() < 0)) break;  // not a saddle
+      const Eigen::Vector2d off = -H.inverse() * Eigen::Vector2d(q[3], q[4]);
+      if (!off.allFinite() || off.norm() > kW) break;
+      cx = ix + off.x();
+      cy = iy + off.y();
+      fitted = true;
+      if (off.norm() < 0.5) break;
     }
+    if (!fitted) continue;
+    const double dx = (cx - kHalf) * step, dy = (cy - kHalf) * step;
+    // A move of more than a fifth of a square is no refinement: keep the corner.
+    if (!std::isfinite(dx) || !std::isfinite(dy) || std::hypot(dx, dy) > 0.2 * board.square) continue;
+    Eigen::Vector2d px;
+    if (!ProjectBoardPoint(sensor, v, x0 + dx, y0 + dy, &px)) continue;
+    v.corners[k] = px;
+    ++refined;
   }
   return refined;
 }

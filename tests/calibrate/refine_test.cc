@@ -53,5 +53,44 @@ TEST_CASE("refined corners remove the detector's bias (rendered boards, known po
   CHECK(after.distance_error <= before.distance_error + 0.002);
 }
 
+TEST_CASE("rendered boards, unknown poses: parameters within twice the bounds", "[rendered_unknown]") {
+  // The issue's synthetic acceptance on a smaller set: panosim's --auto
+  // boards (near, up to 60 degrees above the mirror), noise 2 grey levels,
+  // the whole pipeline from the images with the board poses estimated.
+  const std::string dir = test::ScratchDir("calibrate_rendered_unknown");
+  const Calibration truth = ReadCalibration(test::SourcePath("calib/paper-real.yaml"));
+  TargetBoard board;
+  board.cols = 9;
+  board.rows = 6;
+  board.square = 3.0;
+  RenderOptions ro;
+  ro.noise_sigma = 2.0;
+  ro.seed = 3;
+  TargetsWriteOptions wo;
+  wo.overwrite = true;
+  wo.quiet = true;
+  WriteTargetImages(dir + "/t", truth, board, AutoBoardPoses(truth.sensor, board, 12, 3), ro, wo);
+  const TargetSet targets = ReadTargets(dir + "/t/targets_unknown.yaml");
+  REQUIRE_FALSE(targets.AllPosesKnown());
+  const CalibrationResult r = Calibrate(targets, CalibrateOptions());
+  const SensorParams<double>& p = r.calib.sensor.params;
+  const double focal = p.focal_px / truth.sensor.params.focal_px - 1.0;
+  const double radius = r.calib.sensor.mirror_radius() / truth.sensor.mirror_radius() - 1.0;
+  const double distance = r.calib.sensor.mirror_distance() / truth.sensor.mirror_distance() - 1.0;
+  WARN("unknown poses, 12 rendered boards: focal " << 100 * focal << " %, cx " << p.cx - truth.sensor.params.cx
+                                                  << " px, cy " << p.cy - truth.sensor.params.cy << " px, radius "
+                                                  << 100 * radius << " %, distance " << 100 * distance
+                                                  << " %, RMS " << r.rms_px << " px, " << r.views.size()
+                                                  << " boards");
+  CHECK_FALSE(r.poses_known);
+  CHECK(r.views.size() >= 11);
+  CHECK(std::abs(focal) < 0.01);
+  CHECK(std::abs(p.cx - truth.sensor.params.cx) < 1.0);
+  CHECK(std::abs(p.cy - truth.sensor.params.cy) < 1.0);
+  CHECK(std::abs(radius) < 0.02);
+  CHECK(std::abs(distance) < 0.02);
+  CHECK(r.rms_px < 0.3);
+}
+
 }  // namespace
 }  // namespace pano

@@ -182,6 +182,41 @@ TEST_CASE("sequence writer: gt.csv, map, calib, case, lossless frames", "[sequen
   CHECK(fs::exists(dir + "/frames/frame_0000.png"));
 }
 
+TEST_CASE("--auto board poses span the mirror from below its vertex to the limb", "[targets]") {
+  // The design that lets unknown-pose calibration tell the focal length from
+  // the mirror's size (docs/calibration.md): near boards, some above the
+  // mirror, corners out to the limb, every azimuth.
+  const Calibration calib = PaperRealCalibration();
+  TargetBoard board;
+  board.cols = 9;
+  board.rows = 6;
+  board.square = 3.0;
+  const std::vector<BoardPose> poses = AutoBoardPoses(calib.sensor, board, 14, 1);
+  REQUIRE(poses.size() == 14);
+  const double limb = calib.sensor.limb_radius(), zv = calib.sensor.params.vertex_distance;
+  int above = 0, below = 0;
+  double r_max = 0.0;
+  for (const BoardPose& p : poses) {
+    const std::vector<Eigen::Vector3d> corners = BoardCornersSensor(board, p);
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+    for (const Eigen::Vector3d& X : corners) {
+      centre += X / corners.size();
+      Eigen::Vector2d px;
+      REQUIRE(calib.sensor.project(X, &px));
+      double r, az;
+      calib.sensor.to_polar(px.x(), px.y(), &r, &az);
+      r_max = std::max(r_max, r);
+      CHECK(r < 0.98 * limb + 1e-9);
+    }
+    (centre.z() > zv ? above : below) += 1;
+    // Near: within the mirror distance plus a board diagonal.
+    CHECK(std::hypot(centre.x(), centre.y()) < calib.sensor.mirror_distance() + 40.0);
+  }
+  CHECK(above >= 4);
+  CHECK(below >= 2);
+  CHECK(r_max > 0.9 * limb);
+}
+
 TEST_CASE("chessboard targets: pattern convention, poses, files", "[targets]") {
   const Calibration calib = PaperRealCalibration();
   TargetBoard board;
