@@ -138,7 +138,10 @@ int main(int argc, char** argv) {
   CLI::Option* o_poses = tg->add_option("--poses", poses_path,
                                         "Board poses CSV: header rx,ry,rz,tx,ty,tz, then one line per image; "
                                         "X_sensor = R(rvec) X_board + tvec (OpenCV)");
-  CLI::Option* o_auto = tg->add_option("--auto", auto_n, "Generate N fully visible board poses around the mirror");
+  CLI::Option* o_auto = tg->add_option(
+      "--auto", auto_n,
+      "Generate N fully visible board poses around the mirror: near it, from 20 degrees below to 60 above it, "
+      "corners out to the limb (the placement that calibrates best with unknown poses)");
   o_poses->excludes(o_auto);
   tg->add_option("-o,--output", tg_out, "Output folder (created; must not exist unless --force)")->required();
   tg->add_flag("-q,--quiet", tg_quiet, "No progress on stderr");
