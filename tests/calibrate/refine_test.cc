@@ -13,21 +13,27 @@
 namespace pano {
 namespace {
 
-TEST_CASE("refined corners remove the detector's bias (rendered boards, known poses)", "[refine]") {
-  const std::string dir = test::ScratchDir("calibrate_refine");
-  const Calibration truth = ReadCalibration(test::SourcePath("calib/paper-real.yaml"));
+// panosim targets --auto n --noise 2 --seed seed with the paper-real sphere
+// (board 9 x 6 x 3 cm) into a scratch folder; returns the folder.
+std::string RenderTargets(const std::string& name, const Calibration& truth, int n, uint64_t seed) {
+  const std::string dir = test::ScratchDir(name) + "/t";
   TargetBoard board;
   board.cols = 9;
   board.rows = 6;
   board.square = 3.0;
   RenderOptions ro;
   ro.noise_sigma = 2.0;
-  ro.seed = 5;
+  ro.seed = seed;
   TargetsWriteOptions wo;
   wo.overwrite = true;
   wo.quiet = true;
-  WriteTargetImages(dir + "/t", truth, board, AutoBoardPoses(truth.sensor, board, 10, 5), ro, wo);
-  const TargetSet targets = ReadTargets(dir + "/t/targets.yaml");
+  WriteTargetImages(dir, truth, board, AutoBoardPoses(truth.sensor, board, n, seed), ro, wo);
+  return dir;
+}
+
+TEST_CASE("refined corners remove the detector's bias (rendered boards, known poses)", "[refine]") {
+  const Calibration truth = ReadCalibration(test::SourcePath("calib/paper-real.yaml"));
+  const TargetSet targets = ReadTargets(RenderTargets("calibrate_refine", truth, 10, 5) + "/targets.yaml");
   const std::vector<cv::Mat> images = LoadTargetImages(targets);
   struct Outcome {
     double rms_px, distance_error;
@@ -57,20 +63,9 @@ TEST_CASE("rendered boards, unknown poses: parameters within twice the bounds", 
   // The synthetic acceptance on a smaller set: panosim's --auto
   // boards (near, up to 60 degrees above the mirror), noise 2 grey levels,
   // the whole pipeline from the images with the board poses estimated.
-  const std::string dir = test::ScratchDir("calibrate_rendered_unknown");
   const Calibration truth = ReadCalibration(test::SourcePath("calib/paper-real.yaml"));
-  TargetBoard board;
-  board.cols = 9;
-  board.rows = 6;
-  board.square = 3.0;
-  RenderOptions ro;
-  ro.noise_sigma = 2.0;
-  ro.seed = 3;
-  TargetsWriteOptions wo;
-  wo.overwrite = true;
-  wo.quiet = true;
-  WriteTargetImages(dir + "/t", truth, board, AutoBoardPoses(truth.sensor, board, 12, 3), ro, wo);
-  const TargetSet targets = ReadTargets(dir + "/t/targets_unknown.yaml");
+  const TargetSet targets =
+      ReadTargets(RenderTargets("calibrate_rendered_unknown", truth, 12, 3) + "/targets_unknown.yaml");
   REQUIRE_FALSE(targets.AllPosesKnown());
   const CalibrationResult r = Calibrate(targets, CalibrateOptions());
   const SensorParams<double>& p = r.calib.sensor.params;

@@ -182,15 +182,21 @@ TEST_CASE("sequence writer: gt.csv, map, calib, case, lossless frames", "[sequen
   CHECK(fs::exists(dir + "/frames/frame_0000.png"));
 }
 
+// The calibration board of the targets tests: 9 x 6 inner corners, 3 cm squares.
+TargetBoard Board963() {
+  TargetBoard board;
+  board.cols = 9;
+  board.rows = 6;
+  board.square = 3.0;
+  return board;
+}
+
 TEST_CASE("--auto board poses span the mirror from below its vertex to the limb", "[targets]") {
   // The design that lets unknown-pose calibration tell the focal length from
   // the mirror's size (docs/calibration.md): near boards, some above the
   // mirror, corners out to the limb, every azimuth.
   const Calibration calib = PaperRealCalibration();
-  TargetBoard board;
-  board.cols = 9;
-  board.rows = 6;
-  board.square = 3.0;
+  const TargetBoard board = Board963();
   const std::vector<BoardPose> poses = AutoBoardPoses(calib.sensor, board, 14, 1);
   REQUIRE(poses.size() == 14);
   const double limb = calib.sensor.limb_radius(), zv = calib.sensor.params.vertex_distance;
@@ -219,10 +225,7 @@ TEST_CASE("--auto board poses span the mirror from below its vertex to the limb"
 
 TEST_CASE("chessboard targets: pattern convention, poses, files", "[targets]") {
   const Calibration calib = PaperRealCalibration();
-  TargetBoard board;
-  board.cols = 9;
-  board.rows = 6;
-  board.square = 3.0;
+  const TargetBoard board = Board963();
   const std::vector<BoardPose> poses = AutoBoardPoses(calib.sensor, board, 6, 7);
   REQUIRE(poses.size() == 6);
   RenderOptions o;
