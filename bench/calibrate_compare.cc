@@ -125,7 +125,7 @@ int main(int argc, char** argv) {
                 "detection %.2f s + fit %.2f s = %.2f s\n",
                 full.views.size(), t.images.size(), full.rms_px, full.seconds_detect, full.seconds_fit, tf);
     {
-      // The corners the pipeline refined on the board plane (step 3b), given
+      // The corners the pipeline refined on the board plane (step 5), given
       // to every model: the fair comparison for the refined pipeline.
       std::vector<pano::BoardView> refined = full.views;
       for (pano::BoardView& v : refined) v.has_pose = false;
@@ -135,7 +135,7 @@ int main(int argc, char** argv) {
       int u3 = 0;
       double t3 = 0;
       const double omni2 = OmnidirRms(refined, t.board, cv::Size(W, H), &u3, &t3);
-      std::printf("\nsame %zu boards, corners refined through the model (step 3b):\n", refined.size());
+      std::printf("\nsame %zu boards, corners refined through the model (step 5):\n", refined.size());
       std::printf("  panotrack conic (k1,k2)   RMS %.4f px\n", rc2.rms_px);
       std::printf("  panotrack conic, no Huber RMS %.4f px\n", rcl2.rms_px);
       std::printf("  panotrack sphere          RMS %.4f px\n", rs2.rms_px);

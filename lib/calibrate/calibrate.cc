@@ -208,7 +208,7 @@ CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>
 
   phase("initialisation and first fit");
   const bool any_missing = !det.not_found.empty();
-  // Step 3b: images without a board, in views unwarped through the first fit.
+  // Step 4: images without a board, in views unwarped through the first fit.
   if (options.unwarp_fallback && !det.not_found.empty()) {
     std::vector<double> dist, hgt;
     for (const BoardView& v : res.views) {
@@ -306,7 +306,7 @@ CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>
     }
   }
   if (options.unwarp_fallback && any_missing) phase("unwarped detection and refit");
-  // Step 4: every corner (the unwarped boards' too) located again on the
+  // Step 5: every corner (the unwarped boards' too) located again on the
   // board plane through the fitted model, then the model fitted again from
   // where it was. Corners left biased here bias the whole fit, so this comes
   // last.

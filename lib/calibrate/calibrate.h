@@ -1,8 +1,9 @@
 // Sensor calibration from chessboard images (issue 6, `panocalib calibrate`).
 //
 // Pipeline (docs/calibration.md):
-//   1. DetectBoards: findChessboardCornersSB on each raw image; images where
-//      the board is not found are listed (and retried in step 4).
+//   1. DetectBoards: findChessboardCornersSB on each raw image (quick search,
+//      then exhaustive); images where the board is not found are listed (and
+//      retried in step 4).
 //   2. Initialise: a linear central-camera initialisation (after Scaramuzza:
 //      per board a 6x6 null vector gives the in-plane pose, then one linear
 //      least-squares gives a radial polynomial and the boards' heights), a
@@ -11,11 +12,14 @@
 //      (unknown poses). Every step checks its result and throws a pano::Error
 //      that says which step failed and why; nothing NaN goes further.
 //   3. FitCalibration: Ceres, reprojection error in pixels through the
-//      templated sensor model (autodiff through the reflection solve), Huber
-//      loss by default, covariance of the sensor parameters (poses marginalised).
+//      templated sensor model (autodiff through the reflection solve), each
+//      corner weighted by its precision (CornerWeights), Huber loss by
+//      default, covariance of the sensor parameters (poses marginalised).
 //   4. Images without a board are retried in views unwarped through the fitted
 //      model (virtual perspective views), corners mapped back and refined with
 //      cornerSubPix in the raw image; when any is found the fit is repeated.
+//   5. RefineCornersThroughModel: every corner located again on the board
+//      plane through the fitted model, then the final fit.
 #pragma once
 
 #include <Eigen/Core>
@@ -166,7 +170,7 @@ CalibrationResult CalibrateViews(const std::vector<BoardView>& views, const Targ
                                  int width, int height, const std::string& units,
                                  const CalibrateOptions& options);
 
-// Step 3b: locates every corner of every view again in a patch resampled on
+// Step 5: locates every corner of every view again in a patch resampled on
 // the board plane through `sensor` and the view's fitted pose, where the
 // squares are straight (so the detector's curvature bias goes), and moves it
 // to the projection of the junction found there. Corners whose patch leaves

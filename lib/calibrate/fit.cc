@@ -184,7 +184,7 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
     throw Error("calibration fit: no convergence after " + std::to_string(options.max_iterations) +
                 " iterations (RMS " + std::to_string(res.rms_px) + " px)");
 
-  // Covariance: J of the plain (non-robust) residuals at the optimum, the
+  // Covariance: J of the weighted, non-robust residuals at the optimum, the
   // sensor's free parameters first, then the poses; pseudo-inverse of J^T J
   // scaled by the residual variance; a parameter with a component in the
   // numerical null space is "not determined".

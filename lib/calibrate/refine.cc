@@ -1,4 +1,4 @@
-// Model-based corner refinement (step 3b of calibrate.h).
+// Model-based corner refinement (step 5 of calibrate.h).
 #include <ceres/rotation.h>
 
 #include <Eigen/Dense>
