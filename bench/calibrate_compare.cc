@@ -15,6 +15,7 @@
 #include <exception>
 
 #include "calibrate/calibrate.h"
+#include "calibrate/omnidir_peer.h"
 #include "io/targets.h"
 
 namespace {
@@ -23,44 +24,18 @@ double Seconds(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// OpenCV omnidir on the same corners; returns the Euclidean RMS over the
-// images it kept (it may drop images whose initialisation fails).
+// OpenCV omnidir on the same corners (calibrate/omnidir_peer.h); prints its
+// parameters and returns the Euclidean RMS over the images it kept.
 double OmnidirRms(const std::vector<pano::BoardView>& views, const pano::TargetBoard& board, cv::Size size,
                   int* used, double* seconds, int flags = 0) {
-  std::vector<cv::Mat> obj, img;
-  const std::vector<Eigen::Vector3d> pts = pano::BoardPoints(board);
-  for (const pano::BoardView& v : views) {
-    cv::Mat o(static_cast<int>(pts.size()), 1, CV_64FC3), p(static_cast<int>(pts.size()), 1, CV_64FC2);
-    for (size_t j = 0; j < pts.size(); ++j) {
-      o.at<cv::Vec3d>(static_cast<int>(j)) = cv::Vec3d(pts[j].x(), pts[j].y(), 0.0);
-      p.at<cv::Vec2d>(static_cast<int>(j)) = cv::Vec2d(v.corners[j].x(), v.corners[j].y());
-    }
-    obj.push_back(o);
-    img.push_back(p);
-  }
-  cv::Mat K, D, xi, idx;
-  std::vector<cv::Mat> rvecs, tvecs;
-  const auto t0 = std::chrono::steady_clock::now();
-  cv::omnidir::calibrate(obj, img, size, K, xi, D, rvecs, tvecs, flags,
-                         cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 300, 1e-8), idx);
-  *seconds = Seconds(t0);
-  double s2 = 0;
-  size_t n = 0;
-  *used = static_cast<int>(idx.total());
-  for (int k = 0; k < static_cast<int>(idx.total()); ++k) {
-    const int i = idx.at<int>(k);
-    cv::Mat proj;
-    cv::omnidir::projectPoints(obj[i], proj, rvecs[k], tvecs[k], K, xi.at<double>(0), D);
-    for (int j = 0; j < proj.rows; ++j) {
-      const cv::Vec2d d = proj.at<cv::Vec2d>(j) - img[i].at<cv::Vec2d>(j);
-      s2 += d.dot(d);
-      ++n;
-    }
-  }
+  const pano::OmnidirFit f = pano::FitOmnidir(views, board, size, flags);
+  *used = f.images_used;
+  *seconds = f.seconds;
   std::printf("  omnidir: fx %.2f fy %.2f s %.4f cx %.2f cy %.2f xi %.4f D [%.4f %.4f %.5f %.5f]\n",
-              K.at<double>(0, 0), K.at<double>(1, 1), K.at<double>(0, 1), K.at<double>(0, 2), K.at<double>(1, 2),
-              xi.at<double>(0), D.at<double>(0), D.at<double>(1), D.at<double>(2), D.at<double>(3));
-  return std::sqrt(s2 / n);
+              f.K.at<double>(0, 0), f.K.at<double>(1, 1), f.K.at<double>(0, 1), f.K.at<double>(0, 2),
+              f.K.at<double>(1, 2), f.xi.at<double>(0), f.D.at<double>(0), f.D.at<double>(1), f.D.at<double>(2),
+              f.D.at<double>(3));
+  return f.rms_px;
 }
 
 }  // namespace
