@@ -64,7 +64,8 @@ int main(int argc, char** argv) {
     const pano::CalibrationResult rs = pano::CalibrateViews(det.views, t.board, W, H, t.units, sphere);
     const double ts = Seconds(t0);
     pano::CalibrateOptions conic_ls = conic;
-    conic_ls.huber_px = 0.0;
+    conic_ls.huber_px = 0.0;  // omnidir's objective: plain least squares,
+    conic_ls.full_weight_px = 0.0;  // every corner weighted the same
     const pano::CalibrationResult rcl = pano::CalibrateViews(det.views, t.board, W, H, t.units, conic_ls);
     pano::CalibrateOptions conic0 = conic;
     conic0.distortion_terms = 0;
@@ -81,7 +82,7 @@ int main(int argc, char** argv) {
     std::printf("\nsame %zu raw-detected boards (%zu corners):\n", det.views.size(),
                 det.views.size() * t.board.cols * t.board.rows);
     std::printf("  panotrack conic (k1,k2)   RMS %.4f px  fit %.2f s\n", rc.rms_px, tc);
-    std::printf("  panotrack conic, no Huber RMS %.4f px\n", rcl.rms_px);
+    std::printf("  panotrack conic, least sq. RMS %.4f px\n", rcl.rms_px);
     std::printf("  panotrack conic (no dist) RMS %.4f px\n", rc0.rms_px);
     std::printf("  panotrack sphere          RMS %.4f px  fit %.2f s\n", rs.rms_px, ts);
     std::printf("  OpenCV omnidir (Mei)      RMS %.4f px  fit %.2f s  (%d boards kept)\n", omni, to, used);
@@ -112,7 +113,7 @@ int main(int argc, char** argv) {
       const double omni2 = OmnidirRms(refined, t.board, cv::Size(W, H), &u3, &t3);
       std::printf("\nsame %zu boards, corners refined through the model (step 5):\n", refined.size());
       std::printf("  panotrack conic (k1,k2)   RMS %.4f px\n", rc2.rms_px);
-      std::printf("  panotrack conic, no Huber RMS %.4f px\n", rcl2.rms_px);
+      std::printf("  panotrack conic, least sq. RMS %.4f px\n", rcl2.rms_px);
       std::printf("  panotrack sphere          RMS %.4f px\n", rs2.rms_px);
       std::printf("  OpenCV omnidir (Mei)      RMS %.4f px  (%d boards kept)\n", omni2, u3);
     }

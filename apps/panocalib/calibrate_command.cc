@@ -39,8 +39,8 @@ void AddCalibrateCommand(CLI::App& app) {
   cmd->add_option("--huber", o->huber, "Huber loss threshold in pixels (0: plain least squares)")
       ->capture_default_str();
   cmd->add_option("--full-weight", o->full_weight,
-                  "Corners whose squares are squeezed below this many pixels (near the limb) or whose lines "
-                  "cross at an acute angle count less, as they are located less precisely (0: uniform weights)")
+                  "Corners whose squares are squeezed below this many pixels (near the limb) count less, "
+                  "most of all along an acute crossing, as they are located less precisely (0: uniform weights)")
       ->capture_default_str();
   cmd->add_option("--max-rms", o->max_rms, "Fail when the RMS reprojection error exceeds this (pixels)")
       ->capture_default_str();

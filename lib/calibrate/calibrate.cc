@@ -16,6 +16,7 @@
 #include "calibrate/internal.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/parallel.h"
 #include "lut/radius_table.h"
 
 namespace pano {
@@ -153,21 +154,20 @@ CalibrationResult CalibrateViews(const std::vector<BoardView>& views_in, const T
   std::vector<CalibrationResult> fits(n);
   std::vector<std::string> errors(n);
   std::vector<char> ok(n, 0);
-#pragma omp parallel for schedule(dynamic) if (n > 1)
-  for (int k = 0; k < n; ++k) {
+  ParallelFor(n, [&](int k) {
     try {
       fits[k] = FitCalibration(views, board, *starts[k], poses_known, options, n > 1 ? 1 : 0);
       ok[k] = 1;
     } catch (const Error& e) {
       errors[k] = e.what();  // that start failed; the others stand
     }
-  }
+  });
   int best = -1;
   double seconds = 0.0;
   for (int k = 0; k < n; ++k) {
     if (!ok[k]) continue;
     seconds += fits[k].seconds_fit;
-    if (best < 0 || fits[k].rms_px < fits[best].rms_px) best = k;
+    if (best < 0 || fits[k].fit_cost < fits[best].fit_cost) best = k;  // what the fit minimises
   }
   if (best < 0) throw Error(errors[0]);
   CalibrationResult res = fits[best];
@@ -228,10 +228,10 @@ CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>
     const int n_missing = static_cast<int>(det.not_found.size());
     std::vector<BoardView> found(n_missing);
     std::vector<char> ok(n_missing, 0);
-#pragma omp parallel for schedule(dynamic) if (n_missing > 1)
-    for (int k = 0; k < n_missing; ++k)
+    ParallelFor(n_missing, [&](int k) {
       ok[k] = DetectBoardUnwarped(images[det.not_found[k]], targets.board, res.calib.sensor, d_med, h_med,
                                   &found[k].corners);
+    });
     std::vector<BoardView> extra;
     for (int k = 0; k < n_missing; ++k) {
       if (!ok[k]) continue;

@@ -55,10 +55,10 @@ struct CalibrateOptions {
   // model (where the squares are straight, so the detector's curvature bias
   // goes), then the model is fitted again. 0: off.
   int refine_passes = 1;
-  // Corner weighting (calib_internal::CornerWeights): corners whose squares
-  // are squeezed below this many pixels (near a mirror's limb), or whose
-  // lines cross at an acute angle, count less in the fit, as their position
-  // is less certain. <= 0: every corner counts the same in pixels.
+  // Corner weighting (corner_weights.h): corners whose squares are squeezed
+  // below this many pixels (near a mirror's limb) count less in the fit, most
+  // of all along the bisector of an acute crossing, as their position is less
+  // certain there. <= 0: every corner counts the same in pixels.
   double full_weight_px = 10.0;
   int max_iterations = 200;
   // A fit whose RMS reprojection error exceeds this is a failure (pixels).
@@ -112,6 +112,7 @@ struct CalibrationResult {
   std::vector<double> image_rms;  // per view, pixels
   std::vector<std::vector<Eigen::Vector2d>> residuals;  // per view, per corner (projected - observed)
   double rms_px = 0.0;            // Euclidean RMS over all corners
+  double fit_cost = 0.0;          // the fit's objective at the end (weighted, robust)
   std::vector<ParameterEstimate> parameters;
   std::vector<int> not_found;  // images without a board (target file indices)
   std::vector<std::string> not_found_files;

@@ -15,6 +15,7 @@
 
 #include "calibrate/calibrate.h"
 #include "core/error.h"
+#include "core/parallel.h"
 
 namespace pano {
 
@@ -43,6 +44,12 @@ std::vector<cv::Mat> LoadTargetImages(const TargetSet& targets) {
 
 namespace {
 
+// findChessboardCornersSB draws on OpenCV's per-thread random generator, and
+// whether it finds a board depends on that state: a fixed seed before every
+// call makes detection independent of the thread that runs it and of what ran
+// before (so results do not depend on the thread count).
+void SeedDetector() { cv::theRNG().state = 0x5eed5eedULL; }
+
 bool FindRaw(const cv::Mat& image, const TargetBoard& board, std::vector<Eigen::Vector2d>* corners) {
   std::vector<cv::Point2f> c;
   bool ok = false;
@@ -50,6 +57,7 @@ bool FindRaw(const cv::Mat& image, const TargetBoard& board, std::vector<Eigen::
   // it fails; the corners' accuracy comes later (RefineCornersThroughModel).
   for (const int flags : {0, cv::CALIB_CB_EXHAUSTIVE | cv::CALIB_CB_ACCURACY}) {
     try {
+      SeedDetector();
       ok = cv::findChessboardCornersSB(image, cv::Size(board.cols, board.rows), c, flags);
     } catch (const cv::Exception&) {
       ok = false;
@@ -76,8 +84,7 @@ DetectionResult DetectBoards(const TargetSet& targets, const std::vector<cv::Mat
   const int n = static_cast<int>(images.size());
   std::vector<std::vector<Eigen::Vector2d>> found(n);
   std::vector<char> ok(n, 0);
-#pragma omp parallel for schedule(dynamic)
-  for (int i = 0; i < n; ++i) ok[i] = FindRaw(images[i], targets.board, &found[i]);
+  ParallelFor(n, [&](int i) { ok[i] = FindRaw(images[i], targets.board, &found[i]); });
   for (int i = 0; i < n; ++i) {
     const TargetImage& ti = targets.images[i];
     if (!ok[i]) {
@@ -165,6 +172,7 @@ bool DetectInView(const cv::Mat& image, const TargetBoard& board, const VirtualV
   std::vector<cv::Point2f> c;
   bool ok = false;
   try {
+    SeedDetector();
     ok = cv::findChessboardCornersSB(view, cv::Size(board.cols, board.rows), c,
                                      cv::CALIB_CB_NORMALIZE_IMAGE | cv::CALIB_CB_ACCURACY);
   } catch (const cv::Exception&) {
@@ -276,9 +284,10 @@ bool DetectBoardUnwarped(const cv::Mat& image, const TargetBoard& board, const S
   const int batch = omp_in_parallel() ? 1 : std::max(1, omp_get_max_threads());
   for (int b0 = 0; b0 < n; b0 += batch) {
     const int b1 = std::min(n, b0 + batch);
-#pragma omp parallel for schedule(dynamic)
-    for (int k = b0; k < b1; ++k)
+    ParallelFor(b1 - b0, [&](int j) {
+      const int k = b0 + j;
       ok[k] = CornersInView(image, board, sensor, dirs[k].first, dirs[k].second, distance, &found[k]);
+    });
     for (int k = b0; k < b1; ++k) {
       if (!ok[k]) continue;
       std::vector<cv::Point2f>& raw = found[k];

@@ -38,34 +38,6 @@ std::vector<int> FixedSensorIndices(bool poses_known, const CalibrateOptions& o)
   return fixed;
 }
 
-std::vector<Eigen::Matrix2d> CornerWeights(const BoardView& view, const TargetBoard& board, double full_px) {
-  const int cols = board.cols, rows = board.rows;
-  std::vector<Eigen::Matrix2d> out(view.corners.size(), Eigen::Matrix2d::Identity());
-  if (!(full_px > 0.0) || static_cast<int>(view.corners.size()) != cols * rows) return out;
-  auto at = [&](int i, int j) { return view.corners[static_cast<size_t>(j * cols + i)]; };
-  for (int j = 0; j < rows; ++j)
-    for (int i = 0; i < cols; ++i) {
-      // Image of one square step along the board's x and y (pixels).
-      const Eigen::Vector2d dx = (at(std::min(i + 1, cols - 1), j) - at(std::max(i - 1, 0), j)) /
-                                 (std::min(i + 1, cols - 1) - std::max(i - 1, 0));
-      const Eigen::Vector2d dy = (at(i, std::min(j + 1, rows - 1)) - at(i, std::max(j - 1, 0))) /
-                                 (std::min(j + 1, rows - 1) - std::max(j - 1, 0));
-      if (!dx.allFinite() || !dy.allFinite() || !(dx.norm() > 0.0) || !(dy.norm() > 0.0)) continue;
-      Eigen::Matrix2d grid;
-      grid << dx, dy;
-      const double squeeze = Eigen::JacobiSVD<Eigen::Matrix2d>(grid).singularValues()(1);
-      const Eigen::Vector2d n1 = Eigen::Vector2d(-dx.y(), dx.x()).normalized();
-      const Eigen::Vector2d n2 = Eigen::Vector2d(-dy.y(), dy.x()).normalized();
-      const double g = std::min(1.0, squeeze / full_px);
-      // A small floor keeps a degenerate (parallel) crossing positive definite.
-      const Eigen::Matrix2d crossing = n1 * n1.transpose() + n2 * n2.transpose() + 1e-3 * Eigen::Matrix2d::Identity();
-      const double b = std::min(1.0, (1.0 - g) / 0.2);
-      const Eigen::Matrix2d info = g * g * (b * crossing + (1.0 - b) * Eigen::Matrix2d::Identity());
-      const Eigen::LLT<Eigen::Matrix2d> llt(info);
-      if (llt.info() == Eigen::Success) out[static_cast<size_t>(j * cols + i)] = llt.matrixU();
-    }
-  return out;
-}
 
 }  // namespace calib_internal
 
@@ -140,6 +112,7 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
   CalibrationResult res;
   res.poses_known = poses_known;
   res.iterations = static_cast<int>(summary.iterations.size());
+  res.fit_cost = summary.final_cost;
   Sensor& sensor = res.calib.sensor;
   sensor = init.sensor;
   sensor.params = ParamsFromBlock(s.data());

@@ -27,6 +27,7 @@
 #include "calibrate/calibrate.h"
 #include "calibrate/internal.h"
 #include "core/error.h"
+#include "core/parallel.h"
 
 namespace pano {
 
@@ -575,10 +576,10 @@ InitialEstimate Initialize(const std::vector<BoardView>& views, const TargetBoar
         starts.push_back(st);
       }
     }
-#pragma omp parallel for schedule(dynamic)
-    for (int k = 0; k < static_cast<int>(starts.size()); ++k)
+    ParallelFor(static_cast<int>(starts.size()), [&](int k) {
       starts[k].rms = QuickFit(views, pts, &starts[k].s, &starts[k].est.poses, poses_known, options, 30,
                                CapRadiusPx(width, height), 1);
+    });
     for (size_t k = 0; k < starts.size();) {
       // One R/zv group at a time.
       double group_rms = kInf;

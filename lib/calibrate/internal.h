@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "calibrate/calibrate.h"
+#include "calibrate/corner_weights.h"
 #include "sensor/catadioptric.h"
 #include "sensor/sensor.h"
 
@@ -117,16 +118,7 @@ struct CornerCost {
   Eigen::Matrix2d L;
 };
 
-// Square roots of the corners' information matrices, from the detected grid
-// alone. A corner is the crossing of the board's two lines: with unit normals
-// n1, n2 of their images its position has information N^T N (N = [n1 n2]^T),
-// poor along the bisector of an acute crossing. Each line is located to a
-// fixed fraction of a square, so a board squeezed to s px per square (the
-// grid's smaller singular value, near a mirror's limb) scales that by
-// (s / full_px)^2, capped at 1 where the squares are large. A square, upright
-// grid gives the identity. Measured on rendered boards (docs/calibration.md):
-// the whitened error is flat across squeeze and crossing angle.
-std::vector<Eigen::Matrix2d> CornerWeights(const BoardView& view, const TargetBoard& board, double full_px);
+
 
 // The image radius that caps the mirror in the fit: 1.5 x the half-diagonal.
 inline double CapRadiusPx(int width, int height) { return 0.75 * std::hypot(width, height); }

@@ -2,11 +2,13 @@
 #include <ceres/rotation.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 
 #include "calibrate/calibrate.h"
 #include "core/grey_sample.h"
+#include "core/parallel.h"
 #include "sensor/catadioptric.h"
 
 namespace pano {
@@ -32,7 +34,7 @@ int RefineCornersThroughModel(const std::vector<cv::Mat>& images, const TargetBo
   // A patch of +-0.4 squares around each corner, 33 x 33 samples.
   constexpr int kN = 33, kHalf = kN / 2;
   const double step = 0.8 * board.square / (kN - 1);
-  // One task per corner (OpenMP), each writing only its own corner.
+  // One task per corner (in parallel), each writing only its own corner.
   std::vector<cv::Mat> greys(views->size());
   std::vector<std::pair<int, int>> tasks;  // (view, corner)
   const std::vector<Eigen::Vector3d> points = BoardPoints(board);
@@ -46,9 +48,8 @@ int RefineCornersThroughModel(const std::vector<cv::Mat>& images, const TargetBo
     for (size_t k = 0; k < points.size() && k < v.corners.size(); ++k)
       tasks.push_back({static_cast<int>(i), static_cast<int>(k)});
   }
-  int refined = 0;
-#pragma omp parallel for schedule(dynamic, 16) reduction(+ : refined)
-  for (int t = 0; t < static_cast<int>(tasks.size()); ++t) {
+  std::vector<char> moved(tasks.size(), 0);
+  ParallelFor(static_cast<int>(tasks.size()), [&](int t) {
     BoardView& v = (*views)[tasks[t].first];
     const cv::Mat& grey = greys[tasks[t].first];
     const size_t k = static_cast<size_t>(tasks[t].second);
@@ -61,7 +62,7 @@ int RefineCornersThroughModel(const std::vector<cv::Mat>& images, const TargetBo
         ok = ProjectBoardPoint(sensor, v, x0 + (j - kHalf) * step, y0 + (i - kHalf) * step, &px) &&
              SampleGrey(grey, px.x(), px.y(), &patch.at<float>(i, j));
       }
-    if (!ok) continue;
+    if (!ok) return;
     // The X-junction of the straightened squares: the saddle point of the
     // patch smoothed by a Gaussian, from a quadratic surface fitted by least
     // squares around it (Lucchese and Mitra), iterated as the centre moves.
@@ -92,16 +93,16 @@ int RefineCornersThroughModel(const std::vector<cv::Mat>& images, const TargetBo
       fitted = true;
       if (off.norm() < 0.5) break;
     }
-    if (!fitted) continue;
+    if (!fitted) return;
     const double dx = (cx - kHalf) * step, dy = (cy - kHalf) * step;
     // A move of more than a fifth of a square is no refinement: keep the corner.
-    if (!std::isfinite(dx) || !std::isfinite(dy) || std::hypot(dx, dy) > 0.2 * board.square) continue;
+    if (!std::isfinite(dx) || !std::isfinite(dy) || std::hypot(dx, dy) > 0.2 * board.square) return;
     Eigen::Vector2d px;
-    if (!ProjectBoardPoint(sensor, v, x0 + dx, y0 + dy, &px)) continue;
+    if (!ProjectBoardPoint(sensor, v, x0 + dx, y0 + dy, &px)) return;
     v.corners[k] = px;
-    ++refined;
-  }
-  return refined;
+    moved[t] = 1;
+  });
+  return static_cast<int>(std::count(moved.begin(), moved.end(), 1));
 }
 
 }  // namespace pano

@@ -8,7 +8,7 @@
 #include <cmath>
 
 #include "calibrate/calibrate.h"
-#include "calibrate/internal.h"
+#include "calibrate/corner_weights.h"
 #include "io/calibration.h"
 #include "sensor/sensor_models.h"
 #include "synthetic.h"
@@ -87,7 +87,7 @@ TEST_CASE("sphere, unknown board poses: parameters within twice the bounds", "[u
   }
 }
 
-TEST_CASE("corner weights follow the grid's squeeze and crossing angle", "[weights]") {
+TEST_CASE("corner weights follow the squeeze and the crossing angle", "[weights]") {
   TargetBoard board;
   board.cols = 3;
   board.rows = 3;
@@ -99,37 +99,44 @@ TEST_CASE("corner weights follow the grid's squeeze and crossing angle", "[weigh
       for (int i = 0; i < 3; ++i) v.corners.push_back(Eigen::Vector2d(100, 100) + A * Eigen::Vector2d(i, j));
     return v;
   };
+  auto info_of = [](const Eigen::Matrix2d& L) { return Eigen::Matrix2d(L.transpose() * L); };
   const double full = 10.0;
   // Upright squares of 12 px: every corner counts as one pixel measurement.
-  for (const Eigen::Matrix2d& L : calib_internal::CornerWeights(grid(12.0 * Eigen::Matrix2d::Identity()), board, full))
+  for (const Eigen::Matrix2d& L : CornerWeights(grid(12.0 * Eigen::Matrix2d::Identity()), board, full))
     CHECK((L - Eigen::Matrix2d::Identity()).norm() < 1e-12);
-  // Squeezed to 4 px radially (x), 12 px along y: square lines still cross at
-  // right angles, so the information is (4 / 10)^2 in every direction.
+  // Squeezed to 4 px along x (radially, near a limb), 12 px along y: the
+  // lines still cross at right angles, so the information is (4 / 10)^2 in
+  // every direction (with the floor).
   Eigen::Matrix2d A;
   A << 4.0, 0.0, 0.0, 12.0;
-  for (const Eigen::Matrix2d& L : calib_internal::CornerWeights(grid(A), board, full)) {
-    const Eigen::Matrix2d info = L.transpose() * L;
+  for (const Eigen::Matrix2d& L : CornerWeights(grid(A), board, full)) {
+    const Eigen::Matrix2d info = info_of(L);
     CHECK(info(0, 0) == Approx(0.16 * 1.001).epsilon(1e-9));
     CHECK(info(1, 1) == Approx(0.16 * 1.001).epsilon(1e-9));
     CHECK(std::abs(info(0, 1)) < 1e-12);
   }
-  // Sheared so that the lines cross at 30 degrees, squares 5 px wide (the
-  // smaller singular value): along the acute bisector the corner is known
-  // (1 - cos 30) / (1 + cos 30) times less well than across it.
+  // Rhombi with 10 px sides crossing at 30 degrees: the grid's smaller
+  // singular value is 10 sqrt(1 - cos 30) = 3.66 px, and along the acute
+  // bisector the corner is known (1 - cos 30) / (1 + cos 30) times less well
+  // than across it.
   const double c = std::cos(M_PI / 6), sn = std::sin(M_PI / 6);
   A << 10.0, 10.0 * c, 0.0, 10.0 * sn;
-  const double squeeze = Eigen::JacobiSVD<Eigen::Matrix2d>(A).singularValues()(1);
-  const double g = squeeze / full;
-  REQUIRE(g < 0.8);  // fully in the crossing regime
-  for (const Eigen::Matrix2d& L : calib_internal::CornerWeights(grid(A), board, full)) {
-    const Eigen::Matrix2d info = L.transpose() * L;
+  const double g = 10.0 * std::sqrt(1.0 - c) / full;
+  for (const Eigen::Matrix2d& L : CornerWeights(grid(A), board, full)) {
+    const Eigen::Matrix2d info = info_of(L);
     const Eigen::Vector2d along = Eigen::Vector2d(1.0 + c, sn).normalized();  // bisector of the acute angle
     const Eigen::Vector2d across(-along.y(), along.x());
     CHECK(along.dot(info * along) == Approx(g * g * (1.0 - c + 1e-3)).epsilon(1e-9));
     CHECK(across.dot(info * across) == Approx(g * g * (1.0 + c + 1e-3)).epsilon(1e-9));
   }
+  // 9 px squares: g = 0.9, halfway between the crossing model and the identity.
+  for (const Eigen::Matrix2d& L : CornerWeights(grid(9.0 * Eigen::Matrix2d::Identity()), board, full)) {
+    const Eigen::Matrix2d info = info_of(L);
+    CHECK(info(0, 0) == Approx(0.81 * (0.5 * 1.001 + 0.5)).epsilon(1e-9));
+    CHECK(info(1, 1) == Approx(0.81 * (0.5 * 1.001 + 0.5)).epsilon(1e-9));
+  }
   // Uniform weights on request.
-  for (const Eigen::Matrix2d& L : calib_internal::CornerWeights(grid(A), board, 0.0))
+  for (const Eigen::Matrix2d& L : CornerWeights(grid(A), board, 0.0))
     CHECK((L - Eigen::Matrix2d::Identity()).norm() == 0.0);
 }
 

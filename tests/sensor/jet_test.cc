@@ -96,6 +96,35 @@ TEST_CASE("project with ceres::Jet at the limb (no room for a central difference
     CHECK(v.a == Approx(vd).margin(1e-6));
     CHECK(u.v.allFinite());
     CHECK(v.v.allFinite());
+    // Against a one-sided difference, stepping to whichever side keeps the
+    // point in view (a central one would step off the mirror); its error,
+    // h f'' / 2 with h = 1e-7, stays far below the margin.
+    double flat[kN] = {p.focal_px, p.cx, p.cy, p.aspect, p.azimuth_offset, p.k1, p.k2,
+                       p.curvature_radius, p.conic_constant, p.vertex_distance, p.rim_radius,
+                       X.x(), X.y(), X.z()};
+    const double uv0[2] = {ud, vd};
+    for (int i = 0; i < kN; ++i) {
+      if (i == 10) continue;  // the rim only limits visibility
+      const double h = 1e-7 * std::max(1.0, std::abs(flat[i]));
+      double uv[2];
+      bool found = false;
+      double slope_u = 0, slope_v = 0;
+      for (const double side : {1.0, -1.0}) {
+        double x[kN];
+        std::copy(flat, flat + kN, x);
+        x[i] += side * h;
+        if (ProjectFlat(x, uv)) {
+          slope_u = (uv[0] - uv0[0]) / (side * h);
+          slope_v = (uv[1] - uv0[1]) / (side * h);
+          found = true;
+          break;
+        }
+      }
+      INFO("parameter " << i);
+      REQUIRE(found);
+      CHECK(u.v[i] == Approx(slope_u).margin(1e-5 * (1.0 + std::abs(slope_u))));
+      CHECK(v.v[i] == Approx(slope_v).margin(1e-5 * (1.0 + std::abs(slope_v))));
+    }
   }
 }
 
