@@ -207,9 +207,9 @@ CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>
       CalibrateViews(det.views, targets.board, det.image_width, det.image_height, units, options);
 
   phase("initialisation and first fit");
-  const bool any_missing = !det.not_found.empty();
   // Step 4: images without a board, in views unwarped through the first fit.
-  if (options.unwarp_fallback && !det.not_found.empty()) {
+  const bool retry_unwarped = options.unwarp_fallback && !det.not_found.empty();
+  if (retry_unwarped) {
     std::vector<double> dist, hgt;
     for (const BoardView& v : res.views) {
       const double mid[3] = {0.5 * (targets.board.cols - 1) * targets.board.square,
@@ -305,7 +305,7 @@ CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>
       }
     }
   }
-  if (options.unwarp_fallback && any_missing) phase("unwarped detection and refit");
+  if (retry_unwarped) phase("unwarped detection and refit");
   // Step 5: every corner (the unwarped boards' too) located again on the
   // board plane through the fitted model, then the model fitted again from
   // where it was. Corners left biased here bias the whole fit, so this comes
@@ -317,7 +317,6 @@ CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>
     try {
       CalibrationResult again = FitCalibration(views, targets.board, start, poses_known, options);
       Finish(&again, poses_known, units, options, {});
-      again.seconds_fit += res.seconds_fit;
       res = again;
     } catch (const Error&) {
       break;  // the previous fit stands
