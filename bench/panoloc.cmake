@@ -1,1 +1,1 @@
-pano_add_benchmark(panoloc pano_track pano_render)
+pano_add_benchmark(panoloc pano_pipeline pano_render)

@@ -15,7 +15,7 @@
 
 #include "render/presets.h"
 #include "render/writers.h"
-#include "track/run.h"
+#include "pipeline/panoloc.h"
 
 namespace {
 

@@ -26,7 +26,7 @@
 #include "io/calibration.h"
 #include "io/map.h"
 #include "scene/scene.h"
-#include "track/run.h"
+#include "pipeline/panoloc.h"
 #include "track/vertex_tracker.h"
 
 namespace {

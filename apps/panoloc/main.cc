@@ -8,7 +8,7 @@
 
 #include "core/error.h"
 #include "pano/config.h"
-#include "track/run.h"
+#include "pipeline/panoloc.h"
 
 namespace {
 

@@ -14,6 +14,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "calibrate/calibrate.h"
+#include "core/angles.h"
 #include "core/error.h"
 #include "core/parallel.h"
 
@@ -372,7 +373,7 @@ void OrderCornersByKnownPose(const TargetBoard& board, double cx, double cy, std
       const double mean = std::atan2(sy, sx);
       double ss = 0;
       for (double dj : d) {
-        const double e = std::remainder(dj - mean, 2.0 * M_PI);
+        const double e = wrap_angle(dj - mean);
         ss += e * e;
       }
       const double az_rms = std::sqrt(ss / d.size());

@@ -26,6 +26,7 @@
 
 #include "calibrate/calibrate.h"
 #include "calibrate/internal.h"
+#include "core/angles.h"
 #include "core/error.h"
 #include "core/parallel.h"
 
@@ -309,8 +310,6 @@ double QuickFit(const std::vector<BoardView>& views, const std::vector<Eigen::Ve
   return std::isfinite(rms) ? rms : kInf;
 }
 
-double WrapPi(double a) { return std::remainder(a, 2.0 * M_PI); }
-
 }  // namespace
 
 namespace calib_internal {
@@ -473,7 +472,7 @@ InitialEstimate Initialize(const std::vector<BoardView>& views, const TargetBoar
         ceres::AngleAxisToRotationMatrix(v.rvec.data(), R.data());
         for (size_t j = 0; j < pts.size(); ++j) {
           const Eigen::Vector3d X = R * pts[j] + v.tvec;
-          const double d = WrapPi(std::atan2(v.corners[j].y() - cm.cy, v.corners[j].x() - cm.cx) -
+          const double d = wrap_angle(std::atan2(v.corners[j].y() - cm.cy, v.corners[j].x() - cm.cx) -
                                   std::atan2(X.y(), X.x()));
           sx += std::cos(d);
           sy += std::sin(d);

@@ -5,23 +5,13 @@
 #include <sstream>
 #include <string>
 
+#include "core/angles.h"
 #include "core/error.h"
 #include "hough/peak_refine.h"
 
 namespace pano {
 
 namespace {
-
-double WrapPi(double a) {
-  a = std::remainder(a, 2.0 * M_PI);
-  if (a <= -M_PI) a += 2.0 * M_PI;
-  return a;
-}
-double Wrap2Pi(double a) {
-  a = std::fmod(a, 2.0 * M_PI);
-  if (a < 0.0) a += 2.0 * M_PI;
-  return a;
-}
 
 void CheckWindow(const TrackingWindow& w) {
   const std::string what = "TrackHorizontalLine: window";
@@ -58,7 +48,7 @@ bool RefineRobust(const PhTable& table, const TrackingVote* pts, size_t n, doubl
     double a11 = 0, a12 = 0, a22 = 0, b1 = 0, b2 = 0, se = 0;
     int used = 0;
     for (size_t k = 0; k < n; ++k) {
-      const double dt = WrapPi(t - pts[k].azimuth);
+      const double dt = wrap_angle(t - pts[k].azimuth);
       if (!(std::abs(dt) + h < dt_cap)) continue;
       double pm, pp, p0;
       if (!table.Main(pts[k].radius, dt, &p0) || !table.Main(pts[k].radius, dt - h, &pm) ||
@@ -133,9 +123,9 @@ TrackingResult TrackHorizontalLine(const PhTable& table, const TrackingWindow& w
   thread_local std::vector<unsigned char> col_ok;
   col_ok.assign(nt, 1);
   if (std::isfinite(w.theta_min) && std::isfinite(w.theta_max)) {
-    const double span = Wrap2Pi(w.theta_max - w.theta_min);
+    const double span = wrap_angle_positive(w.theta_max - w.theta_min);
     for (int c = 0; c < nt; ++c) {
-      const double off = Wrap2Pi(t_lo + c * w.theta_bin - w.theta_min);
+      const double off = wrap_angle_positive(t_lo + c * w.theta_bin - w.theta_min);
       col_ok[c] = off > 0.0 && off < span;
     }
   }
@@ -146,7 +136,7 @@ TrackingResult TrackHorizontalLine(const PhTable& table, const TrackingWindow& w
   for (size_t i = 0; i < n_points; ++i) {
     const TrackingVote& p = points[i];
     const float wt = static_cast<float>(p.weight);
-    const double dt0 = WrapPi(t_lo - p.azimuth);  // dtheta of column 0 (Eqn 8)
+    const double dt0 = wrap_angle(t_lo - p.azimuth);  // dtheta of column 0 (Eqn 8)
     bool voted = false;
     for (int c = 0; c < nt; ++c) {
       const double dt = dt0 + c * w.theta_bin;
@@ -180,13 +170,13 @@ TrackingResult TrackHorizontalLine(const PhTable& table, const TrackingWindow& w
   res.peak = fit.value;
   res.at_border = fit.at_border;
   res.r_main = r_lo + fit.x * w.r_bin;
-  res.theta_main = WrapPi(t_lo + fit.y * w.theta_bin);
+  res.theta_main = wrap_angle(t_lo + fit.y * w.theta_bin);
 
   if (w.refine_iterations > 0) {
     double R = res.r_main, T = res.theta_main;
     double sr = 0, st = 0;
     // theta unwrapped next to the window's prediction.
-    T = w.theta_main + WrapPi(T - w.theta_main);
+    T = w.theta_main + wrap_angle(T - w.theta_main);
     // Bounds: the window, and in theta the columns theta_min..theta_max allow.
     int c_first = 0, c_last = nt - 1;
     while (c_first < nt - 1 && !col_ok[c_first]) ++c_first;
@@ -197,7 +187,7 @@ TrackingResult TrackHorizontalLine(const PhTable& table, const TrackingWindow& w
                      t_lo + (c_last + 0.5) * w.theta_bin, w.refine_scale_bins * w.r_bin,
                      w.refine_iterations, 1e-3 * w.r_bin, &R, &T, &sr, &st)) {
       res.r_main = R;
-      res.theta_main = WrapPi(T);
+      res.theta_main = wrap_angle(T);
       res.r_sigma = sr;
       res.theta_sigma = st;
     }
@@ -208,7 +198,7 @@ TrackingResult TrackHorizontalLine(const PhTable& table, const TrackingWindow& w
   const double tol = w.inlier_r_bins * w.r_bin;
   for (size_t i = 0; i < n_points; ++i) {
     const TrackingVote& p = points[i];
-    const double dt = WrapPi(res.theta_main - p.azimuth);
+    const double dt = wrap_angle(res.theta_main - p.azimuth);
     double rm;
     if (!(std::abs(dt) < dt_cap) || !table.Main(p.radius, dt, &rm)) continue;
     if (std::abs(rm - res.r_main) <= tol) {

@@ -9,6 +9,7 @@
 #include <limits>
 #include <sstream>
 
+#include "core/angles.h"
 #include "core/error.h"
 #include "hough/peak_refine.h"
 
@@ -23,12 +24,6 @@ std::string Num(double v) {
   std::ostringstream s;
   s << v;
   return s.str();
-}
-
-double WrapPi(double a) {
-  a = std::remainder(a, 2.0 * M_PI);
-  if (a <= -M_PI) a += 2.0 * M_PI;
-  return a;
 }
 
 }  // namespace
@@ -450,7 +445,7 @@ void PhWholeImage::Finish(int32_t* padded, WholeImageResult* result) const {
           pk.plane = p;
           pk.height = options_.heights[p];
           pk.r_main = (j + 0.5 + ox) * options_.r_bin;
-          pk.theta_main = WrapPi((k + 0.5 + oy) * theta_bin_);
+          pk.theta_main = wrap_angle((k + 0.5 + oy) * theta_bin_);
           pk.votes = v;
           plane_peaks[p].push_back(pk);
         }
@@ -484,7 +479,7 @@ void PhWholeImage::Finish(int32_t* padded, WholeImageResult* result) const {
     const double den = m - 2 * z + pl;
     const double off = den < 0 ? std::clamp(0.5 * (m - pl) / den, -0.5, 0.5) : 0.0;
     VerticalPeak vp;
-    vp.theta = WrapPi((k + 0.5 + off) * theta_bin_);
+    vp.theta = wrap_angle((k + 0.5 + off) * theta_bin_);
     vp.votes = h[(k + NT - 1) % NT] + h[k] + h[(k + 1) % NT];
     vp.r_min = std::numeric_limits<double>::infinity();
     vp.r_max = 0.0;

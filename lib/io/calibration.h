@@ -1,26 +1,12 @@
-// Calibration file (spec section 3): the sensor model, written by panocalib,
-// read by panoloc, panosim and the tests.
+// Calibration file (spec section 3): reads and writes sensor/calibration.h's
+// Calibration (panocalib writes it; panoloc, panosim and the tests read it).
 #pragma once
 
-#include <map>
 #include <string>
 
-#include "sensor/sensor.h"
+#include "sensor/calibration.h"
 
 namespace pano {
-
-struct Calibration {
-  Sensor sensor;
-  std::string units = "cm";
-  // Path of the E(D,Z) lookup table as written in the file ("" when absent),
-  // and resolved against the calibration file's folder.
-  std::string lut;
-  std::string lut_resolved;
-  // Optional extra keys written by panocalib (standard deviations, RMS...),
-  // kept in order of name. Readers ignore keys they do not know.
-  std::map<std::string, double> extras;
-  std::string comment;  // written as a leading comment
-};
 
 // Reads and checks a calibration file; throws pano::Error naming the file,
 // the key and what was expected.

@@ -1,64 +1,16 @@
-// Map file (spec section 4): the a-priori model of the room and its landmarks.
+// Map file (spec section 4): reads and writes scene/map.h's Map.
 #pragma once
 
-#include <Eigen/Core>
 #include <string>
-#include <vector>
+
+#include "scene/map.h"
 
 namespace pano {
-
-struct MapRoom {
-  bool present = false;
-  Eigen::Vector2d min{0, 0};
-  Eigen::Vector2d max{0, 0};
-  double height = 0.0;
-  double wall_shade = 0.55;
-  double floor_shade = 0.35;
-  double ceiling_shade = 0.8;
-};
-
-// A vertical planar rectangle: bottom edge from `from` to `to`, heights z0..z1.
-struct MapRectangle {
-  std::string id;
-  Eigen::Vector2d from{0, 0};
-  Eigen::Vector2d to{0, 0};
-  double z0 = 0.0;
-  double z1 = 0.0;
-  double shade = 0.1;
-};
-
-// An axis-aligned box.
-struct MapBox {
-  std::string id;
-  Eigen::Vector3d min{0, 0, 0};
-  Eigen::Vector3d max{0, 0, 0};
-  double shade = 0.9;
-};
-
-struct Map {
-  std::string units = "cm";
-  double sensor_height = 0.0;
-  MapRoom room;
-  std::vector<MapRectangle> rectangles;
-  std::vector<MapBox> boxes;
-  // Optional: rendered by panosim but not landmarks (never written to the
-  // map that panosim hands to panoloc).
-  std::vector<MapRectangle> distractors;
-
-  // True when (x, y) is inside the room (or there is no room) and not inside a box.
-  bool IsFree(double x, double y) const;
-  // Horizontal extent of the room, rectangles, distractors and boxes, and
-  // the height of the highest of them.
-  void Extent(Eigen::Vector2d* lo, Eigen::Vector2d* hi, double* top) const;
-};
 
 // Reads and checks a map; throws pano::Error naming the file, key and problem.
 Map ReadMap(const std::string& path);
 // Writes it atomically; `with_distractors` false leaves the distractors out.
 void WriteMap(const std::string& path, const Map& map, bool with_distractors = false);
 std::string MapToYaml(const Map& map, bool with_distractors = false);
-// Checks the geometry (positive sizes, unique ids, shades in 0..1); `what`
-// names the file in messages.
-void CheckMap(const Map& map, const std::string& what);
 
 }  // namespace pano

@@ -12,15 +12,6 @@ namespace pano {
 
 const char* const kPoseCsvHeader = "frame,time_s,x,y,theta_rad,status,n_landmarks,residual";
 
-const char* pose_status_name(PoseStatus s) {
-  switch (s) {
-    case PoseStatus::kOk: return "ok";
-    case PoseStatus::kLost: return "lost";
-    case PoseStatus::kInit: return "init";
-  }
-  return "?";
-}
-
 namespace {
 
 std::vector<std::string> SplitCsv(const std::string& line) {
@@ -93,7 +84,8 @@ std::vector<PoseRow> ReadPoseCsv(const std::string& path) {
     }
     r.n_landmarks = ParseInt(f[6], where, "n_landmarks");
     r.residual = f[7].empty() ? 0.0 : ParseDouble(f[7], where, "residual");
-    r.extra.assign(f.begin() + 8, f.end());
+    for (size_t k = 8; k < f.size(); ++k)
+      r.extra.push_back(f[k].empty() ? std::nan("") : ParseDouble(f[k], where, ("column " + std::to_string(k + 1)).c_str()));
     if (!rows.empty() && r.frame <= rows.back().frame)
       throw Error(where + ": frame numbers must increase (" + f[0] + " after " +
                   std::to_string(rows.back().frame) + ")");
@@ -113,7 +105,13 @@ std::string FormatPoseRow(const PoseRow& r) {
                   r.n_landmarks, r.residual);
   }
   std::string s = buf;
-  for (const std::string& e : r.extra) s += "," + e;
+  for (double e : r.extra) {
+    s += ',';
+    if (std::isfinite(e)) {
+      std::snprintf(buf, sizeof buf, "%.6g", e);
+      s += buf;
+    }
+  }
   return s;
 }
 
@@ -134,7 +132,7 @@ PoseCsvWriter::~PoseCsvWriter() {
 void PoseCsvWriter::Write(const PoseRow& row) {
   if (!file_) throw Error(path_ + ": write after close");
   PoseRow r = row;
-  r.extra.resize(n_extra_);
+  r.extra.resize(n_extra_, std::nan(""));
   const std::string line = FormatPoseRow(r);
   if (std::fprintf(file_, "%s\n", line.c_str()) < 0 || std::fflush(file_) != 0)
     throw Error(path_ + ": write failed: " + std::strerror(errno));

@@ -1,27 +1,14 @@
-// Pose CSV (spec section 5): written by panoloc row by row, also the format
-// of ground truth.
+// Pose CSV (spec section 5): PoseRow as text, written by panoloc row by row,
+// also the format of ground truth.
 #pragma once
 
 #include <cstdio>
 #include <string>
 #include <vector>
 
-#include "sensor/sensor.h"
+#include "pose/pose_row.h"
 
 namespace pano {
-
-enum class PoseStatus { kOk, kLost, kInit };
-const char* pose_status_name(PoseStatus s);
-
-struct PoseRow {
-  int frame = 0;
-  double time_s = 0.0;
-  PoseStatus status = PoseStatus::kOk;
-  Pose2 pose;  // meaningless when status is kLost
-  int n_landmarks = 0;
-  double residual = 0.0;
-  std::vector<std::string> extra;  // trailing columns, as text
-};
 
 // Reads a pose CSV; checks the header, the column count, the numbers and the
 // statuses, and names the file and line in errors.

@@ -10,7 +10,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
-#include "io/map.h"
+#include "scene/map.h"
 
 namespace pano {
 

@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "io/calibration.h"
-#include "io/map.h"
+#include "sensor/calibration.h"
+#include "scene/map.h"
 #include "render/render.h"
 
 namespace pano {

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "io/map.h"
+#include "scene/map.h"
 #include "scene/scene.h"
 #include "sensor/sensor.h"
 

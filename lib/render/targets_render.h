@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "io/calibration.h"
+#include "sensor/calibration.h"
 #include "io/targets.h"
 #include "render/render.h"
 

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "io/map.h"
+#include "scene/map.h"
 
 namespace pano {
 

@@ -7,13 +7,6 @@
 
 namespace pano {
 
-double wrap_angle(double a) {
-  if (a > -M_PI && a <= M_PI) return a;  // the common case, without a division
-  a = std::remainder(a, 2.0 * M_PI);
-  if (a <= -M_PI) a += 2.0 * M_PI;
-  return a;
-}
-
 Eigen::Vector3d sensor_from_world(const Pose2& pose, double sensor_height,
                                   const Eigen::Vector3d& pw) {
   const double c = std::cos(pose.theta), s = std::sin(pose.theta);

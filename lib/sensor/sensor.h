@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 #include <string>
 
+#include "core/angles.h"
 #include "sensor/catadioptric.h"
 
 namespace pano {
@@ -16,9 +17,6 @@ struct Pose2 {
   double y = 0.0;
   double theta = 0.0;
 };
-
-// Wraps an angle to (-pi, pi].
-double wrap_angle(double a);
 
 // sensor_from_world for a robot at `pose` whose pinhole is `sensor_height`
 // above the floor.

@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "io/map.h"
+#include "scene/map.h"
 #include "lut/radius_table.h"
 #include "scene/scene.h"
 #include "sensor/sensor.h"

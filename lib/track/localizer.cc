@@ -246,11 +246,7 @@ FrameResult Localizer::Process(const cv::Mat& grey, int frame, double time_s) {
     row.n_landmarks = static_cast<int>(tri.inliers.size());
     row.residual = tri.residual;
     row.extra.clear();
-    for (int k = 0; k < 3; ++k) {
-      char buf[32];
-      std::snprintf(buf, sizeof buf, k < 2 ? "%.4f" : "%.6f", std::sqrt(std::max(0.0, tri.covariance(k, k))));
-      row.extra.push_back(buf);
-    }
+    for (int k = 0; k < 3; ++k) row.extra.push_back(std::sqrt(std::max(0.0, tri.covariance(k, k))));
     previous_ = n_good_ > 0 ? last_ : tri.pose;
     last_ = tri.pose;
     ++n_good_;
@@ -260,14 +256,14 @@ FrameResult Localizer::Process(const cv::Mat& grey, int frame, double time_s) {
     row.status = n_good_ == 0 && frame == 0 ? PoseStatus::kInit : PoseStatus::kLost;
     row.pose = initial_;
     row.n_landmarks = n_found;
-    row.extra = {"", "", ""};
+    row.extra.assign(3, std::nan(""));
     n_good_ = 0;
     ++n_lost_;
   } else {
     // Lost: tracking goes on from the last good pose.
     row.status = PoseStatus::kLost;
     row.n_landmarks = n_found;
-    row.extra = {"", "", ""};
+    row.extra.assign(3, std::nan(""));
     n_good_ = 0;
     ++n_lost_;
   }

@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
-#include "io/calibration.h"
-#include "io/map.h"
-#include "io/pose_csv.h"
+#include "sensor/calibration.h"
+#include "scene/map.h"
+#include "pose/pose_row.h"
 #include "lut/radius_table.h"
 #include "pose/triangulate.h"
 #include "scene/scene.h"
@@ -59,6 +59,9 @@ struct LocalizerOptions {
   RelocalizeOptions relocalize;
   double lost_search_growth = 1.5;  // search widens by this after a lost frame
   double max_search_px = 20.0;
+  // Threads of the per-frame parallel loops (landmarks, relocalisation
+  // hypotheses); 0: all cores. Set per localiser, never process-wide.
+  int num_threads = 0;
   void Check() const;
 };
 

@@ -8,7 +8,7 @@
 #include <opencv2/core.hpp>
 #include <vector>
 
-#include "io/map.h"
+#include "scene/map.h"
 #include "scene/scene.h"
 #include "sensor/sensor.h"
 #include "track/landmarks.h"

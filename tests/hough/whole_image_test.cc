@@ -13,6 +13,7 @@
 #include "hough/whole_image.h"
 #include "hough/whole_image_gpu.h"
 #include "hough_fixtures.h"
+#include "test_skip.h"
 #include "scene_render.h"
 
 namespace pano {
@@ -190,7 +191,7 @@ TEST_CASE("whole-image results are identical for 1, 2 and 4 threads", "[threads]
 TEST_CASE("GPU whole-image transform equals the CPU's (batch of frames)", "[gpu_matches_cpu]") {
   std::string reason;
   if (!CudaAvailable(&reason)) {
-    WARN("SKIPPED: hough/gpu_matches_cpu needs a CUDA device: " << reason);
+    test::Skip("hough/gpu_matches_cpu needs a CUDA device: " + reason);
     return;
   }
   Fixture f;

@@ -178,7 +178,7 @@ TEST_CASE("pose CSV: rows written and flushed one by one, read back; bad files",
     r.status = PoseStatus::kOk;
     r.n_landmarks = 7;
     r.residual = 0.31;
-    r.extra = {"0.02"};
+    r.extra = {0.02};
     w.Write(r);
     // Flushed: the rows are on disk before the writer closes.
     std::ifstream in(p);
@@ -197,7 +197,8 @@ TEST_CASE("pose CSV: rows written and flushed one by one, read back; bad files",
   CHECK(rows[1].status == PoseStatus::kOk);
   CHECK(rows[1].n_landmarks == 7);
   CHECK(rows[1].residual == 0.31);
-  CHECK(rows[1].extra == std::vector<std::string>{"0.02"});
+  REQUIRE(rows[1].extra.size() == 1);
+  CHECK(rows[1].extra[0] == 0.02);
   CHECK(rows[2].status == PoseStatus::kLost);
 
   const std::string hdr = "frame,time_s,x,y,theta_rad,status,n_landmarks,residual\n";

@@ -8,7 +8,7 @@
 #include "core/error.h"
 #include "render/writers.h"
 #include "test_paths.h"
-#include "track/frame_source.h"
+#include "video/frame_source.h"
 #include "track_fixture.h"
 
 namespace pano {

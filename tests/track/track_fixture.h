@@ -8,7 +8,7 @@
 #include "render/render.h"
 #include "scene/scene.h"
 #include "track/localizer.h"
-#include "track/run.h"
+#include "pipeline/panoloc.h"
 
 namespace pano::test {
 

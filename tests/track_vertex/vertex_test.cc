@@ -11,7 +11,7 @@
 #include "render/writers.h"
 #include "test_paths.h"
 #include "test_rng.h"
-#include "track/run.h"
+#include "pipeline/panoloc.h"
 #include "track/vertex_tracker.h"
 
 namespace pano {

@@ -1,6 +1,7 @@
-#include "track/frame_source.h"
+#include "video/frame_source.h"
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -135,10 +136,18 @@ void FrameSource::Decode() {
   }
 }
 
+bool FrameSource::Read(cv::Mat* grey, double* time_s) {
+  const long index = frames_read_;
+  if (!Read(grey)) return false;
+  *time_s = fps_ > 0.0 ? index / fps_ : std::nan("");
+  return true;
+}
+
 bool FrameSource::Read(cv::Mat* grey) {
   if (!first_.empty()) {
     *grey = first_;
     first_.release();
+    ++frames_read_;
     return true;
   }
   std::unique_lock<std::mutex> lock(mu_);
@@ -153,6 +162,7 @@ bool FrameSource::Read(cv::Mat* grey) {
     ToGrey(frame, grey);  // a copy: the buffer can be decoded into again
     std::lock_guard<std::mutex> relock(mu_);
     free_.push_back(std::move(frame));
+    ++frames_read_;
     return true;
   }
   if (!error_.empty()) throw Error(error_);

@@ -1,4 +1,4 @@
-#include "track/luma_decoder.h"
+#include "video/luma_decoder.h"
 
 #include "pano/config.h"
 

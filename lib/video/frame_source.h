@@ -15,7 +15,7 @@
 #include <thread>
 #include <vector>
 
-#include "track/luma_decoder.h"
+#include "video/luma_decoder.h"
 
 namespace pano {
 
@@ -37,6 +37,9 @@ class FrameSource {
   // Next frame; false at the end. Throws pano::Error for a frame that cannot
   // be decoded in a folder of images.
   bool Read(cv::Mat* grey);
+  // The same, with the frame's presentation time in seconds from the
+  // video's timestamps (NaN when the input has none, e.g. image folders).
+  bool Read(cv::Mat* grey, double* time_s);
   int width() const { return width_; }
   int height() const { return height_; }
   double fps() const { return fps_; }    // 0 when unknown (image folders)
@@ -50,6 +53,7 @@ class FrameSource {
   cv::VideoCapture capture_;           // other videos and printf patterns
   std::vector<std::string> files_;  // folder input
   size_t next_file_ = 0;
+  long frames_read_ = 0;  // frames handed out by Read()
   int width_ = 0, height_ = 0, count_ = -1;
   double fps_ = 0.0;
   cv::Mat first_;

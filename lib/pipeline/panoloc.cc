@@ -1,4 +1,4 @@
-#include "track/run.h"
+#include "pipeline/panoloc.h"
 
 #include <unistd.h>
 #include <yaml-cpp/yaml.h>
@@ -20,7 +20,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
-#include "track/frame_source.h"
+#include "video/frame_source.h"
 
 namespace pano {
 
