@@ -66,7 +66,12 @@ FrameSource::FrameSource(const std::string& path, size_t prefetch_bytes) : path_
   worker_ = std::thread([this] { Decode(); });
 }
 
+bool FrameSource::IsLive(const std::string& path) {
+  return path == "-" || path.rfind("/dev/", 0) == 0 || path.find("://") != std::string::npos;
+}
+
 int FrameSource::FrameCount(const std::string& path) {
+  if (IsLive(path)) return -1;
   std::error_code ec;
   if (fs::is_directory(path, ec)) {
     int n = 0;

@@ -30,6 +30,11 @@ class FrameSource {
   FrameSource(const FrameSource&) = delete;
   FrameSource& operator=(const FrameSource&) = delete;
 
+  // True for inputs that are read as they arrive and have no known length:
+  // "-" (standard input), camera devices (/dev/video0), stream URLs
+  // (rtsp://, udp://...).
+  static bool IsLive(const std::string& path);
+
   // Number of frames of an input without decoding it; -1 when unknown or
   // unreadable (for a progress display).
   static int FrameCount(const std::string& path);
