@@ -13,6 +13,7 @@
 #include <thread>
 #include <opencv2/videoio.hpp>
 
+#include "io/map.h"
 #include "render/presets.h"
 #include "render/writers.h"
 #include "pipeline/panoloc.h"

@@ -20,6 +20,8 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "io/calibration.h"
+#include "io/map.h"
 #include "video/frame_source.h"
 
 namespace pano {

@@ -6,6 +6,8 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "io/calibration.h"
+#include "io/map.h"
 #include "io/pose_csv.h"
 
 namespace pano {

@@ -9,7 +9,7 @@
 #include <sstream>
 
 #include "core/error.h"
-#include "sensor/calibration.h"
+#include "io/calibration.h"
 #include "render/writers.h"
 
 namespace pano {

@@ -13,6 +13,7 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "io/calibration.h"
+#include "io/map.h"
 #include "io/pose_csv.h"
 #include "io/yaml_util.h"
 

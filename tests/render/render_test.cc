@@ -11,6 +11,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "io/calibration.h"
+#include "io/map.h"
 #include "io/pose_csv.h"
 #include "io/targets.h"
 #include "render/presets.h"

@@ -6,6 +6,8 @@
 #include <fstream>
 
 #include "core/error.h"
+#include "io/calibration.h"
+#include "io/map.h"
 #include "render/writers.h"
 #include "test_paths.h"
 #include "video/frame_source.h"
