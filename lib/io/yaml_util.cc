@@ -289,6 +289,10 @@ YamlWriter& YamlWriter::Int(long long v) {
   out_ << v;
   return *this;
 }
+YamlWriter& YamlWriter::Unsigned(unsigned long long v) {
+  out_ << v;
+  return *this;
+}
 YamlWriter& YamlWriter::Bool(bool b) {
   out_ << YAML::TrueFalseBool << YAML::LowerCase << b;
   return *this;

@@ -108,6 +108,7 @@ class YamlWriter {
   YamlWriter& String(const std::string& s);
   YamlWriter& Double(double v);
   YamlWriter& Int(long long v);
+  YamlWriter& Unsigned(unsigned long long v);
   YamlWriter& Bool(bool b);
   // A flow list of numbers: [1.0, 2.5].
   YamlWriter& Numbers(std::initializer_list<double> values);
