@@ -155,7 +155,8 @@ std::string ReadFile(const std::string& path, size_t max_bytes) {
     const size_t got = in.Read(&text[old], want);
     text.resize(old + got);
     if (text.size() > max_bytes)
-      throw Error(path + ": more data than expected of this file (" + limit + "; an endless stream?)");
+      throw Error(path + ": more than " + ByteCount(max_bytes) +
+                  " of data (the limit for this file; an endless stream?)");
     if (got < want) return text;
   }
 }
