@@ -230,7 +230,9 @@ YamlWriter::YamlWriter() {
 
 YamlWriter& YamlWriter::Comment(const std::string& text) {
   std::istringstream lines(text);
-  for (std::string line; std::getline(lines, line);) {
+  bool first = true;
+  for (std::string line; std::getline(lines, line); first = false) {
+    if (!first) out_ << YAML::Newline;  // else the emitter puts the next comment on the same line
     std::string clean;
     for (size_t i = 0; i < line.size(); ++i) {
       const unsigned char c = static_cast<unsigned char>(line[i]);

@@ -207,6 +207,85 @@ TEST_CASE("random maps with nasty ids and edge-case numbers round-trip exactly",
   }
 }
 
+TEST_CASE("strings that YAML would misread are quoted; numbers stay plain", "[quoting]") {
+  const std::string dir = test::ScratchDir("io_quoting");
+  Map m;
+  m.sensor_height = 30.0;
+  m.units = "cm # centimetres";
+  const char* ids[] = {"door: left", "# 2", "- dash", "'single'", "\"double\"", "{x}", "[y]", "yes", "~",
+                       "null", "1e3", " padded ", "", "a\nb", "&a *b !c |d >e %f @g `h"};
+  double x = 0.0;
+  for (const char* id : ids) {
+    m.rectangles.push_back({id, {x, 0.0}, {x + 10.0, 0.0}, 0.0, 50.0, 0.5});
+    x += 20.0;
+  }
+  const std::string map_path = dir + "/map.yaml";
+  WriteMap(map_path, m);
+  const Map back = ReadMap(map_path);
+  CHECK(back.units == m.units);
+  REQUIRE(back.rectangles.size() == m.rectangles.size());
+  for (size_t i = 0; i < m.rectangles.size(); ++i) CHECK(back.rectangles[i].id == m.rectangles[i].id);
+  const std::string map_text = ReadFile(map_path);
+  INFO(map_text);
+  CHECK(map_text.find("sensor_height: 30.0\n") != std::string::npos);
+  CHECK(map_text.find("  - id: \"door: left\"\n    from: [0.0, 0.0]\n") != std::string::npos);
+  CHECK(map_text.find("id: \"yes\"") != std::string::npos);
+
+  Calibration c;
+  c.sensor.image_width = c.sensor.image_height = 500;
+  c.sensor.params.focal_px = 590.0;
+  c.sensor.params.cx = c.sensor.params.cy = 249.5;
+  set_sphere_mirror(&c.sensor.params, 4.9, 15.1);
+  c.units = "mm: really";
+  c.lut = "tables/sensor #1.lut";
+  c.extras["rms: px"] = 0.25;
+  // A comment whose carriage return or NEL would end the comment line for some readers.
+  c.comment = "fitted by hand\rmodel: conic\nsecond line\xc2\x85units: km";
+  const std::string calib_path = dir + "/calib.yaml";
+  WriteCalibration(calib_path, c);
+  const std::string calib_text = ReadFile(calib_path);
+  INFO(calib_text);
+  CHECK(calib_text.rfind("# fitted by hand model: conic\n# second line units: km\nmodel: sphere\n", 0) == 0);
+  CHECK(calib_text.find("focal_px: 590.0\n") != std::string::npos);
+  CHECK(calib_text.find("image_width: 500\n") != std::string::npos);
+  CHECK(calib_text.find("mirror_distance: 15.1\n") != std::string::npos);
+  const Calibration cb = ReadCalibration(calib_path);
+  CHECK(cb.sensor.model == MirrorModel::kSphere);
+  CHECK(cb.units == "mm: really");
+  CHECK(cb.lut_resolved == dir + "/tables/sensor #1.lut");
+  CHECK(cb.extras.at("rms: px") == 0.25);
+  // An extra key may not repeat one of the calibration's own.
+  c.extras["focal_px"] = 1.0;
+  CHECK_THROWS_WITH(WriteCalibration(calib_path, c), Catch::Contains(calib_path) && Catch::Contains("focal_px"));
+
+  TargetSet t;
+  t.board.cols = 9;
+  t.board.rows = 6;
+  t.board.square = 3.0;
+  t.images.push_back({"cal 000: left.png", "", true, {0.1, -1.2, 0.3}, {40.0, 0.0, 5.0}});
+  t.images.push_back({"#1.png", "", false, {}, {}});
+  const std::string targets_path = dir + "/targets.yaml";
+  WriteTargets(targets_path, t);
+  const TargetSet tb = ReadTargets(targets_path);
+  REQUIRE(tb.images.size() == 2);
+  CHECK(tb.images[0].file == "cal 000: left.png");
+  CHECK(tb.images[0].tvec[0] == 40.0);
+  CHECK(tb.images[1].file == "#1.png");
+  CHECK(tb.images[1].resolved == dir + "/#1.png");
+}
+
+TEST_CASE("doubles are written in the shortest text that reads back exactly", "[quoting]") {
+  CHECK(YamlDouble(590.0) == "590.0");
+  CHECK(YamlDouble(0.1) == "0.1");
+  CHECK(YamlDouble(-0.0) == "-0.0");
+  CHECK(YamlDouble(1e-300) == "1e-300");
+  CHECK(YamlDouble(0.1 + 0.2) == "0.30000000000000004");
+  CHECK(YamlDouble(std::ldexp(1.0, -1074)) == "4.94066e-324");
+  CHECK(YamlDouble(1.0 / 0.0) == ".inf");
+  CHECK(YamlDouble(-1.0 / 0.0) == "-.inf");
+  CHECK(YamlDouble(std::nan("")) == ".nan");
+}
+
 Calibration RandomCalibration(Nasty& g) {
   for (;;) {
     Calibration c;
