@@ -125,6 +125,17 @@ TEST_CASE("the wrong kind of node: lists or mappings for scalars and the reverse
   targets("cols.yaml", Replace(kTargets, "cols: 9", "cols: {n: 9}"), {"board.cols", "integer", "a mapping"});
 }
 
+TEST_CASE("every yaml-cpp exception escaping a reader becomes pano::Error naming the file", "[bad_input]") {
+  const YAML::Node scalar = YAML::Load("5");
+  const YAML::Node list = YAML::Load("[1, 2]");
+  ExpectError([&] { return GuardYaml("sub.yaml", [&] { return scalar["x"].as<int>(); }); }, "sub.yaml", {});
+  ExpectError([&] { return GuardYaml("conv.yaml", [&] { return list.as<std::string>(); }); }, "conv.yaml",
+              {"line 1"});
+  ExpectError([&] { return GuardYaml("missing.yaml", [&] { return scalar["x"]["y"].as<double>(); }); },
+              "missing.yaml", {});
+  CHECK(GuardYaml("fine.yaml", [&] { return scalar.as<int>(); }) == 5);
+}
+
 TEST_CASE("absurd numbers: image and board sizes past their limits, huge integers", "[bad_input]") {
   const std::string dir = test::ScratchDir("io_bad_numbers");
   auto calib = [&](const std::string& name, const std::string& text, std::initializer_list<std::string> frags) {
