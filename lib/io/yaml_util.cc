@@ -205,8 +205,12 @@ std::string YamlDouble(double v) {
     std::snprintf(buf, sizeof buf, "%.*g", prec, v);
     if (std::strtod(buf, nullptr) == v) break;
   }
+  // A '.' always: YAML 1.1 readers (PyYAML) take "1e+20" for a string.
   std::string s = buf;
-  if (s.find_first_of(".eE") == std::string::npos) s += ".0";
+  if (s.find('.') == std::string::npos) {
+    const size_t e = s.find_first_of("eE");
+    s.insert(e == std::string::npos ? s.size() : e, ".0");
+  }
   return s;
 }
 

@@ -87,8 +87,8 @@ class YamlReader {
 std::string DescribeNode(const YAML::Node& node);
 
 // Formats a double for YAML with full round-trip precision: the shortest
-// text that reads back exactly, always with a '.' or an exponent; .nan,
-// .inf and -.inf for the others.
+// text that reads back exactly, always with a '.' ("1.0e+20"); .nan, .inf
+// and -.inf for the others.
 std::string YamlDouble(double v);
 
 // Writes a YAML document through yaml-cpp's emitter: strings are quoted

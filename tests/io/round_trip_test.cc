@@ -278,7 +278,8 @@ TEST_CASE("doubles are written in the shortest text that reads back exactly", "[
   CHECK(YamlDouble(590.0) == "590.0");
   CHECK(YamlDouble(0.1) == "0.1");
   CHECK(YamlDouble(-0.0) == "-0.0");
-  CHECK(YamlDouble(1e-300) == "1e-300");
+  CHECK(YamlDouble(1e-300) == "1.0e-300");
+  CHECK(YamlDouble(-2e20) == "-2.0e+20");
   CHECK(YamlDouble(0.1 + 0.2) == "0.30000000000000004");
   CHECK(YamlDouble(std::ldexp(1.0, -1074)) == "4.94066e-324");
   CHECK(YamlDouble(1.0 / 0.0) == ".inf");
