@@ -37,9 +37,9 @@ Calibration ParseCalibration(const std::string& path, const YAML::Node& n) {
   s.image_width = r.Int(n, "image_width", "image_width", 1, kMaxImageSide);
   s.image_height = r.Int(n, "image_height", "image_height", 1, kMaxImageSide);
   if (static_cast<long long>(s.image_width) * s.image_height > kMaxImagePixels)
-    r.Fail("image_width/image_height", "image of " + std::to_string(s.image_width) + " x " +
-                                           std::to_string(s.image_height) + " pixels: more than the limit of " +
-                                           std::to_string(kMaxImagePixels) + " pixels");
+    r.Fail("image_width/image_height",
+           "image of " + std::to_string(s.image_width) + " x " + std::to_string(s.image_height) +
+               " pixels: more than the limit of " + std::to_string(kMaxImagePixels) + " pixels");
   SensorParams<double>& p = s.params;
   p.focal_px = r.Double(n, "focal_px", "focal_px");
   p.cx = r.Double(n, "cx", "cx");

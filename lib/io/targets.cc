@@ -30,8 +30,9 @@ TargetSet ParseTargets(const std::string& path, const YAML::Node& n) {
   if (t.board.cols < 2 || t.board.rows < 2)
     r.Fail("board", "expected at least 2 x 2 inner corners");
   if (t.board.cols > kMaxBoardCorners || t.board.rows > kMaxBoardCorners)
-    r.Fail("board", "expected at most " + std::to_string(kMaxBoardCorners) + " inner corners along a side, got " +
-                        std::to_string(t.board.cols) + " x " + std::to_string(t.board.rows));
+    r.Fail("board", "expected at most " + std::to_string(kMaxBoardCorners) +
+                        " inner corners along a side, got " + std::to_string(t.board.cols) + " x " +
+                        std::to_string(t.board.rows));
   if (!(t.board.square > 0.0)) r.Fail("board.square", "expected a positive square size");
   if (!r.Has(n, "images")) r.Fail("images", "missing or empty (expected a list of {file, rvec?, tvec?})");
   const YAML::Node list = r.List(n, "images", "images", "a list of {file, rvec?, tvec?}");
@@ -40,7 +41,8 @@ TargetSet ParseTargets(const std::string& path, const YAML::Node& n) {
   for (size_t i = 0; i < list.size(); ++i) {
     const std::string p = "images[" + std::to_string(i) + "]";
     const YAML::Node im_node = list[i];
-    if (!im_node.IsMap()) r.Fail(p, "expected a mapping with file, rvec?, tvec?, got " + DescribeNode(im_node));
+    if (!im_node.IsMap())
+      r.Fail(p, "expected a mapping with file, rvec?, tvec?, got " + DescribeNode(im_node));
     TargetImage im;
     im.file = r.String(im_node, "file", p + ".file");
     im.resolved = JoinPath(dir, im.file);

@@ -242,7 +242,8 @@ YamlWriter& YamlWriter::Comment(const std::string& text) {
       const unsigned char c = static_cast<unsigned char>(line[i]);
       // \r, and NEL (U+0085), LS and PS (U+2028, U+2029) that YAML 1.1 reads as line breaks.
       const bool nel = c == 0xC2 && i + 1 < line.size() && static_cast<unsigned char>(line[i + 1]) == 0x85;
-      const bool ls_ps = c == 0xE2 && i + 2 < line.size() && static_cast<unsigned char>(line[i + 1]) == 0x80 &&
+      const bool ls_ps = c == 0xE2 && i + 2 < line.size() &&
+                         static_cast<unsigned char>(line[i + 1]) == 0x80 &&
                          (static_cast<unsigned char>(line[i + 2]) == 0xA8 ||
                           static_cast<unsigned char>(line[i + 2]) == 0xA9);
       if (nel || ls_ps) {

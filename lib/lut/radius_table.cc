@@ -265,8 +265,8 @@ void ReadFloats(InputFile& in, size_t n, std::vector<float>* out, size_t* read_s
   const size_t got = in.Read(out->data(), n * sizeof(float));
   *read_so_far += got;
   if (got != n * sizeof(float))
-    throw Error(in.path() + ": truncated lookup table (" + std::to_string(*read_so_far) + " bytes, expected " +
-                std::to_string(want) + ")");
+    throw Error(in.path() + ": truncated lookup table (" + std::to_string(*read_so_far) +
+                " bytes, expected " + std::to_string(want) + ")");
 }
 
 }  // namespace

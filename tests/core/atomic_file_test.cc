@@ -114,7 +114,8 @@ TEST_CASE("ReadFile stops at its bound: folders, endless streams, large files", 
                       Catch::Contains(fifo.path()) && Catch::Contains("1 MiB"));
   }
   if (fs::is_character_file("/dev/zero"))
-    CHECK_THROWS_WITH(ReadFile("/dev/zero", 1 << 20), Catch::Contains("/dev/zero") && Catch::Contains("1 MiB"));
+    CHECK_THROWS_WITH(ReadFile("/dev/zero", 1 << 20),
+                      Catch::Contains("/dev/zero") && Catch::Contains("1 MiB"));
 }
 
 }  // namespace

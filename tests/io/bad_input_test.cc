@@ -67,12 +67,14 @@ TEST_CASE("a folder given as a file", "[bad_input]") {
 
 TEST_CASE("the wrong kind of node: lists or mappings for scalars and the reverse", "[bad_input]") {
   const std::string dir = test::ScratchDir("io_bad_kind");
-  auto calib = [&](const std::string& name, const std::string& text, std::initializer_list<std::string> frags) {
+  using Fragments = std::initializer_list<std::string>;
+  auto calib = [&](const std::string& name, const std::string& text, Fragments frags) {
     const std::string p = Write(dir, name, text);
     ExpectError([&] { ReadCalibration(p); }, p, frags);
   };
   calib("units.yaml", Replace(kCalib, "units: cm", "units: [a, b]"), {"units", "string", "a list"});
-  calib("focal.yaml", Replace(kCalib, "focal_px: 590.0", "focal_px: {x: 1}"), {"focal_px", "number", "a mapping"});
+  calib("focal.yaml", Replace(kCalib, "focal_px: 590.0", "focal_px: {x: 1}"),
+        {"focal_px", "number", "a mapping"});
   calib("width.yaml", Replace(kCalib, "image_width: 500", "image_width: [500]"), {"image_width", "integer"});
   calib("model.yaml", Replace(kCalib, "model: sphere", "model: {sphere: 1}"), {"model", "string"});
   calib("lut.yaml", kCalib + "lut: [a.lut]\n", {"lut", "string", "a list"});
@@ -84,7 +86,8 @@ TEST_CASE("the wrong kind of node: lists or mappings for scalars and the reverse
   calib("scalar_top.yaml", "just a line\n", {"mapping"});
   calib("nul.yaml", kCalib + std::string("extra: 1\0\n", 10), {"NUL"});
   // Nesting deeper than yaml-cpp's guard: an error, not a stack overflow.
-  calib("deep.yaml", "model: " + std::string(100000, '[') + std::string(100000, ']') + "\n", {"malformed YAML"});
+  calib("deep.yaml", "model: " + std::string(100000, '[') + std::string(100000, ']') + "\n",
+        {"malformed YAML"});
   calib("deep_open.yaml", "model: " + std::string(100000, '[') + "\n", {});
   calib("undefined_alias.yaml", Replace(kCalib, "cx: 249.5", "cx: *nowhere"), {"malformed YAML"});
 
@@ -118,7 +121,8 @@ TEST_CASE("the wrong kind of node: lists or mappings for scalars and the reverse
   };
   targets("board.yaml", kTargets.substr(0, kTargets.find("board:")) + "board: 5\nimages:\n  - file: a.png\n",
           {"board", "mapping"});
-  targets("images.yaml", kTargets.substr(0, kTargets.find("images:")) + "images: a.png\n", {"images", "list"});
+  targets("images.yaml", kTargets.substr(0, kTargets.find("images:")) + "images: a.png\n",
+          {"images", "list"});
   targets("image_scalar.yaml", Replace(kTargets, "  - file: cal_000.png", "  - cal_000.png"),
           {"images[0]", "mapping", "'cal_000.png'"});
   targets("file.yaml", Replace(kTargets, "file: cal_000.png", "file: [a, b]"), {"images[0].file", "string"});
@@ -138,15 +142,18 @@ TEST_CASE("every yaml-cpp exception escaping a reader becomes pano::Error naming
 
 TEST_CASE("absurd numbers: image and board sizes past their limits, huge integers", "[bad_input]") {
   const std::string dir = test::ScratchDir("io_bad_numbers");
-  auto calib = [&](const std::string& name, const std::string& text, std::initializer_list<std::string> frags) {
+  using Fragments = std::initializer_list<std::string>;
+  auto calib = [&](const std::string& name, const std::string& text, Fragments frags) {
     const std::string p = Write(dir, name, text);
     ExpectError([&] { ReadCalibration(p); }, p, frags);
   };
-  const std::string huge =
-      Replace(Replace(kCalib, "image_width: 500", "image_width: 200000"), "image_height: 500", "image_height: 200000");
+  auto sized = [](const std::string& width, const std::string& height) {
+    return Replace(Replace(kCalib, "image_width: 500", "image_width: " + width), "image_height: 500",
+                   "image_height: " + height);
+  };
+  const std::string huge = sized("200000", "200000");
   calib("huge.yaml", huge, {"image_width", "1 to 32768", "200000"});
-  const std::string many = Replace(Replace(kCalib, "image_width: 500", "image_width: 30000"), "image_height: 500",
-                                   "image_height: 30000");
+  const std::string many = sized("30000", "30000");
   calib("many.yaml", many, {"image_width/image_height", "30000 x 30000", "268435456 pixels"});
   calib("zero.yaml", Replace(kCalib, "image_height: 500", "image_height: 0"), {"image_height", "1 to 32768"});
   calib("long.yaml", Replace(kCalib, "image_width: 500", "image_width: 99999999999999999999999"),
@@ -154,8 +161,7 @@ TEST_CASE("absurd numbers: image and board sizes past their limits, huge integer
   calib("inf.yaml", Replace(kCalib, "cx: 249.5", "cx: 1e999"), {"cx", "number"});
   calib("dotinf.yaml", Replace(kCalib, "cy: 249.5", "cy: -.inf"), {"cy", "finite"});
   // The largest image within the limits reads.
-  const std::string side = Replace(Replace(kCalib, "image_width: 500", "image_width: 32768"), "image_height: 500",
-                                   "image_height: 8192");
+  const std::string side = sized("32768", "8192");
   CHECK(ReadCalibration(Write(dir, "side.yaml", side)).sensor.image_width == 32768);
 
   const std::string p = Write(dir, "board.yaml", Replace(kTargets, "cols: 9", "cols: 100000"));

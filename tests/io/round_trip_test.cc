@@ -38,7 +38,8 @@ class Nasty {
     static const char* const kPieces[] = {
         ": ", "#", " #", "# ", "'", "\"", "- ", "-", " ", "  ", "{", "}", "[", "]", "{}", "[]", "&", "*",
         "!", "|", ">", "%", "@", "`", ",", "?", "\\", "\t", "\n", "\r\n", "\x01", "\x7f", "\xc3\xa9",
-        "\xe6\x97\xa5\xe6\x9c\xac", "\xf0\x9f\x99\x82", "\xc2\x85", "\xe2\x80\xa8", "\xc2\xa0", "\xef\xbb\xbf",
+        "\xe6\x97\xa5\xe6\x9c\xac", "\xf0\x9f\x99\x82", "\xc2\x85", "\xe2\x80\xa8", "\xc2\xa0",
+        "\xef\xbb\xbf",
         "yes", "no", "Yes", "NO", "on", "off", "y", "n", "true", "False", "null", "Null", "~", "1e3", "-1",
         "0x1F", "0o17", ".inf", "-.inf", ".nan", "1_000", "12:30", "---", "...", "a", "door", "id", "x.png",
         "/", "..", "<<", "=", "&anchor", "*alias", "!!str", "%YAML"};
@@ -256,7 +257,8 @@ TEST_CASE("strings that YAML would misread are quoted; numbers stay plain", "[qu
   CHECK(cb.extras.at("rms: px") == 0.25);
   // An extra key may not repeat one of the calibration's own.
   c.extras["focal_px"] = 1.0;
-  CHECK_THROWS_WITH(WriteCalibration(calib_path, c), Catch::Contains(calib_path) && Catch::Contains("focal_px"));
+  CHECK_THROWS_WITH(WriteCalibration(calib_path, c),
+                    Catch::Contains(calib_path) && Catch::Contains("focal_px"));
 
   TargetSet t;
   t.board.cols = 9;
@@ -293,7 +295,8 @@ Calibration RandomCalibration(Nasty& g) {
     Sensor& s = c.sensor;
     s.model = g.Chance(0.5) ? MirrorModel::kSphere : MirrorModel::kConic;
     s.image_width = g.Int(1, kMaxImageSide);
-    s.image_height = g.Int(1, static_cast<int>(std::min<long long>(kMaxImageSide, kMaxImagePixels / s.image_width)));
+    const long long max_height = std::min<long long>(kMaxImageSide, kMaxImagePixels / s.image_width);
+    s.image_height = g.Int(1, static_cast<int>(max_height));
     SensorParams<double>& p = s.params;
     p.focal_px = g.Positive();
     p.cx = g.Any();

@@ -207,9 +207,11 @@ TEST_CASE("table files that are folders, endless streams or lie about their size
   expect_error(dir + "/folder.lut", {"folder"});
   // Sizes beyond the limits, or within them but larger than the file: refused
   // from the header, before anything is allocated for them.
-  expect_error(with_ints("huge.lut", 144, {100000, 100000, 100000, 100000}), {"table sizes", "100000 x 100000"});
+  expect_error(with_ints("huge.lut", 144, {100000, 100000, 100000, 100000}),
+               {"table sizes", "100000 x 100000"});
   expect_error(with_ints("negative.lut", 144, {-5, 16, 16, 16}), {"table sizes"});
-  expect_error(with_ints("large.lut", 144, {10000, 10000, 16, 16}), {"truncated or padded", "expected 400001192"});
+  expect_error(with_ints("large.lut", 144, {10000, 10000, 16, 16}),
+               {"truncated or padded", "expected 400001192"});
   expect_error(with_ints("image.lut", 16, {200000, 200000}), {"image size", "200000 x 200000"});
   if (std::filesystem::is_character_file("/dev/zero")) expect_error("/dev/zero", {"bad magic"});
   if (std::filesystem::is_character_file("/dev/urandom")) expect_error("/dev/urandom", {"bad magic"});
