@@ -1,6 +1,6 @@
 #include "io/calibration.h"
 
-#include <sstream>
+#include <cmath>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
@@ -8,9 +8,21 @@
 
 namespace pano {
 
-Calibration ReadCalibration(const std::string& path) {
-  YamlReader r(path, YamlReader::LoadFile(path));
-  const YAML::Node& n = r.root();
+namespace {
+
+const char* const kKnownKeys[] = {"model", "units", "image_width", "image_height", "focal_px", "cx",
+                                  "cy", "aspect", "azimuth_offset", "k1", "k2", "rim_radius",
+                                  "mirror_radius", "mirror_distance", "curvature_radius",
+                                  "conic_constant", "vertex_distance", "lut"};
+
+bool IsKnownKey(const std::string& key) {
+  for (const char* k : kKnownKeys)
+    if (key == k) return true;
+  return false;
+}
+
+Calibration ParseCalibration(const std::string& path, const YAML::Node& n) {
+  YamlReader r(path, n);
   Calibration c;
   const std::string model = r.String(n, "model", "model");
   Sensor& s = c.sensor;
@@ -22,8 +34,12 @@ Calibration ReadCalibration(const std::string& path) {
     r.Fail("model", "unknown model '" + model + "' (expected sphere or conic)");
   }
   c.units = r.String(n, "units", "units", "cm");
-  s.image_width = r.Int(n, "image_width", "image_width");
-  s.image_height = r.Int(n, "image_height", "image_height");
+  s.image_width = r.Int(n, "image_width", "image_width", 1, kMaxImageSide);
+  s.image_height = r.Int(n, "image_height", "image_height", 1, kMaxImageSide);
+  if (static_cast<long long>(s.image_width) * s.image_height > kMaxImagePixels)
+    r.Fail("image_width/image_height",
+           "image of " + std::to_string(s.image_width) + " x " + std::to_string(s.image_height) +
+               " pixels: more than the limit of " + std::to_string(kMaxImagePixels) + " pixels");
   SensorParams<double>& p = s.params;
   p.focal_px = r.Double(n, "focal_px", "focal_px");
   p.cx = r.Double(n, "cx", "cx");
@@ -51,58 +67,84 @@ Calibration ReadCalibration(const std::string& path) {
     c.lut = r.String(n, "lut", "lut");
     c.lut_resolved = JoinPath(DirName(path), c.lut);
   }
-  static const char* kKnown[] = {"model", "units", "image_width", "image_height", "focal_px", "cx",
-                                 "cy", "aspect", "azimuth_offset", "k1", "k2", "rim_radius",
-                                 "mirror_radius", "mirror_distance", "curvature_radius",
-                                 "conic_constant", "vertex_distance", "lut"};
+  // Keys of later versions and panocalib's statistics: numbers are kept, the rest ignored.
   for (const auto& kv : n) {
-    const std::string key = kv.first.as<std::string>();
-    bool known = false;
-    for (const char* k : kKnown) known = known || key == k;
+    const std::string key = kv.first.Scalar();
     double d;
-    if (!known && kv.second.IsScalar() && YAML::convert<double>::decode(kv.second, d))
+    if (!IsKnownKey(key) && kv.second.IsScalar() && YAML::convert<double>::decode(kv.second, d))
       c.extras[key] = d;
   }
   return c;
 }
 
+// The mirror_distance written for a sphere: the double nearest
+// vertex_distance + radius that reads back (mirror_distance - mirror_radius)
+// as the same vertex_distance, so that a calibration round-trips exactly.
+double SphereDistanceToWrite(const SensorParams<double>& p) {
+  const double radius = p.curvature_radius, vertex = p.vertex_distance;
+  const double sum = vertex + radius;
+  if (sum - radius == vertex) return sum;
+  double up = sum, down = sum;
+  for (int step = 0; step < 4; ++step) {
+    up = std::nextafter(up, HUGE_VAL);
+    down = std::nextafter(down, -HUGE_VAL);
+    if (up - radius == vertex) return up;
+    if (down - radius == vertex) return down;
+  }
+  return sum;
+}
+
+void CheckExtras(const Calibration& c, const std::string& what) {
+  for (const auto& kv : c.extras)
+    if (IsKnownKey(kv.first))
+      throw Error(what + ": extra key '" + kv.first + "' would repeat a calibration key");
+}
+
+}  // namespace
+
+Calibration ReadCalibration(const std::string& path) {
+  const YAML::Node root = YamlReader::LoadFile(path);
+  return GuardYaml(path, [&] { return ParseCalibration(path, root); });
+}
+
 std::string CalibrationToYaml(const Calibration& c) {
+  CheckExtras(c, "calibration");
   const Sensor& s = c.sensor;
   const SensorParams<double>& p = s.params;
-  std::ostringstream o;
-  if (!c.comment.empty()) {
-    std::istringstream lines(c.comment);
-    for (std::string line; std::getline(lines, line);) o << "# " << line << "\n";
-  }
-  o << "model: " << mirror_model_name(s.model) << "\n";
-  o << "units: " << c.units << "\n";
-  o << "image_width: " << s.image_width << "\n";
-  o << "image_height: " << s.image_height << "\n";
-  o << "focal_px: " << YamlDouble(p.focal_px) << "\n";
-  o << "cx: " << YamlDouble(p.cx) << "\n";
-  o << "cy: " << YamlDouble(p.cy) << "\n";
-  o << "aspect: " << YamlDouble(p.aspect) << "\n";
+  YamlWriter w;
+  if (!c.comment.empty()) w.Comment(c.comment);
+  w.BeginMap();
+  w.Key("model").String(mirror_model_name(s.model));
+  w.Key("units").String(c.units);
+  w.Key("image_width").Int(s.image_width);
+  w.Key("image_height").Int(s.image_height);
+  w.Key("focal_px").Double(p.focal_px);
+  w.Key("cx").Double(p.cx);
+  w.Key("cy").Double(p.cy);
+  w.Key("aspect").Double(p.aspect);
   if (s.model == MirrorModel::kSphere) {
-    o << "mirror_radius: " << YamlDouble(s.mirror_radius()) << "\n";
-    o << "mirror_distance: " << YamlDouble(s.mirror_distance()) << "\n";
+    w.Key("mirror_radius").Double(s.mirror_radius());
+    w.Key("mirror_distance").Double(SphereDistanceToWrite(p));
   } else {
-    o << "curvature_radius: " << YamlDouble(p.curvature_radius) << "\n";
-    o << "conic_constant: " << YamlDouble(p.conic_constant) << "\n";
-    o << "vertex_distance: " << YamlDouble(p.vertex_distance) << "\n";
+    w.Key("curvature_radius").Double(p.curvature_radius);
+    w.Key("conic_constant").Double(p.conic_constant);
+    w.Key("vertex_distance").Double(p.vertex_distance);
   }
-  o << "azimuth_offset: " << YamlDouble(p.azimuth_offset) << "\n";
+  w.Key("azimuth_offset").Double(p.azimuth_offset);
   if (p.k1 != 0.0 || p.k2 != 0.0) {
-    o << "k1: " << YamlDouble(p.k1) << "\n";
-    o << "k2: " << YamlDouble(p.k2) << "\n";
+    w.Key("k1").Double(p.k1);
+    w.Key("k2").Double(p.k2);
   }
-  if (p.rim_radius > 0.0) o << "rim_radius: " << YamlDouble(p.rim_radius) << "\n";
-  if (!c.lut.empty()) o << "lut: " << c.lut << "\n";
-  for (const auto& kv : c.extras) o << kv.first << ": " << YamlDouble(kv.second) << "\n";
-  return o.str();
+  if (p.rim_radius > 0.0) w.Key("rim_radius").Double(p.rim_radius);
+  if (!c.lut.empty()) w.Key("lut").String(c.lut);
+  for (const auto& kv : c.extras) w.Key(kv.first).Double(kv.second);
+  w.EndMap();
+  return w.Text();
 }
 
 void WriteCalibration(const std::string& path, const Calibration& c) {
   c.sensor.Check(path);
+  CheckExtras(c, path);
   WriteFileAtomic(path, CalibrationToYaml(c));
 }
 

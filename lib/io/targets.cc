@@ -1,7 +1,5 @@
 #include "io/targets.h"
 
-#include <sstream>
-
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "io/yaml_util.h"
@@ -15,14 +13,14 @@ bool TargetSet::AllPosesKnown() const {
   return true;
 }
 
-TargetSet ReadTargets(const std::string& path) {
-  YamlReader r(path, YamlReader::LoadFile(path));
-  const YAML::Node& n = r.root();
+namespace {
+
+TargetSet ParseTargets(const std::string& path, const YAML::Node& n) {
+  YamlReader r(path, n);
   TargetSet t;
   t.units = r.String(n, "units", "units", "cm");
-  if (!r.Has(n, "board") || !n["board"].IsMap())
-    r.Fail("board", "missing (expected a mapping with type, cols, rows, square)");
-  const YAML::Node b = n["board"];
+  if (!r.Has(n, "board")) r.Fail("board", "missing (expected a mapping with type, cols, rows, square)");
+  const YAML::Node b = r.Map(n, "board", "board", "a mapping with type, cols, rows, square");
   t.board.type = r.String(b, "type", "board.type", "chessboard");
   if (t.board.type != "chessboard")
     r.Fail("board.type", "unknown board type '" + t.board.type + "' (expected chessboard)");
@@ -31,42 +29,69 @@ TargetSet ReadTargets(const std::string& path) {
   t.board.square = r.Double(b, "square", "board.square");
   if (t.board.cols < 2 || t.board.rows < 2)
     r.Fail("board", "expected at least 2 x 2 inner corners");
+  if (t.board.cols > kMaxBoardCorners || t.board.rows > kMaxBoardCorners)
+    r.Fail("board", "expected at most " + std::to_string(kMaxBoardCorners) +
+                        " inner corners along a side, got " + std::to_string(t.board.cols) + " x " +
+                        std::to_string(t.board.rows));
   if (!(t.board.square > 0.0)) r.Fail("board.square", "expected a positive square size");
-  if (!r.Has(n, "images") || !n["images"].IsSequence() || n["images"].size() == 0)
-    r.Fail("images", "missing or empty (expected a list of {file, rvec?, tvec?})");
-  const YAML::Node list = n["images"];
+  if (!r.Has(n, "images")) r.Fail("images", "missing or empty (expected a list of {file, rvec?, tvec?})");
+  const YAML::Node list = r.List(n, "images", "images", "a list of {file, rvec?, tvec?}");
+  if (list.size() == 0) r.Fail("images", "missing or empty (expected a list of {file, rvec?, tvec?})");
   const std::string dir = DirName(path);
   for (size_t i = 0; i < list.size(); ++i) {
     const std::string p = "images[" + std::to_string(i) + "]";
-    if (!list[i].IsMap()) r.Fail(p, "expected a mapping with file, rvec?, tvec?");
+    const YAML::Node im_node = list[i];
+    if (!im_node.IsMap())
+      r.Fail(p, "expected a mapping with file, rvec?, tvec?, got " + DescribeNode(im_node));
     TargetImage im;
-    im.file = r.String(list[i], "file", p + ".file");
+    im.file = r.String(im_node, "file", p + ".file");
     im.resolved = JoinPath(dir, im.file);
-    const bool has_r = r.Has(list[i], "rvec"), has_t = r.Has(list[i], "tvec");
+    const bool has_r = r.Has(im_node, "rvec"), has_t = r.Has(im_node, "tvec");
     if (has_r != has_t) r.Fail(p, "give both rvec and tvec, or neither");
     if (has_r) {
       im.has_pose = true;
-      im.rvec = r.Vector<3>(list[i], "rvec", p + ".rvec");
-      im.tvec = r.Vector<3>(list[i], "tvec", p + ".tvec");
+      im.rvec = r.Vector<3>(im_node, "rvec", p + ".rvec");
+      im.tvec = r.Vector<3>(im_node, "tvec", p + ".tvec");
     }
     t.images.push_back(im);
   }
   return t;
 }
 
-void WriteTargets(const std::string& path, const TargetSet& t, bool with_poses) {
-  std::ostringstream o;
-  o << "units: " << t.units << "\nboard:\n  type: " << t.board.type << "\n  cols: " << t.board.cols
-    << "\n  rows: " << t.board.rows << "\n  square: " << YamlDouble(t.board.square) << "\nimages:\n";
-  auto v3 = [](const std::array<double, 3>& v) {
-    return "[" + YamlDouble(v[0]) + ", " + YamlDouble(v[1]) + ", " + YamlDouble(v[2]) + "]";
-  };
+}  // namespace
+
+TargetSet ReadTargets(const std::string& path) {
+  const YAML::Node root = YamlReader::LoadFile(path);
+  return GuardYaml(path, [&] { return ParseTargets(path, root); });
+}
+
+std::string TargetsToYaml(const TargetSet& t, bool with_poses) {
+  YamlWriter w;
+  w.BeginMap();
+  w.Key("units").String(t.units);
+  w.Key("board").BeginMap();
+  w.Key("type").String(t.board.type);
+  w.Key("cols").Int(t.board.cols);
+  w.Key("rows").Int(t.board.rows);
+  w.Key("square").Double(t.board.square);
+  w.EndMap();
+  w.Key("images").BeginList();
   for (const TargetImage& im : t.images) {
-    o << "  - file: " << im.file << "\n";
-    if (with_poses && im.has_pose)
-      o << "    rvec: " << v3(im.rvec) << "\n    tvec: " << v3(im.tvec) << "\n";
+    w.BeginMap();
+    w.Key("file").String(im.file);
+    if (with_poses && im.has_pose) {
+      w.Key("rvec").Numbers({im.rvec[0], im.rvec[1], im.rvec[2]});
+      w.Key("tvec").Numbers({im.tvec[0], im.tvec[1], im.tvec[2]});
+    }
+    w.EndMap();
   }
-  WriteFileAtomic(path, o.str());
+  w.EndList();
+  w.EndMap();
+  return w.Text();
+}
+
+void WriteTargets(const std::string& path, const TargetSet& t, bool with_poses) {
+  WriteFileAtomic(path, TargetsToYaml(t, with_poses));
 }
 
 }  // namespace pano

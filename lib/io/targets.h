@@ -8,6 +8,10 @@
 
 namespace pano {
 
+// Inner corners a board may have along each side; more are taken for a
+// corrupt file rather than allocated.
+constexpr int kMaxBoardCorners = 1000;
+
 struct TargetBoard {
   std::string type = "chessboard";
   int cols = 0;  // inner corners along the board's x axis
@@ -34,5 +38,6 @@ struct TargetSet {
 TargetSet ReadTargets(const std::string& path);
 // Writes atomically; `with_poses` false leaves rvec/tvec out.
 void WriteTargets(const std::string& path, const TargetSet& set, bool with_poses = true);
+std::string TargetsToYaml(const TargetSet& set, bool with_poses = true);
 
 }  // namespace pano

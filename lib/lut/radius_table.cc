@@ -20,8 +20,15 @@ constexpr char kMagic[8] = {'P', 'A', 'N', 'O', 'L', 'U', 'T', '\0'};
 constexpr uint32_t kVersion = 1;
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
-uint64_t Fnv1a64(const uint8_t* data, size_t n) {
-  uint64_t h = 1469598103934665603ULL;
+constexpr uint64_t kFnvBasis = 1469598103934665603ULL;
+// Image sizes a table may record: those a calibration file may declare (io/calibration.h).
+constexpr int kMaxImageSide = 32768;
+constexpr long long kMaxImagePixels = 16384LL * 16384LL;
+constexpr int kMaxAxisNodes = 100000;
+
+// FNV-1a over `data`, continuing from `h` (a checksum computed piece by piece).
+uint64_t Fnv1a64(const void* bytes, size_t n, uint64_t h = kFnvBasis) {
+  const uint8_t* data = static_cast<const uint8_t*>(bytes);
   for (size_t i = 0; i < n; ++i) {
     h ^= data[i];
     h *= 1099511628211ULL;
@@ -223,33 +230,76 @@ void RadiusTable::Save(const std::string& path) const {
   WriteFileAtomic(path, blob);
 }
 
-RadiusTable RadiusTable::Load(const std::string& path, const Sensor* expected) {
-  const std::string blob = ReadFile(path);
-  if (blob.size() < sizeof(Header) + sizeof(uint64_t))
-    throw Error(path + ": truncated lookup table (" + std::to_string(blob.size()) + " bytes)");
-  Header h;
-  std::memcpy(&h, blob.data(), sizeof h);
-  if (std::memcmp(h.magic, kMagic, 8) != 0)
-    throw Error(path + ": not a panotrack lookup table (bad magic)");
+namespace {
+
+// Checks what a header declares before anything is allocated for it.
+void CheckHeader(const std::string& path, const Header& h) {
+  if (std::memcmp(h.magic, kMagic, 8) != 0) throw Error(path + ": not a panotrack lookup table (bad magic)");
   if (h.version != kVersion)
     throw Error(path + ": lookup table version " + std::to_string(h.version) + ", expected " +
                 std::to_string(kVersion) + " (rebuild it with panocalib lut)");
-  RadiusTable t;
-  t.size_ = {h.n_distance, h.n_elevation, h.n_radius, h.n_height};
-  if (h.n_distance < 2 || h.n_elevation < 2 || h.n_radius < 2 || h.n_height < 2 ||
-      h.n_distance > 100000 || h.n_elevation > 100000 || h.n_radius > 100000 || h.n_height > 100000)
-    throw Error(path + ": corrupt lookup table header (table sizes)");
+  const int sizes[4] = {h.n_distance, h.n_elevation, h.n_radius, h.n_height};
+  LutSize size{h.n_distance, h.n_elevation, h.n_radius, h.n_height};
+  bool ok = true;
+  for (int n : sizes) ok = ok && n >= 2 && n <= kMaxAxisNodes;
+  try {
+    size.Check(path);
+  } catch (const Error&) {
+    ok = false;
+  }
+  if (!ok)
+    throw Error(path + ": corrupt lookup table header (table sizes " + std::to_string(h.n_distance) + " x " +
+                std::to_string(h.n_elevation) + " and " + std::to_string(h.n_radius) + " x " +
+                std::to_string(h.n_height) + ")");
+  if (h.model > 1) throw Error(path + ": corrupt lookup table header (model)");
+  if (h.image_width < 1 || h.image_width > kMaxImageSide || h.image_height < 1 ||
+      h.image_height > kMaxImageSide ||
+      static_cast<long long>(h.image_width) * h.image_height > kMaxImagePixels)
+    throw Error(path + ": corrupt lookup table header (image size " + std::to_string(h.image_width) + " x " +
+                std::to_string(h.image_height) + ")");
+}
+
+// Reads `n` floats into `out`, or fails naming the table's expected size.
+void ReadFloats(InputFile& in, size_t n, std::vector<float>* out, size_t* read_so_far, size_t want) {
+  out->resize(n);
+  const size_t got = in.Read(out->data(), n * sizeof(float));
+  *read_so_far += got;
+  if (got != n * sizeof(float))
+    throw Error(in.path() + ": truncated lookup table (" + std::to_string(*read_so_far) +
+                " bytes, expected " + std::to_string(want) + ")");
+}
+
+}  // namespace
+
+RadiusTable RadiusTable::Load(const std::string& path, const Sensor* expected) {
+  InputFile in(path);
+  Header h;
+  size_t read_so_far = in.Read(&h, sizeof h);
+  if (read_so_far < sizeof h)
+    throw Error(path + ": truncated lookup table (" + std::to_string(read_so_far) +
+                " bytes, shorter than its header)");
+  CheckHeader(path, h);
   const size_t n_fwd = static_cast<size_t>(h.n_distance) * h.n_elevation;
   const size_t n_inv = static_cast<size_t>(h.n_radius) * h.n_height;
   const size_t want = sizeof(Header) + (n_fwd + n_inv) * sizeof(float) + sizeof(uint64_t);
-  if (blob.size() != want)
-    throw Error(path + ": truncated or padded lookup table (" + std::to_string(blob.size()) +
+  if (in.size() >= 0 && static_cast<size_t>(in.size()) != want)
+    throw Error(path + ": truncated or padded lookup table (" + std::to_string(in.size()) +
                 " bytes, expected " + std::to_string(want) + ")");
-  uint64_t stored;
-  std::memcpy(&stored, blob.data() + want - sizeof stored, sizeof stored);
-  if (Fnv1a64(reinterpret_cast<const uint8_t*>(blob.data()), want - sizeof stored) != stored)
-    throw Error(path + ": corrupt lookup table (checksum mismatch)");
-  if (h.model > 1) throw Error(path + ": corrupt lookup table header (model)");
+  RadiusTable t;
+  ReadFloats(in, n_fwd, &t.forward_, &read_so_far, want);
+  ReadFloats(in, n_inv, &t.inverse_, &read_so_far, want);
+  uint64_t stored = 0;
+  if (in.Read(&stored, sizeof stored) != sizeof stored)
+    throw Error(path + ": truncated lookup table (expected " + std::to_string(want) + " bytes)");
+  char extra;
+  if (in.Read(&extra, 1) != 0)
+    throw Error(path + ": padded lookup table (more than the " + std::to_string(want) +
+                " bytes its header declares)");
+  uint64_t sum = Fnv1a64(&h, sizeof h);
+  sum = Fnv1a64(t.forward_.data(), n_fwd * sizeof(float), sum);
+  sum = Fnv1a64(t.inverse_.data(), n_inv * sizeof(float), sum);
+  if (sum != stored) throw Error(path + ": corrupt lookup table (checksum mismatch)");
+  t.size_ = {h.n_distance, h.n_elevation, h.n_radius, h.n_height};
   t.sensor_.model = static_cast<MirrorModel>(h.model);
   t.sensor_.image_width = h.image_width;
   t.sensor_.image_height = h.image_height;
@@ -264,11 +314,6 @@ RadiusTable RadiusTable::Load(const std::string& path, const Sensor* expected) {
     throw Error(path + ": lookup table was built for other sensor parameters than the calibration "
                        "(rebuild it with panocalib lut)");
   t.SetGeometry();
-  t.forward_.resize(n_fwd);
-  t.inverse_.resize(n_inv);
-  std::memcpy(t.forward_.data(), blob.data() + sizeof(Header), n_fwd * sizeof(float));
-  std::memcpy(t.inverse_.data(), blob.data() + sizeof(Header) + n_fwd * sizeof(float),
-              n_inv * sizeof(float));
   return t;
 }
 

@@ -8,7 +8,6 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
-#include <sstream>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
@@ -78,39 +77,39 @@ void StagingDir::Commit() {
   if (!old.empty()) fs::remove_all(old, ec);
 }
 
-namespace {
-
-std::string Quote(const std::string& s) {
-  std::string o = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') o += '\\';
-    o += c;
-  }
-  return o + "\"";
-}
-
-}  // namespace
-
 std::string CaseYaml(const SequenceCase& c, const std::string& codec) {
-  std::ostringstream o;
   const RenderOptions& r = c.options;
-  o << "# panosim test case: ground truth is gt.csv (spec section 5), map.yaml and calib.yaml.\n";
-  o << "preset: " << c.name << "\n";
-  o << "description: " << Quote(c.description) << "\n";
-  o << "units: " << c.map.units << "\n";
-  o << "frames: " << c.poses.size() << "\n";
-  o << "fps: " << YamlDouble(c.fps) << "\n";
-  o << "seed: " << r.seed << "\n";
-  o << "initial_pose:\n  x: " << YamlDouble(c.poses.front().x) << "\n  y: " << YamlDouble(c.poses.front().y)
-    << "\n  theta: " << YamlDouble(c.poses.front().theta) << "\n";
-  if (c.kidnap_frame >= 0) o << "kidnap_frame: " << c.kidnap_frame << "\n";
-  if (!codec.empty()) o << "video: video.mp4\nvideo_codec: " << codec << "\n";
-  o << "render:\n  supersample: " << r.supersample << "\n  noise_sigma: " << YamlDouble(r.noise_sigma)
-    << "\n  blur_3x3: " << (r.blur ? "true" : "false") << "\n  illumination: " << YamlDouble(r.illumination)
-    << "\n  gradient: " << YamlDouble(r.gradient) << "\n  gradient_angle: " << YamlDouble(r.gradient_angle)
-    << "\n  distractors: " << c.map.distractors.size() << "\n  camera_radius_px: " << YamlDouble(r.camera_radius_px)
-    << "\n";
-  return o.str();
+  YamlWriter w;
+  w.Comment("panosim test case: ground truth is gt.csv (spec section 5), map.yaml and calib.yaml.");
+  w.BeginMap();
+  w.Key("preset").String(c.name);
+  w.Key("description").String(c.description);
+  w.Key("units").String(c.map.units);
+  w.Key("frames").Int(static_cast<long long>(c.poses.size()));
+  w.Key("fps").Double(c.fps);
+  w.Key("seed").Unsigned(r.seed);
+  w.Key("initial_pose").BeginMap();
+  w.Key("x").Double(c.poses.front().x);
+  w.Key("y").Double(c.poses.front().y);
+  w.Key("theta").Double(c.poses.front().theta);
+  w.EndMap();
+  if (c.kidnap_frame >= 0) w.Key("kidnap_frame").Int(c.kidnap_frame);
+  if (!codec.empty()) {
+    w.Key("video").String("video.mp4");
+    w.Key("video_codec").String(codec);
+  }
+  w.Key("render").BeginMap();
+  w.Key("supersample").Int(r.supersample);
+  w.Key("noise_sigma").Double(r.noise_sigma);
+  w.Key("blur_3x3").Bool(r.blur);
+  w.Key("illumination").Double(r.illumination);
+  w.Key("gradient").Double(r.gradient);
+  w.Key("gradient_angle").Double(r.gradient_angle);
+  w.Key("distractors").Int(static_cast<long long>(c.map.distractors.size()));
+  w.Key("camera_radius_px").Double(r.camera_radius_px);
+  w.EndMap();
+  w.EndMap();
+  return w.Text();
 }
 
 SequenceWriteResult WriteSequence(const SequenceCase& c, const std::string& dir,

@@ -2,10 +2,12 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 
 #include "core/error.h"
+#include "core/test_fifo.h"
 #include "io/calibration.h"
 #include "io/map.h"
 #include "lut/radius_table.h"
@@ -166,6 +168,59 @@ TEST_CASE("table files: round trip, corrupt, truncated and mismatched files", "[
   Sensor other = s;
   other.params.focal_px += 1.0;
   expect_error(path, "other sensor parameters", &other);
+}
+
+TEST_CASE("table files that are folders, endless streams or lie about their size", "[bad_file]") {
+  const std::string dir = test::ScratchDir("lut_bad_file");
+  LutSize small;
+  small.n_distance = small.n_elevation = small.n_radius = small.n_height = 16;
+  const std::string path = dir + "/sensor.lut";
+  RadiusTable::Build(PaperSensor(), RoomRanges(), small).Save(path);
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  auto expect_error = [](const std::string& p, std::initializer_list<std::string> fragments) {
+    try {
+      RadiusTable::Load(p);
+      FAIL("loading " << p << " should have failed");
+    } catch (const Error& e) {
+      const std::string msg = e.what();
+      INFO(msg);
+      CHECK(msg.find(p) != std::string::npos);
+      CHECK(msg.find('\n') == std::string::npos);
+      for (const auto& f : fragments) CHECK(msg.find(f) != std::string::npos);
+    }
+  };
+  // The header's layout: sizes at byte 144 (four int32), image size at 16.
+  auto with_ints = [&](const std::string& name, size_t offset, std::initializer_list<int32_t> values) {
+    std::string b = bytes;
+    for (int32_t v : values) {
+      std::memcpy(&b[offset], &v, sizeof v);
+      offset += sizeof v;
+    }
+    std::ofstream(dir + "/" + name, std::ios::binary) << b;
+    return dir + "/" + name;
+  };
+  std::filesystem::create_directories(dir + "/folder.lut");
+  expect_error(dir + "/folder.lut", {"folder"});
+  // Sizes beyond the limits, or within them but larger than the file: refused
+  // from the header, before anything is allocated for them.
+  expect_error(with_ints("huge.lut", 144, {100000, 100000, 100000, 100000}),
+               {"table sizes", "100000 x 100000"});
+  expect_error(with_ints("negative.lut", 144, {-5, 16, 16, 16}), {"table sizes"});
+  expect_error(with_ints("large.lut", 144, {10000, 10000, 16, 16}),
+               {"truncated or padded", "expected 400001192"});
+  expect_error(with_ints("image.lut", 16, {200000, 200000}), {"image size", "200000 x 200000"});
+  if (std::filesystem::is_character_file("/dev/zero")) expect_error("/dev/zero", {"bad magic"});
+  if (std::filesystem::is_character_file("/dev/urandom")) expect_error("/dev/urandom", {"bad magic"});
+  {
+    // A whole valid table, then zeros without end: read as far as the header
+    // declares, then refused.
+    test::EndlessFifo fifo(dir + "/endless.lut", bytes, std::string(65536, '\0'));
+    expect_error(fifo.path(), {"padded", std::to_string(bytes.size()) + " bytes"});
+  }
 }
 
 TEST_CASE("ranges for a map cover the room seen from anywhere in it", "[ranges]") {
