@@ -81,7 +81,8 @@ FrameSource::FrameSource(const std::string& path, size_t prefetch_bytes, double 
   } else {
     OpenVideo(live_timeout_s);
   }
-  if (!ReadDirect(&first_) || first_.image.empty()) throw Error(name_ + ": no frames (empty or corrupt input)");
+  if (!ReadDirect(&first_) || first_.image.empty())
+    throw Error(name_ + ": no frames (empty or corrupt input)");
   const size_t frame_bytes = first_.image.total() * first_.image.elemSize();
   cv::Mat grey;
   ToGrey(first_.image, &grey);
@@ -89,7 +90,8 @@ FrameSource::FrameSource(const std::string& path, size_t prefetch_bytes, double 
   have_first_ = true;
   width_ = grey.cols;
   height_ = grey.rows;
-  capacity_ = static_cast<int>(std::clamp<size_t>(prefetch_bytes / std::max<size_t>(frame_bytes, 1), 8, 4096));
+  capacity_ =
+      static_cast<int>(std::clamp<size_t>(prefetch_bytes / std::max<size_t>(frame_bytes, 1), 8, 4096));
   if (!(fps_ > 0.0 && fps_ < 1e4)) fps_ = 0.0;
   worker_ = std::thread([this] { Decode(); });
 }
@@ -133,7 +135,8 @@ void FrameSource::OpenCamera() {
   std::error_code ec;
   if (!fs::exists(path_, ec)) throw Error(path_ + ": no such camera device");
   capture_.open(path_, cv::CAP_V4L2);
-  if (!capture_.isOpened()) throw Error(path_ + ": cannot open as a camera (no V4L2 capture device, or busy)");
+  if (!capture_.isOpened())
+    throw Error(path_ + ": cannot open as a camera (no V4L2 capture device, or busy)");
   fps_ = capture_.get(cv::CAP_PROP_FPS);
 }
 
@@ -196,9 +199,9 @@ bool FrameSource::ReadCapture(Frame* frame) {
   if (!capture_.read(frame->image) || frame->image.empty()) {
     if (camera_) throw Error(DecodeError(name_, captured_, "camera stopped delivering frames"));
     if (capture_expected_ > 0 && captured_ < capture_expected_)
-      throw Error(DecodeError(name_, captured_,
-                              "truncated or damaged file (container lists " + std::to_string(capture_expected_) +
-                                  " frames)"));
+      throw Error(DecodeError(
+          name_, captured_,
+          "truncated or damaged file (container lists " + std::to_string(capture_expected_) + " frames)"));
     return false;
   }
   const double ms = capture_.get(cv::CAP_PROP_POS_MSEC);

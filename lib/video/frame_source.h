@@ -60,7 +60,7 @@ class FrameSource {
   bool Read(cv::Mat* grey, double* time_s);
   int width() const { return width_; }
   int height() const { return height_; }
-  double fps() const { return fps_; }    // 0 when unknown (image folders)
+  double fps() const { return fps_; }         // 0 when unknown (image folders)
   int frame_count() const { return count_; }  // -1 when unknown (and for live inputs)
 
  private:
@@ -73,11 +73,11 @@ class FrameSource {
   bool ReadDirect(Frame* frame);  // the next frame as decoded
   bool ReadCapture(Frame* frame);
   void Decode();
-  std::string path_, name_;  // name_: how errors name the input
+  std::string path_, name_;            // name_: how errors name the input
   std::unique_ptr<LumaDecoder> luma_;  // videos and streams with a luma plane
   cv::VideoCapture capture_;           // other videos, and cameras
   bool camera_ = false;
-  long captured_ = 0;          // frames read through capture_
+  long captured_ = 0;           // frames read through capture_
   long capture_expected_ = -1;  // frames capture_ must deliver; -1 unknown
   double first_capture_ms_ = 0.0;
   std::vector<std::string> files_;  // folder or pattern input

@@ -108,7 +108,8 @@ struct LumaDecoder::Impl {
   }
 
   std::string Truncated() const {
-    if (listed_frames > 0) return "truncated file (container lists " + std::to_string(listed_frames) + " frames)";
+    if (listed_frames > 0)
+      return "truncated file (container lists " + std::to_string(listed_frames) + " frames)";
     return "truncated file (its last packet is cut short)";
   }
 
@@ -176,7 +177,8 @@ struct LumaDecoder::Impl {
       const int64_t start = format->start_time != AV_NOPTS_VALUE ? format->start_time : 0;
       const double listed_s = format->duration / 1e6, reached_s = (data_end - start) / 1e6;
       if (reached_s < listed_s - kDurationSlackS)
-        Fail(Format("truncated or damaged file (container lists %.2f s, ", listed_s) + Format("data ends at %.2f s)", reached_s));
+        Fail(Format("truncated or damaged file (container lists %.2f s, ", listed_s) +
+             Format("data ends at %.2f s)", reached_s));
     }
   }
 

@@ -15,11 +15,14 @@ namespace {
 
 constexpr int kFrames = 62;
 
-bool Contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+bool Contains(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
 
 // The frames before the error are 0, 1, ..., k-1 and the error names the
 // input and frame k, with the expected reason.
-void CheckFailsAfterGoodFrames(const std::string& path, const test::ReadOutcome& r, const std::string& reason) {
+void CheckFailsAfterGoodFrames(const std::string& path, const test::ReadOutcome& r,
+                               const std::string& reason) {
   INFO(path << ": " << r.error);
   const int k = static_cast<int>(r.indices.size());
   CHECK(r.indices == test::Iota(k));
@@ -56,7 +59,8 @@ TEST_CASE("clean videos of several encodings end without an error", "[clean]") {
     CHECK(r.frame_count == e.listed);
     CHECK(FrameSource::FrameCount(path) == e.listed);
     REQUIRE(r.times.size() == r.indices.size());
-    for (size_t i = 0; i < r.times.size(); ++i) CHECK(r.times[i] == Approx(i / test::kFrameRate).margin(1e-3));
+    for (size_t i = 0; i < r.times.size(); ++i)
+      CHECK(r.times[i] == Approx(i / test::kFrameRate).margin(1e-3));
   }
 }
 
@@ -84,7 +88,8 @@ TEST_CASE("a truncated video fails after its last good frame", "[truncated]") {
   test::MakeVideo(dir + "/a.mkv", kFrames, "-c:v libx264 -pix_fmt yuv420p");
   test::CutFile(dir + "/a.mkv", dir + "/a_half.mkv", 0.5);
   r = test::ReadAll(dir + "/a_half.mkv");
-  CheckFailsAfterGoodFrames(dir + "/a_half.mkv", r, "truncated or damaged file (container lists 2.48 s, data ends at ");
+  CheckFailsAfterGoodFrames(dir + "/a_half.mkv", r,
+                            "truncated or damaged file (container lists 2.48 s, data ends at ");
   CHECK(r.indices.size() > 10);
 
   // AVI keeps its frame count in the header.
@@ -137,7 +142,8 @@ TEST_CASE("videos without a luma plane go through cv::VideoCapture with the same
     CHECK(r.error.empty());
     CHECK(r.indices == test::Iota(kFrames));
     CHECK(r.frame_count == kFrames);
-    for (size_t i = 0; i < r.times.size(); ++i) CHECK(r.times[i] == Approx(i / test::kFrameRate).margin(1e-3));
+    for (size_t i = 0; i < r.times.size(); ++i)
+      CHECK(r.times[i] == Approx(i / test::kFrameRate).margin(1e-3));
 
     const std::string half = dir + "/half_" + std::filesystem::path(path).filename().string();
     test::CutFile(path, half, 0.5);
@@ -167,13 +173,15 @@ TEST_CASE("an unreadable image in a folder or a pattern is an error after the go
   // Numbering from 1, and a pattern that is not one integer conversion.
   std::filesystem::create_directories(dir + "/from1");
   for (int i = 1; i <= 3; ++i)
-    REQUIRE(cv::imwrite(dir + "/from1/g_" + std::to_string(1000 + i).substr(1) + ".pgm", test::CodedFrame(i)));
+    REQUIRE(
+        cv::imwrite(dir + "/from1/g_" + std::to_string(1000 + i).substr(1) + ".pgm", test::CodedFrame(i)));
   r = test::ReadAll(dir + "/from1/g_%03d.pgm");
   CHECK(r.error.empty());
   CHECK(r.indices == std::vector<int>{1, 2, 3});
   CHECK(r.frame_count == 3);
   r = test::ReadAll(dir + "/from1/g_%s.pgm");
-  CHECK(r.error == dir + "/from1/g_%s.pgm: unsupported pattern (one %d conversion expected, e.g. frame_%04d.png)");
+  CHECK(r.error ==
+        dir + "/from1/g_%s.pgm: unsupported pattern (one %d conversion expected, e.g. frame_%04d.png)");
   for (double t : r.times) CHECK(std::isnan(t));
 }
 

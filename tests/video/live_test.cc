@@ -1,7 +1,6 @@
 // Standard input, streams and cameras: read as they arrive, no frame count,
 // and a dead input fails with a one-line error instead of hanging.
 #include <arpa/inet.h>
-#include <catch2/catch.hpp>
 #include <netinet/in.h>
 #include <signal.h>
 #include <spawn.h>
@@ -9,6 +8,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <catch2/catch.hpp>
 #include <cerrno>
 #include <filesystem>
 #include <thread>
@@ -26,7 +26,9 @@ namespace {
 
 constexpr int kFrames = 50;
 
-bool Contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+bool Contains(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
 
 // A loopback port of the given socket type, bound by the returned socket
 // (close it to free the port). A TCP socket bound but not listening refuses
@@ -60,7 +62,8 @@ class StdinFeed {
     writer_ = std::thread([this] {
       size_t done = 0;
       while (done < bytes_.size()) {
-        const ssize_t n = write(write_fd_, bytes_.data() + done, std::min<size_t>(bytes_.size() - done, 4096));
+        const ssize_t n =
+            write(write_fd_, bytes_.data() + done, std::min<size_t>(bytes_.size() - done, 4096));
         if (n < 0 && errno == EINTR) continue;
         if (n <= 0) break;
         done += static_cast<size_t>(n);
@@ -97,7 +100,8 @@ TEST_CASE("standard input is read as a stream to its clean end", "[stdin]") {
     CHECK(r.error.empty());
     CHECK(r.frame_count == -1);
     CHECK(r.indices == test::Iota(kFrames));
-    for (size_t i = 0; i < r.times.size(); ++i) CHECK(r.times[i] == Approx(i / test::kFrameRate).margin(1e-3));
+    for (size_t i = 0; i < r.times.size(); ++i)
+      CHECK(r.times[i] == Approx(i / test::kFrameRate).margin(1e-3));
   }
   // Damaged data on standard input is an error like in a file.
   test::ScribbleFile(dir + "/a.ts", dir + "/damaged.ts", 0.5, 300);
@@ -126,8 +130,8 @@ TEST_CASE("a UDP stream on loopback is followed until it stops", "[udp]") {
   // The sender paces the stream in real time; the receiver opens at once, so
   // at most its first frames are missed.
   const std::string input = dir + "/a.ts", output = url + "?pkt_size=1316";
-  std::vector<std::string> args = {"ffmpeg", "-hide_banner", "-loglevel", "error", "-nostdin", "-re", "-i",
-                                   input, "-c", "copy", "-f", "mpegts", output};
+  std::vector<std::string> args = {"ffmpeg", "-hide_banner", "-loglevel", "error", "-nostdin", "-re",
+                                   "-i", input, "-c", "copy", "-f", "mpegts", output};
   std::vector<char*> argv;
   for (std::string& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);

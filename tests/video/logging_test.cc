@@ -54,7 +54,8 @@ TEST_CASE("decoders stay quiet unless verbose", "[quiet]") {
   test::MakeVideo(dir + "/bgr.avi", 40, "-c:v rawvideo -pix_fmt bgr24");
   test::CutFile(dir + "/bgr.avi", dir + "/bgr_half.avi", 0.5);
   std::filesystem::create_directories(dir + "/frames");
-  for (int i = 0; i < 3; ++i) REQUIRE(cv::imwrite(dir + "/frames/f" + std::to_string(i) + ".png", test::CodedFrame(i)));
+  for (int i = 0; i < 3; ++i)
+    REQUIRE(cv::imwrite(dir + "/frames/f" + std::to_string(i) + ".png", test::CodedFrame(i)));
   test::WriteFileBytes(dir + "/frames/f3.png", "not a png image");
   const std::vector<std::string> bad = {dir + "/damaged.mp4", dir + "/no_index.mp4", dir + "/bgr_half.avi",
                                         dir + "/frames/f%d.png", "/dev/video9", "tcp://127.0.0.1:1"};

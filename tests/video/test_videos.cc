@@ -20,9 +20,11 @@ cv::Mat CodedFrame(int index) {
   for (int y = 0; y < kFrameHeight; ++y)
     for (int x = 0; x < kFrameWidth; ++x) {
       uchar v;
-      if (y < kFrameHeight / 2) v = ((index >> (x / kStripeWidth)) & 1) ? 255 : 0;
-      else v = static_cast<uchar>((uint32_t(x) * 7919u + uint32_t(y) * 104729u + uint32_t(index) * 15485863u) *
-                                  2654435761u >> 24);
+      if (y < kFrameHeight / 2)
+        v = ((index >> (x / kStripeWidth)) & 1) ? 255 : 0;
+      else
+        v = static_cast<uchar>(
+            (uint32_t(x) * 7919u + uint32_t(y) * 104729u + uint32_t(index) * 15485863u) * 2654435761u >> 24);
       f.at<uchar>(y, x) = v;
     }
   return f;
@@ -35,7 +37,7 @@ int FrameIndex(const cv::Mat& grey) {
     const cv::Rect centre(bit * kStripeWidth + 5, 10, kStripeWidth - 10, kFrameHeight / 2 - 20);
     const double mean = cv::mean(grey(centre))[0];
     if (mean > 200) index |= 1 << bit;
-    else if (mean > 55) return -1;
+    else if (mean > 55) return -1;  // neither black nor white
   }
   return index;
 }

@@ -39,7 +39,7 @@ void ScribbleFile(const std::string& from, const std::string& to, double fractio
 struct ReadOutcome {
   std::vector<int> indices;
   std::vector<double> times;
-  std::string error;  // "" for a clean end; also an error of the constructor
+  std::string error;     // "" for a clean end; also an error of the constructor
   int frame_count = -2;  // frame_count(); -2 when the constructor failed
 };
 ReadOutcome ReadAll(const std::string& path, double live_timeout_s = 10.0);

@@ -15,7 +15,8 @@ constexpr int kFrames = 40;
 // Irregular, increasing presentation times in milliseconds (gaps of 25 to
 // 435 ms), written by ffmpeg's setpts filter.
 int StampMs(int n) { return 5 * n * n + 40 * n + 20 * (n % 2); }
-const char* kVfrFilter = "-vf settb=1/1000,setpts='5*N*N+40*N+20*mod(N\\,2)' -fps_mode passthrough -enc_time_base 1/1000";
+const char* kVfrFilter =
+    "-vf settb=1/1000,setpts='5*N*N+40*N+20*mod(N\\,2)' -fps_mode passthrough -enc_time_base 1/1000";
 
 void CheckStamps(const std::string& path, const test::ReadOutcome& r) {
   INFO(path << ": " << r.error);
