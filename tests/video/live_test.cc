@@ -152,6 +152,9 @@ TEST_CASE("a UDP stream on loopback is followed until it stops", "[udp]") {
     return v;
   }());
   CHECK(r.indices.back() == kSent - 1);
+  REQUIRE(r.times.size() == r.indices.size());
+  for (size_t i = 0; i < r.times.size(); ++i)
+    CHECK(r.times[i] == Approx((r.indices[i] - first) / test::kFrameRate).margin(1e-3));
   // UDP has no end of stream: silence is reported once the frames are out.
   CHECK(r.error == url + ": decode error at frame " + std::to_string(r.indices.size()) + ": no data for 2 s");
 }
