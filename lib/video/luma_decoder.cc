@@ -172,7 +172,7 @@ struct LumaDecoder::Impl {
   void CheckComplete() {
     if (!pending.empty()) Fail(pending);
     if (listed_frames > 0 && packets_in < listed_frames) Fail(Truncated());
-    if (listed_frames <= 0 && timeout_us == 0 && format->duration > 0 &&
+    if (listed_frames <= 0 && format->duration > 0 &&
         format->duration_estimation_method != AVFMT_DURATION_FROM_BITRATE && data_end != AV_NOPTS_VALUE) {
       const int64_t start = format->start_time != AV_NOPTS_VALUE ? format->start_time : 0;
       const double listed_s = format->duration / 1e6, reached_s = (data_end - start) / 1e6;

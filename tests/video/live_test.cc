@@ -103,18 +103,21 @@ TEST_CASE("standard input is read as a stream to its clean end", "[stdin]") {
     for (size_t i = 0; i < r.times.size(); ++i)
       CHECK(r.times[i] == Approx(i / test::kFrameRate).margin(1e-3));
   }
-  // Damaged data on standard input is an error like in a file.
+  // Damaged or cut data on standard input is an error like in a file.
   test::ScribbleFile(dir + "/a.ts", dir + "/damaged.ts", 0.5, 300);
-  test::ReadOutcome r;
-  {
-    StdinFeed feed(test::ReadFileBytes(dir + "/damaged.ts"));
-    r = test::ReadAll("-");
+  test::CutFile(dir + "/a.mkv", dir + "/half.mkv", 0.5);
+  for (const char* name : {"/damaged.ts", "/half.mkv"}) {
+    test::ReadOutcome r;
+    {
+      StdinFeed feed(test::ReadFileBytes(dir + name));
+      r = test::ReadAll("-");
+    }
+    INFO(name << ": " << r.error);
+    const int k = static_cast<int>(r.indices.size());
+    CHECK(r.indices == test::Iota(k));
+    CHECK(k < kFrames);
+    CHECK(Contains(r.error, "standard input: decode error at frame " + std::to_string(k) + ": "));
   }
-  INFO(r.error);
-  const int k = static_cast<int>(r.indices.size());
-  CHECK(r.indices == test::Iota(k));
-  CHECK(k < kFrames);
-  CHECK(Contains(r.error, "standard input: decode error at frame " + std::to_string(k) + ": "));
 }
 
 TEST_CASE("a UDP stream on loopback is followed until it stops", "[udp]") {
