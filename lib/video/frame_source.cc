@@ -25,8 +25,10 @@ bool IsImageFile(const fs::path& p) {
 
 bool IsCamera(const std::string& path) { return path.rfind("/dev/video", 0) == 0; }
 
+// A file whose name holds a '%' is a file.
 bool IsPattern(const std::string& path) {
-  return !FrameSource::IsLive(path) && path.find('%') != std::string::npos;
+  std::error_code ec;
+  return !FrameSource::IsLive(path) && path.find('%') != std::string::npos && !fs::exists(path, ec);
 }
 
 // The files of a printf pattern with one integer conversion

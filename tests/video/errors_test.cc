@@ -62,6 +62,10 @@ TEST_CASE("clean videos of several encodings end without an error", "[clean]") {
     for (size_t i = 0; i < r.times.size(); ++i)
       CHECK(r.times[i] == Approx(i / test::kFrameRate).margin(1e-3));
   }
+  // A video whose name holds a '%' is no image pattern.
+  std::filesystem::copy_file(dir + "/x264.mp4", dir + "/x264_%d.mp4");
+  CHECK(test::ReadAll(dir + "/x264_%d.mp4").indices == test::Iota(kFrames));
+  CHECK(FrameSource::FrameCount(dir + "/x264_%d.mp4") == kFrames);
 }
 
 TEST_CASE("a truncated video fails after its last good frame", "[truncated]") {
