@@ -11,9 +11,12 @@ extern "C" {
 #include <libavutil/pixdesc.h>
 #include <libavutil/time.h>
 }
+#include <poll.h>
+#include <unistd.h>
 #endif
 
 #include <atomic>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -78,12 +81,45 @@ struct LumaDecoder::Impl {
   int64_t timeout_us = 0;
   std::atomic<int64_t> deadline_us{0};  // 0: none
   std::atomic<bool> aborted{false}, timed_out{false};
+  AVIOContext* stdin_io = nullptr;  // standard input, read by ReadStdin
 
   ~Impl() {
     if (frame) av_frame_free(&frame);
     if (packet) av_packet_free(&packet);
     if (codec) avcodec_free_context(&codec);
     if (format) avformat_close_input(&format);
+    if (stdin_io) {
+      av_freep(&stdin_io->buffer);
+      avio_context_free(&stdin_io);
+    }
+  }
+
+  // FFmpeg's pipe protocol blocks in read() regardless of the interrupt
+  // callback: standard input is read here instead, waiting with poll() in
+  // short steps so that a deadline or Abort() ends the wait.
+  static int ReadStdin(void* opaque, uint8_t* buf, int size) {
+    for (;;) {
+      if (Interrupt(opaque)) return AVERROR_EXIT;
+      pollfd in{0, POLLIN, 0};
+      const int ready = poll(&in, 1, 100);
+      if (ready < 0 && errno != EINTR) return AVERROR(errno);
+      if (ready <= 0) continue;
+      const ssize_t n = read(0, buf, static_cast<size_t>(size));
+      if (n > 0) return static_cast<int>(n);
+      if (n == 0) return AVERROR_EOF;
+      if (errno != EINTR && errno != EAGAIN) return AVERROR(errno);
+    }
+  }
+  bool UseStdin() {
+    constexpr int kBufferBytes = 1 << 16;
+    auto* buffer = static_cast<unsigned char*>(av_malloc(kBufferBytes));
+    if (buffer) stdin_io = avio_alloc_context(buffer, kBufferBytes, 0, this, &ReadStdin, nullptr, nullptr);
+    if (!stdin_io) {
+      av_free(buffer);
+      return false;
+    }
+    format->pb = stdin_io;
+    return true;
   }
 
   static int Interrupt(void* opaque) {
@@ -228,6 +264,10 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, double io_t
   }
   d.format->interrupt_callback.callback = &Impl::Interrupt;
   d.format->interrupt_callback.opaque = &d;
+  if (path == "-" && !d.UseStdin()) {
+    *reason = "out of memory";
+    return false;
+  }
   {
     DecoderErrorCapture ffmpeg_said;
     d.ArmTimeout();

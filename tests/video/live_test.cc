@@ -11,6 +11,7 @@
 #include <catch2/catch.hpp>
 #include <cerrno>
 #include <filesystem>
+#include <future>
 #include <thread>
 
 #include "core/error.h"
@@ -46,11 +47,12 @@ int BindLoopback(int type, int* port) {
   return fd;
 }
 
-// Makes `stream`'s bytes the process's standard input for the lifetime of
-// the object, written from a thread of its own.
+// Makes `bytes` the process's standard input for the lifetime of the
+// object, written from a thread of its own. With `hold_open` the writer keeps
+// the pipe open after the bytes, like a live producer that has gone silent.
 class StdinFeed {
  public:
-  explicit StdinFeed(const std::string& bytes) : bytes_(bytes) {
+  explicit StdinFeed(const std::string& bytes, bool hold_open = false) : bytes_(bytes) {
     signal(SIGPIPE, SIG_IGN);  // the reader may stop early
     int fds[2];
     REQUIRE(pipe(fds) == 0);
@@ -59,7 +61,8 @@ class StdinFeed {
     REQUIRE(dup2(fds[0], 0) == 0);
     close(fds[0]);
     write_fd_ = fds[1];
-    writer_ = std::thread([this] {
+    std::shared_future<void> released = release_.get_future().share();
+    writer_ = std::thread([this, hold_open, released] {
       size_t done = 0;
       while (done < bytes_.size()) {
         const ssize_t n =
@@ -68,18 +71,21 @@ class StdinFeed {
         if (n <= 0) break;
         done += static_cast<size_t>(n);
       }
+      if (hold_open) released.wait();
       close(write_fd_);
     });
   }
   ~StdinFeed() {
     dup2(saved_stdin_, 0);  // closes the pipe's read end: a blocked writer gives up
     close(saved_stdin_);
+    release_.set_value();
     writer_.join();
   }
 
  private:
   std::string bytes_;
   int saved_stdin_ = -1, write_fd_ = -1;
+  std::promise<void> release_;
   std::thread writer_;
 };
 
@@ -117,6 +123,38 @@ TEST_CASE("standard input is read as a stream to its clean end", "[stdin]") {
     CHECK(r.indices == test::Iota(k));
     CHECK(k < kFrames);
     CHECK(Contains(r.error, "standard input: decode error at frame " + std::to_string(k) + ": "));
+  }
+}
+
+TEST_CASE("standard input that goes silent times out, and closing does not wait for it", "[stdin]") {
+  if (!test::HaveFfmpegTool()) return test::Skip("no ffmpeg command-line tool");
+  const std::string dir = test::ScratchDir("video_stdin_silent");
+  // Long enough for FFmpeg's stream analysis to finish on the first half.
+  test::MakeVideo(dir + "/a.ts", 150, "-c:v libx264 -pix_fmt yuv420p -f mpegts");
+  const std::string bytes = test::ReadFileBytes(dir + "/a.ts");
+  const std::string first_half = bytes.substr(0, bytes.size() / 2 / 188 * 188);  // whole TS packets
+  test::ReadOutcome r;
+  {
+    StdinFeed feed(first_half, true);
+    r = test::ReadAll("-", 0.5);
+  }
+  INFO(r.error);
+  const int k = static_cast<int>(r.indices.size());
+  CHECK(k > 40);
+  CHECK(k < 150);
+  CHECK(r.indices == test::Iota(k));
+  CHECK(r.error == "standard input: decode error at frame " + std::to_string(k) + ": no data for 0.5 s");
+
+  // No timeout to speak of: the destructor itself must stop the read that
+  // waits for data (else this case never ends).
+  {
+    StdinFeed feed(first_half, true);
+    FrameSource source("-", size_t(64) << 20, 1e6);
+    cv::Mat grey;
+    for (int i = 0; i < 3; ++i) {
+      REQUIRE(source.Read(&grey));
+      CHECK(test::FrameIndex(grey) == i);
+    }
   }
 }
 
