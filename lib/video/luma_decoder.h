@@ -8,6 +8,7 @@
 // pano::Error "<input>: decode error at frame N: <why>" once the frames
 // decoded before it are out, where <why> is one of
 //   truncated file (container lists 62 frames)
+//   truncated file (its last packet is cut short)
 //   truncated or damaged file (container lists 2.48 s, data ends at 1.00 s)
 //   damaged packet in the container
 //   damaged frame (the decoder concealed errors in it)
