@@ -1,7 +1,5 @@
 // Standard input, streams and cameras: read as they arrive, no frame count,
 // and a dead input fails with a one-line error instead of hanging.
-#include <arpa/inet.h>
-#include <netinet/in.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/socket.h>
@@ -29,22 +27,6 @@ constexpr int kFrames = 50;
 
 bool Contains(const std::string& text, const std::string& part) {
   return text.find(part) != std::string::npos;
-}
-
-// A loopback port of the given socket type, bound by the returned socket
-// (close it to free the port). A TCP socket bound but not listening refuses
-// connections.
-int BindLoopback(int type, int* port) {
-  const int fd = socket(AF_INET, type, 0);
-  REQUIRE(fd >= 0);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  REQUIRE(bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) == 0);
-  socklen_t len = sizeof(addr);
-  REQUIRE(getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len) == 0);
-  *port = ntohs(addr.sin_port);
-  return fd;
 }
 
 // Makes `bytes` the process's standard input for the lifetime of the
@@ -164,7 +146,7 @@ TEST_CASE("a UDP stream on loopback is followed until it stops", "[udp]") {
   constexpr int kSent = 75;  // 3 s at 25 fps
   test::MakeVideo(dir + "/a.ts", kSent, "-c:v libx264 -pix_fmt yuv420p -g 10 -f mpegts");
   int port = 0;
-  close(BindLoopback(SOCK_DGRAM, &port));
+  close(test::BindLoopback(SOCK_DGRAM, &port));
   const std::string url = "udp://127.0.0.1:" + std::to_string(port);
   CHECK(FrameSource::FrameCount(url) == -1);  // not opened: nobody is sending yet
 
@@ -210,7 +192,7 @@ TEST_CASE("a missing camera fails at once with one line", "[camera]") {
 
 TEST_CASE("a dead stream URL fails with one line", "[url]") {
   int tcp_port = 0;
-  const int tcp = BindLoopback(SOCK_STREAM, &tcp_port);  // bound, not listening: refuses
+  const int tcp = test::BindLoopback(SOCK_STREAM, &tcp_port);  // bound, not listening: refuses
   for (const std::string& url : {"tcp://127.0.0.1:" + std::to_string(tcp_port),
                                  "http://127.0.0.1:" + std::to_string(tcp_port) + "/video.mp4"}) {
     CHECK(FrameSource::IsLive(url));
@@ -224,7 +206,7 @@ TEST_CASE("a dead stream URL fails with one line", "[url]") {
   close(tcp);
   // Nobody sends to this port: the open gives up after the timeout.
   int udp_port = 0;
-  const int udp = BindLoopback(SOCK_DGRAM, &udp_port);
+  const int udp = test::BindLoopback(SOCK_DGRAM, &udp_port);
   close(udp);
   const std::string url = "udp://127.0.0.1:" + std::to_string(udp_port);
   const test::ReadOutcome r = test::ReadAll(url, 0.5);

@@ -2,6 +2,7 @@
 // reach the caller as pano::Error.
 #include <catch2/catch.hpp>
 #include <fcntl.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -57,8 +58,11 @@ TEST_CASE("decoders stay quiet unless verbose", "[quiet]") {
   for (int i = 0; i < 3; ++i)
     REQUIRE(cv::imwrite(dir + "/frames/f" + std::to_string(i) + ".png", test::CodedFrame(i)));
   test::WriteFileBytes(dir + "/frames/f3.png", "not a png image");
+  int port = 0;
+  const int refusing = test::BindLoopback(SOCK_STREAM, &port);
   const std::vector<std::string> bad = {dir + "/damaged.mp4", dir + "/no_index.mp4", dir + "/bgr_half.avi",
-                                        dir + "/frames/f%d.png", "/dev/video9", "tcp://127.0.0.1:1"};
+                                        dir + "/frames/f%d.png", "/dev/video9",
+                                        "tcp://127.0.0.1:" + std::to_string(port)};
   std::vector<std::string> errors;
   auto read_all_bad = [&] {
     errors.clear();
@@ -82,6 +86,7 @@ TEST_CASE("decoders stay quiet unless verbose", "[quiet]") {
   SetDecoderLogging(true);
   const std::string verbose = TerminalOutputOf(dir, read_all_bad);
   SetDecoderLogging(false);
+  close(refusing);
   INFO(verbose);
   CHECK_FALSE(verbose.empty());
 }

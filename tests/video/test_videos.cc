@@ -1,5 +1,9 @@
 #include "test_videos.h"
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+
 #include <catch2/catch.hpp>
 #include <csignal>
 #include <cstdio>
@@ -105,6 +109,19 @@ ReadOutcome ReadAll(const std::string& path, double live_timeout_s) {
     out.error = e.what();
   }
   return out;
+}
+
+int BindLoopback(int type, int* port) {
+  const int fd = socket(AF_INET, type, 0);
+  REQUIRE(fd >= 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  REQUIRE(bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) == 0);
+  socklen_t len = sizeof(addr);
+  REQUIRE(getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len) == 0);
+  *port = ntohs(addr.sin_port);
+  return fd;
 }
 
 std::vector<int> Iota(int n) {

@@ -43,6 +43,11 @@ struct ReadOutcome {
   int frame_count = -2;  // frame_count(); -2 when the constructor failed
 };
 ReadOutcome ReadAll(const std::string& path, double live_timeout_s = 10.0);
+// A loopback port of the given socket type (SOCK_STREAM, SOCK_DGRAM), bound
+// by the returned socket (close it to free the port). A TCP socket bound but
+// not listening refuses connections.
+int BindLoopback(int type, int* port);
+
 // 0, 1, ..., n-1.
 std::vector<int> Iota(int n);
 
