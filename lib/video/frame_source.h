@@ -6,12 +6,13 @@
 // directly where FFmpeg allows (LumaDecoder), else through cv::VideoCapture;
 // cameras through cv::VideoCapture's V4L2 backend.
 //
-// An input that ends early is an error, not a short success: Read() hands out
-// every frame decoded before the problem, then throws pano::Error
-// "<input>: decode error at frame N: <why>" (N counts from 0: the frames
-// before it were handed out; the reasons are listed in luma_decoder.h, plus
-// "truncated or damaged file (container lists 62 frames)" on the
-// cv::VideoCapture path and "camera stopped delivering frames" for cameras).
+// An input that ends early or holds damaged data is an error, not a short
+// success: Read() hands out every frame decoded before the problem, then
+// throws pano::Error "<input>: decode error at frame N: <why>" (N counts from
+// 0: the frames before it were handed out; the reasons are listed in
+// luma_decoder.h, plus "truncated or damaged file (container lists 62
+// frames)" on the cv::VideoCapture path and "camera stopped delivering
+// frames" for cameras).
 #pragma once
 
 #include <condition_variable>
