@@ -3,6 +3,19 @@
 // VideoCapture does for every frame and the BGR -> grey conversion after it,
 // which together cost about as much as decoding a small H.264 frame. Videos
 // whose pixel format has no luma plane are left to cv::VideoCapture.
+//
+// A frame that cannot be decoded is an error, not the end: Read() throws
+// pano::Error "<input>: decode error at frame N: <why>" once the frames
+// decoded before it are out, where <why> is one of
+//   truncated file (container lists 62 frames)
+//   truncated file (its last packet is cut short)
+//   truncated or damaged file (container lists 2.48 s, data ends at 1.00 s)
+//   damaged packet in the container
+//   damaged frame (the decoder concealed errors in it)
+//   corrupt data (<FFmpeg's error text>)
+//   read failed (<FFmpeg's error text>)
+//   no data for 10 s
+//   pixel format <name> has no 8-bit luma plane
 #pragma once
 
 #include <memory>
@@ -18,22 +31,35 @@ class LumaDecoder {
   LumaDecoder(const LumaDecoder&) = delete;
   LumaDecoder& operator=(const LumaDecoder&) = delete;
 
-  // False (with the reason) when the file cannot be opened this way; the
-  // caller then falls back to cv::VideoCapture.
-  bool Open(const std::string& path, std::string* reason);
-  // Next frame's luma as CV_8UC1 (reusing *grey's buffer); false at the end.
-  bool Read(cv::Mat* grey);
+  // False (with the reason) when the input cannot be decoded this way; when
+  // container_opened() the caller can fall back to cv::VideoCapture. "-" is
+  // standard input. With io_timeout_s > 0 (streams), opening and every wait
+  // for data give up after that long instead of blocking for ever.
+  bool Open(const std::string& path, std::string* reason, double io_timeout_s = 0.0);
+  // Next frame's luma as CV_8UC1 (reusing *grey's buffer) and, when time_s is
+  // given, its presentation time in seconds from the first frame's; false at
+  // the clean end (or after Abort()). Throws pano::Error as above.
+  bool Read(cv::Mat* grey, double* time_s = nullptr);
+  // From another thread: makes a Read() blocked on input return false.
+  void Abort();
   double fps() const { return fps_; }
-  long frame_count() const { return frame_count_; }  // -1 when unknown
+  // Frames the container lists; -1 when unknown. Set as soon as the
+  // container is open, also when Open() then declines the pixel format.
+  long frame_count() const { return frame_count_; }
+  bool container_opened() const { return container_opened_; }
 
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
   double fps_ = 0.0;
   long frame_count_ = -1;
+  bool container_opened_ = false;
 };
 
 // True when this build can decode luma planes directly (FFmpeg found).
 bool LumaDecoderAvailable();
+
+// How errors name an input: "standard input" for "-", else the path itself.
+std::string InputName(const std::string& path);
 
 }  // namespace pano
