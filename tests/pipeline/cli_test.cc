@@ -139,12 +139,12 @@ TEST_CASE("panoloc exit codes: a folder that cannot be read, nothing tracked, a 
   }
   if (::geteuid() != 0) fs::permissions(dir + "/locked", fs::perms::owner_all);
   // Nothing tracked: exit 1 and the likely causes.
-  const std::string blank = test::BlankFolder(dir, 20);
+  const std::string blank = test::BlankFolder(dir, 10);
   test::RunResult r = test::Run(Panoloc(blank + " -o " + dir + "/blank.csv"), dir);
   INFO(r.out << r.err);
   CHECK(r.code == 1);
-  CHECK(r.out.find("20 frames, 0 ok") != std::string::npos);
-  CHECK(r.err.find("only 0 of 20 frames tracked") != std::string::npos);
+  CHECK(r.out.find("10 frames, 0 ok") != std::string::npos);
+  CHECK(r.err.find("only 0 of 10 frames tracked") != std::string::npos);
   CHECK(r.err.find("likely causes") != std::string::npos);
   // A folder whose 8th image is broken: 7 rows, exit 1, the summary says why.
   fs::create_directories(dir + "/cut");

@@ -74,7 +74,7 @@ TEST_CASE("an input that breaks off after some frames: its rows are kept, the ru
   CHECK(FilesIn(dir + "/out") == std::vector<std::string>{"dbg.mp4", "est.csv"});
 }
 
-TEST_CASE("a truncated video: the rows before the cut are kept, the run is incomplete", "[incomplete]") {
+TEST_CASE("a truncated video: the rows before the cut are kept, the run is incomplete", "[truncated]") {
   if (!test::HaveFfmpegTool()) return test::Skip("the ffmpeg tool is not installed");
   const test::SmallCase& c = test::GetSmallCase();
   const std::string dir = Scratch("pipeline_truncated");
@@ -111,18 +111,18 @@ TEST_CASE("a truncated video: the rows before the cut are kept, the run is incom
 
 TEST_CASE("nothing tracked: the run fails and suggests what to check", "[not_tracked]") {
   const std::string dir = Scratch("pipeline_not_tracked");
-  const std::string blank = test::BlankFolder(dir, 20);
+  const std::string blank = test::BlankFolder(dir, 10);
   const std::vector<VideoSummary> s = RunPanoloc(OneInput(blank, dir + "/est.csv"));
   REQUIRE(s.size() == 1);
   INFO(s[0].error);
   CHECK(s[0].end == VideoEnd::kNotTracked);
   CHECK_FALSE(s[0].ok);
-  CHECK(s[0].frames == 20);
+  CHECK(s[0].frames == 10);
   CHECK(s[0].n_ok == 0);
-  CHECK(s[0].error.find("only 0 of 20 frames tracked") != std::string::npos);
+  CHECK(s[0].error.find("only 0 of 10 frames tracked") != std::string::npos);
   for (const char* cause : {"calibration", "image size", "initial pose", "shades inverted", "map units"})
     CHECK(s[0].error.find(cause) != std::string::npos);
-  CHECK(ReadPoseCsv(dir + "/est.csv").size() == 20);  // the rows are there to look at
+  CHECK(ReadPoseCsv(dir + "/est.csv").size() == 10);  // the rows are there to look at
 }
 
 TEST_CASE("cancelled through the flag: the frame in progress ends the rows, outputs are finished",
