@@ -62,18 +62,19 @@ bool Report(const pano::VideoSummary& s, bool quiet, std::FILE* out) {
     if (!quiet) std::fprintf(out, "%s: not started (interrupted)\n", s.input.c_str());
     return false;
   }
-  std::string note;
-  if (s.end == VideoEnd::kIncomplete) note = " (incomplete: " + s.error + ")";
-  if (s.end == VideoEnd::kInterrupted) note = " (interrupted)";
+  std::string why;  // how the input ended early
+  if (s.end == VideoEnd::kIncomplete) why = "incomplete: " + s.error;
+  if (s.end == VideoEnd::kInterrupted) why = "interrupted";
   if (!quiet) {
+    const std::string note = why.empty() ? "" : " (" + why + ")";
     std::fprintf(out, "%s: %d frames, %d ok, %d lost, %.1f frames/s -> %s%s\n", s.input.c_str(), s.frames,
                  s.n_ok, s.n_lost, s.seconds > 0 ? s.frames / s.seconds : 0.0, s.output.c_str(), note.c_str());
     if (s.has_accuracy) std::fprintf(out, "  %s\n", pano::FormatAccuracy(s.accuracy, "units").c_str());
-  } else if (!note.empty()) {
-    std::fprintf(stderr, "panoloc: %s: %s\n", s.input.c_str(), note.substr(2, note.size() - 3).c_str());
+    std::fflush(out);
+  } else if (!why.empty()) {
+    std::fprintf(stderr, "panoloc: %s: %s\n", s.input.c_str(), why.c_str());
   }
   if (s.end == VideoEnd::kNotTracked) std::fprintf(stderr, "panoloc: %s\n", s.error.c_str());
-  std::fflush(out);
   return s.ok;
 }
 

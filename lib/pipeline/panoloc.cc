@@ -234,14 +234,14 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
   // map's edge heights only).
   res.ph_tables = MakeTrackingPhTables(res.table);
 
-  // Parallel across inputs, or across landmarks within one. Each input has
-  // a decoding thread of its own: leave it a core, since OpenMP's spinning
-  // barriers collapse when the cores are oversubscribed.
   const int threads = opt.num_threads > 0 ? opt.num_threads
                                           : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   const int n_jobs = std::clamp(opt.jobs > 0 ? opt.jobs : threads, 1, static_cast<int>(jobs.size()));
   VideoRunOptions run;
   run.localizer = opt.localizer;
+  // Parallel across inputs, or across landmarks within one. Each input has
+  // a decoding thread of its own: leave it a core, since OpenMP's spinning
+  // barriers collapse when the cores are oversubscribed.
   if (run.localizer.num_threads == 0) run.localizer.num_threads = std::max(1, threads / n_jobs - 1);
   run.fps = opt.fps;
   run.cancel = opt.cancel;
