@@ -178,11 +178,15 @@ class ProgressReporter {
     }
   }
   // Total frames of the inputs; -1 when one is live or cannot be counted.
-  // Never for live inputs: counting would consume a pipe or wait on a camera.
+  // Never for live inputs or FIFOs: counting would consume the stream or
+  // wait on a camera.
   long CountFrames() const {
     long total = 0;
     for (const std::string& in : inputs_) {
-      if (FrameSource::IsLive(in)) return -1;
+      std::error_code ec;
+      const fs::file_status st = fs::status(in, ec);
+      if (FrameSource::IsLive(in) || (fs::exists(st) && !fs::is_regular_file(st) && !fs::is_directory(st)))
+        return -1;
       int n = -1;
       try {
         n = FrameSource::FrameCount(in);
