@@ -180,9 +180,10 @@ class ProgressReporter {
   // Total frames of the inputs; -1 when one is live or cannot be counted.
   // Never for live inputs or FIFOs: counting would consume the stream or
   // wait on a camera.
-  long CountFrames() const {
+  long CountFrames() {
     long total = 0;
     for (const std::string& in : inputs_) {
+      if (Stopped()) return -1;  // the run ended while counting
       std::error_code ec;
       const fs::file_status st = fs::status(in, ec);
       if (FrameSource::IsLive(in) || (fs::exists(st) && !fs::is_regular_file(st) && !fs::is_directory(st)))
@@ -196,6 +197,11 @@ class ProgressReporter {
       total += n;
     }
     return total;
+  }
+
+  bool Stopped() {
+    std::lock_guard<std::mutex> lock(mu_);
+    return stop_;
   }
 
   ProgressCallback callback_;
