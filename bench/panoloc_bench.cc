@@ -6,8 +6,6 @@
 // tools/bench_panoloc.sh prints the ratio.
 #include <benchmark/benchmark.h>
 
-#include <omp.h>
-
 #include <algorithm>
 #include <filesystem>
 #include <thread>
@@ -57,21 +55,24 @@ BENCHMARK(BM_DecodeOnly)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(
 
 void BM_Panoloc(benchmark::State& state) {
   const Fixture& f = Get();
-  const pano::Map map = pano::ReadMap(f.dir + "/map.yaml");
-  pano::PanolocOptions o;
-  o.inputs = {f.dir + "/video.mp4"};
-  o.output = f.dir + "/est.csv";
-  o.calib_path = f.dir + "/calib.yaml";
-  o.map_path = f.dir + "/map.yaml";
-  o.quiet = true;
+  pano::SharedResources res;
+  res.calib = f.c.calib;
+  res.calib_path = f.dir + "/calib.yaml";
+  res.map = pano::ReadMap(f.dir + "/map.yaml");
+  res.table = f.table;
+  res.ph_tables = f.ph_tables;
+  pano::VideoJob job;
+  job.input = f.dir + "/video.mp4";
+  job.output = f.dir + "/est.csv";
+  job.init = f.c.poses.front();
+  job.gt = f.dir + "/gt.csv";
+  pano::VideoRunOptions run;
   // As panoloc does for one video: one core is left to the decoding thread.
-  omp_set_num_threads(std::max(1, static_cast<int>(std::thread::hardware_concurrency()) - 1));
+  run.localizer.num_threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()) - 1);
   long frames = 0;
   double rms = 0;
   for (auto _ : state) {
-    const pano::VideoSummary s = pano::LocalizeVideo(o.inputs[0], o.output, f.c.calib, map, f.table, o,
-                                                     f.c.poses.front(), f.dir + "/gt.csv", "", "", nullptr,
-                                                     f.ph_tables);
+    const pano::VideoSummary s = pano::LocalizeVideo(job, res, run);
     if (!s.ok) state.SkipWithError(s.error.c_str());
     frames += s.frames;
     rms = s.accuracy.rms;

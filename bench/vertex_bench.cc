@@ -56,30 +56,31 @@ BENCHMARK(BM_DecodeOnly)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(
 void BM_Panoloc(benchmark::State& state) {
   const std::string dir = CaseDir();
   if (dir.empty()) return state.SkipWithError("set PANO_BENCH_CASE to a panosim case folder");
-  pano::PanolocOptions o;
-  o.inputs = {dir + "/video.mp4"};
-  o.calib_path = dir + "/calib.yaml";
-  o.map_path = dir + "/map.yaml";
-  o.quiet = true;
-  o.localizer.method = state.range(0) ? pano::TrackingMethod::kVertex : pano::TrackingMethod::kJunction;
-  const pano::Calibration calib = pano::ReadCalibration(o.calib_path);
-  const pano::Map map = pano::ReadMap(o.map_path);
-  const auto table = pano::TableForMap(calib, map, true);
-  const pano::Pose2 init = *pano::InitialPoseBeside(o.inputs[0]);
-  const std::string out = (std::filesystem::temp_directory_path() / "pano_bench_vertex.csv").string();
+  pano::VideoRunOptions run;
+  run.localizer.method = state.range(0) ? pano::TrackingMethod::kVertex : pano::TrackingMethod::kJunction;
+  pano::SharedResources res;
+  res.calib_path = dir + "/calib.yaml";
+  res.calib = pano::ReadCalibration(res.calib_path);
+  res.map = pano::ReadMap(dir + "/map.yaml");
+  res.table = pano::TableForMap(res.calib, res.map, true);
+  pano::VideoJob job;
+  job.input = dir + "/video.mp4";
+  job.init = *pano::InitialPoseBeside(job.input);
+  job.output = (std::filesystem::temp_directory_path() / "pano_bench_vertex.csv").string();
   // As panoloc does for one video: one core is left to the decoding thread.
+  run.localizer.num_threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()) - 1);
   const int saved = omp_get_max_threads();
-  omp_set_num_threads(std::max(1, static_cast<int>(std::thread::hardware_concurrency()) - 1));
+  omp_set_num_threads(run.localizer.num_threads);
   long frames = 0, ok = 0;
   for (auto _ : state) {
-    const pano::VideoSummary s = pano::LocalizeVideo(o.inputs[0], out, calib, map, table, o, init, "", "", "");
-    if (!s.ok) return state.SkipWithError(s.error.c_str());
+    const pano::VideoSummary s = pano::LocalizeVideo(job, res, run);
+    if (s.end == pano::VideoEnd::kFailed) return state.SkipWithError(s.error.c_str());
     frames += s.frames;
     ok += s.n_ok;
   }
   omp_set_num_threads(saved);
-  std::filesystem::remove(out);
-  state.SetLabel(pano::tracking_method_name(o.localizer.method));
+  std::filesystem::remove(job.output);
+  state.SetLabel(pano::tracking_method_name(run.localizer.method));
   state.counters["frames_per_s"] = benchmark::Counter(static_cast<double>(frames), benchmark::Counter::kIsRate);
   state.counters["ok_fraction"] = frames ? static_cast<double>(ok) / frames : 0.0;
 }

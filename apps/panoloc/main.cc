@@ -1,24 +1,81 @@
 // panoloc: localise a robot through whole videos of a catadioptric camera
 // against a map of landmarks, writing pose CSV files.
 #include <CLI/CLI.hpp>
+#include <signal.h>
+#include <unistd.h>
 
-#include <cmath>
+#include <atomic>
 #include <cstdio>
 #include <string>
+#include <vector>
 
 #include "core/error.h"
 #include "pano/config.h"
 #include "pipeline/panoloc.h"
+#include "video/logging.h"
 
 namespace {
 
-pano::Pose2 ParsePose(const std::string& text) {
-  double v[3];
-  char tail;
-  if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &v[0], &v[1], &v[2], &tail) != 3 ||
-      !std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2]))
-    throw pano::Error("--init: expected x,y,theta (theta in radians), got '" + text + "'");
-  return {v[0], v[1], v[2]};
+// Set by SIGINT/SIGTERM; the pipeline checks it before every frame.
+std::atomic<bool> g_cancel{false};
+std::atomic<int> g_signal{0};
+static_assert(std::atomic<bool>::is_always_lock_free && std::atomic<int>::is_always_lock_free,
+              "signal handlers may only touch lock-free atomics");
+
+extern "C" void OnStopSignal(int sig) {
+  g_signal = sig;
+  g_cancel = true;
+}
+
+// The first SIGINT/SIGTERM stops the run after the frames in progress; a
+// second one (the handler is reset) ends the program at once.
+void InstallStopHandlers() {
+  struct sigaction sa = {};
+  sa.sa_handler = OnStopSignal;
+  sigemptyset(&sa.sa_mask);
+  sa.sa_flags = SA_RESETHAND | SA_RESTART;  // blocking calls of the decoders carry on
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+}
+
+void ShowProgress(const pano::Progress& p) {
+  if (p.frames_total >= 0) {
+    const double eta = p.frames_per_s > 0 ? (p.frames_total - p.frames_done) / p.frames_per_s : 0.0;
+    std::fprintf(stderr, "\rpanoloc: %ld/%ld frames, %.1f frames/s, ETA %.0f s   ", p.frames_done,
+                 p.frames_total, p.frames_per_s, eta);
+  } else {
+    std::fprintf(stderr, "\rpanoloc: %ld frames, %.1f frames/s   ", p.frames_done, p.frames_per_s);
+  }
+}
+
+void ClearProgress() { std::fprintf(stderr, "\r%*s\r", 70, ""); }
+
+// One line per input on `out` (unless quiet); failures on stderr. Returns
+// whether the input was done completely.
+bool Report(const pano::VideoSummary& s, bool quiet, std::FILE* out) {
+  using pano::VideoEnd;
+  if (s.end == VideoEnd::kFailed) {
+    std::fprintf(stderr, "panoloc: %s\n", s.error.c_str());
+    return false;
+  }
+  if (s.end == VideoEnd::kInterrupted && s.frames == 0 && s.seconds == 0) {
+    if (!quiet) std::fprintf(out, "%s: not started (interrupted)\n", s.input.c_str());
+    return false;
+  }
+  std::string why;  // how the input ended early
+  if (s.end == VideoEnd::kIncomplete) why = "incomplete: " + s.error;
+  if (s.end == VideoEnd::kInterrupted) why = "interrupted";
+  if (!quiet) {
+    const std::string note = why.empty() ? "" : " (" + why + ")";
+    std::fprintf(out, "%s: %d frames, %d ok, %d lost, %.1f frames/s -> %s%s\n", s.input.c_str(), s.frames,
+                 s.n_ok, s.n_lost, s.seconds > 0 ? s.frames / s.seconds : 0.0, s.output.c_str(), note.c_str());
+    if (s.has_accuracy) std::fprintf(out, "  %s\n", pano::FormatAccuracy(s.accuracy, "units").c_str());
+    std::fflush(out);
+  } else if (!why.empty()) {
+    std::fprintf(stderr, "panoloc: %s: %s\n", s.input.c_str(), why.c_str());
+  }
+  if (s.end == VideoEnd::kNotTracked) std::fprintf(stderr, "panoloc: %s\n", s.error.c_str());
+  return s.ok;
 }
 
 }  // namespace
@@ -30,21 +87,31 @@ int main(int argc, char** argv) {
       "Tracks map landmarks (corners of rectangles and boxes) frame by frame with the Panoramic\n"
       "Hough Transform (line junctions) and triangulates the pose (x, y, heading) from their\n"
       "azimuths. Writes one pose CSV per input (frame,time_s,x,y,theta_rad,status,n_landmarks,\n"
-      "residual,std_x,std_y,std_theta), row by row."};
+      "residual,std_x,std_y,std_theta), row by row, as OUT.csv.partial until the input ends.\n"
+      "Exit status: 0 every input done; 1 an input failed, broke off or was hardly tracked;\n"
+      "130/143 stopped by SIGINT/SIGTERM (the rows so far are kept)."};
   pano::PanolocOptions o;
-  std::string init, method = "junction";
+  std::vector<double> init;
+  std::string method = "junction";
+  bool verbose = false;
   app.add_option("inputs", o.inputs,
-                 "Video files (H.264 mp4...), image folders or printf patterns (frames/f_%04d.png)")
+                 "Video files (H.264 mp4...), image folders, printf patterns (frames/f_%04d.png), or live "
+                 "inputs: - (standard input), /dev/video0, rtsp://..., udp://...")
       ->required();
   app.add_option("--calib", o.calib_path, "Calibration YAML (panocalib's output)")->required();
   app.add_option("--map", o.map_path, "Map YAML of the room's landmarks")->required();
   app.add_option("--init", init,
                  "Initial pose x,y,theta (map units, radians); default: initial_pose of the "
-                 "case.yaml beside the input");
-  app.add_option("-o,--output", o.output, "Output pose CSV (one input)");
+                 "case.yaml beside the input")
+      ->delimiter(',')
+      ->expected(3);
+  app.add_option("-o,--output", o.output, "Output pose CSV (one input); - writes it to standard output");
   app.add_option("--out-dir", o.out_dir, "Output folder: one <input>.csv per input");
-  app.add_option("-j,--jobs", o.jobs, "Inputs processed in parallel (default: number of cores)");
-  app.add_option("--fps", o.fps, "Frame rate for time_s (default: the video's, else 10)");
+  app.add_option("-j,--jobs", o.jobs, "Inputs processed in parallel (default: as many as --threads allows)");
+  app.add_option("--threads", o.num_threads, "Threads of the whole run (default 0: all cores)");
+  app.add_option("--fps", o.fps,
+                 "Frame rate for time_s, overriding the input's timestamps (default: the timestamps; "
+                 "image folders: 10)");
   app.add_option("--gt", o.gt,
                  "Ground-truth pose CSV: print the accuracy summary. 'auto': gt.csv beside each input");
   app.add_option("--debug-video", o.debug_video,
@@ -62,31 +129,32 @@ int main(int argc, char** argv) {
                  "Smallest intensity step that counts as an edge (grey levels)")
       ->capture_default_str();
   app.add_flag("-q,--quiet", o.quiet, "No progress line, notes or summary");
+  app.add_flag("--verbose", verbose, "Let the decoding libraries (FFmpeg, OpenCV) print their messages");
   app.set_version_flag("--version", PANO_VERSION);
   try {
     app.parse(argc, argv);
-    if (!init.empty()) o.init = ParsePose(init);
-    o.localizer.method = method == "vertex" ? pano::TrackingMethod::kVertex : pano::TrackingMethod::kJunction;
-    const std::vector<pano::VideoSummary> results = pano::RunPanoloc(o);
-    int failed = 0;
-    for (const pano::VideoSummary& s : results) {
-      if (!s.ok) {
-        ++failed;
-        std::fprintf(stderr, "panoloc: %s\n", s.error.c_str());
-        continue;
-      }
-      if (o.quiet) continue;
-      std::printf("%s: %d frames, %d ok, %d lost, %.1f frames/s -> %s\n", s.input.c_str(), s.frames,
-                  s.n_ok, s.n_lost, s.seconds > 0 ? s.frames / s.seconds : 0.0, s.output.c_str());
-      if (s.has_accuracy)
-        std::printf("  %s\n", pano::FormatAccuracy(s.accuracy, "units").c_str());
-    }
-    return failed ? 1 : 0;
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    return app.exit(e) == 0 ? 0 : 1;  // --help, --version; bad options exit 1 like bad files
+  }
+  pano::SetDecoderLogging(verbose);
+  try {
+    if (!init.empty()) o.init = pano::Pose2{init[0], init[1], init[2]};
+    o.localizer.method = method == "vertex" ? pano::TrackingMethod::kVertex : pano::TrackingMethod::kJunction;
+    o.cancel = &g_cancel;
+    const bool show_progress = !o.quiet && ::isatty(2);
+    if (show_progress) o.on_progress = ShowProgress;
+    InstallStopHandlers();
+    const std::vector<pano::VideoSummary> results = pano::RunPanoloc(o);
+    if (show_progress) ClearProgress();
+    // With the CSV on standard output, everything else goes to stderr.
+    std::FILE* out = o.output == "-" ? stderr : stdout;
+    bool all_done = true;
+    for (const pano::VideoSummary& s : results) all_done = Report(s, o.quiet, out) && all_done;
+    if (g_signal) return 128 + g_signal;
+    return all_done ? 0 : 1;
   } catch (const pano::Error& e) {
     std::fprintf(stderr, "panoloc: %s\n", e.what());
-    return 1;
+    return g_signal ? 128 + g_signal : 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "panoloc: unexpected error: %s\n", e.what());
     return 2;

@@ -3,6 +3,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -115,18 +116,39 @@ std::string FormatPoseRow(const PoseRow& r) {
   return s;
 }
 
-PoseCsvWriter::PoseCsvWriter(const std::string& path, const std::vector<std::string>& extra)
+const char* const kPartialSuffix = ".partial";
+
+bool PoseCsvWriter::WritesDirectly(const std::string& path) {
+  if (path == "-" || path.rfind("/dev/", 0) == 0 || path.rfind("/proc/", 0) == 0) return true;
+  std::error_code ec;
+  const std::filesystem::file_status st = std::filesystem::status(path, ec);
+  return !ec && std::filesystem::exists(st) && !std::filesystem::is_regular_file(st);
+}
+
+PoseCsvWriter::PoseCsvWriter(const std::string& path, const std::vector<std::string>& extra,
+                             PoseCsvStaging staging)
     : path_(path), n_extra_(extra.size()) {
-  file_ = std::fopen(path.c_str(), "w");
-  if (!file_) throw Error(path + ": cannot write: " + std::strerror(errno));
+  if (path == "-") {
+    is_stdout_ = true;
+    file_ = stdout;
+    written_path_ = "standard output";
+  } else {
+    const bool staged = staging == PoseCsvStaging::kPartial && !WritesDirectly(path);
+    written_path_ = staged ? path + kPartialSuffix : path;
+    file_ = std::fopen(written_path_.c_str(), "w");
+    if (!file_) throw Error(written_path_ + ": cannot write: " + std::strerror(errno));
+  }
   std::string header = kPoseCsvHeader;
   for (const std::string& c : extra) header += "," + c;
-  std::fprintf(file_, "%s\n", header.c_str());
-  std::fflush(file_);
+  if (std::fprintf(file_, "%s\n", header.c_str()) < 0 || std::fflush(file_) != 0) {
+    const std::string why = std::strerror(errno);
+    if (!is_stdout_) std::fclose(file_);
+    throw Error(written_path_ + ": write failed: " + why);
+  }
 }
 
 PoseCsvWriter::~PoseCsvWriter() {
-  if (file_) std::fclose(file_);
+  if (file_ && !is_stdout_) std::fclose(file_);
 }
 
 void PoseCsvWriter::Write(const PoseRow& row) {
@@ -135,15 +157,20 @@ void PoseCsvWriter::Write(const PoseRow& row) {
   r.extra.resize(n_extra_, std::nan(""));
   const std::string line = FormatPoseRow(r);
   if (std::fprintf(file_, "%s\n", line.c_str()) < 0 || std::fflush(file_) != 0)
-    throw Error(path_ + ": write failed: " + std::strerror(errno));
+    throw Error(written_path_ + ": write failed: " + std::strerror(errno));
 }
 
 void PoseCsvWriter::Close() {
-  if (file_ && std::fclose(file_) != 0) {
-    file_ = nullptr;
-    throw Error(path_ + ": close failed: " + std::strerror(errno));
-  }
+  if (!file_) return;
+  std::FILE* f = file_;
   file_ = nullptr;
+  if (is_stdout_) {
+    if (std::fflush(f) != 0) throw Error("standard output: write failed: " + std::string(std::strerror(errno)));
+    return;
+  }
+  if (std::fclose(f) != 0) throw Error(written_path_ + ": close failed: " + std::strerror(errno));
+  if (written_path_ != path_ && std::rename(written_path_.c_str(), path_.c_str()) != 0)
+    throw Error(path_ + ": cannot move " + written_path_ + " into place: " + std::strerror(errno));
 }
 
 }  // namespace pano

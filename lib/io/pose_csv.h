@@ -14,23 +14,47 @@ namespace pano {
 // statuses, and names the file and line in errors.
 std::vector<PoseRow> ReadPoseCsv(const std::string& path);
 
+// Where a pose CSV's rows go while it is written.
+enum class PoseCsvStaging {
+  kDirect,  // into the file itself
+  // Into `<path>.partial`, which Close() renames to `<path>`. A writer
+  // destroyed without Close() (a failure, a killed process) leaves
+  // `<path>.partial`: the name says the rows stop early, and an older
+  // `<path>` is left as it was. Special files are written directly anyway.
+  kPartial,
+};
+
 // Writes rows as they come and flushes each one, so that a crash loses
 // nothing already computed. `extra_columns` are appended to the header.
+// "-" writes to standard output. Special files (devices such as /dev/null,
+// FIFOs, anything under /dev/ or /proc/) are always written directly.
 class PoseCsvWriter {
  public:
-  PoseCsvWriter(const std::string& path, const std::vector<std::string>& extra_columns = {});
+  PoseCsvWriter(const std::string& path, const std::vector<std::string>& extra_columns = {},
+                PoseCsvStaging staging = PoseCsvStaging::kDirect);
   ~PoseCsvWriter();
   PoseCsvWriter(const PoseCsvWriter&) = delete;
   PoseCsvWriter& operator=(const PoseCsvWriter&) = delete;
   void Write(const PoseRow& row);
+  // Flushes and closes; a staged file is renamed into place.
   void Close();
   const std::string& path() const { return path_; }
+  // Where the rows are written until Close(): `<path>.partial` when staged.
+  const std::string& written_path() const { return written_path_; }
+
+  // True for "-" and special files, which are written directly.
+  static bool WritesDirectly(const std::string& path);
 
  private:
   std::string path_;
+  std::string written_path_;
   std::FILE* file_ = nullptr;
+  bool is_stdout_ = false;
   size_t n_extra_ = 0;
 };
+
+// Suffix of a pose CSV while it is written.
+extern const char* const kPartialSuffix;
 
 std::string FormatPoseRow(const PoseRow& row);
 extern const char* const kPoseCsvHeader;

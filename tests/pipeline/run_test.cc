@@ -1,0 +1,238 @@
+// RunPanoloc as a library: inputs that break off, inputs that cannot be
+// tracked, cancellation and progress, thread counts, failing inputs among
+// good ones, and time_s from the input's timestamps.
+#include <catch2/catch.hpp>
+#include <omp.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+
+#include "core/error.h"
+#include "io/pose_csv.h"
+#include "pipeline/panoloc.h"
+#include "pipeline_fixture.h"
+#include "test_paths.h"
+#include "test_skip.h"
+#include "video/frame_source.h"
+
+namespace pano {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string Scratch(const std::string& name) { return test::ScratchDir(name + "_" + std::to_string(::getpid())); }
+
+PanolocOptions OneInput(const std::string& input, const std::string& output) {
+  const test::SmallCase& c = test::GetSmallCase();
+  PanolocOptions o;
+  o.inputs = {input};
+  o.output = output;
+  o.calib_path = c.calib;
+  o.map_path = c.map;
+  o.init = c.init;
+  o.quiet = true;
+  return o;
+}
+
+std::vector<std::string> FilesIn(const std::string& dir) {
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(dir)) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+TEST_CASE("an input that breaks off after some frames: its rows are kept, the run is incomplete",
+          "[incomplete]") {
+  const test::SmallCase& c = test::GetSmallCase();
+  const std::string dir = Scratch("pipeline_incomplete");
+  fs::create_directories(dir + "/frames");
+  for (int i = 0; i < c.n_frames; ++i) {
+    char name[32];
+    std::snprintf(name, sizeof name, "/frame_%04d.png", i);
+    if (i == 7) std::ofstream(dir + "/frames" + name) << "not a PNG";
+    else fs::copy_file(c.frames + name, dir + "/frames" + name);
+  }
+  fs::create_directories(dir + "/out");
+  PanolocOptions o = OneInput(dir + "/frames", dir + "/out/est.csv");
+  o.debug_video = dir + "/out/dbg.mp4";
+  const std::vector<VideoSummary> s = RunPanoloc(o);
+  REQUIRE(s.size() == 1);
+  INFO(s[0].error);
+  CHECK(s[0].end == VideoEnd::kIncomplete);
+  CHECK_FALSE(s[0].ok);
+  CHECK(s[0].frames == 7);
+  CHECK(s[0].n_ok == 7);
+  CHECK(s[0].error.find("decode error at frame 7: ") != std::string::npos);
+  CHECK(s[0].error.find("frame_0007.png") != std::string::npos);
+  const std::vector<PoseRow> rows = ReadPoseCsv(o.output);
+  CHECK(rows.size() == 7);
+  test::RequireConsecutive(rows);
+  // The outputs are finished with the frames there were; no temporary left.
+  CHECK(FilesIn(dir + "/out") == std::vector<std::string>{"dbg.mp4", "est.csv"});
+}
+
+TEST_CASE("a truncated video: the rows before the cut are kept, the run is incomplete", "[truncated]") {
+  if (!test::HaveFfmpegTool()) return test::Skip("the ffmpeg tool is not installed");
+  const test::SmallCase& c = test::GetSmallCase();
+  const std::string dir = Scratch("pipeline_truncated");
+  // Index first (faststart): the container promises every frame, the data of
+  // the second half is missing. Every frame a key frame, so that half the
+  // bytes hold about half the frames.
+  test::RunFfmpeg("-framerate 10 -i " + c.frames + "/frame_%04d.png -c:v libx264 -g 1 -qp 0 -pix_fmt yuv420p "
+                  "-movflags +faststart " + dir + "/fast.mp4");
+  const std::string whole = test::ReadText(dir + "/fast.mp4");
+  std::ofstream(dir + "/half.mp4", std::ios::binary) << whole.substr(0, whole.size() / 2);
+  {
+    FrameSource probe(dir + "/half.mp4");  // the first frames are whole
+    bool reported = false;
+    try {
+      for (cv::Mat grey; probe.Read(&grey);) {
+      }
+    } catch (const Error&) {
+      reported = true;
+    }
+    if (!reported) return test::Skip("this FrameSource does not report truncated videos");
+  }
+  const std::vector<VideoSummary> s = RunPanoloc(OneInput(dir + "/half.mp4", dir + "/est.csv"));
+  REQUIRE(s.size() == 1);
+  INFO(s[0].error);
+  CHECK(s[0].end == VideoEnd::kIncomplete);
+  CHECK(s[0].frames > 0);
+  CHECK(s[0].frames < c.n_frames);
+  CHECK(s[0].error.find("decode error at frame " + std::to_string(s[0].frames) + ": ") == 0);
+  const std::vector<PoseRow> rows = ReadPoseCsv(dir + "/est.csv");
+  CHECK(static_cast<int>(rows.size()) == s[0].frames);
+  test::RequireConsecutive(rows);
+  CHECK_FALSE(fs::exists(dir + "/est.csv.partial"));
+}
+
+TEST_CASE("nothing tracked: the run fails and suggests what to check", "[not_tracked]") {
+  const std::string dir = Scratch("pipeline_not_tracked");
+  const std::string blank = test::BlankFolder(dir, 10);
+  const std::vector<VideoSummary> s = RunPanoloc(OneInput(blank, dir + "/est.csv"));
+  REQUIRE(s.size() == 1);
+  INFO(s[0].error);
+  CHECK(s[0].end == VideoEnd::kNotTracked);
+  CHECK_FALSE(s[0].ok);
+  CHECK(s[0].frames == 10);
+  CHECK(s[0].n_ok == 0);
+  CHECK(s[0].error.find("only 0 of 10 frames tracked") != std::string::npos);
+  for (const char* cause : {"calibration", "image size", "initial pose", "shades inverted", "map units"})
+    CHECK(s[0].error.find(cause) != std::string::npos);
+  CHECK(ReadPoseCsv(dir + "/est.csv").size() == 10);  // the rows are there to look at
+}
+
+TEST_CASE("cancelled through the flag: the frame in progress ends the rows, outputs are finished",
+          "[cancel]") {
+  const std::string dir = Scratch("pipeline_cancel");
+  const std::string long_input = test::LongFolder(dir, 4000);
+  fs::create_directories(dir + "/out");
+  PanolocOptions o = OneInput(long_input, dir + "/out/est.csv");
+  o.debug_video = dir + "/out/dbg.mp4";
+  std::atomic<bool> cancel{false};
+  std::mutex mu;
+  std::vector<Progress> reports;
+  o.cancel = &cancel;
+  o.on_progress = [&](const Progress& p) {
+    std::lock_guard<std::mutex> lock(mu);
+    reports.push_back(p);
+    if (p.frames_done > 0) cancel = true;
+  };
+  const std::vector<VideoSummary> s = RunPanoloc(o);
+  REQUIRE(s.size() == 1);
+  INFO(s[0].error);
+  CHECK(s[0].end == VideoEnd::kInterrupted);
+  CHECK(s[0].frames > 0);
+  CHECK(s[0].frames < 4000);
+  const std::vector<PoseRow> rows = ReadPoseCsv(o.output);
+  CHECK(static_cast<int>(rows.size()) == s[0].frames);
+  test::RequireConsecutive(rows);
+  CHECK(FilesIn(dir + "/out") == std::vector<std::string>{"dbg.mp4", "est.csv"});
+  REQUIRE_FALSE(reports.empty());
+  CHECK(reports.back().frames_total == 4000);
+  CHECK(reports.back().frames_done <= s[0].frames);
+  CHECK(reports.back().frames_per_s > 0);
+  // Cancelled before the start: nothing done, nothing written.
+  PanolocOptions late = OneInput(long_input, dir + "/none.csv");
+  late.cancel = &cancel;
+  const std::vector<VideoSummary> none = RunPanoloc(late);
+  REQUIRE(none.size() == 1);
+  CHECK(none[0].end == VideoEnd::kInterrupted);
+  CHECK(none[0].frames == 0);
+  CHECK_FALSE(fs::exists(dir + "/none.csv"));
+  CHECK_FALSE(fs::exists(dir + "/none.csv.partial"));
+}
+
+TEST_CASE("thread counts are options: the caller's OpenMP setting is left alone", "[threads]") {
+  const test::SmallCase& c = test::GetSmallCase();
+  const std::string dir = Scratch("pipeline_threads");
+  const int saved = omp_get_max_threads();
+  omp_set_num_threads(37);  // a count no machine's cores - 1 is likely to be
+  PanolocOptions o = OneInput(c.video, dir + "/est.csv");
+  o.num_threads = 2;
+  const std::vector<VideoSummary> s = RunPanoloc(o);
+  const int after = omp_get_max_threads();
+  omp_set_num_threads(saved);
+  REQUIRE(s.size() == 1);
+  CHECK(s[0].ok);
+  CHECK(after == 37);
+}
+
+TEST_CASE("an input whose folder cannot be read fails alone; the others are done", "[bad_folder]") {
+  const test::SmallCase& c = test::GetSmallCase();
+  const std::string dir = Scratch("pipeline_bad_folder");
+  // A folder whose entry cannot be examined (a link to itself: the file
+  // system library throws its own exception type).
+  fs::create_directories(dir + "/loop");
+  fs::create_symlink("self", dir + "/loop/self");
+  PanolocOptions o = OneInput(c.video, "");
+  o.inputs = {dir + "/loop", c.video};
+  o.out_dir = dir + "/out";
+  o.on_progress = [](const Progress&) {};  // counting the frames fails too
+  const std::vector<VideoSummary> s = RunPanoloc(o);
+  REQUIRE(s.size() == 2);
+  CHECK(s[0].end == VideoEnd::kFailed);
+  CHECK(s[0].error.find(dir + "/loop") != std::string::npos);
+  INFO(s[1].error);
+  CHECK(s[1].ok);
+  CHECK(ReadPoseCsv(s[1].output).size() == 12);
+}
+
+TEST_CASE("time_s: the video's timestamps; --fps overrides them", "[timestamps]") {
+  if (!test::HaveFfmpegTool()) return test::Skip("the ffmpeg tool is not installed");
+  const test::SmallCase& c = test::GetSmallCase();
+  const std::string dir = Scratch("pipeline_timestamps");
+  // Variable frame rate: 0.1 s between frames, then a pause of 0.35 s after
+  // frame 5. Lossless, so that tracking sees the rendered frames.
+  test::RunFfmpeg("-framerate 10 -i " + c.frames + "/frame_%04d.png -vf \"settb=1/1000,"
+                  "setpts='(N*0.1+gte(N,6)*0.35)/TB'\" -fps_mode passthrough -enc_time_base 1/1000 "
+                  "-c:v libx264 -qp 0 -pix_fmt yuv420p -video_track_timescale 1000 " + dir + "/vfr.mp4");
+  std::vector<double> expected;
+  for (int i = 0; i < c.n_frames; ++i) expected.push_back(0.1 * i + (i >= 6 ? 0.35 : 0.0));
+  {
+    FrameSource probe(dir + "/vfr.mp4");
+    cv::Mat grey;
+    std::vector<double> times;
+    for (double t; probe.Read(&grey, &t);) times.push_back(t);
+    REQUIRE(times.size() == expected.size());
+    if (std::abs(times[6] - expected[6]) > 1e-3) return test::Skip("this FrameSource does not read timestamps");
+  }
+  const std::vector<VideoSummary> s = RunPanoloc(OneInput(dir + "/vfr.mp4", dir + "/est.csv"));
+  REQUIRE(s.size() == 1);
+  INFO(s[0].error);
+  REQUIRE(s[0].ok);
+  const std::vector<PoseRow> rows = ReadPoseCsv(dir + "/est.csv");
+  REQUIRE(rows.size() == expected.size());
+  for (size_t i = 0; i < rows.size(); ++i) CHECK(rows[i].time_s == Approx(expected[i]).margin(1e-6));
+  PanolocOptions o = OneInput(dir + "/vfr.mp4", dir + "/est.csv");
+  o.fps = 4;
+  REQUIRE(RunPanoloc(o)[0].ok);
+  const std::vector<PoseRow> fixed = ReadPoseCsv(dir + "/est.csv");
+  for (size_t i = 0; i < fixed.size(); ++i) CHECK(fixed[i].time_s == Approx(i / 4.0).margin(1e-9));
+}
+
+}  // namespace
+}  // namespace pano
