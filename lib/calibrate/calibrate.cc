@@ -160,7 +160,8 @@ InitialEstimate TimedInitialize(const std::vector<BoardView>& views, const Targe
 // on a tie, so the result does not depend on the thread count. Starts that
 // fail are named in the kept fit's init_summary.
 CalibrationResult FitBestStart(const std::vector<BoardView>& views, const TargetBoard& board,
-                               const InitialEstimate& init, bool poses_known, const CalibrateOptions& options) {
+                               const InitialEstimate& init, bool poses_known,
+                               const CalibrateOptions& options) {
   std::vector<const InitialEstimate*> starts = {&init};
   for (const InitialEstimate& alt : init.alternatives) starts.push_back(&alt);
   const int n = static_cast<int>(starts.size()), threads = options.Threads();
@@ -204,7 +205,9 @@ class StepClock {
       std::fprintf(stderr, "[%s: %.2f s]\n", step, std::chrono::duration<double>(now - last_).count());
     last_ = now;
   }
-  double Seconds() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(); }
+  double Seconds() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  }
 
  private:
   bool verbose_;
@@ -266,15 +269,17 @@ std::vector<BoardView> FindUnwarpedBoards(Pipeline* p) {
   ParallelFor(
       n_missing,
       [&](int k) {
-        ok[k] = DetectBoardUnwarped(p->images[missing[k]], p->targets.board, p->res.calib.sensor, place.distance,
-                                    place.height, &corners[k], n_missing > 1 ? 1 : threads, &failures[k]);
+        ok[k] = DetectBoardUnwarped(p->images[missing[k]], p->targets.board, p->res.calib.sensor,
+                                    place.distance, place.height, &corners[k], n_missing > 1 ? 1 : threads,
+                                    &failures[k]);
       },
       true, threads);
   std::vector<BoardView> found;
   for (int k = 0; k < n_missing; ++k) {
     if (ok[k]) found.push_back(ViewOfImage(p->targets, missing[k], corners[k], "unwarped"));
     else if (!failures[k].empty())
-      p->carried.push_back(p->det.not_found_files[k] + ": the search in unwarped views failed (" + failures[k] + ")");
+      p->carried.push_back(p->det.not_found_files[k] + ": the search in unwarped views failed (" +
+                           failures[k] + ")");
   }
   return found;
 }
@@ -348,8 +353,8 @@ void RetryUnwarped(Pipeline* p) {
   InitialEstimate start;
   StartWithUnwarpedBoards(*p, extra, &views, &start);
   std::optional<CalibrationResult> again =
-      TryRefit("the refit with the boards found in unwarped views", views, p->targets.board, start, p->poses_known,
-               p->targets.units, p->options, &p->carried);
+      TryRefit("the refit with the boards found in unwarped views", views, p->targets.board, start,
+               p->poses_known, p->targets.units, p->options, &p->carried);
   if (!again) return;
   const std::string outliers = OutlyingUnwarpedBoards(*again);
   if (!outliers.empty()) {
@@ -387,7 +392,8 @@ CalibrationResult Complete(Pipeline* p, const StepClock& clock) {
   res.not_found = p->det.not_found;
   res.not_found_files = p->det.not_found_files;
   for (const std::string& w : p->carried)
-    if (std::find(res.warnings.begin(), res.warnings.end(), w) == res.warnings.end()) res.warnings.push_back(w);
+    if (std::find(res.warnings.begin(), res.warnings.end(), w) == res.warnings.end())
+      res.warnings.push_back(w);
   Describe(&res, p->poses_known, p->targets.units, p->options);
   res.seconds_detect = p->det.seconds;
   res.seconds_fit = clock.Seconds() - p->det.seconds;
@@ -407,7 +413,8 @@ namespace calib_internal {
 std::optional<CalibrationResult> TryRefit(const std::string& what, const std::vector<BoardView>& views,
                                           const TargetBoard& board, const InitialEstimate& start,
                                           bool poses_known, const std::string& units,
-                                          const CalibrateOptions& options, std::vector<std::string>* carried) {
+                                          const CalibrateOptions& options,
+                                          std::vector<std::string>* carried) {
   try {
     CalibrationResult again = FitCalibration(views, board, start, poses_known, options);
     Finish(&again, poses_known, units, options, *carried);
@@ -452,7 +459,8 @@ CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>
   CheckViewCount(p.det.views.size(), images.size(), p.poses_known, options, p.det.not_found_files);
   p.carried = InputWarnings(p.det.views, options);
   p.carried.insert(p.carried.end(), p.det.warnings.begin(), p.det.warnings.end());
-  p.res = CalibrateViews(p.det.views, targets.board, p.det.image_width, p.det.image_height, targets.units, options);
+  p.res = CalibrateViews(p.det.views, targets.board, p.det.image_width, p.det.image_height, targets.units,
+                         options);
   clock.Done("initialisation and first fit");
   if (options.unwarp_fallback && !p.det.not_found.empty()) {
     RetryUnwarped(&p);

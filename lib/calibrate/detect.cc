@@ -294,7 +294,8 @@ bool DetectBoardUnwarped(const cv::Mat& image, const TargetBoard& board, const S
   // search (the first view in order that shows the board wins, whatever the
   // batch). Without a thread count: one at a time when the caller already
   // runs in parallel.
-  const int batch = num_threads > 0 ? num_threads : omp_in_parallel() ? 1 : std::max(1, omp_get_max_threads());
+  const int batch =
+      num_threads > 0 ? num_threads : omp_in_parallel() ? 1 : std::max(1, omp_get_max_threads());
   for (int b0 = 0; b0 < n; b0 += batch) {
     const int b1 = std::min(n, b0 + batch);
     ParallelFor(

@@ -678,8 +678,8 @@ void RankStarts(const InitInput& in, const CentralModel& cm, std::vector<Start>*
       }
     }
     if (std::isfinite(group_rms)) {
-      group_best.summary =
-          "start R/zv " + std::to_string(R0) + " (RMS after 30 iterations " + std::to_string(group_rms) + " px)";
+      group_best.summary = "start R/zv " + std::to_string(R0) + " (RMS after 30 iterations " +
+                           std::to_string(group_rms) + " px)";
       rank->groups.push_back({group_rms, group_best});
     }
   }
@@ -690,8 +690,9 @@ void RankStarts(const InitInput& in, const CentralModel& cm, std::vector<Start>*
 InitialEstimate Initialize(const std::vector<BoardView>& views, const TargetBoard& board, int width,
                            int height, bool poses_known, const CalibrateOptions& options) {
   if (views.empty()) throw Error("initialisation: no boards");
-  const InitInput in{views, BoardPoints(board), board.square * std::max(board.cols, board.rows), width, height,
-                     poses_known, options.model == MirrorModel::kConic, options};
+  const InitInput in{views, BoardPoints(board), board.square * std::max(board.cols, board.rows),
+                     width, height, poses_known,
+                     options.model == MirrorModel::kConic, options};
   std::ostringstream log;
   StartRanking rank;
   for (const auto& [cx, cy] : CentreCandidates(width, height)) {

@@ -18,6 +18,7 @@ namespace pano::calib_internal {
 std::optional<CalibrationResult> TryRefit(const std::string& what, const std::vector<BoardView>& views,
                                           const TargetBoard& board, const InitialEstimate& start,
                                           bool poses_known, const std::string& units,
-                                          const CalibrateOptions& options, std::vector<std::string>* carried);
+                                          const CalibrateOptions& options,
+                                          std::vector<std::string>* carried);
 
 }  // namespace pano::calib_internal

@@ -80,7 +80,8 @@ TEST_CASE("panocalib calibrate: --threads, quiet libraries unless --verbose, one
 
   // A missing image: OpenCV's own warning about it only with --verbose.
   std::ofstream(dir + "/missing.yaml") << "units: cm\nboard:\n  type: chessboard\n  cols: 9\n  rows: 6\n"
-                                          "  square: 3.0\nimages:\n  - file: nowhere.png\n  - file: nowhere2.png\n";
+                                          "  square: 3.0\nimages:\n  - file: nowhere.png\n"
+                                          "  - file: nowhere2.png\n";
   r = Exec("panocalib calibrate " + dir + "/missing.yaml -o " + dir + "/m.yaml");
   INFO(r.out);
   CHECK(r.code == 1);

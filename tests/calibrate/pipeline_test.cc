@@ -105,8 +105,9 @@ TEST_CASE("a refit that fails is a warning and the previous fit stands", "[refit
   // A bound below the corners' noise: the refit's own check fails.
   CalibrateOptions strict;
   strict.max_rms_px = 1e-3;
-  CHECK_FALSE(calib_internal::TryRefit("the test refit", set.views, board, start, true, "cm", strict, &carried)
-                  .has_value());
+  const auto failed = calib_internal::TryRefit("the test refit", set.views, board, start, true, "cm", strict,
+                                               &carried);
+  CHECK_FALSE(failed.has_value());
   REQUIRE(carried.size() == 2);
   CHECK(carried[0] == "an earlier warning");
   CHECK(carried[1].rfind("the test refit failed (calibration failed: RMS reprojection error", 0) == 0);
