@@ -1,4 +1,4 @@
-// panocalib calibrate: fit the sensor model to chessboard images (issue 6).
+// panocalib calibrate: fit the sensor model to chessboard images.
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -16,7 +16,7 @@ void AddCalibrateCommand(CLI::App& app) {
   struct Opts {
     std::string targets, out, lut, report, model = "sphere", distortion = "auto";
     double huber = 1.0, max_rms = 5.0, full_weight = CalibrateOptions().full_weight_px;
-    int max_iterations = 200;
+    int max_iterations = 200, threads = 0;
     bool no_aspect = false, ignore_poses = false, no_unwarp = false, verbose = false;
   };
   auto o = std::make_shared<Opts>();
@@ -48,7 +48,10 @@ void AddCalibrateCommand(CLI::App& app) {
   cmd->add_flag("--fix-aspect", o->no_aspect, "Hold the pixel aspect ratio at 1");
   cmd->add_flag("--ignore-poses", o->ignore_poses, "Estimate the board poses even when the target file gives them");
   cmd->add_flag("--no-unwarp", o->no_unwarp, "Do not retry images without a board in unwarped views");
-  cmd->add_flag("-v,--verbose", o->verbose, "Print the solver's reports");
+  cmd->add_option("--threads", o->threads, "Threads for the fit and the image searches (0: every core)")
+      ->capture_default_str();
+  cmd->add_flag("-v,--verbose", o->verbose,
+                "Print step timings, the solver's progress and the libraries' warnings (quiet otherwise)");
   cmd->callback([o]() {
     CalibrateOptions opt;
     if (o->model == "sphere") opt.model = MirrorModel::kSphere;
@@ -64,6 +67,7 @@ void AddCalibrateCommand(CLI::App& app) {
     opt.fit_aspect = !o->no_aspect;
     opt.ignore_known_poses = o->ignore_poses;
     opt.unwarp_fallback = !o->no_unwarp;
+    opt.num_threads = o->threads;
     opt.verbose = o->verbose;
     opt.Check();
     const TargetSet targets = ReadTargets(o->targets);

@@ -1,4 +1,4 @@
-// Sensor calibration from chessboard images (issue 6, `panocalib calibrate`).
+// Sensor calibration from chessboard images (`panocalib calibrate`).
 //
 // Pipeline (docs/calibration.md):
 //   1. DetectBoards: findChessboardCornersSB on each raw image (quick search,
@@ -66,11 +66,20 @@ struct CalibrateOptions {
   // Relative standard deviation of the mirror's size above which the user is
   // warned that only the mirror's shape (ratios) is determined.
   double scale_warning_rel_std = 0.05;
+  // Threads for Ceres and for the parallel loops over images, starts and
+  // corners; 0: every core. Set here rather than through OpenMP's global
+  // default, so that calibrations running at once do not disturb each other.
+  int num_threads = 0;
+  // Step timings on stderr and Ceres' per-iteration progress on stdout (and
+  // its warnings about rejected steps through glog); quiet otherwise. The
+  // library never changes glog's settings: programs set them up once.
   bool verbose = false;
 
   int DistortionTerms() const {
     return distortion_terms >= 0 ? distortion_terms : (model == MirrorModel::kConic ? 2 : 0);
   }
+  // num_threads with 0 resolved to the number of cores.
+  int Threads() const;
   // Throws pano::Error naming the bad option.
   void Check() const;
 };
@@ -93,6 +102,9 @@ struct DetectionResult {
   std::vector<BoardView> views;          // images where the board was found
   std::vector<int> not_found;            // indices of images without a board
   std::vector<std::string> not_found_files;
+  // Searches that failed with an error rather than finding no board (file
+  // and reason); those images are in not_found too.
+  std::vector<std::string> warnings;
   double seconds = 0.0;
 };
 
@@ -116,6 +128,8 @@ struct CalibrationResult {
   std::vector<ParameterEstimate> parameters;
   std::vector<int> not_found;  // images without a board (target file indices)
   std::vector<std::string> not_found_files;
+  // What the user should know: poorly determined parameters, outlying
+  // images, and steps that failed and were skipped (a refit, a search).
   std::vector<std::string> warnings;
   std::string init_summary;  // how the initialisation went
   int iterations = 0;
@@ -129,16 +143,19 @@ std::vector<Eigen::Vector3d> BoardPoints(const TargetBoard& board);
 // Loads the images (grey) and checks that they exist and share one size.
 std::vector<cv::Mat> LoadTargetImages(const TargetSet& targets);
 
-// Step 1: raw-image detection (OpenMP over images). Throws when an image
-// cannot be read or the images differ in size.
+// Step 1: raw-image detection (in parallel over images, options.Threads()).
+// Throws when an image cannot be read or the images differ in size.
 DetectionResult DetectBoards(const TargetSet& targets, const std::vector<cv::Mat>& images,
                              const CalibrateOptions& options);
 
 // Detection in virtual perspective views unwarped through `sensor`, corners
 // mapped back to the raw image and refined there. `distance` is a typical
-// board distance (for the virtual view's depth). False when not found.
+// board distance (for the virtual view's depth). False when not found; then
+// `failure` (when given) gets the first error a view's search raised, if any.
+// num_threads: views searched at once (0: OpenMP's default).
 bool DetectBoardUnwarped(const cv::Mat& image, const TargetBoard& board, const Sensor& sensor,
-                         double distance, double height, std::vector<Eigen::Vector2d>* corners);
+                         double distance, double height, std::vector<Eigen::Vector2d>* corners,
+                         int num_threads = 0, std::string* failure = nullptr);
 
 // Reorders the corners of views with known poses so that they match the board
 // frame (OpenCV may start at any of the board's corners): the order whose
@@ -161,7 +178,7 @@ InitialEstimate Initialize(const std::vector<BoardView>& views, const TargetBoar
 
 // Step 3: the Ceres fit from an initial estimate, with covariance. Throws on
 // failure (non-finite values, no convergence, RMS above options.max_rms_px).
-// threads: Ceres threads (0: every hardware thread).
+// threads: Ceres threads (0: options.Threads()).
 CalibrationResult FitCalibration(const std::vector<BoardView>& views, const TargetBoard& board,
                                  const InitialEstimate& init, bool poses_known,
                                  const CalibrateOptions& options, int threads = 0);
@@ -176,8 +193,9 @@ CalibrationResult CalibrateViews(const std::vector<BoardView>& views, const Targ
 // squares are straight (so the detector's curvature bias goes), and moves it
 // to the projection of the junction found there. Corners whose patch leaves
 // the image or the mirror keep their position. Returns the number refined.
+// num_threads: corners refined at once (0: OpenMP's default).
 int RefineCornersThroughModel(const std::vector<cv::Mat>& images, const TargetBoard& board,
-                              const Sensor& sensor, std::vector<BoardView>* views);
+                              const Sensor& sensor, std::vector<BoardView>* views, int num_threads = 0);
 
 // The whole pipeline on a target file's images (steps 1-4).
 CalibrationResult Calibrate(const TargetSet& targets, const CalibrateOptions& options);

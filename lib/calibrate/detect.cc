@@ -14,6 +14,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "calibrate/calibrate.h"
+#include "calibrate/internal.h"
 #include "core/angles.h"
 #include "core/error.h"
 #include "core/parallel.h"
@@ -51,7 +52,15 @@ namespace {
 // before (so results do not depend on the thread count).
 void SeedDetector() { cv::theRNG().state = 0x5eed5eedULL; }
 
-bool FindRaw(const cv::Mat& image, const TargetBoard& board, std::vector<Eigen::Vector2d>* corners) {
+// OpenCV's reason for an error, on one line (what() adds the source file).
+std::string OpenCvReason(const cv::Exception& e) {
+  return "OpenCV: " + e.err + (e.func.empty() ? "" : " in " + e.func);
+}
+
+// The board in a raw image; false when not found, and then `failure` says
+// why when the search raised an error.
+bool FindRaw(const cv::Mat& image, const TargetBoard& board, std::vector<Eigen::Vector2d>* corners,
+             std::string* failure) {
   std::vector<cv::Point2f> c;
   bool ok = false;
   // The quick search first (a third of the time), the exhaustive one where
@@ -60,11 +69,13 @@ bool FindRaw(const cv::Mat& image, const TargetBoard& board, std::vector<Eigen::
     try {
       SeedDetector();
       ok = cv::findChessboardCornersSB(image, cv::Size(board.cols, board.rows), c, flags);
-    } catch (const cv::Exception&) {
+    } catch (const cv::Exception& e) {
       ok = false;
+      if (failure->empty()) *failure = OpenCvReason(e);
     }
     if (ok) break;
   }
+  if (ok) failure->clear();
   if (!ok || c.size() != static_cast<size_t>(board.cols * board.rows)) return false;
   corners->clear();
   for (const cv::Point2f& p : c) corners->push_back({p.x, p.y});
@@ -75,7 +86,6 @@ bool FindRaw(const cv::Mat& image, const TargetBoard& board, std::vector<Eigen::
 
 DetectionResult DetectBoards(const TargetSet& targets, const std::vector<cv::Mat>& images,
                              const CalibrateOptions& options) {
-  (void)options;
   const auto t0 = std::chrono::steady_clock::now();
   if (images.size() != targets.images.size()) throw Error("corner detection: internal: image count");
   DetectionResult det;
@@ -84,24 +94,20 @@ DetectionResult DetectBoards(const TargetSet& targets, const std::vector<cv::Mat
   det.image_height = images.front().rows;
   const int n = static_cast<int>(images.size());
   std::vector<std::vector<Eigen::Vector2d>> found(n);
+  std::vector<std::string> failures(n);
   std::vector<char> ok(n, 0);
-  ParallelFor(n, [&](int i) { ok[i] = FindRaw(images[i], targets.board, &found[i]); });
+  ParallelFor(
+      n, [&](int i) { ok[i] = FindRaw(images[i], targets.board, &found[i], &failures[i]); }, true,
+      options.Threads());
   for (int i = 0; i < n; ++i) {
-    const TargetImage& ti = targets.images[i];
-    if (!ok[i]) {
-      det.not_found.push_back(i);
-      det.not_found_files.push_back(ti.file);
+    if (ok[i]) {
+      det.views.push_back(calib_internal::ViewOfImage(targets, i, found[i], "raw"));
       continue;
     }
-    BoardView v;
-    v.image_index = i;
-    v.file = ti.file;
-    v.corners = found[i];
-    v.method = "raw";
-    v.has_pose = ti.has_pose;
-    v.rvec = Eigen::Vector3d(ti.rvec[0], ti.rvec[1], ti.rvec[2]);
-    v.tvec = Eigen::Vector3d(ti.tvec[0], ti.tvec[1], ti.tvec[2]);
-    det.views.push_back(v);
+    det.not_found.push_back(i);
+    det.not_found_files.push_back(targets.images[i].file);
+    if (!failures[i].empty())
+      det.warnings.push_back(targets.images[i].file + ": the chessboard search failed (" + failures[i] + ")");
   }
   det.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return det;
@@ -165,8 +171,9 @@ VirtualView MakeView(const Sensor& sensor, double az, double el, double distance
 }
 
 // Detects the board in one view; corners mapped back to the raw image.
+// False when not found, and then `failure` says why when the search raised an error.
 bool DetectInView(const cv::Mat& image, const TargetBoard& board, const VirtualView& vv, int size,
-                  std::vector<cv::Point2f>* raw) {
+                  std::vector<cv::Point2f>* raw, std::string* failure) {
   if (vv.n_valid < size * size / 10) return false;
   cv::Mat view;
   cv::remap(image, view, vv.mapx, vv.mapy, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(128));
@@ -176,8 +183,9 @@ bool DetectInView(const cv::Mat& image, const TargetBoard& board, const VirtualV
     SeedDetector();
     ok = cv::findChessboardCornersSB(view, cv::Size(board.cols, board.rows), c,
                                      cv::CALIB_CB_NORMALIZE_IMAGE | cv::CALIB_CB_ACCURACY);
-  } catch (const cv::Exception&) {
+  } catch (const cv::Exception& e) {
     ok = false;
+    *failure = OpenCvReason(e);
   }
   if (!ok || c.size() != static_cast<size_t>(board.cols * board.rows)) return false;
   raw->clear();
@@ -247,18 +255,19 @@ bool SaddleClusterCentre(const cv::Mat& image, cv::Point* centre) {
 }
 
 bool CornersInView(const cv::Mat& image, const TargetBoard& board, const Sensor& sensor, double az, double el,
-                   double distance, std::vector<cv::Point2f>* raw) {
+                   double distance, std::vector<cv::Point2f>* raw, std::string* failure) {
   const int size = 800;
   const double fov = 130.0 * M_PI / 180.0;
   const double fv = 0.5 * size / std::tan(0.5 * fov);
   const VirtualView vv = MakeView(sensor, az, el, distance, size, fv);
-  return DetectInView(image, board, vv, size, raw);
+  return DetectInView(image, board, vv, size, raw, failure);
 }
 
 }  // namespace
 
 bool DetectBoardUnwarped(const cv::Mat& image, const TargetBoard& board, const Sensor& sensor,
-                         double distance, double height, std::vector<Eigen::Vector2d>* corners) {
+                         double distance, double height, std::vector<Eigen::Vector2d>* corners,
+                         int num_threads, std::string* failure) {
   // Virtual pinhole views (100 degrees wide) from the mirror's vertex: aimed
   // first at the densest cluster of saddle points (and 20 degrees below and
   // above it), then 8 azimuth sectors at the boards' typical elevation.
@@ -279,16 +288,24 @@ bool DetectBoardUnwarped(const cv::Mat& image, const TargetBoard& board, const S
   for (int k = 0; k < 8; ++k) dirs.push_back({k * M_PI / 4.0, el0});
   const int n = static_cast<int>(dirs.size());
   std::vector<std::vector<cv::Point2f>> found(n);
+  std::vector<std::string> failures(n);
   std::vector<char> ok(n, 0);
   // In batches of one view per thread so that an early success stops the
-  // search (one at a time when the caller already runs images in parallel).
-  const int batch = omp_in_parallel() ? 1 : std::max(1, omp_get_max_threads());
+  // search (the first view in order that shows the board wins, whatever the
+  // batch). Without a thread count: one at a time when the caller already
+  // runs in parallel.
+  const int batch =
+      num_threads > 0 ? num_threads : omp_in_parallel() ? 1 : std::max(1, omp_get_max_threads());
   for (int b0 = 0; b0 < n; b0 += batch) {
     const int b1 = std::min(n, b0 + batch);
-    ParallelFor(b1 - b0, [&](int j) {
-      const int k = b0 + j;
-      ok[k] = CornersInView(image, board, sensor, dirs[k].first, dirs[k].second, distance, &found[k]);
-    });
+    ParallelFor(
+        b1 - b0,
+        [&](int j) {
+          const int k = b0 + j;
+          ok[k] = CornersInView(image, board, sensor, dirs[k].first, dirs[k].second, distance, &found[k],
+                                &failures[k]);
+        },
+        true, batch);
     for (int k = b0; k < b1; ++k) {
       if (!ok[k]) continue;
       std::vector<cv::Point2f>& raw = found[k];
@@ -313,6 +330,12 @@ bool DetectBoardUnwarped(const cv::Mat& image, const TargetBoard& board, const S
       return true;
     }
   }
+  if (failure)
+    for (const std::string& f : failures)
+      if (!f.empty()) {
+        *failure = f;
+        break;
+      }
   return false;
 }
 

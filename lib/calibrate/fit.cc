@@ -9,7 +9,6 @@
 #include <cmath>
 #include <cstdio>
 #include <sstream>
-#include <thread>
 
 #include "calibrate/calibrate.h"
 #include "calibrate/internal.h"
@@ -98,11 +97,14 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
   ceres::Solver::Options so;
   so.linear_solver_type = poses_known ? ceres::DENSE_QR : ceres::DENSE_SCHUR;
   so.max_num_iterations = options.max_iterations;
-  so.num_threads = threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  so.num_threads = threads > 0 ? threads : options.Threads();
   so.function_tolerance = 1e-12;
   so.parameter_tolerance = 1e-12;
   so.gradient_tolerance = 1e-12;
-  so.minimizer_progress_to_stdout = false;
+  // Quiet unless asked: a corner leaving the mirror in a trial step is a
+  // rejected step, which Ceres would otherwise log as a warning.
+  so.minimizer_progress_to_stdout = options.verbose;
+  so.logging_type = options.verbose ? ceres::PER_MINIMIZER_ITERATION : ceres::SILENT;
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
   if (options.verbose) std::fprintf(stderr, "%s\n", summary.BriefReport().c_str());
@@ -127,8 +129,7 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
   for (size_t i = 0; i < views.size(); ++i) {
     if (!AllFinite(poses[i].data(), 6)) throw Error("calibration fit: a board pose became non-finite");
     BoardView& bv = res.views[i];
-    bv.rvec = Eigen::Vector3d(poses[i][0], poses[i][1], poses[i][2]);
-    bv.tvec = Eigen::Vector3d(poses[i][3], poses[i][4], poses[i][5]);
+    UnpackPose(poses[i], &bv);
     std::vector<Eigen::Vector2d> rv;
     double s2 = 0.0;
     size_t n = 0;

@@ -222,6 +222,7 @@ ShapeFit FitShape(const std::vector<double>& rho, const std::vector<double>& ele
       ceres::Solver::Options so;
       so.max_num_iterations = 100;
       so.linear_solver_type = ceres::DENSE_QR;
+      so.logging_type = ceres::SILENT;
       ceres::Solver::Summary sum;
       double c0;
       if (!problem.Evaluate(ceres::Problem::EvaluateOptions(), &c0, nullptr, nullptr, nullptr)) continue;
@@ -289,6 +290,7 @@ double QuickFit(const std::vector<BoardView>& views, const std::vector<Eigen::Ve
   ceres::Solver::Options so;
   so.max_num_iterations = iterations;
   so.linear_solver_type = poses_known ? ceres::DENSE_QR : ceres::DENSE_SCHUR;
+  so.logging_type = ceres::SILENT;
   so.num_threads = threads;
   ceres::Solver::Summary sum;
   ceres::Solve(so, &problem, &sum);
@@ -362,262 +364,353 @@ bool InitialPoseFromSensor(const BoardView& view, const TargetBoard& board, cons
 
 }  // namespace calib_internal
 
-InitialEstimate Initialize(const std::vector<BoardView>& views, const TargetBoard& board, int width,
-                           int height, bool poses_known, const CalibrateOptions& options) {
-  if (views.empty()) throw Error("initialisation: no boards");
-  const std::vector<Eigen::Vector3d> pts = BoardPoints(board);
-  const double board_size = board.square * std::max(board.cols, board.rows);
-  const bool conic = options.model == MirrorModel::kConic;
-  std::ostringstream log;
+namespace {
 
-  double best_rms = kInf;
-  InitialEstimate best;
-  std::vector<std::pair<double, InitialEstimate>> groups;
-  // Centre candidates: the image centre first; others only when it fails.
+// What the initialisation at every centre candidate shares.
+struct InitInput {
+  const std::vector<BoardView>& views;
+  std::vector<Eigen::Vector3d> pts;  // board points
+  double board_size;                 // the board's longer side: the unit of the linear solves
+  int width, height;
+  bool poses_known, conic;
+  const CalibrateOptions& options;
+};
+
+// The central approximation at one centre: its polynomial, and the boards'
+// poses (unknown poses) or the azimuth offset and the viewpoint height
+// (known poses).
+struct CentralFit {
+  CentralModel cm;
+  std::vector<Eigen::Matrix3d> Rs;
+  std::vector<Eigen::Vector3d> ts;
+  double azimuth_offset = 0.0;
+  double h_view = 0.0;
+};
+
+// Centre candidates: the image centre first; the 8 around it are tried only
+// when it fails.
+std::vector<std::pair<double, double>> CentreCandidates(int width, int height) {
   const double cx0 = 0.5 * (width - 1), cy0 = 0.5 * (height - 1);
   const double step = 0.04 * std::min(width, height);
   std::vector<std::pair<double, double>> centres = {{cx0, cy0}};
   for (int dy = -1; dy <= 1; ++dy)
     for (int dx = -1; dx <= 1; ++dx)
       if (dx || dy) centres.push_back({cx0 + dx * step, cy0 + dy * step});
+  return centres;
+}
 
-  for (size_t ci = 0; ci < centres.size(); ++ci) {
-    CentralModel cm;
-    cm.cx = centres[ci].first;
-    cm.cy = centres[ci].second;
-    double rmin = kInf, rmax = 0;
-    for (const BoardView& v : views)
-      for (const Eigen::Vector2d& c : v.corners) {
-        const double r = std::hypot(c.x() - cm.cx, c.y() - cm.cy);
-        rmin = std::min(rmin, r);
-        rmax = std::max(rmax, r);
-      }
-    cm.rho_ref = rmax;
-    cm.rho_min = rmin / rmax;
-    cm.rho_max = 1.0;
-    if (!(rmin > 1.0)) {
-      log << "centre (" << cm.cx << ", " << cm.cy << "): a corner lies on the centre; ";
+// The central model's centre and radius normalisation (by the farthest
+// corner); false when a corner lies on the centre.
+bool CentreModelAt(const std::vector<BoardView>& views, double cx, double cy, CentralModel* cm) {
+  cm->cx = cx;
+  cm->cy = cy;
+  double rmin = kInf, rmax = 0;
+  for (const BoardView& v : views)
+    for (const Eigen::Vector2d& c : v.corners) {
+      const double r = std::hypot(c.x() - cm->cx, c.y() - cm->cy);
+      rmin = std::min(rmin, r);
+      rmax = std::max(rmax, r);
+    }
+  cm->rho_ref = rmax;
+  cm->rho_min = rmin / rmax;
+  cm->rho_max = 1.0;
+  return rmin > 1.0;
+}
+
+// The sign of a board's (r31, r32) for which g grows with the radius over
+// the board's corners (a convex mirror seen from below).
+PlanarPose WithRisingElevation(const BoardView& v, const InitInput& in, const CentralModel& cm,
+                               const PlanarPose& pp) {
+  double best_slope = -kInf;
+  PlanarPose chosen = pp;
+  for (double sgn : {1.0, -1.0}) {
+    PlanarPose c = pp;
+    c.r1.z() *= sgn;
+    c.r2.z() *= sgn;
+    std::vector<Eigen::VectorXd> rows;
+    std::vector<double> rhs;
+    AddCentralRows(v, in.pts, cm, c.r1, c.r2, c.t1, c.t2, in.board_size, 2, 2, &rows, &rhs, 3);
+    const Eigen::VectorXd sol = SolveRows(rows, rhs);
+    // Slope of g over this board's radii (g = a0 + a2 x^2).
+    double xmin = kInf, xmax = 0;
+    for (const Eigen::Vector2d& q : v.corners) {
+      const double x = std::hypot(q.x() - cm.cx, q.y() - cm.cy) / cm.rho_ref;
+      xmin = std::min(xmin, x);
+      xmax = std::max(xmax, x);
+    }
+    const double slope = sol(1) * (xmax * xmax - xmin * xmin);
+    if (std::isfinite(slope) && slope > best_slope) {
+      best_slope = slope;
+      chosen = c;
+    }
+  }
+  return chosen;
+}
+
+std::string CentreName(const CentralModel& cm) {
+  std::ostringstream o;
+  o << "centre (" << cm.cx << ", " << cm.cy << ")";
+  return o.str();
+}
+
+// Unknown poses: every board's in-plane pose, then the polynomial and every
+// board's height in one least-squares solve. False (with the reason logged)
+// on failure.
+bool CentralWithUnknownPoses(const InitInput& in, CentralFit* fit, std::ostringstream* log) {
+  CentralModel& cm = fit->cm;
+  const size_t nv = in.views.size();
+  std::vector<PlanarPose> pp(nv);
+  for (size_t i = 0; i < nv; ++i) {
+    pp[i] = SolveInPlane(in.views[i], in.pts, cm, in.board_size);
+    if (!pp[i].ok) {
+      *log << CentreName(cm) << ": " << in.views[i].file << ": degenerate in-plane pose; ";
+      return false;
+    }
+    pp[i] = WithRisingElevation(in.views[i], in, cm, pp[i]);
+  }
+  const int n_a = 4, n_cols = n_a + static_cast<int>(nv);
+  std::vector<Eigen::VectorXd> rows;
+  std::vector<double> rhs;
+  for (size_t i = 0; i < nv; ++i)
+    AddCentralRows(in.views[i], in.pts, cm, pp[i].r1, pp[i].r2, pp[i].t1, pp[i].t2, in.board_size, n_a,
+                   n_a + static_cast<int>(i), &rows, &rhs, n_cols);
+  const Eigen::VectorXd sol = SolveRows(rows, rhs);
+  if (!sol.allFinite()) {
+    *log << CentreName(cm) << ": central least squares not finite; ";
+    return false;
+  }
+  cm.a = sol.head<4>();
+  fit->Rs.resize(nv);
+  fit->ts.resize(nv);
+  for (size_t i = 0; i < nv; ++i) {
+    Eigen::Matrix3d M;
+    M.col(0) = pp[i].r1;
+    M.col(1) = pp[i].r2;
+    M.col(2) = pp[i].r1.cross(pp[i].r2);
+    fit->Rs[i] = NearestRotation(M);
+    fit->ts[i] = {pp[i].t1, pp[i].t2, sol(n_a + i) * in.board_size};
+  }
+  return true;
+}
+
+// Known poses: the azimuth offset (the circular mean of the corners' azimuth
+// differences), then the polynomial and the viewpoint height in one
+// least-squares solve. False (with the reason logged) on failure.
+bool CentralWithKnownPoses(const InitInput& in, CentralFit* fit, std::ostringstream* log) {
+  CentralModel& cm = fit->cm;
+  double sx = 0, sy = 0;
+  for (const BoardView& v : in.views) {
+    Eigen::Matrix3d R;
+    ceres::AngleAxisToRotationMatrix(v.rvec.data(), R.data());
+    for (size_t j = 0; j < in.pts.size(); ++j) {
+      const Eigen::Vector3d X = R * in.pts[j] + v.tvec;
+      const double d = wrap_angle(std::atan2(v.corners[j].y() - cm.cy, v.corners[j].x() - cm.cx) -
+                                  std::atan2(X.y(), X.x()));
+      sx += std::cos(d);
+      sy += std::sin(d);
+    }
+  }
+  fit->azimuth_offset = in.options.fit_azimuth_offset ? std::atan2(sy, sx) : 0.0;
+  std::vector<Eigen::VectorXd> rows;
+  std::vector<double> rhs;
+  for (const BoardView& v : in.views) {
+    Eigen::Matrix3d R;
+    ceres::AngleAxisToRotationMatrix(v.rvec.data(), R.data());
+    for (size_t j = 0; j < in.pts.size(); ++j) {
+      const Eigen::Vector3d X = R * in.pts[j] + v.tvec;
+      const double D = std::hypot(X.x(), X.y()) / in.board_size, Z = X.z() / in.board_size;
+      const double x = std::hypot(v.corners[j].x() - cm.cx, v.corners[j].y() - cm.cy) / cm.rho_ref;
+      // g(x) D + x h = x Z
+      Eigen::VectorXd r(5);
+      r << D, x * x * D, x * x * x * D, x * x * x * x * D, x;
+      rows.push_back(r);
+      rhs.push_back(x * Z);
+    }
+  }
+  const Eigen::VectorXd sol = SolveRows(rows, rhs);
+  if (!sol.allFinite()) {
+    *log << CentreName(cm) << ": central least squares not finite; ";
+    return false;
+  }
+  cm.a = sol.head<4>();
+  fit->h_view = sol(4) * in.board_size;
+  return true;
+}
+
+// The central approximation at the centre (cx, cy). False (with the reason
+// logged) when it fails there.
+bool CentralAt(const InitInput& in, double cx, double cy, CentralFit* fit, std::ostringstream* log) {
+  if (!CentreModelAt(in.views, cx, cy, &fit->cm)) {
+    *log << CentreName(fit->cm) << ": a corner lies on the centre; ";
+    return false;
+  }
+  return in.poses_known ? CentralWithKnownPoses(in, fit, log) : CentralWithUnknownPoses(in, fit, log);
+}
+
+// The central model's elevation over the observed radii (rho in pixels).
+void ElevationCurve(const CentralModel& cm, std::vector<double>* rho, std::vector<double>* elev,
+                    std::ostringstream* log) {
+  bool monotone = true;
+  double prev = -kInf;
+  for (int k = 0; k <= 40; ++k) {
+    const double x = cm.rho_min + (cm.rho_max - cm.rho_min) * k / 40.0;
+    const double e = std::atan2(cm.g(x), x);
+    monotone = monotone && e > prev;
+    prev = e;
+    rho->push_back(x * cm.rho_ref);
+    elev->push_back(e);
+  }
+  if (!monotone) *log << CentreName(cm) << ": central elevation curve not monotone; ";
+}
+
+// One start of the short joint refinement: a mirror shape group (R/zv) at
+// one scale guess.
+struct Start {
+  double R0 = 0.0;
+  ShapeFit shape;
+  InitialEstimate est;
+  std::array<double, kNumSensor> s{};
+  double rms = kInf;
+};
+
+// The mirror's scale guesses for a shape: from the viewpoint height (known
+// poses), else fractions of the boards' median distance.
+std::vector<double> ScaleGuesses(const InitInput& in, const CentralFit& fit, const ShapeFit& shape) {
+  if (in.poses_known && fit.h_view > 0 && shape.h > 0) return {fit.h_view / shape.h};
+  std::vector<double> dist;
+  if (in.poses_known) {
+    for (const BoardView& v : in.views) dist.push_back(v.tvec.norm());
+  } else {
+    for (const Eigen::Vector3d& t : fit.ts) dist.push_back(t.norm());
+  }
+  std::nth_element(dist.begin(), dist.begin() + dist.size() / 2, dist.end());
+  std::vector<double> scales;
+  for (double c : {0.03, 0.1, 0.3}) scales.push_back(dist[dist.size() / 2] * c / (1.0 + shape.R));
+  return scales;
+}
+
+// The start of one shape at one scale: the sensor and the boards' poses.
+Start MakeStart(const InitInput& in, const CentralFit& fit, double R0, const ShapeFit& shape, double sc) {
+  Start st;
+  st.R0 = R0;
+  st.shape = shape;
+  InitialEstimate& est = st.est;
+  est.sensor.model = in.options.model;
+  est.sensor.image_width = in.width;
+  est.sensor.image_height = in.height;
+  SensorParams<double>& p = est.sensor.params;
+  p.focal_px = shape.f;
+  p.cx = fit.cm.cx;
+  p.cy = fit.cm.cy;
+  p.aspect = 1.0;
+  p.azimuth_offset = fit.azimuth_offset;
+  p.curvature_radius = shape.R * sc;
+  p.conic_constant = in.conic ? shape.k : 0.0;
+  p.vertex_distance = sc;
+  est.poses.resize(in.views.size());
+  for (size_t i = 0; i < in.views.size(); ++i)
+    est.poses[i] = in.poses_known ? PackPose(in.views[i])
+                                  : PoseFromRt(fit.Rs[i], fit.ts[i] + Eigen::Vector3d(0, 0, sc * shape.h));
+  st.s = BlockFromParams(p);
+  return st;
+}
+
+// Every start at this centre: the mirror shape of each R/zv group fitted to
+// the central model's elevation curve, at each of its scale guesses.
+std::vector<Start> MakeStarts(const InitInput& in, const CentralFit& fit, std::ostringstream* log) {
+  std::vector<double> rho, elev;
+  ElevationCurve(fit.cm, &rho, &elev, log);
+  std::vector<Start> starts;
+  for (double R0 : {0.1, 0.25, 0.5, 1.0, 2.0}) {
+    const ShapeFit shape = FitShape(rho, elev, in.conic, R0);
+    if (!std::isfinite(shape.cost)) {
+      *log << CentreName(fit.cm) << " R/zv " << R0 << ": no mirror shape fits the central model; ";
       continue;
     }
-
-    std::vector<std::array<double, 6>> poses(views.size());
-    double azimuth_offset = 0.0;
-    std::vector<Eigen::Matrix3d> Rs(views.size());
-    std::vector<Eigen::Vector3d> ts(views.size());
-    double h_view = 0.0;  // known poses: viewpoint height
-
-    if (!poses_known) {
-      // In-plane poses and the sign of (r31, r32) per board.
-      std::vector<PlanarPose> pp(views.size());
-      bool failed = false;
-      for (size_t i = 0; i < views.size() && !failed; ++i) {
-        pp[i] = SolveInPlane(views[i], pts, cm, board_size);
-        if (!pp[i].ok) {
-          log << "centre (" << cm.cx << ", " << cm.cy << "): " << views[i].file << ": degenerate in-plane pose; ";
-          failed = true;
-          break;
-        }
-        double best_slope = -kInf;
-        PlanarPose chosen = pp[i];
-        for (double sgn : {1.0, -1.0}) {
-          PlanarPose c = pp[i];
-          c.r1.z() *= sgn;
-          c.r2.z() *= sgn;
-          std::vector<Eigen::VectorXd> rows;
-          std::vector<double> rhs;
-          AddCentralRows(views[i], pts, cm, c.r1, c.r2, c.t1, c.t2, board_size, 2, 2, &rows, &rhs, 3);
-          const Eigen::VectorXd sol = SolveRows(rows, rhs);
-          // Slope of g over this board's radii (g = a0 + a2 x^2).
-          double xmin = kInf, xmax = 0;
-          for (const Eigen::Vector2d& q : views[i].corners) {
-            const double x = std::hypot(q.x() - cm.cx, q.y() - cm.cy) / cm.rho_ref;
-            xmin = std::min(xmin, x);
-            xmax = std::max(xmax, x);
-          }
-          const double slope = sol(1) * (xmax * xmax - xmin * xmin);
-          if (std::isfinite(slope) && slope > best_slope) {
-            best_slope = slope;
-            chosen = c;
-          }
-        }
-        pp[i] = chosen;
-      }
-      if (failed) continue;
-      // Joint polynomial and heights.
-      const int n_a = 4, n_cols = n_a + static_cast<int>(views.size());
-      std::vector<Eigen::VectorXd> rows;
-      std::vector<double> rhs;
-      for (size_t i = 0; i < views.size(); ++i)
-        AddCentralRows(views[i], pts, cm, pp[i].r1, pp[i].r2, pp[i].t1, pp[i].t2, board_size, n_a,
-                       n_a + static_cast<int>(i), &rows, &rhs, n_cols);
-      const Eigen::VectorXd sol = SolveRows(rows, rhs);
-      if (!sol.allFinite()) {
-        log << "centre (" << cm.cx << ", " << cm.cy << "): central least squares not finite; ";
-        continue;
-      }
-      cm.a = sol.head<4>();
-      for (size_t i = 0; i < views.size(); ++i) {
-        Eigen::Matrix3d M;
-        M.col(0) = pp[i].r1;
-        M.col(1) = pp[i].r2;
-        M.col(2) = pp[i].r1.cross(pp[i].r2);
-        Rs[i] = NearestRotation(M);
-        ts[i] = {pp[i].t1, pp[i].t2, sol(n_a + i) * board_size};
-      }
-    } else {
-      // Known poses: azimuth offset, then the polynomial and the viewpoint height.
-      double sx = 0, sy = 0;
-      for (const BoardView& v : views) {
-        Eigen::Matrix3d R;
-        ceres::AngleAxisToRotationMatrix(v.rvec.data(), R.data());
-        for (size_t j = 0; j < pts.size(); ++j) {
-          const Eigen::Vector3d X = R * pts[j] + v.tvec;
-          const double d = wrap_angle(std::atan2(v.corners[j].y() - cm.cy, v.corners[j].x() - cm.cx) -
-                                  std::atan2(X.y(), X.x()));
-          sx += std::cos(d);
-          sy += std::sin(d);
-        }
-      }
-      azimuth_offset = options.fit_azimuth_offset ? std::atan2(sy, sx) : 0.0;
-      std::vector<Eigen::VectorXd> rows;
-      std::vector<double> rhs;
-      for (const BoardView& v : views) {
-        Eigen::Matrix3d R;
-        ceres::AngleAxisToRotationMatrix(v.rvec.data(), R.data());
-        for (size_t j = 0; j < pts.size(); ++j) {
-          const Eigen::Vector3d X = R * pts[j] + v.tvec;
-          const double D = std::hypot(X.x(), X.y()) / board_size, Z = X.z() / board_size;
-          const double x = std::hypot(v.corners[j].x() - cm.cx, v.corners[j].y() - cm.cy) / cm.rho_ref;
-          // g(x) D + x h = x Z
-          Eigen::VectorXd r(5);
-          r << D, x * x * D, x * x * x * D, x * x * x * x * D, x;
-          rows.push_back(r);
-          rhs.push_back(x * Z);
-        }
-      }
-      const Eigen::VectorXd sol = SolveRows(rows, rhs);
-      if (!sol.allFinite()) continue;
-      cm.a = sol.head<4>();
-      h_view = sol(4) * board_size;
-    }
-
-    // Elevation curve of the central model over the observed radii.
-    std::vector<double> rho, elev;
-    bool monotone = true;
-    double prev = -kInf;
-    for (int k = 0; k <= 40; ++k) {
-      const double x = cm.rho_min + (cm.rho_max - cm.rho_min) * k / 40.0;
-      const double e = std::atan2(cm.g(x), x);
-      monotone = monotone && e > prev;
-      prev = e;
-      rho.push_back(x * cm.rho_ref);
-      elev.push_back(e);
-    }
-    if (!monotone) log << "centre (" << cm.cx << ", " << cm.cy << "): central elevation curve not monotone; ";
-    // Every start (mirror shape group R/zv x scale guess) first, then their
-    // short refinements in parallel, then the bookkeeping in start order, so
-    // the result does not depend on the thread count.
-    struct Start {
-      double R0 = 0.0;
-      ShapeFit shape;
-      InitialEstimate est;
-      std::array<double, kNumSensor> s{};
-      double rms = kInf;
-    };
-    std::vector<Start> starts;
-    for (double R0 : {0.1, 0.25, 0.5, 1.0, 2.0}) {
-      const ShapeFit shape = FitShape(rho, elev, conic, R0);
-      if (!std::isfinite(shape.cost)) {
-        log << "centre (" << cm.cx << ", " << cm.cy << ") R/zv " << R0 << ": no mirror shape fits the central model; ";
-        continue;
-      }
-      // Scale candidates.
-      std::vector<double> scales;
-      if (poses_known && h_view > 0 && shape.h > 0) {
-        scales.push_back(h_view / shape.h);
-      } else {
-        std::vector<double> dist;
-        if (poses_known) {
-          for (const BoardView& v : views) dist.push_back(v.tvec.norm());
-        } else {
-          for (const Eigen::Vector3d& t : ts) dist.push_back(t.norm());
-        }
-        std::nth_element(dist.begin(), dist.begin() + dist.size() / 2, dist.end());
-        for (double c : {0.03, 0.1, 0.3}) scales.push_back(dist[dist.size() / 2] * c / (1.0 + shape.R));
-      }
-      for (const double sc : scales) {
-        Start st;
-        st.R0 = R0;
-        st.shape = shape;
-        InitialEstimate& est = st.est;
-        est.sensor.model = options.model;
-        est.sensor.image_width = width;
-        est.sensor.image_height = height;
-        SensorParams<double>& p = est.sensor.params;
-        p.focal_px = shape.f;
-        p.cx = cm.cx;
-        p.cy = cm.cy;
-        p.aspect = 1.0;
-        p.azimuth_offset = azimuth_offset;
-        p.curvature_radius = shape.R * sc;
-        p.conic_constant = conic ? shape.k : 0.0;
-        p.vertex_distance = sc;
-        est.poses.resize(views.size());
-        for (size_t i = 0; i < views.size(); ++i) {
-          if (poses_known) {
-            est.poses[i] = {views[i].rvec.x(), views[i].rvec.y(), views[i].rvec.z(),
-                            views[i].tvec.x(), views[i].tvec.y(), views[i].tvec.z()};
-          } else {
-            est.poses[i] = PoseFromRt(Rs[i], ts[i] + Eigen::Vector3d(0, 0, sc * shape.h));
-          }
-        }
-        st.s = BlockFromParams(p);
-        starts.push_back(st);
-      }
-    }
-    ParallelFor(static_cast<int>(starts.size()), [&](int k) {
-      starts[k].rms = QuickFit(views, pts, &starts[k].s, &starts[k].est.poses, poses_known, options, 30,
-                               CapRadiusPx(width, height), 1);
-    });
-    for (size_t k = 0; k < starts.size();) {
-      // One R/zv group at a time.
-      double group_rms = kInf;
-      InitialEstimate group_best;
-      const double R0 = starts[k].R0;
-      for (; k < starts.size() && starts[k].R0 == R0; ++k) {
-        Start& st = starts[k];
-        log << "centre (" << cm.cx << ", " << cm.cy << ") shape f " << st.shape.f << " R/zv " << st.shape.R
-            << " k " << st.shape.k << " scale " << st.est.sensor.params.vertex_distance << ": RMS " << st.rms
-            << " px; ";
-        st.est.sensor.params = ParamsFromBlock(st.s.data());
-        if (conic && st.rms < group_rms) {
-          // The conic's landscape has several basins along the valley where
-          // only f R / zv is seen (far camera with a flat mirror, near
-          // single-viewpoint hyperboloid...), and 30 iterations do not rank
-          // them reliably: the caller refines the best start of every group.
-          group_rms = st.rms;
-          group_best = st.est;
-        }
-        if (st.rms < best_rms) {
-          best_rms = st.rms;
-          best = st.est;
-        }
-      }
-      if (std::isfinite(group_rms)) {
-        group_best.summary =
-            "start R/zv " + std::to_string(R0) + " (RMS after 30 iterations " + std::to_string(group_rms) + " px)";
-        groups.push_back({group_rms, group_best});
-      }
-    }
-    if (best_rms < 3.0) break;  // good enough: no other centre needed
+    for (const double sc : ScaleGuesses(in, fit, shape)) starts.push_back(MakeStart(in, fit, R0, shape, sc));
   }
-  if (!std::isfinite(best_rms) || best_rms > 10.0 * options.max_rms_px)
+  return starts;
+}
+
+// The starts' short refinements, in parallel.
+void RefineStarts(const InitInput& in, std::vector<Start>* starts) {
+  ParallelFor(
+      static_cast<int>(starts->size()),
+      [&](int k) {
+        Start& st = (*starts)[k];
+        st.rms = QuickFit(in.views, in.pts, &st.s, &st.est.poses, in.poses_known, in.options, 30,
+                          CapRadiusPx(in.width, in.height), 1);
+      },
+      true, in.options.Threads());
+}
+
+// The best start so far, and the best start of every R/zv group (conic).
+struct StartRanking {
+  double best_rms = kInf;
+  InitialEstimate best;
+  std::vector<std::pair<double, InitialEstimate>> groups;
+};
+
+// Ranks the refined starts in start order (so that the result does not
+// depend on the thread count), one R/zv group at a time.
+void RankStarts(const InitInput& in, const CentralModel& cm, std::vector<Start>* starts, StartRanking* rank,
+                std::ostringstream* log) {
+  for (size_t k = 0; k < starts->size();) {
+    double group_rms = kInf;
+    InitialEstimate group_best;
+    const double R0 = (*starts)[k].R0;
+    for (; k < starts->size() && (*starts)[k].R0 == R0; ++k) {
+      Start& st = (*starts)[k];
+      *log << CentreName(cm) << " shape f " << st.shape.f << " R/zv " << st.shape.R << " k " << st.shape.k
+           << " scale " << st.est.sensor.params.vertex_distance << ": RMS " << st.rms << " px; ";
+      st.est.sensor.params = ParamsFromBlock(st.s.data());
+      if (in.conic && st.rms < group_rms) {
+        // The conic's landscape has several basins along the valley where
+        // only f R / zv is seen (far camera with a flat mirror, near
+        // single-viewpoint hyperboloid...), and 30 iterations do not rank
+        // them reliably: the caller refines the best start of every group.
+        group_rms = st.rms;
+        group_best = st.est;
+      }
+      if (st.rms < rank->best_rms) {
+        rank->best_rms = st.rms;
+        rank->best = st.est;
+      }
+    }
+    if (std::isfinite(group_rms)) {
+      group_best.summary = "start R/zv " + std::to_string(R0) + " (RMS after 30 iterations " +
+                           std::to_string(group_rms) + " px)";
+      rank->groups.push_back({group_rms, group_best});
+    }
+  }
+}
+
+}  // namespace
+
+InitialEstimate Initialize(const std::vector<BoardView>& views, const TargetBoard& board, int width,
+                           int height, bool poses_known, const CalibrateOptions& options) {
+  if (views.empty()) throw Error("initialisation: no boards");
+  const InitInput in{views, BoardPoints(board), board.square * std::max(board.cols, board.rows),
+                     width, height, poses_known,
+                     options.model == MirrorModel::kConic, options};
+  std::ostringstream log;
+  StartRanking rank;
+  for (const auto& [cx, cy] : CentreCandidates(width, height)) {
+    CentralFit fit;
+    if (!CentralAt(in, cx, cy, &fit, &log)) continue;
+    std::vector<Start> starts = MakeStarts(in, fit, &log);
+    RefineStarts(in, &starts);
+    RankStarts(in, fit.cm, &starts, &rank, &log);
+    if (rank.best_rms < 3.0) break;  // good enough: no other centre needed
+  }
+  if (!std::isfinite(rank.best_rms) || rank.best_rms > 10.0 * options.max_rms_px)
     throw Error("initialisation failed: no start reached a usable fit (best RMS " +
-                (std::isfinite(best_rms) ? std::to_string(best_rms) + " px" : std::string("none")) +
+                (std::isfinite(rank.best_rms) ? std::to_string(rank.best_rms) + " px" : std::string("none")) +
                 "); tried: " + log.str());
-  best.summary = "best start RMS " + std::to_string(best_rms) + " px; " + log.str();
-  for (auto& g : groups)
-    if (g.first > best_rms) best.alternatives.push_back(g.second);
+  InitialEstimate best = rank.best;
+  best.summary = "best start RMS " + std::to_string(rank.best_rms) + " px; " + log.str();
+  for (const auto& g : rank.groups)
+    if (g.first > rank.best_rms) best.alternatives.push_back(g.second);
   return best;
 }
 

@@ -7,11 +7,12 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-
+#include <string>
 #include <vector>
 
 #include "calibrate/calibrate.h"
 #include "calibrate/corner_weights.h"
+#include "calibrate/refit.h"
 #include "sensor/catadioptric.h"
 #include "sensor/sensor.h"
 
@@ -71,8 +72,31 @@ bool PlausibleParams(const SensorParams<T>& p) {
          p.curvature_radius > T(0) && p.vertex_distance > T(0);
 }
 
-// Reprojection residual of one board corner (pixels): sensor block, pose
-// block (angle-axis, translation).
+// A board pose as the fit's parameter block: angle-axis, then translation.
+inline std::array<double, 6> PackPose(const Eigen::Vector3d& rvec, const Eigen::Vector3d& tvec) {
+  return {rvec.x(), rvec.y(), rvec.z(), tvec.x(), tvec.y(), tvec.z()};
+}
+inline std::array<double, 6> PackPose(const BoardView& view) { return PackPose(view.rvec, view.tvec); }
+inline void UnpackPose(const std::array<double, 6>& pose, BoardView* view) {
+  view->rvec = Eigen::Vector3d(pose[0], pose[1], pose[2]);
+  view->tvec = Eigen::Vector3d(pose[3], pose[4], pose[5]);
+}
+
+// Target image i's board view (file, known pose) with these corners.
+inline BoardView ViewOfImage(const TargetSet& targets, int i, const std::vector<Eigen::Vector2d>& corners,
+                             const std::string& method) {
+  const TargetImage& ti = targets.images[static_cast<size_t>(i)];
+  BoardView v;
+  v.image_index = i;
+  v.file = ti.file;
+  v.corners = corners;
+  v.method = method;
+  v.has_pose = ti.has_pose;
+  v.rvec = Eigen::Vector3d(ti.rvec[0], ti.rvec[1], ti.rvec[2]);
+  v.tvec = Eigen::Vector3d(ti.tvec[0], ti.tvec[1], ti.tvec[2]);
+  return v;
+}
+
 // Rim that caps the visible mirror at normalised radius m_cap when the limb
 // lies beyond it (a hyperboloid has none: its rays would run off to infinity).
 inline double RimForRadius(SensorParams<double> p, double m_cap) {
@@ -87,6 +111,8 @@ inline double RimForRadius(SensorParams<double> p, double m_cap) {
   return 0.0;
 }
 
+// Reprojection residual of one board corner (pixels): sensor block, pose
+// block (angle-axis, translation).
 struct CornerCost {
   // cap_px: image radius (pixels) beyond which the mirror is taken to end.
   // sqrt_info: the residual is sqrt_info * (projected - observed), a square
@@ -117,8 +143,6 @@ struct CornerCost {
   double cap;
   Eigen::Matrix2d L;
 };
-
-
 
 // The image radius that caps the mirror in the fit: 1.5 x the half-diagonal.
 inline double CapRadiusPx(int width, int height) { return 0.75 * std::hypot(width, height); }

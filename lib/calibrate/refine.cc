@@ -30,7 +30,7 @@ bool ProjectBoardPoint(const Sensor& s, const BoardView& v, double x, double y, 
 }  // namespace
 
 int RefineCornersThroughModel(const std::vector<cv::Mat>& images, const TargetBoard& board,
-                              const Sensor& sensor, std::vector<BoardView>* views) {
+                              const Sensor& sensor, std::vector<BoardView>* views, int num_threads) {
   // A patch of +-0.4 squares around each corner, 33 x 33 samples.
   constexpr int kN = 33, kHalf = kN / 2;
   const double step = 0.8 * board.square / (kN - 1);
@@ -101,7 +101,7 @@ int RefineCornersThroughModel(const std::vector<cv::Mat>& images, const TargetBo
     if (!ProjectBoardPoint(sensor, v, x0 + dx, y0 + dy, &px)) return;
     v.corners[k] = px;
     moved[t] = 1;
-  });
+  }, true, num_threads);
   return static_cast<int>(std::count(moved.begin(), moved.end(), 1));
 }
 

@@ -6,14 +6,24 @@
 #include <exception>
 #include <vector>
 
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
 namespace pano {
 
-// body(k) for k in [0, n), in parallel (dynamic schedule) when `parallel`.
-// Includers compile with OpenMP (without it the loop runs serially).
+// body(k) for k in [0, n), in parallel (dynamic schedule) when `parallel`, on
+// `num_threads` threads (0: OpenMP's default team size). Includers compile
+// with OpenMP (without it the loop runs serially).
 template <typename Body>
-void ParallelFor(int n, Body&& body, bool parallel = true) {
+void ParallelFor(int n, Body&& body, bool parallel = true, int num_threads = 0) {
   std::vector<std::exception_ptr> errors(n > 0 ? static_cast<size_t>(n) : 0);
-#pragma omp parallel for schedule(dynamic) if (parallel && n > 1)
+#ifdef _OPENMP
+  [[maybe_unused]] const int threads = num_threads > 0 ? num_threads : omp_get_max_threads();
+#else
+  [[maybe_unused]] const int threads = 1;
+#endif
+#pragma omp parallel for schedule(dynamic) num_threads(threads) if (parallel && n > 1 && threads > 1)
   for (int k = 0; k < n; ++k) {
     try {
       body(k);

@@ -37,8 +37,12 @@ SyntheticSet MakeSyntheticSet(const Sensor& sensor, const TargetBoard& board, in
     const double Z = z_min + (z_max - z_min) * U(rng);
     const Eigen::Vector3d C(D * std::cos(az), D * std::sin(az), Z);
     Eigen::Vector3d zb = (C - Eigen::Vector3d(0, 0, view_z)).normalized();
-    // Random tilt up to ~35 degrees.
-    const Eigen::Vector3d tilt(0.35 * N(rng), 0.35 * N(rng), 0.35 * N(rng));
+    // Random tilt up to ~35 degrees. One draw per statement: the order in
+    // which a call's arguments are evaluated is unspecified (gcc and clang
+    // differ), and the data must not depend on the compiler. Last component
+    // first: the order the tests' figures were measured with.
+    const double tilt_z = 0.35 * N(rng), tilt_y = 0.35 * N(rng), tilt_x = 0.35 * N(rng);
+    const Eigen::Vector3d tilt(tilt_x, tilt_y, tilt_z);
     zb = (Eigen::AngleAxisd(tilt.norm(), tilt.normalized()) * zb).normalized();
     Eigen::Vector3d xb = Eigen::Vector3d::UnitZ().cross(zb).normalized();
     const double roll = 0.5 * N(rng);
@@ -57,7 +61,8 @@ SyntheticSet MakeSyntheticSet(const Sensor& sensor, const TargetBoard& board, in
         ok = false;
         break;
       }
-      v.corners.push_back(px + noise_px * Eigen::Vector2d(N(rng), N(rng)));
+      const double noise_v = N(rng), noise_u = N(rng);  // one draw per statement, as above
+      v.corners.push_back(px + noise_px * Eigen::Vector2d(noise_u, noise_v));
     }
     if (!ok) continue;
     std::array<double, 6> pose{};

@@ -1,0 +1,129 @@
+// The pipeline's contract with its callers: calibrations running at once do
+// not disturb each other (no global state), and a step that fails and is
+// skipped reaches the result's warnings.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <exception>
+#include <string>
+#include <thread>
+
+#include "calibrate/calibrate.h"
+#include "calibrate/refit.h"
+#include "io/calibration.h"
+#include "io/targets.h"
+#include "render/targets_render.h"
+#include "synthetic.h"
+#include "test_paths.h"
+#include "test_rng.h"
+
+namespace pano {
+namespace {
+
+// Relative difference, against the larger magnitude (0 for two zeros).
+double RelativeDifference(double a, double b) {
+  const double scale = std::max(std::abs(a), std::abs(b));
+  return scale > 0.0 ? std::abs(a - b) / scale : 0.0;
+}
+
+void CheckSameResult(const CalibrationResult& a, const CalibrationResult& b) {
+  REQUIRE(a.parameters.size() == b.parameters.size());
+  for (size_t k = 0; k < a.parameters.size(); ++k) {
+    INFO(a.parameters[k].name << ": " << a.parameters[k].value << " and " << b.parameters[k].value);
+    CHECK(a.parameters[k].name == b.parameters[k].name);
+    CHECK(RelativeDifference(a.parameters[k].value, b.parameters[k].value) < 1e-9);
+  }
+  CHECK(RelativeDifference(a.rms_px, b.rms_px) < 1e-9);
+  REQUIRE(a.views.size() == b.views.size());
+  for (size_t i = 0; i < a.views.size(); ++i) {
+    CHECK(a.views[i].image_index == b.views[i].image_index);
+    CHECK(a.views[i].method == b.views[i].method);
+    CHECK(RelativeDifference(a.image_rms[i], b.image_rms[i]) < 1e-9);
+  }
+  CHECK(a.not_found == b.not_found);
+  CHECK(a.warnings == b.warnings);
+}
+
+TEST_CASE("two calibrations at once give what one alone gives", "[concurrent]") {
+  // Rendered boards (known poses, 2 grey levels of noise) through the whole
+  // pipeline: detection, the unwarped retry, refinement, each with its own
+  // threads.
+  const Calibration truth = ReadCalibration(test::SourcePath("calib/paper-real.yaml"));
+  const std::string dir = test::ScratchDir("calibrate_concurrent") + "/t";
+  TargetBoard board;
+  board.cols = 9;
+  board.rows = 6;
+  board.square = 3.0;
+  RenderOptions ro;
+  ro.noise_sigma = 2.0;
+  ro.seed = 5;
+  TargetsWriteOptions wo;
+  wo.overwrite = true;
+  wo.quiet = true;
+  WriteTargetImages(dir, truth, board, AutoBoardPoses(truth.sensor, board, 8, 5), ro, wo);
+  const TargetSet targets = ReadTargets(dir + "/targets.yaml");
+  const std::vector<cv::Mat> images = LoadTargetImages(targets);
+  CalibrateOptions o;
+  o.num_threads = 2;
+  const CalibrationResult alone = Calibrate(targets, images, o);
+
+  CalibrationResult results[2];
+  std::string errors[2];
+  auto run = [&](int k) {
+    try {
+      results[k] = Calibrate(targets, images, o);
+    } catch (const std::exception& e) {
+      errors[k] = e.what();
+    }
+  };
+  std::thread first(run, 0), second(run, 1);
+  first.join();
+  second.join();
+  for (int k = 0; k < 2; ++k) {
+    INFO("calibration " << k << " running at once with the other");
+    REQUIRE(errors[k].empty());
+    CheckSameResult(results[k], alone);
+  }
+}
+
+TEST_CASE("a refit that fails is a warning and the previous fit stands", "[refit_warning]") {
+  PANO_SEEDED_RNG(66);
+  TargetBoard board;
+  board.cols = 9;
+  board.rows = 6;
+  board.square = 3.0;
+  const Sensor truth = ReadCalibration(test::SourcePath("calib/paper-real.yaml")).sensor;
+  const auto set = test::MakeSyntheticSet(truth, board, 6, 12.0, 30.0, -30.0, 10.0, 0.05, rng);
+  REQUIRE(set.views.size() == 6);
+  InitialEstimate start;
+  start.sensor = truth;
+  start.sensor.params.rim_radius = 0.0;
+  start.poses = set.true_poses;
+  start.summary = "the truth";
+  std::vector<std::string> carried = {"an earlier warning"};
+
+  // A bound below the corners' noise: the refit's own check fails.
+  CalibrateOptions strict;
+  strict.max_rms_px = 1e-3;
+  const auto failed = calib_internal::TryRefit("the test refit", set.views, board, start, true, "cm", strict,
+                                               &carried);
+  CHECK_FALSE(failed.has_value());
+  REQUIRE(carried.size() == 2);
+  CHECK(carried[0] == "an earlier warning");
+  CHECK(carried[1].rfind("the test refit failed (calibration failed: RMS reprojection error", 0) == 0);
+  CHECK(carried[1].find("; the previous fit stands") != std::string::npos);
+
+  // The same refit within the bound: its result carries every warning so
+  // far, first, and its comment (the calibration file's) names them.
+  const auto fit = calib_internal::TryRefit("the test refit", set.views, board, start, true, "cm",
+                                            CalibrateOptions(), &carried);
+  REQUIRE(fit);
+  CHECK(fit->rms_px < 0.1);
+  REQUIRE(fit->warnings.size() >= 2);
+  CHECK(fit->warnings[0] == carried[0]);
+  CHECK(fit->warnings[1] == carried[1]);
+  CHECK(fit->calib.comment.find("Warning: " + carried[1]) != std::string::npos);
+}
+
+}  // namespace
+}  // namespace pano
