@@ -59,7 +59,7 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    return app.exit(e) == 0 ? 0 : 1;  // --help, --version; bad options exit 1 like bad files
   } catch (const pano::Error& e) {
     std::fprintf(stderr, "panocalib: %s\n", OneLine(e.what()).c_str());
     return 1;

@@ -13,41 +13,39 @@ namespace pano::app {
 
 namespace {
 
-// Parses "a,b,c" into exactly n finite numbers.
-std::vector<double> ParseNumbers(const std::string& text, size_t n, const std::string& option) {
-  std::vector<double> out;
-  size_t start = 0;
-  while (start <= text.size()) {
-    const size_t comma = text.find(',', start);
-    const std::string field = text.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
-    char* end = nullptr;
-    const double v = std::strtod(field.c_str(), &end);
-    if (field.empty() || end != field.c_str() + field.size() || !std::isfinite(v))
-      throw Error(option + ": expected " + std::to_string(n) + " comma-separated numbers, got '" + text + "'");
-    out.push_back(v);
-    if (comma == std::string::npos) break;
-    start = comma + 1;
-  }
-  if (out.size() != n)
-    throw Error(option + ": expected " + std::to_string(n) + " comma-separated numbers, got '" + text + "'");
-  return out;
+// A comma-separated option of exactly n finite numbers ("x,y,z").
+CLI::Option* AddNumbers(CLI::App* app, const std::string& name, std::vector<double>& values, int n,
+                        const std::string& help) {
+  return app->add_option(name, values, help)
+      ->delimiter(',')
+      ->expected(n)
+      ->check(CLI::Validator(
+          [](std::string& v) {
+            char* end = nullptr;
+            const double x = std::strtod(v.c_str(), &end);
+            return end == v.c_str() + v.size() && !v.empty() && std::isfinite(x)
+                       ? std::string()
+                       : "'" + v + "' is not a finite number";
+          },
+          "NUMBER"))
+      ->required();
 }
 
 }  // namespace
 
 void AddProjectCommands(CLI::App& app) {
   auto calib = std::make_shared<std::string>();
-  auto point = std::make_shared<std::string>();
-  auto pixel = std::make_shared<std::string>();
+  auto point = std::make_shared<std::vector<double>>();
+  auto pixel = std::make_shared<std::vector<double>>();
   CLI::App* proj = app.add_subcommand(
       "project",
       "Print the pixel 'u v' at which a point (sensor frame: x forward, y left, z up from the "
       "pinhole, in the calibration's units) appears, or 'not visible'.");
   proj->add_option("--calib", *calib, "Calibration YAML")->required();
-  proj->add_option("--point", *point, "x,y,z in the sensor frame")->required();
+  AddNumbers(proj, "--point", *point, 3, "x,y,z in the sensor frame");
   proj->callback([calib, point]() {
     const Calibration c = ReadCalibration(*calib);
-    const std::vector<double> p = ParseNumbers(*point, 3, "--point");
+    const std::vector<double>& p = *point;
     Eigen::Vector2d px;
     if (!c.sensor.project({p[0], p[1], p[2]}, &px)) {
       std::printf("not visible\n");
@@ -65,10 +63,10 @@ void AddProjectCommands(CLI::App& app) {
       "Print the reflected ray of a pixel: its origin on the mirror and its unit direction, "
       "sensor frame ('ox oy oz dx dy dz'), or 'no mirror' outside the mirror's visible disc.");
   back->add_option("--calib", *calib2, "Calibration YAML")->required();
-  back->add_option("--pixel", *pixel, "u,v (column, row; origin at the top-left pixel's centre)")->required();
+  AddNumbers(back, "--pixel", *pixel, 2, "u,v (column, row; origin at the top-left pixel's centre)");
   back->callback([calib2, pixel]() {
     const Calibration c = ReadCalibration(*calib2);
-    const std::vector<double> p = ParseNumbers(*pixel, 2, "--pixel");
+    const std::vector<double>& p = *pixel;
     Eigen::Vector3d o, d;
     if (!c.sensor.backproject({p[0], p[1]}, &o, &d)) {
       std::printf("no mirror\n");

@@ -1,7 +1,5 @@
 #include "pipeline/panoloc.h"
 
-#include <yaml-cpp/yaml.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -13,6 +11,7 @@
 
 #include "core/error.h"
 #include "io/calibration.h"
+#include "io/case_file.h"
 #include "io/map.h"
 #include "pipeline/output_names.h"
 #include "video/frame_source.h"
@@ -65,14 +64,7 @@ std::optional<Pose2> InitialPoseBeside(const std::string& input) {
   for (int up = 0; up < 2 && !dir.empty(); ++up, dir = dir.parent_path()) {
     const fs::path p = dir / "case.yaml";
     if (!fs::exists(p)) continue;
-    try {
-      const YAML::Node n = YAML::LoadFile(p.string());
-      const YAML::Node ip = n["initial_pose"];
-      if (ip && ip.IsMap())
-        return Pose2{ip["x"].as<double>(), ip["y"].as<double>(), ip["theta"].as<double>()};
-    } catch (const YAML::Exception& e) {
-      throw Error(p.string() + ": initial_pose: " + e.what());
-    }
+    if (std::optional<Pose2> pose = ReadCaseInitialPose(p.string())) return pose;
   }
   return std::nullopt;
 }

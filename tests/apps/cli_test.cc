@@ -77,8 +77,14 @@ TEST_CASE("panocalib project/backproject agree with the sensor model; bad input 
   CHECK(Lines(r.out) == 1);
   CHECK(r.out.find("/nonexistent/c.yaml") != std::string::npos);
   r = Exec("panocalib project --calib " + calib + " --point 1,nan,3");
-  CHECK(r.code != 0);
+  CHECK(r.code == 1);
   CHECK(r.out.find("--point") != std::string::npos);
+  r = Exec("panocalib project --calib " + calib + " --point 1,2");
+  CHECK(r.code == 1);
+  CHECK(r.out.find("--point") != std::string::npos);
+  r = Exec("panocalib backproject --calib " + calib + " --pixel 1,2,3");
+  CHECK(r.code == 1);
+  CHECK(r.out.find("--pixel") != std::string::npos);
   const std::string dir = test::ScratchDir("apps_cli");
   std::ofstream(dir + "/bad.yaml") << "model: sphere\nunits: cm\nimage_width: 640\n";
   r = Exec("panocalib project --calib " + dir + "/bad.yaml --point 1,2,3");
