@@ -418,15 +418,13 @@ void PhWholeImage::VoteCpu(const std::vector<PhVoteRecord>& records, int32_t* pa
   }
   // Per-thread integer accumulators (thread 0 writes the output), summed
   // afterwards: integer addition makes the result independent of the split.
-  std::vector<std::vector<int32_t>> local(n_threads - 1);
+  // Allocated before the region: nothing in it throws, and a team smaller
+  // than asked for leaves its unused accumulators zero rather than empty.
+  std::vector<std::vector<int32_t>> local(n_threads - 1, std::vector<int32_t>(total, 0));
 #pragma omp parallel num_threads(n_threads)
   {
     const int tid = omp_get_thread_num();
-    int32_t* acc = padded;
-    if (tid > 0) {
-      local[tid - 1].assign(total, 0);
-      acc = local[tid - 1].data();
-    }
+    int32_t* acc = tid > 0 ? local[tid - 1].data() : padded;
 #pragma omp for schedule(static)
     for (long i = 0; i < static_cast<long>(records.size()); ++i)
       VoteRecord(records[i], int_table_.data(), int_plane_size_, stride, acc, PaddedPlaneSize(), n_r_,
@@ -577,68 +575,82 @@ void PhWholeImage::Finish(int32_t* padded, WholeImageResult* result) const {
   FindVerticalPeaks(result);
 }
 
-void PhWholeImage::ExplainAway(WholeImageResult* result) const {
-  WholeImageResult& res = *result;
+// The voters bucketed by theta bin, each bucket sorted by radius (stable,
+// so deterministic): bucket k is order[start[k] .. start[k + 1]).
+struct PhWholeImage::VoterIndex {
+  std::vector<int> start, order;
+};
+
+PhWholeImage::VoterIndex PhWholeImage::BucketVoters(const WholeImageResult& res) const {
   const int NT = n_theta_;
   const size_t n = res.voter_radius.size();
-  // Voters bucketed by theta bin, each bucket sorted by radius (stable, so
-  // deterministic).
-  std::vector<int> start(NT + 1, 0), order(n);
+  VoterIndex index;
+  index.start.assign(NT + 1, 0);
+  index.order.resize(n);
   std::vector<int> bin(n);
   for (size_t i = 0; i < n; ++i) {
     int k = static_cast<int>(res.voter_azimuth[i] / theta_bin_);
     bin[i] = std::clamp(k, 0, NT - 1);
-    ++start[bin[i] + 1];
+    ++index.start[bin[i] + 1];
   }
-  for (int k = 0; k < NT; ++k) start[k + 1] += start[k];
-  {
-    std::vector<int> fill(start.begin(), start.end() - 1);
-    for (size_t i = 0; i < n; ++i) order[fill[bin[i]]++] = static_cast<int>(i);
-  }
+  for (int k = 0; k < NT; ++k) index.start[k + 1] += index.start[k];
+  std::vector<int> fill(index.start.begin(), index.start.end() - 1);
+  for (size_t i = 0; i < n; ++i) index.order[fill[bin[i]]++] = static_cast<int>(i);
   for (int k = 0; k < NT; ++k)
-    std::stable_sort(order.begin() + start[k], order.begin() + start[k + 1],
+    std::stable_sort(index.order.begin() + index.start[k], index.order.begin() + index.start[k + 1],
                      [&](int a, int b) { return res.voter_radius[a] < res.voter_radius[b]; });
-  std::vector<unsigned char> claimed(n, 0);
+  return index;
+}
+
+void PhWholeImage::PeakSupport(const HorizontalPeak& pk, const WholeImageResult& res, const VoterIndex& index,
+                               const std::vector<unsigned char>& claimed, std::vector<int>* support) const {
+  const int NT = n_theta_, M = half_width_, S = sub_steps_, W = width_;
+  const double tol = options_.explain_tolerance;
+  support->clear();
+  double t0 = pk.theta_main;
+  if (t0 < 0) t0 += 2.0 * M_PI;
+  // Bin edges (kc + d) theta_bin - theta_main = (d - frac) theta_bin.
+  const double x = t0 / theta_bin_;
+  int kc = static_cast<int>(std::floor(x));
+  int sub = static_cast<int>(std::lround((x - kc) * S));
+  if (sub == S) {
+    ++kc;
+    sub = 0;
+  }
+  const double fr = pk.r_main / options_.r_row_step;
+  const int r0 = static_cast<int>(fr);
+  if (r0 < 0 || r0 + 1 >= n_rows_) return;
+  const float tr = static_cast<float>(fr - r0);
+  const float* c0 = &planes_[pk.plane].curve[(static_cast<size_t>(r0) * S + sub) * W + M];
+  const float* c1 = c0 + static_cast<size_t>(S) * W;
+  // Curve radius (Eqn 6) at the edges of each theta bin kc-M..kc+M.
+  double r_prev = 0.0;
+  bool ok_prev = false;
+  for (int d = -M; d <= M; ++d) {
+    const double r = (1.0f - tr) * c0[d] + tr * c1[d];
+    const bool ok = !std::isnan(r);
+    if (ok && ok_prev) {
+      const int k = ((kc + d - 1) % NT + NT) % NT;
+      const double lo = std::min(r, r_prev) - tol, hi = std::max(r, r_prev) + tol;
+      const auto end = index.order.begin() + index.start[k + 1];
+      auto first = std::lower_bound(index.order.begin() + index.start[k], end, lo,
+                                    [&](int a, double v) { return res.voter_radius[a] < v; });
+      for (auto it = first; it != end && res.voter_radius[*it] <= hi; ++it)
+        if (!claimed[*it]) support->push_back(*it);
+    }
+    r_prev = r;
+    ok_prev = ok;
+  }
+}
+
+void PhWholeImage::ExplainAway(WholeImageResult* result) const {
+  WholeImageResult& res = *result;
+  const VoterIndex index = BucketVoters(res);
+  std::vector<unsigned char> claimed(res.voter_radius.size(), 0);
   std::vector<int> support;
   std::vector<HorizontalPeak> kept;
-  const double tol = options_.explain_tolerance;
-  const int M = half_width_, S = sub_steps_, W = width_;
   for (const HorizontalPeak& pk : res.peaks) {
-    const std::vector<float>& ctab = planes_[pk.plane].curve;
-    double t0 = pk.theta_main;
-    if (t0 < 0) t0 += 2.0 * M_PI;
-    // Bin edges (kc + d) theta_bin - theta_main = (d - frac) theta_bin.
-    const double x = t0 / theta_bin_;
-    int kc = static_cast<int>(std::floor(x));
-    int sub = static_cast<int>(std::lround((x - kc) * S));
-    if (sub == S) {
-      ++kc;
-      sub = 0;
-    }
-    const double fr = pk.r_main / options_.r_row_step;
-    const int r0 = static_cast<int>(fr);
-    if (r0 < 0 || r0 + 1 >= n_rows_) continue;
-    const float tr = static_cast<float>(fr - r0);
-    const float* c0 = &ctab[(static_cast<size_t>(r0) * S + sub) * W + M];
-    const float* c1 = c0 + static_cast<size_t>(S) * W;
-    support.clear();
-    // Curve radius (Eqn 6) at the edges of each theta bin kc-M..kc+M.
-    double r_prev = 0.0;
-    bool ok_prev = false;
-    for (int d = -M; d <= M; ++d) {
-      const double r = (1.0f - tr) * c0[d] + tr * c1[d];
-      const bool ok = !std::isnan(r);
-      if (ok && ok_prev) {
-        const int k = ((kc + d - 1) % NT + NT) % NT;
-        const double lo = std::min(r, r_prev) - tol, hi = std::max(r, r_prev) + tol;
-        auto first = std::lower_bound(order.begin() + start[k], order.begin() + start[k + 1], lo,
-                                      [&](int a, double v) { return res.voter_radius[a] < v; });
-        for (auto it = first; it != order.begin() + start[k + 1] && res.voter_radius[*it] <= hi; ++it)
-          if (!claimed[*it]) support.push_back(*it);
-      }
-      r_prev = r;
-      ok_prev = ok;
-    }
+    PeakSupport(pk, res, index, claimed, &support);
     if (static_cast<int>(support.size()) < options_.min_votes) continue;
     for (int i : support) claimed[i] = 1;
     kept.push_back(pk);

@@ -233,6 +233,11 @@ class PhWholeImage {
   std::vector<HorizontalPeak> PlanePeaks(const int32_t* padded, int p) const;
   bool IsPeak(const int32_t* g, int k, int j, int32_t v) const;
   HorizontalPeak RefinedPeak(const int32_t* g, int p, int k, int j, int32_t v) const;
+  // Explain-away: keep the peaks whose curve still has min_votes unclaimed voters.
+  struct VoterIndex;
+  VoterIndex BucketVoters(const WholeImageResult& res) const;
+  void PeakSupport(const HorizontalPeak& pk, const WholeImageResult& res, const VoterIndex& index,
+                   const std::vector<unsigned char>& claimed, std::vector<int>* support) const;
   void ExplainAway(WholeImageResult* result) const;
   void FindVerticalPeaks(WholeImageResult* res) const;
   VerticalPeak VerticalPeakAt(const WholeImageResult& res, const std::vector<int32_t>& sm, int k) const;
