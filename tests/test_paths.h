@@ -13,7 +13,9 @@
 
 namespace pano::test {
 
-inline std::string SourcePath(const std::string& rel) { return std::string(PANO_TEST_SOURCE_DIR) + "/" + rel; }
+inline std::string SourcePath(const std::string& rel) {
+  return std::string(PANO_TEST_SOURCE_DIR) + "/" + rel;
+}
 
 namespace internal {
 struct ScratchRegistry {
@@ -31,7 +33,8 @@ inline ScratchRegistry& Scratch() {
 // machine never share one. The test main removes them after a run where
 // nothing failed and leaves them for inspection otherwise.
 inline std::string ScratchDir(const std::string& name) {
-  const std::filesystem::path pattern = std::filesystem::temp_directory_path() / ("pano_test_" + name + "_XXXXXX");
+  const std::filesystem::path pattern =
+      std::filesystem::temp_directory_path() / ("pano_test_" + name + "_XXXXXX");
   std::string buf = pattern.string();
   if (!mkdtemp(buf.data()))
     throw std::runtime_error("ScratchDir: cannot create " + pattern.string() + ": " + std::strerror(errno));

@@ -14,7 +14,9 @@ namespace pano {
 
 // `requested` threads; 0 (or less): OpenMP's default, every core unless
 // OMP_NUM_THREADS says otherwise.
-inline int ThreadCount(int requested) { return requested > 0 ? requested : std::max(1, omp_get_max_threads()); }
+inline int ThreadCount(int requested) {
+  return requested > 0 ? requested : std::max(1, omp_get_max_threads());
+}
 
 // After the loop: rethrows the exception of the lowest index, if any, so the
 // error is the same whatever the thread count.

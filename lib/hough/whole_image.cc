@@ -68,7 +68,8 @@ void PhWholeImage::SetGeometry(const Sensor& sensor, const WholeImageOptions& op
   r_min_ = options.r_min;
   if (!(r_max_ > r_min_)) throw Error(what + ": r_min: expected less than the limb radius");
   n_theta_ = static_cast<int>(std::lround(2.0 * M_PI / options.theta_bin));
-  if (n_theta_ < 2 || n_theta_ > 20000) throw Error(what + ": theta_bin: expected 2 to 20000 bins over the circle");
+  if (n_theta_ < 2 || n_theta_ > 20000)
+    throw Error(what + ": theta_bin: expected 2 to 20000 bins over the circle");
   theta_bin_ = 2.0 * M_PI / n_theta_;
   n_r_ = static_cast<int>(std::ceil(r_max_ / options.r_bin));
   if (n_r_ < 1 || n_r_ > 20000) throw Error(what + ": r_bin: expected 1 to 20000 radius bins");
@@ -126,8 +127,8 @@ void PhWholeImage::FillIntegerPlane(const PhTable& ph, double d_min, double d_ma
   }
 }
 
-void PhWholeImage::FillOrientationRanges(const std::vector<unsigned char>& valid, const std::vector<float>& psi,
-                                         Plane* plane) const {
+void PhWholeImage::FillOrientationRanges(const std::vector<unsigned char>& valid,
+                                         const std::vector<float>& psi, Plane* plane) const {
   const int W = width_, M = half_width_, NR = n_rows_;
   // Ranges of m per (row pair r0, r0+1) and gradient angle bin.
   plane->range_lo.assign(static_cast<size_t>(NR) * kPhiBins, 1);
@@ -277,7 +278,8 @@ struct PhWholeImage::VoteScales {
   double inv_q, inv_tb, cos_vert;  // 1 / r_row_step, 1 / theta_bin, vertical gradient limit
 };
 
-void PhWholeImage::AddVertical(const EdgePixel& e, double g_rad, const VoteScales& k, WholeImageResult* res) const {
+void PhWholeImage::AddVertical(const EdgePixel& e, double g_rad, const VoteScales& k,
+                               WholeImageResult* res) const {
   if (std::abs(g_rad) > k.cos_vert * e.gn) return;  // not a tangential gradient: no radial (vertical) edge
   int kb = static_cast<int>(e.theta * k.inv_tb);
   if (kb >= n_theta_) kb = n_theta_ - 1;
@@ -286,8 +288,8 @@ void PhWholeImage::AddVertical(const EdgePixel& e, double g_rad, const VoteScale
   res->vertical_r_max[kb] = std::max(res->vertical_r_max[kb], static_cast<float>(e.R));
 }
 
-bool PhWholeImage::AddRecords(const EdgePixel& e, double phi, const VoteScales& k, std::vector<PhVoteRecord>* records,
-                              WholeImageResult* res) const {
+bool PhWholeImage::AddRecords(const EdgePixel& e, double phi, const VoteScales& k,
+                              std::vector<PhVoteRecord>* records, WholeImageResult* res) const {
   const int S = sub_steps_, W = width_, M = half_width_;
   const double fr = e.R * k.inv_q;
   int r0 = static_cast<int>(fr);
@@ -346,7 +348,8 @@ void PhWholeImage::Prepare(const EdgeMap& edges, std::vector<PhVoteRecord>* reco
   CheckEdgeMap(edges);
   ResetResult(result);
   records->clear();
-  const VoteScales k{1.0 / options_.r_row_step, 1.0 / theta_bin_, std::cos(M_PI / 2 - options_.vertical_tolerance)};
+  const VoteScales k{1.0 / options_.r_row_step, 1.0 / theta_bin_,
+                     std::cos(M_PI / 2 - options_.vertical_tolerance)};
   const bool use_maps = edges.mask.cols == polar_w_ && edges.mask.rows == polar_h_;
   for (int v = 0; v < edges.mask.rows; ++v) {
     const uint8_t* mrow = edges.mask.ptr<uint8_t>(v);
@@ -518,7 +521,8 @@ void PhWholeImage::FindHorizontalPeaks(const int32_t* padded, WholeImageResult* 
   std::vector<std::vector<HorizontalPeak>> plane_peaks(P);
   ParallelFor(P, [&](int p) { plane_peaks[p] = PlanePeaks(padded, p); });
   res->peaks.clear();
-  for (const std::vector<HorizontalPeak>& pp : plane_peaks) res->peaks.insert(res->peaks.end(), pp.begin(), pp.end());
+  for (const std::vector<HorizontalPeak>& pp : plane_peaks)
+    res->peaks.insert(res->peaks.end(), pp.begin(), pp.end());
   std::stable_sort(res->peaks.begin(), res->peaks.end(),
                    [](const HorizontalPeak& x, const HorizontalPeak& y) { return x.votes > y.votes; });
   if (options_.explain_away) ExplainAway(res);
@@ -549,7 +553,8 @@ void PhWholeImage::FindVerticalPeaks(WholeImageResult* res) const {
                    [](const VerticalPeak& x, const VerticalPeak& y) { return x.votes > y.votes; });
 }
 
-VerticalPeak PhWholeImage::VerticalPeakAt(const WholeImageResult& res, const std::vector<int32_t>& sm, int k) const {
+VerticalPeak PhWholeImage::VerticalPeakAt(const WholeImageResult& res, const std::vector<int32_t>& sm,
+                                          int k) const {
   const int NT = n_theta_;
   const std::vector<int32_t>& h = res.vertical_histogram;
   const double m = sm[(k + NT - 1) % NT], z = sm[k], pl = sm[(k + 1) % NT];

@@ -201,7 +201,7 @@ class PhWholeImage {
     // at dtheta = (d - s / sub_steps) theta_bin, NaN undefined.
     std::vector<float> curve;
   };
-  struct EdgePixel;   // Prepare's per-pixel values (whole_image.cc)
+  struct EdgePixel;  // Prepare's per-pixel values (whole_image.cc)
   struct VoteScales;
 
   // Build's steps: sizes from the sensor and options (throws when too large);

@@ -124,7 +124,8 @@ bool JunctionTracker::FindHorizontalEdge(const PredictedLandmark& p, double half
   edge->polarity = p.h_polarity * p.inside_radius_sign;
   const double arc = std::abs(wrap_angle(p.h_end_azimuth - p.azimuth));
   const double gap = o.corner_gap_px / p.corner_radius;
-  const double h_spacing = std::max(o.sample_spacing_px / p.corner_radius, (arc - 2 * gap) / o.max_horizontal_samples);
+  const double h_spacing =
+      std::max(o.sample_spacing_px / p.corner_radius, (arc - 2 * gap) / o.max_horizontal_samples);
   std::vector<TrackingVote> votes;
   std::vector<Step> h_steps;
   for (double dt = gap; dt < arc - gap && static_cast<int>(votes.size()) < o.max_horizontal_samples;
@@ -190,8 +191,8 @@ bool JunctionTracker::VerticalEnd(const VerticalEdge& v, double r_junction, doub
 }
 
 // then along the horizontal edge (azimuth, on its PH curve).
-bool JunctionTracker::HorizontalEnd(const PhTable& ph, const HorizontalEdge& h, double theta_v, double r_junction,
-                                    double* t_end, LandmarkMeasurement* m) const {
+bool JunctionTracker::HorizontalEnd(const PhTable& ph, const HorizontalEdge& h, double theta_v,
+                                    double r_junction, double* t_end, LandmarkMeasurement* m) const {
   auto has_step = [&](double theta) {
     double r;
     Step st;

@@ -30,7 +30,8 @@ void LocalizerOptions::Check() const {
   relocalize.Check();
 }
 
-std::shared_ptr<PhTableCache> MakeTrackingPhTables(std::shared_ptr<const RadiusTable> table, int num_threads) {
+std::shared_ptr<PhTableCache> MakeTrackingPhTables(std::shared_ptr<const RadiusTable> table,
+                                                   int num_threads) {
   // 0.5 px x 0.5 degree nodes: within 0.006 px of the exact PH, and quick
   // to build (under a millisecond per edge height) for short clips.
   PhTableOptions o;
@@ -136,8 +137,9 @@ bool Localizer::TrackFrom(const Pose2& pose, double search_px, FrameResult* fr,
 }
 
 bool Localizer::Relocalize(const cv::Mat& grey, FrameResult* fr, TriangulationResult* tri) const {
-  const std::vector<PoseHypothesis> hyps = RelocalizationHypotheses(
-      grey, calib_.sensor, *table_, map_, scene_, landmarks_, opt_.prediction, opt_.relocalize, opt_.num_threads);
+  const std::vector<PoseHypothesis> hyps =
+      RelocalizationHypotheses(grey, calib_.sensor, *table_, map_, scene_, landmarks_, opt_.prediction,
+                               opt_.relocalize, opt_.num_threads);
   bool found = false;
   for (const PoseHypothesis& h : hyps) {
     FrameResult cand;
@@ -195,7 +197,8 @@ std::vector<Pose2> Localizer::CandidatePoses(const cv::Mat& grey, const Pose2& p
   const double turn = compass_.Rotation(last_signature_, *signature, opt_.compass_max_rotation, &score);
   Pose2 by_compass = pred;
   by_compass.theta = wrap_angle(last_.theta + turn);
-  if (score >= opt_.compass_min_score && std::abs(wrap_angle(by_compass.theta - pred.theta)) > 0.5 * M_PI / 180)
+  if (score >= opt_.compass_min_score &&
+      std::abs(wrap_angle(by_compass.theta - pred.theta)) > 0.5 * M_PI / 180)
     predictions.push_back(by_compass);
   return predictions;
 }
@@ -214,7 +217,8 @@ void Localizer::TrackPredictions(const std::vector<Pose2>& predictions, FrameRes
   }
   // A sudden lurch moves the edges beyond the search: widen it within the
   // same frame before declaring the frame lost.
-  for (double wider = 2.0 * search; !Acceptable(*fr, *tri) && wider <= 2.0 * opt_.max_search_px; wider *= 2.0) {
+  for (double wider = 2.0 * search; !Acceptable(*fr, *tri) && wider <= 2.0 * opt_.max_search_px;
+       wider *= 2.0) {
     for (const Pose2& p : predictions) {
       Measure(p, wider, fr);
       *tri = Solve(*fr, p);
@@ -228,10 +232,11 @@ void Localizer::RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) 
   double max_shift = 0.0;
   for (size_t i = 0; i < fr->predicted.size(); ++i)
     if (fr->measurements[i].found)
-      max_shift = std::max(max_shift, std::abs(wrap_angle(fr->measurements[i].azimuth - fr->predicted[i].azimuth)) *
-                                          fr->predicted[i].corner_radius);
-  for (int pass = 0; pass < opt_.refine_passes && max_shift > opt_.refine_threshold_px && Acceptable(*fr, *tri);
-       ++pass) {
+      max_shift =
+          std::max(max_shift, std::abs(wrap_angle(fr->measurements[i].azimuth - fr->predicted[i].azimuth)) *
+                                  fr->predicted[i].corner_radius);
+  for (int pass = 0;
+       pass < opt_.refine_passes && max_shift > opt_.refine_threshold_px && Acceptable(*fr, *tri); ++pass) {
     FrameResult again;
     Measure(tri->pose, opt_.refine_search_px, &again);
     TriangulationResult tri2 = Solve(again, tri->pose);
@@ -253,7 +258,8 @@ void Localizer::RelocalizeIfLost(const cv::Mat& grey, FrameResult* fr, Triangula
   n_good_ = 0;  // no velocity across the jump
 }
 
-void Localizer::RecordOutcome(const FrameResult& fr, const TriangulationResult& tri, int n_found, PoseRow* row) {
+void Localizer::RecordOutcome(const FrameResult& fr, const TriangulationResult& tri, int n_found,
+                              PoseRow* row) {
   if (Acceptable(fr, tri)) {
     row->status = PoseStatus::kOk;
     row->pose = tri.pose;

@@ -114,9 +114,11 @@ class Localizer {
   // the last pose moved on by the last frame-to-frame motion;
   Pose2 ConstantVelocityPrediction() const;
   // that prediction, then the visual compass's heading (fills `signature`);
-  std::vector<Pose2> CandidatePoses(const cv::Mat& grey, const Pose2& pred, std::vector<float>* signature) const;
+  std::vector<Pose2> CandidatePoses(const cv::Mat& grey, const Pose2& pred,
+                                    std::vector<float>* signature) const;
   // tracking from each candidate, then with wider searches until accepted;
-  void TrackPredictions(const std::vector<Pose2>& predictions, FrameResult* fr, TriangulationResult* tri) const;
+  void TrackPredictions(const std::vector<Pose2>& predictions, FrameResult* fr,
+                        TriangulationResult* tri) const;
   // narrow passes around the solved pose when landmarks were off-centre;
   void RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) const;
   // the room-wide search after relocalize_after lost frames;

@@ -58,10 +58,12 @@ namespace {
 // The best heading at one grid position: the predicted vertical edges'
 // support in the radial-edge histogram, less a little per predicted edge.
 PoseHypothesis BestHeadingAt(const Eigen::Vector2d& position, const std::vector<float>& hist, int bins,
-                             const Sensor& sensor, const RadiusTable& table, const Map& map, const Scene& scene,
-                             const std::vector<Landmark>& landmarks, const PredictionOptions& prediction) {
+                             const Sensor& sensor, const RadiusTable& table, const Map& map,
+                             const Scene& scene, const std::vector<Landmark>& landmarks,
+                             const PredictionOptions& prediction) {
   const Pose2 at0{position.x(), position.y(), 0.0};
-  const std::vector<PredictedLandmark> pred = PredictLandmarks(landmarks, map, scene, sensor, table, at0, prediction);
+  const std::vector<PredictedLandmark> pred =
+      PredictLandmarks(landmarks, map, scene, sensor, table, at0, prediction);
   // Distinct vertical edges (a rectangle's two corners share one).
   std::vector<int> edge_bins;
   for (const PredictedLandmark& p : pred) {

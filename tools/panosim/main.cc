@@ -36,7 +36,8 @@ CLI::Option* AddNumberList(CLI::App* app, const std::string& name, std::vector<d
       [](std::string& text) -> std::string {
         char* end = nullptr;
         const double v = std::strtod(text.c_str(), &end);
-        if (end == text.c_str() || *end != '\0' || !std::isfinite(v)) return "'" + text + "' is not a finite number";
+        if (end == text.c_str() || *end != '\0' || !std::isfinite(v))
+          return "'" + text + "' is not a finite number";
         return std::string();
       },
       "");
@@ -90,7 +91,6 @@ struct RenderFlags {
   }
 };
 
-
 struct StillArgs {
   std::string map_path, calib_path, out, preset;
   std::vector<double> pose;
@@ -105,7 +105,8 @@ CLI::App* AddStill(CLI::App* app, StillArgs* a) {
   AddNumberList(still, "--pose", &a->pose, 3, "x,y,theta (map units, radians)",
                 "Robot pose x,y,theta: pinhole world position (map units), heading (radians)");
   still->add_option("--preset", a->preset, "Take map, sensor, options and pose from a preset instead");
-  still->add_option("--frame", a->frame_index, "With --preset: the frame whose pose to render")->default_val(0);
+  still->add_option("--frame", a->frame_index, "With --preset: the frame whose pose to render")
+      ->default_val(0);
   still->add_option("-o,--output", a->out, "Output PNG")->required();
   a->flags.Add(still, true);
   return still;
@@ -163,10 +164,12 @@ CLI::App* AddSequence(CLI::App* app, SequenceArgs* a) {
   seq->add_option("--preset", a->preset, "Built-in case: paper-synthetic, paper-real, cluttered, kidnap");
   seq->add_option("--map", a->map_path, "Map file (YAML, spec section 4)");
   seq->add_option("--calib", a->calib_path, "Calibration file (YAML, spec section 3)");
-  seq->add_option("--trajectory", a->traj_path,
-                  "Poses, one per frame: CSV with header x,y,theta (radians), or a pose CSV (spec section 5)");
+  seq->add_option(
+      "--trajectory", a->traj_path,
+      "Poses, one per frame: CSV with header x,y,theta (radians), or a pose CSV (spec section 5)");
   a->o_fps = seq->add_option("--fps", a->fps, "Frame rate of the video and of gt.csv times")->default_val(10);
-  seq->add_option("-o,--output", a->out, "Output folder (created; must not exist unless --force)")->required();
+  seq->add_option("-o,--output", a->out, "Output folder (created; must not exist unless --force)")
+      ->required();
   seq->add_flag("--frames", a->frames, "Also write lossless DIR/frames/frame_%04d.png");
   seq->add_flag("--no-video", a->no_video, "Do not write video.mp4 (needs --frames)");
   seq->add_flag("-q,--quiet", a->quiet, "No progress on stderr");
@@ -226,10 +229,10 @@ CLI::App* AddTargets(CLI::App* app, TargetsArgs* a) {
   a->o_poses = tg->add_option("--poses", a->poses_path,
                               "Board poses CSV: header rx,ry,rz,tx,ty,tz, then one line per image; "
                               "X_sensor = R(rvec) X_board + tvec (OpenCV)");
-  a->o_auto = tg->add_option(
-      "--auto", a->auto_n,
-      "Generate N fully visible board poses around the mirror: near it, from 20 degrees below to 60 above it, "
-      "corners out to the limb (the placement that calibrates best with unknown poses)");
+  a->o_auto = tg->add_option("--auto", a->auto_n,
+                             "Generate N fully visible board poses around the mirror: near it, from 20 degrees "
+                             "below to 60 above it, corners out to the limb (the placement that calibrates "
+                             "best with unknown poses)");
   a->o_poses->excludes(a->o_auto);
   tg->add_option("-o,--output", a->out, "Output folder (created; must not exist unless --force)")->required();
   tg->add_flag("-q,--quiet", a->quiet, "No progress on stderr");
@@ -250,7 +253,8 @@ pano::TargetBoard BoardOf(const std::vector<double>& b) {
   board.rows = static_cast<int>(b[1]);
   board.square = b[2];
   if (board.cols != b[0] || board.rows != b[1] || board.cols < 2 || board.rows < 2 || !(board.square > 0.0))
-    throw pano::Error("--board: expected integer cols,rows >= 2 and a positive square size, got " + Joined(b));
+    throw pano::Error("--board: expected integer cols,rows >= 2 and a positive square size, got " +
+                      Joined(b));
   return board;
 }
 
