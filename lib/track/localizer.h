@@ -139,7 +139,6 @@ class Localizer {
   Pose2 last_, previous_;
   int n_good_ = 0;   // consecutive good frames (for the velocity model)
   int n_lost_ = 0;   // consecutive lost frames
-  bool relocalized_ = false;  // the last frame's pose came from relocalisation
   bool started_ = false;
 };
 
