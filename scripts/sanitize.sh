@@ -4,7 +4,7 @@
 # fails its test.
 #   scripts/sanitize.sh [extra cmake -D options]
 # Environment: BUILD_DIR (default <repo>/build-asan), JOBS (default nproc),
-# CTEST_ARGS (e.g. "-R ^hough/").
+# CTEST_ARGS (e.g. "-R ^hough/"), TARGETS (e.g. "test_hough test_track"; default all).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=${BUILD_DIR:-$root/build-asan}
@@ -12,7 +12,7 @@ jobs=${JOBS:-$(nproc)}
 
 cmake -S "$root" -B "$build" -DPANO_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DPANO_BUILD_BENCHMARKS=OFF -DPANO_ENABLE_CUDA=OFF "$@"
-cmake --build "$build" -j"$jobs"
+cmake --build "$build" -j"$jobs" ${TARGETS:+--target $TARGETS}
 
 # Leaks: the check stays on for the project's code. libgomp keeps its thread
 # pool and per-thread state until exit by design, and OpenCV and FFmpeg keep
@@ -28,6 +28,7 @@ leak:libavutil.so
 leak:libx264.so
 leak:libfontconfig.so
 SUPP
+
 # Errors are fatal (exit code 1 fails the test): ASan stops at the first
 # report by default, UBSan does with -fno-sanitize-recover plus halt_on_error.
 export ASAN_OPTIONS="halt_on_error=1:detect_leaks=1:detect_stack_use_after_return=1:strict_init_order=1:check_initialization_order=1"
