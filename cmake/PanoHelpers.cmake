@@ -1,13 +1,12 @@
 # Helpers in the spirit of COLMAP's CMakeHelper: one small target per concept,
 # tests named <folder>/<name>.
 
-set(PANO_WARNING_FLAGS -Wall -Wextra -Wpedantic -Wno-unknown-pragmas)
 # Locals shadowing locals: GCC's -Wshadow=local; clang has no such option
 # (an unknown one fails -Werror), its -Wshadow leaves class members alone.
-if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU")
-  list(APPEND PANO_WARNING_FLAGS -Wshadow=local)
-elseif(CMAKE_CXX_COMPILER_ID MATCHES "Clang")
-  list(APPEND PANO_WARNING_FLAGS -Wshadow)
+if(CMAKE_CXX_COMPILER_ID MATCHES "Clang")
+  set(PANO_WARNING_FLAGS -Wall -Wextra -Wpedantic -Wshadow -Wno-unknown-pragmas)
+else()
+  set(PANO_WARNING_FLAGS -Wall -Wextra -Wpedantic -Wshadow=local -Wno-unknown-pragmas)
 endif()
 
 # Adds every immediate subdirectory of DIR (relative to the calling folder;
