@@ -1,18 +1,24 @@
 # Helpers in the spirit of COLMAP's CMakeHelper: one small target per concept,
 # tests named <folder>/<name>.
 
-set(PANO_WARNING_FLAGS -Wall -Wextra -Wpedantic -Wshadow=local -Wno-unknown-pragmas)
+# Locals shadowing locals: GCC's -Wshadow=local; clang has no such option
+# (an unknown one fails -Werror), its -Wshadow leaves class members alone.
+if(CMAKE_CXX_COMPILER_ID MATCHES "Clang")
+  set(PANO_WARNING_FLAGS -Wall -Wextra -Wpedantic -Wshadow -Wno-unknown-pragmas)
+else()
+  set(PANO_WARNING_FLAGS -Wall -Wextra -Wpedantic -Wshadow=local -Wno-unknown-pragmas)
+endif()
 
-set(PANO_EXCLUDE "" CACHE STRING "Folder names under lib/, apps/, tools/, tests/ to leave out of the build")
-
-# Adds every immediate subdirectory of DIR that has a CMakeLists.txt, sorted,
-# except those named in PANO_EXCLUDE.
+# Adds every immediate subdirectory of DIR (relative to the calling folder;
+# "." for the folder itself) that has a CMakeLists.txt, in sorted order so
+# that the configuration does not depend on the file system's listing order.
 function(pano_add_subdirectories dir)
-  file(GLOB children RELATIVE ${CMAKE_CURRENT_SOURCE_DIR}/${dir} ${CMAKE_CURRENT_SOURCE_DIR}/${dir}/*)
+  get_filename_component(base ${CMAKE_CURRENT_SOURCE_DIR}/${dir} ABSOLUTE)
+  file(GLOB children LIST_DIRECTORIES true RELATIVE ${base} ${base}/*)
   list(SORT children)
-  foreach(child ${children})
-    if(EXISTS ${CMAKE_CURRENT_SOURCE_DIR}/${dir}/${child}/CMakeLists.txt AND NOT child IN_LIST PANO_EXCLUDE)
-      add_subdirectory(${dir}/${child})
+  foreach(child IN LISTS children)
+    if(EXISTS ${base}/${child}/CMakeLists.txt)
+      add_subdirectory(${base}/${child})
     endif()
   endforeach()
 endfunction()

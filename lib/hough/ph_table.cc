@@ -1,12 +1,11 @@
 #include "hough/ph_table.h"
 
-#include <omp.h>
-
 #include <algorithm>
 #include <limits>
 #include <sstream>
 
 #include "core/error.h"
+#include "hough/threads.h"
 
 namespace pano {
 
@@ -28,6 +27,7 @@ void PhTableOptions::Check(const std::string& what) const {
     throw Error(what + ": dtheta_step: expected a positive angle step, got " + Num(dtheta_step));
   if (!(dtheta_max > 0.0) || !(dtheta_max < M_PI / 2))
     throw Error(what + ": dtheta_max: expected 0 < dtheta_max < pi/2, got " + Num(dtheta_max));
+  if (num_threads < 0) throw Error(what + ": num_threads: expected 0 (all cores) or more");
 }
 
 bool ExactPh(const Sensor& sensor, double height, double r_i, double dtheta, double* r_main) {
@@ -80,13 +80,15 @@ PhTable PhTable::Build(const RadiusTable& table, double height, const PhTableOpt
   const int n_slice_d = (nr - 1) * kSliceSub + 1;
   t.slice_inv_r_step_ = kSliceSub / options.r_step;
   t.slice_d_.assign(n_slice_d, std::numeric_limits<double>::quiet_NaN());
-#pragma omp parallel for schedule(static)
+  // The loops' bodies only evaluate the model (nothing throws).
+  const int threads = ThreadCount(options.num_threads);
+#pragma omp parallel for schedule(static) num_threads(threads)
   for (int k = 0; k < n_slice; ++k) {
     const double D = std::exp(t.slice_log_d0_ + k * log_step);
     double R;
     if (options.exact ? sensor.image_radius(D, Z, &R) : table.radius(D, Z, &R)) t.slice_r_[k] = R;
   }
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(threads)
   for (int i = 0; i < n_slice_d; ++i) {
     const double R = std::min(i * options.r_step / kSliceSub, t.r_max_);
     double D;
@@ -98,7 +100,7 @@ PhTable PhTable::Build(const RadiusTable& table, double height, const PhTableOpt
   t.forward_.assign(static_cast<size_t>(nr) * nd, kNaN);
   std::vector<double> cosines(nd);
   for (int j = 0; j < nd; ++j) cosines[j] = std::cos(std::min(j * options.dtheta_step, options.dtheta_max));
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(threads)
   for (int i = 0; i < nr; ++i) {
     const double D = t.slice_d_[static_cast<size_t>(i) * kSliceSub];
     if (std::isnan(D)) continue;

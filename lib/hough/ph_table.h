@@ -36,6 +36,7 @@ struct PhTableOptions {
   // from the exact sensor model (pano::Sensor) instead of the E(D,Z) table's
   // bilinear lookups: about 20 ms more per height, no 2-D table error.
   bool exact = false;
+  int num_threads = 0;  // threads of the build's loops; 0: OpenMP's default (all cores)
   void Check(const std::string& what) const;
 };
 

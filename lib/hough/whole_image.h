@@ -194,7 +194,6 @@ class PhWholeImage {
   int n_rows_padded() const { return n_rows_padded_; }
 
  private:
-  void ExplainAway(WholeImageResult* result) const;
   struct Plane {
     PhTable table;
     std::vector<int16_t> range_lo, range_hi;  // [row][phi bin]; lo > hi: none
@@ -202,6 +201,47 @@ class PhWholeImage {
     // at dtheta = (d - s / sub_steps) theta_bin, NaN undefined.
     std::vector<float> curve;
   };
+  struct EdgePixel;  // Prepare's per-pixel values (whole_image.cc)
+  struct VoteScales;
+
+  // Build's steps: sizes from the sensor and options (throws when too large);
+  void SetGeometry(const Sensor& sensor, const WholeImageOptions& options);
+  // one plane's integer PH table, with which (row, m) are defined for every
+  // sub step and the curve's normal angle there;
+  void FillIntegerPlane(const PhTable& ph, double d_min, double d_max, int32_t* tab,
+                        std::vector<unsigned char>* valid, std::vector<float>* psi) const;
+  // the m range each (row, gradient angle) votes for;
+  void FillOrientationRanges(const std::vector<unsigned char>& valid, const std::vector<float>& psi,
+                             Plane* plane) const;
+  // PH^-1 for the explain-away step;
+  void FillCurveTable(Plane* plane) const;
+  // per-pixel polar coordinates of the sensor's image.
+  void BuildPolarMaps(const Sensor& sensor);
+
+  // Prepare's steps.
+  void CheckEdgeMap(const EdgeMap& edges) const;
+  void ResetResult(WholeImageResult* res) const;
+  void AddEdgePixel(const EdgePixel& e, const VoteScales& k, std::vector<PhVoteRecord>* records,
+                    WholeImageResult* res) const;
+  void AddVertical(const EdgePixel& e, double g_rad, const VoteScales& k, WholeImageResult* res) const;
+  bool AddRecords(const EdgePixel& e, double phi, const VoteScales& k, std::vector<PhVoteRecord>* records,
+                  WholeImageResult* res) const;
+
+  // Finish's steps.
+  void CopyAccumulator(const int32_t* padded, WholeImageResult* res) const;
+  void FindHorizontalPeaks(const int32_t* padded, WholeImageResult* res) const;
+  std::vector<HorizontalPeak> PlanePeaks(const int32_t* padded, int p) const;
+  bool IsPeak(const int32_t* g, int k, int j, int32_t v) const;
+  HorizontalPeak RefinedPeak(const int32_t* g, int p, int k, int j, int32_t v) const;
+  // Explain-away: keep the peaks whose curve still has min_votes unclaimed voters.
+  struct VoterIndex;
+  VoterIndex BucketVoters(const WholeImageResult& res) const;
+  void PeakSupport(const HorizontalPeak& pk, const WholeImageResult& res, const VoterIndex& index,
+                   const std::vector<unsigned char>& claimed, std::vector<int>* support) const;
+  void ExplainAway(WholeImageResult* result) const;
+  void FindVerticalPeaks(WholeImageResult* res) const;
+  VerticalPeak VerticalPeakAt(const WholeImageResult& res, const std::vector<int32_t>& sm, int k) const;
+
   WholeImageOptions options_;
   double cx_ = 0, cy_ = 0, aspect_ = 1;
   double r_min_ = 0, r_max_ = 0, theta_bin_ = 0;

@@ -1,13 +1,12 @@
 #include "render/render.h"
 
-#include <omp.h>
-
 #include <algorithm>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
 #include "core/error.h"
+#include "core/parallel.h"
 
 namespace pano {
 
@@ -102,8 +101,8 @@ RayTable::RayTable(const Sensor& sensor, int supersample, double camera_radius_p
   std::vector<std::vector<Ray>> rows(static_cast<size_t>(H));
   std::vector<int> counts(static_cast<size_t>(W) * H, 0);
   const SensorParams<double>& p = sensor.params;
-#pragma omp parallel for schedule(dynamic, 4)
-  for (int v = 0; v < H; ++v) {
+  // Rows in parallel; an exception (memory) leaves the loop.
+  ParallelFor(H, [&](int v) {
     std::vector<Ray>& row = rows[static_cast<size_t>(v)];
     for (int u = 0; u < W; ++u) {
       // Quick reject: the pixel's nearest point is beyond the limb.
@@ -134,7 +133,7 @@ RayTable::RayTable(const Sensor& sensor, int supersample, double camera_radius_p
       }
       counts[static_cast<size_t>(v) * W + u] = n;
     }
-  }
+  });
   size_t total = 0;
   for (const auto& r : rows) total += r.size();
   rays_.reserve(total);
@@ -370,8 +369,8 @@ cv::Mat Renderer::Render(const Pose2& pose, int frame_index) const {
   const bool gradient = options_.gradient > 0.0;
   const bool generic = !f.generic.empty();
   const double H = sensor_height_;
-#pragma omp parallel for schedule(dynamic, 2)
-  for (int v = 0; v < Hh; ++v) {
+  // Rows in parallel; an exception leaves the loop.
+  ParallelFor(Hh, [&](int v) {
     float* row = img.ptr<float>(v);
     for (int u = 0; u < W; ++u) {
       const int b = starts[static_cast<size_t>(v) * W + u], e = starts[static_cast<size_t>(v) * W + u + 1];
@@ -400,7 +399,7 @@ cv::Mat Renderer::Render(const Pose2& pose, int frame_index) const {
       }
       row[u] = 255.0f * sum * inv_n;
     }
-  }
+  });
   // Mask of the mirror's pixels, for the noise.
   cv::Mat mask;
   if (options_.noise_sigma > 0.0) {

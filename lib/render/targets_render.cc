@@ -158,6 +158,7 @@ cv::Mat RenderBoard(const RayTable& table, const TargetBoard& board, const Board
   const float inv_n = 1.0f / static_cast<float>(table.supersample() * table.supersample());
   cv::Mat img(H, W, CV_32FC1, cv::Scalar(0));
   cv::Mat mask(H, W, CV_8UC1, cv::Scalar(0));
+  // Ray-plane arithmetic only: the rows cannot throw.
 #pragma omp parallel for schedule(dynamic, 4)
   for (int v = 0; v < H; ++v) {
     for (int u = 0; u < W; ++u) {

@@ -59,27 +59,39 @@ bool LinearStep(const cv::Mat& grey, const Sensor& s, const JunctionOptions& o, 
 
 }  // namespace
 
-LandmarkMeasurement JunctionTracker::Measure(const PredictedLandmark& p, double search_px) const {
-  LandmarkMeasurement m;
-  const cv::Mat& g = grey_;
-  const JunctionOptions& o = opt_;
-  const double half = std::max(search_px, 2.0);
+struct JunctionTracker::VerticalEdge {
+  double azimuth = 0.0;         // truncated-median azimuth of the edge
+  double nearest_radius = 0.0;  // radius of its found step nearest the junction
+  int direction = 1;            // +1: the edge runs outwards from the junction
+  int polarity = 1;             // step polarity along increasing azimuth
+};
 
-  // --- Vertical edge: tangential samples along the radial segment.
-  const int v_dir = p.v_radius > p.corner_radius ? 1 : -1;
+struct JunctionTracker::HorizontalEdge {
+  TrackingResult fit;            // (R_main, theta_main) of the PH peak
+  double nearest_azimuth = 0.0;  // azimuth of its sample nearest the junction
+  int side = 1;                  // the edge runs towards +side azimuth from the junction
+  int polarity = 1;              // step polarity along increasing radius
+};
+
+bool JunctionTracker::FindVerticalEdge(const PredictedLandmark& p, double half, VerticalEdge* edge,
+                                       LandmarkMeasurement* m) const {
+  const JunctionOptions& o = opt_;
+  // Tangential samples along the radial segment.
+  edge->direction = p.v_radius > p.corner_radius ? 1 : -1;
+  edge->polarity = p.v_polarity * p.inside_azimuth_sign;
   const double v_len = std::abs(p.v_radius - p.corner_radius);
-  const int v_pol = p.v_polarity * p.inside_azimuth_sign;
   const double v_spacing = std::max(o.sample_spacing_px, (v_len - 2 * o.corner_gap_px) / o.max_samples);
   std::vector<Step> v_steps;
   for (double d = o.corner_gap_px; d < v_len - o.corner_gap_px && static_cast<int>(v_steps.size()) < o.max_samples;
        d += v_spacing) {
     Step st;
-    if (LinearStep(g, sensor_, o, p.corner_radius + v_dir * d, p.azimuth, half, v_pol, false, &st))
+    if (LinearStep(grey_, sensor_, o, p.corner_radius + edge->direction * d, p.azimuth, half, edge->polarity,
+                   false, &st))
       v_steps.push_back(st);
   }
   if (static_cast<int>(v_steps.size()) < o.min_vertical_points) {
-    m.why = "vertical edge not found";
-    return m;
+    m->why = "vertical edge not found";
+    return false;
   }
   // Truncated median: the contiguous steps near the median azimuth.
   std::vector<double> offsets;  // tangential offsets from the prediction, px
@@ -89,45 +101,60 @@ LandmarkMeasurement JunctionTracker::Measure(const PredictedLandmark& p, double 
   const double median = sorted[sorted.size() / 2];
   double sum_dtheta = 0.0;
   int n_in = 0;
-  const Step* nearest_v = nullptr;  // the found step nearest the junction
   for (size_t k = 0; k < v_steps.size(); ++k) {
     if (std::abs(offsets[k] - median) > o.truncation_px) continue;
     sum_dtheta += wrap_angle(v_steps[k].azimuth - p.azimuth);
-    ++n_in;
-    if (!nearest_v) nearest_v = &v_steps[k];
-    m.edge_points.push_back(v_steps[k].px);
+    if (n_in++ == 0) edge->nearest_radius = v_steps[k].radius;
+    m->edge_points.push_back(v_steps[k].px);
   }
   if (n_in < o.min_vertical_points) {
-    m.why = "vertical edge not contiguous";
-    return m;
+    m->why = "vertical edge not contiguous";
+    return false;
   }
-  const double theta_v = wrap_angle(p.azimuth + sum_dtheta / n_in);
+  edge->azimuth = wrap_angle(p.azimuth + sum_dtheta / n_in);
+  return true;
+}
 
-  // --- Horizontal edge: radial samples along the predicted PH curve, voting
-  // in the PH transform's tracking mode.
-  const std::shared_ptr<const PhTable> ph = ph_tables_->Get(p.h_height);
-  const int h_sgn = p.inside_azimuth_sign;
-  const int h_pol = p.h_polarity * p.inside_radius_sign;
+bool JunctionTracker::FindHorizontalEdge(const PredictedLandmark& p, double half, const PhTable& ph,
+                                         HorizontalEdge* edge, LandmarkMeasurement* m) const {
+  const JunctionOptions& o = opt_;
+  // Radial samples along the predicted PH curve, voting in the PH
+  // transform's tracking mode.
+  edge->side = p.inside_azimuth_sign;
+  edge->polarity = p.h_polarity * p.inside_radius_sign;
   const double arc = std::abs(wrap_angle(p.h_end_azimuth - p.azimuth));
-  const double h_spacing = std::max(o.sample_spacing_px / p.corner_radius,
-                                    (arc - 2 * o.corner_gap_px / p.corner_radius) / o.max_horizontal_samples);
+  const double gap = o.corner_gap_px / p.corner_radius;
+  const double h_spacing =
+      std::max(o.sample_spacing_px / p.corner_radius, (arc - 2 * gap) / o.max_horizontal_samples);
   std::vector<TrackingVote> votes;
   std::vector<Step> h_steps;
-  for (double dt = o.corner_gap_px / p.corner_radius;
-       dt < arc - o.corner_gap_px / p.corner_radius && static_cast<int>(votes.size()) < o.max_horizontal_samples;
+  for (double dt = gap; dt < arc - gap && static_cast<int>(votes.size()) < o.max_horizontal_samples;
        dt += h_spacing) {
-    const double theta = wrap_angle(p.azimuth + h_sgn * dt);
+    const double theta = wrap_angle(p.azimuth + edge->side * dt);
     double r_pred;
-    if (!ph->Curve(p.r_main, wrap_angle(theta - p.theta_main), &r_pred)) continue;
+    if (!ph.Curve(p.r_main, wrap_angle(theta - p.theta_main), &r_pred)) continue;
     Step st;
-    if (!LinearStep(g, sensor_, o, r_pred, theta, half, h_pol, true, &st)) continue;
+    if (!LinearStep(grey_, sensor_, o, r_pred, theta, half, edge->polarity, true, &st)) continue;
     votes.push_back({st.radius, theta, 1.0});
     h_steps.push_back(st);
   }
   if (static_cast<int>(votes.size()) < o.min_horizontal_points) {
-    m.why = "horizontal edge not found";
-    return m;
+    m->why = "horizontal edge not found";
+    return false;
   }
+  edge->fit = TrackHorizontalLine(ph, HorizontalWindow(p, half), votes);
+  if (!edge->fit.found || edge->fit.score < o.min_ph_score || edge->fit.n_inliers < o.min_horizontal_points) {
+    m->why = "no PH peak for the horizontal edge";
+    return false;
+  }
+  m->r_main = edge->fit.r_main;
+  m->theta_main = edge->fit.theta_main;
+  for (const Step& st : h_steps) m->edge_points.push_back(st.px);
+  edge->nearest_azimuth = h_steps.front().azimuth;
+  return true;
+}
+
+TrackingWindow JunctionTracker::HorizontalWindow(const PredictedLandmark& p, double half) {
   TrackingWindow w;
   w.r_main = p.r_main;
   w.theta_main = p.theta_main;
@@ -139,63 +166,85 @@ LandmarkMeasurement JunctionTracker::Measure(const PredictedLandmark& p, double 
   w.theta_halfwidth = std::min(60.0 * M_PI / 180, (half + 1.0) / p.r_main);
   // The horizontal edge validates the junction; a few robust steps suffice.
   w.refine_iterations = 3;
-  const TrackingResult tr = TrackHorizontalLine(*ph, w, votes);
-  if (!tr.found || tr.score < o.min_ph_score || tr.n_inliers < o.min_horizontal_points) {
-    m.why = "no PH peak for the horizontal edge";
-    return m;
-  }
-  m.r_main = tr.r_main;
-  m.theta_main = tr.theta_main;
-  for (const Step& st : h_steps) m.edge_points.push_back(st.px);
+  return w;
+}
 
-  // --- The junction: the horizontal curve at the vertical edge's azimuth.
-  double r_junction;
-  if (!ph->Curve(tr.r_main, wrap_angle(theta_v - tr.theta_main), &r_junction)) {
-    m.why = "junction off the PH table";
-    return m;
-  }
-  // End points by bisection between the last sample that found a step and
-  // one beyond the junction that must not.
-  const double probe = 2.5;  // px half-length of the probing samples
-  const double ext = o.corner_gap_px + 1.5;
-  auto v_has_step = [&](double r) {
+// End points by bisection between the last sample that found a step and one
+// beyond the junction that must not: first along the vertical edge (radius),
+bool JunctionTracker::VerticalEnd(const VerticalEdge& v, double r_junction, double* r_end,
+                                  LandmarkMeasurement* m) const {
+  auto has_step = [&](double r) {
     Step st;
-    return LinearStep(g, sensor_, o, r, theta_v, probe, v_pol, false, &st);
+    return LinearStep(grey_, sensor_, opt_, r, v.azimuth, kProbeHalfPx, v.polarity, false, &st);
   };
-  double r_in = nearest_v->radius, r_out = r_junction - v_dir * ext;
-  if (v_has_step(r_out)) {
-    m.why = "vertical edge runs past the junction";
-    return m;
+  double r_in = v.nearest_radius, r_out = r_junction - v.direction * (opt_.corner_gap_px + 1.5);
+  if (has_step(r_out)) {
+    m->why = "vertical edge runs past the junction";
+    return false;
   }
-  for (int k = 0; k < o.bisection_steps; ++k) {
+  for (int k = 0; k < opt_.bisection_steps; ++k) {
     const double mid = 0.5 * (r_in + r_out);
-    (v_has_step(mid) ? r_in : r_out) = mid;
+    (has_step(mid) ? r_in : r_out) = mid;
   }
-  const double r_vertical_end = 0.5 * (r_in + r_out);
-  auto h_has_step = [&](double theta) {
+  *r_end = 0.5 * (r_in + r_out);
+  return true;
+}
+
+// then along the horizontal edge (azimuth, on its PH curve).
+bool JunctionTracker::HorizontalEnd(const PhTable& ph, const HorizontalEdge& h, double theta_v,
+                                    double r_junction, double* t_end, LandmarkMeasurement* m) const {
+  auto has_step = [&](double theta) {
     double r;
     Step st;
-    return ph->Curve(tr.r_main, wrap_angle(theta - tr.theta_main), &r) &&
-           LinearStep(g, sensor_, o, r, theta, probe, h_pol, true, &st);
+    return ph.Curve(h.fit.r_main, wrap_angle(theta - h.fit.theta_main), &r) &&
+           LinearStep(grey_, sensor_, opt_, r, theta, kProbeHalfPx, h.polarity, true, &st);
   };
-  double t_in = h_steps.front().azimuth, t_out = wrap_angle(theta_v - h_sgn * ext / r_junction);
-  if (h_has_step(t_out)) {
-    m.why = "horizontal edge runs past the junction";
-    return m;
+  double t_in = h.nearest_azimuth;
+  double t_out = wrap_angle(theta_v - h.side * (opt_.corner_gap_px + 1.5) / r_junction);
+  if (has_step(t_out)) {
+    m->why = "horizontal edge runs past the junction";
+    return false;
   }
-  for (int k = 0; k < o.bisection_steps; ++k) {
+  for (int k = 0; k < opt_.bisection_steps; ++k) {
     const double mid = wrap_angle(t_in + 0.5 * wrap_angle(t_out - t_in));
-    (h_has_step(mid) ? t_in : t_out) = mid;
+    (has_step(mid) ? t_in : t_out) = mid;
   }
-  const double t_horizontal_end = wrap_angle(t_in + 0.5 * wrap_angle(t_out - t_in));
-  if (std::abs(r_vertical_end - r_junction) > o.junction_tolerance_px ||
-      std::abs(wrap_angle(t_horizontal_end - theta_v)) * r_junction > o.junction_tolerance_px) {
-    m.why = "edges do not meet";
-    return m;
+  *t_end = wrap_angle(t_in + 0.5 * wrap_angle(t_out - t_in));
+  return true;
+}
+
+bool JunctionTracker::LocateJunction(const PhTable& ph, const VerticalEdge& v, const HorizontalEdge& h,
+                                     LandmarkMeasurement* m) const {
+  // The junction: the horizontal curve at the vertical edge's azimuth.
+  double r_junction;
+  if (!ph.Curve(h.fit.r_main, wrap_angle(v.azimuth - h.fit.theta_main), &r_junction)) {
+    m->why = "junction off the PH table";
+    return false;
   }
+  double r_vertical_end, t_horizontal_end;
+  if (!VerticalEnd(v, r_junction, &r_vertical_end, m) ||
+      !HorizontalEnd(ph, h, v.azimuth, r_junction, &t_horizontal_end, m))
+    return false;
+  if (std::abs(r_vertical_end - r_junction) > opt_.junction_tolerance_px ||
+      std::abs(wrap_angle(t_horizontal_end - v.azimuth)) * r_junction > opt_.junction_tolerance_px) {
+    m->why = "edges do not meet";
+    return false;
+  }
+  m->azimuth = v.azimuth;
+  m->radius = r_junction;
+  return true;
+}
+
+LandmarkMeasurement JunctionTracker::Measure(const PredictedLandmark& p, double search_px) const {
+  LandmarkMeasurement m;
+  const double half = std::max(search_px, 2.0);
+  VerticalEdge vertical;
+  if (!FindVerticalEdge(p, half, &vertical, &m)) return m;
+  const std::shared_ptr<const PhTable> ph = ph_tables_->Get(p.h_height);
+  HorizontalEdge horizontal;
+  if (!FindHorizontalEdge(p, half, *ph, &horizontal, &m)) return m;
+  if (!LocateJunction(*ph, vertical, horizontal, &m)) return m;
   m.found = true;
-  m.azimuth = theta_v;
-  m.radius = r_junction;
   m.weight = 1.0;
   return m;
 }

@@ -14,6 +14,7 @@
 #include <memory>
 
 #include "hough/ph_table.h"
+#include "hough/tracking.h"
 #include "sensor/sensor.h"
 #include "track/tracker.h"
 
@@ -43,6 +44,20 @@ class JunctionTracker : public LandmarkTracker {
   LandmarkMeasurement Measure(const PredictedLandmark& p, double search_px) const override;
 
  private:
+  struct VerticalEdge;                         // the steps of Measure and what they find
+  struct HorizontalEdge;                       // (junction_tracker.cc)
+  static constexpr double kProbeHalfPx = 2.5;  // half-length of the end points' probing samples
+  bool FindVerticalEdge(const PredictedLandmark& p, double half, VerticalEdge* edge,
+                        LandmarkMeasurement* m) const;
+  bool FindHorizontalEdge(const PredictedLandmark& p, double half, const PhTable& ph, HorizontalEdge* edge,
+                          LandmarkMeasurement* m) const;
+  static TrackingWindow HorizontalWindow(const PredictedLandmark& p, double half);
+  bool VerticalEnd(const VerticalEdge& v, double r_junction, double* r_end, LandmarkMeasurement* m) const;
+  bool HorizontalEnd(const PhTable& ph, const HorizontalEdge& h, double theta_v, double r_junction,
+                     double* t_end, LandmarkMeasurement* m) const;
+  bool LocateJunction(const PhTable& ph, const VerticalEdge& v, const HorizontalEdge& h,
+                      LandmarkMeasurement* m) const;
+
   Sensor sensor_;
   std::shared_ptr<PhTableCache> ph_tables_;
   JunctionOptions opt_;

@@ -1,10 +1,11 @@
 #include "track/localizer.h"
 
-#include <omp.h>
-
+#include <algorithm>
 #include <cmath>
+#include <exception>
 
 #include "core/error.h"
+#include "hough/threads.h"
 
 namespace pano {
 
@@ -25,15 +26,18 @@ void LocalizerOptions::Check() const {
   if (!(lost_search_growth >= 1.0)) throw Error("localiser: lost_search_growth: expected >= 1");
   if (relocalize_after < 0 || relocalize_min_landmarks < 3)
     throw Error("localiser: relocalize_after >= 0 and relocalize_min_landmarks >= 3 expected");
+  if (num_threads < 0) throw Error("localiser: num_threads: expected 0 (all cores) or more");
   relocalize.Check();
 }
 
-std::shared_ptr<PhTableCache> MakeTrackingPhTables(std::shared_ptr<const RadiusTable> table) {
+std::shared_ptr<PhTableCache> MakeTrackingPhTables(std::shared_ptr<const RadiusTable> table,
+                                                   int num_threads) {
   // 0.5 px x 0.5 degree nodes: within 0.006 px of the exact PH, and quick
   // to build (under a millisecond per edge height) for short clips.
   PhTableOptions o;
   o.r_step = 0.5;
   o.dtheta_step = 0.5 * M_PI / 180;
+  o.num_threads = num_threads;
   return std::make_shared<PhTableCache>(std::move(table), o);
 }
 
@@ -42,7 +46,7 @@ std::unique_ptr<LandmarkTracker> MakeTracker(TrackingMethod method, const Sensor
                                              const LocalizerOptions& options,
                                              std::shared_ptr<PhTableCache> ph_tables) {
   if (method == TrackingMethod::kVertex) return std::make_unique<VertexTracker>(sensor, options.vertex);
-  if (!ph_tables) ph_tables = MakeTrackingPhTables(table);
+  if (!ph_tables) ph_tables = MakeTrackingPhTables(table, options.num_threads);
   return std::make_unique<JunctionTracker>(sensor, ph_tables, options.junction);
 }
 
@@ -72,10 +76,19 @@ void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out) c
   const int n_all = static_cast<int>(ordered.size());
   const int n_first = opt_.max_landmarks > 0 ? std::min(n_all, opt_.max_landmarks) : n_all;
   std::vector<LandmarkMeasurement> meas(n_all);
+  const int threads = ThreadCount(opt_.num_threads);
   auto measure = [&](int begin, int end) {
     // Landmarks are independent: track them in parallel.
-#pragma omp parallel for schedule(dynamic, 1) if (end - begin > 4)
-    for (int i = begin; i < end; ++i) meas[i] = tracker_->Measure(ordered[i], search_px);
+    std::vector<std::exception_ptr> errors(static_cast<size_t>(end - begin));
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) if (end - begin > 4)
+    for (int i = begin; i < end; ++i) {
+      try {
+        meas[i] = tracker_->Measure(ordered[i], search_px);
+      } catch (...) {
+        errors[static_cast<size_t>(i - begin)] = std::current_exception();
+      }
+    }
+    RethrowFirst(errors);
   };
   measure(0, n_first);
   int found = 0;
@@ -124,8 +137,9 @@ bool Localizer::TrackFrom(const Pose2& pose, double search_px, FrameResult* fr,
 }
 
 bool Localizer::Relocalize(const cv::Mat& grey, FrameResult* fr, TriangulationResult* tri) const {
-  const std::vector<PoseHypothesis> hyps = RelocalizationHypotheses(
-      grey, calib_.sensor, *table_, map_, scene_, landmarks_, opt_.prediction, opt_.relocalize);
+  const std::vector<PoseHypothesis> hyps =
+      RelocalizationHypotheses(grey, calib_.sensor, *table_, map_, scene_, landmarks_, opt_.prediction,
+                               opt_.relocalize, opt_.num_threads);
   bool found = false;
   for (const PoseHypothesis& h : hyps) {
     FrameResult cand;
@@ -150,123 +164,149 @@ bool Localizer::Acceptable(const FrameResult& fr, const TriangulationResult& tri
          (n_pred < 8 || tri.inliers.size() >= opt_.min_inlier_fraction * n_pred);
 }
 
-FrameResult Localizer::Process(const cv::Mat& grey, int frame, double time_s) {
+void Localizer::CheckFrame(const cv::Mat& grey, int frame) const {
   if (!started_) throw Error("localiser: Process() before Reset()");
   if (grey.type() != CV_8UC1 || grey.cols != calib_.sensor.image_width ||
       grey.rows != calib_.sensor.image_height)
     throw Error("frame " + std::to_string(frame) + ": expected an 8-bit grey image of " +
                 std::to_string(calib_.sensor.image_width) + "x" +
                 std::to_string(calib_.sensor.image_height));
-  FrameResult fr;
-  // Prediction: the last pose, moved on by the last frame-to-frame motion.
+}
+
+Pose2 Localizer::ConstantVelocityPrediction() const {
   Pose2 pred = last_;
   if (opt_.constant_velocity && n_good_ >= 2) {
     pred.x += last_.x - previous_.x;
     pred.y += last_.y - previous_.y;
     pred.theta = wrap_angle(pred.theta + wrap_angle(last_.theta - previous_.theta));
   }
+  return pred;
+}
+
+std::vector<Pose2> Localizer::CandidatePoses(const cv::Mat& grey, const Pose2& pred,
+                                             std::vector<float>* signature) const {
   // The visual compass measures the turn since the last frame from the
   // images. Translation biases it by a few degrees in a small room, so the
   // constant-velocity prediction goes first and the compass's heading is
   // tried when that fails: it keeps sudden turns in view.
-  std::vector<float> signature;
   std::vector<Pose2> predictions{pred};
-  if (opt_.compass) {
-    signature = compass_.Signature(grey);
-    if (!last_signature_.empty() && n_good_ >= 1) {
-      double score;
-      const double turn = compass_.Rotation(last_signature_, signature, opt_.compass_max_rotation, &score);
-      Pose2 by_compass = pred;
-      by_compass.theta = wrap_angle(last_.theta + turn);
-      if (score >= opt_.compass_min_score && std::abs(wrap_angle(by_compass.theta - pred.theta)) > 0.5 * M_PI / 180)
-        predictions.push_back(by_compass);
-    }
-  }
-  fr.predicted_pose = pred;
+  if (!opt_.compass) return predictions;
+  *signature = compass_.Signature(grey);
+  if (last_signature_.empty() || n_good_ < 1) return predictions;
+  double score;
+  const double turn = compass_.Rotation(last_signature_, *signature, opt_.compass_max_rotation, &score);
+  Pose2 by_compass = pred;
+  by_compass.theta = wrap_angle(last_.theta + turn);
+  if (score >= opt_.compass_min_score &&
+      std::abs(wrap_angle(by_compass.theta - pred.theta)) > 0.5 * M_PI / 180)
+    predictions.push_back(by_compass);
+  return predictions;
+}
+
+void Localizer::TrackPredictions(const std::vector<Pose2>& predictions, FrameResult* fr,
+                                 TriangulationResult* tri) const {
   const double search =
       std::min(opt_.max_search_px, opt_.search_px * std::pow(opt_.lost_search_growth, std::min(n_lost_, 8)));
-  tracker_->BeginFrame(grey);
-  TriangulationResult tri;
   for (const Pose2& p : predictions) {
-    Measure(p, search, &fr);
-    tri = Solve(fr, p);
-    if (Acceptable(fr, tri)) {
-      fr.predicted_pose = pred = p;
-      break;
+    Measure(p, search, fr);
+    *tri = Solve(*fr, p);
+    if (Acceptable(*fr, *tri)) {
+      fr->predicted_pose = p;
+      return;
     }
   }
   // A sudden lurch moves the edges beyond the search: widen it within the
   // same frame before declaring the frame lost.
-  for (double wider = 2.0 * search; !Acceptable(fr, tri) && wider <= 2.0 * opt_.max_search_px; wider *= 2.0) {
+  for (double wider = 2.0 * search; !Acceptable(*fr, *tri) && wider <= 2.0 * opt_.max_search_px;
+       wider *= 2.0) {
     for (const Pose2& p : predictions) {
-      Measure(p, wider, &fr);
-      tri = Solve(fr, p);
-      if (Acceptable(fr, tri)) break;
+      Measure(p, wider, fr);
+      *tri = Solve(*fr, p);
+      if (Acceptable(*fr, *tri)) break;
     }
   }
+}
+
+void Localizer::RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) const {
   // How far the found landmarks lie from their predictions (px).
   double max_shift = 0.0;
-  for (size_t i = 0; i < fr.predicted.size(); ++i)
-    if (fr.measurements[i].found)
-      max_shift = std::max(max_shift, std::abs(wrap_angle(fr.measurements[i].azimuth - fr.predicted[i].azimuth)) *
-                                          fr.predicted[i].corner_radius);
-  for (int pass = 0; pass < opt_.refine_passes && max_shift > opt_.refine_threshold_px && Acceptable(fr, tri);
-       ++pass) {
+  for (size_t i = 0; i < fr->predicted.size(); ++i)
+    if (fr->measurements[i].found)
+      max_shift =
+          std::max(max_shift, std::abs(wrap_angle(fr->measurements[i].azimuth - fr->predicted[i].azimuth)) *
+                                  fr->predicted[i].corner_radius);
+  for (int pass = 0;
+       pass < opt_.refine_passes && max_shift > opt_.refine_threshold_px && Acceptable(*fr, *tri); ++pass) {
     FrameResult again;
-    again.predicted_pose = pred;
-    Measure(tri.pose, opt_.refine_search_px, &again);
-    TriangulationResult tri2 = Solve(again, tri.pose);
+    Measure(tri->pose, opt_.refine_search_px, &again);
+    TriangulationResult tri2 = Solve(again, tri->pose);
     if (!Acceptable(again, tri2)) break;
-    fr.predicted = std::move(again.predicted);
-    fr.measurements = std::move(again.measurements);
-    tri = tri2;
+    fr->predicted = std::move(again.predicted);
+    fr->measurements = std::move(again.measurements);
+    *tri = tri2;
   }
-  fr.triangulation = tri;
-  PoseRow& row = fr.row;
-  row.frame = frame;
-  row.time_s = time_s;
-  int n_found = 0;
-  for (const auto& m : fr.measurements) n_found += m.found;
-  // Lost for a while (the robot may have been carried): search the room.
-  if (!Acceptable(fr, tri) && opt_.relocalize_after > 0 && n_lost_ + 1 >= opt_.relocalize_after) {
-    FrameResult found;
-    TriangulationResult t;
-    if (Relocalize(grey, &found, &t)) {
-      found.predicted_pose = pred;
-      fr.predicted = std::move(found.predicted);
-      fr.measurements = std::move(found.measurements);
-      tri = t;
-      n_good_ = 0;  // no velocity across the jump
-    }
-  }
-  if (opt_.compass) last_signature_ = std::move(signature);
+}
+
+void Localizer::RelocalizeIfLost(const cv::Mat& grey, FrameResult* fr, TriangulationResult* tri) {
+  if (Acceptable(*fr, *tri) || opt_.relocalize_after <= 0 || n_lost_ + 1 < opt_.relocalize_after) return;
+  FrameResult found;
+  TriangulationResult t;
+  if (!Relocalize(grey, &found, &t)) return;
+  fr->predicted = std::move(found.predicted);
+  fr->measurements = std::move(found.measurements);
+  *tri = t;
+  n_good_ = 0;  // no velocity across the jump
+}
+
+void Localizer::RecordOutcome(const FrameResult& fr, const TriangulationResult& tri, int n_found,
+                              PoseRow* row) {
   if (Acceptable(fr, tri)) {
-    row.status = PoseStatus::kOk;
-    row.pose = tri.pose;
-    row.n_landmarks = static_cast<int>(tri.inliers.size());
-    row.residual = tri.residual;
-    row.extra.clear();
-    for (int k = 0; k < 3; ++k) row.extra.push_back(std::sqrt(std::max(0.0, tri.covariance(k, k))));
+    row->status = PoseStatus::kOk;
+    row->pose = tri.pose;
+    row->n_landmarks = static_cast<int>(tri.inliers.size());
+    row->residual = tri.residual;
+    row->extra.clear();
+    for (int k = 0; k < 3; ++k) row->extra.push_back(std::sqrt(std::max(0.0, tri.covariance(k, k))));
     previous_ = n_good_ > 0 ? last_ : tri.pose;
     last_ = tri.pose;
     ++n_good_;
     n_lost_ = 0;
-  } else if (frame == 0 || !n_good_) {
+    return;
+  }
+  if (row->frame == 0 || !n_good_) {
     // No measurement yet: report the user's initial pose as such.
-    row.status = n_good_ == 0 && frame == 0 ? PoseStatus::kInit : PoseStatus::kLost;
-    row.pose = initial_;
-    row.n_landmarks = n_found;
-    row.extra.assign(3, std::nan(""));
-    n_good_ = 0;
-    ++n_lost_;
+    row->status = n_good_ == 0 && row->frame == 0 ? PoseStatus::kInit : PoseStatus::kLost;
+    row->pose = initial_;
   } else {
     // Lost: tracking goes on from the last good pose.
-    row.status = PoseStatus::kLost;
-    row.n_landmarks = n_found;
-    row.extra.assign(3, std::nan(""));
-    n_good_ = 0;
-    ++n_lost_;
+    row->status = PoseStatus::kLost;
   }
+  row->n_landmarks = n_found;
+  row->extra.assign(3, std::nan(""));
+  n_good_ = 0;
+  ++n_lost_;
+}
+
+FrameResult Localizer::Process(const cv::Mat& grey, int frame, double time_s) {
+  CheckFrame(grey, frame);
+  FrameResult fr;
+  // Prediction: the last pose, moved on by the last frame-to-frame motion.
+  fr.predicted_pose = ConstantVelocityPrediction();
+  std::vector<float> signature;
+  const std::vector<Pose2> predictions = CandidatePoses(grey, fr.predicted_pose, &signature);
+  tracker_->BeginFrame(grey);
+  TriangulationResult tri;
+  TrackPredictions(predictions, &fr, &tri);
+  RefineAroundSolution(&fr, &tri);
+  fr.triangulation = tri;
+  fr.row.frame = frame;
+  fr.row.time_s = time_s;
+  int n_found = 0;  // before any relocalisation: what tracking from the prediction found
+  for (const auto& m : fr.measurements) n_found += m.found;
+  // Lost for a while (the robot may have been carried): search the room.
+  RelocalizeIfLost(grey, &fr, &tri);
+  if (opt_.compass) last_signature_ = std::move(signature);
+  RecordOutcome(fr, tri, n_found, &fr.row);
   return fr;
 }
 

@@ -60,7 +60,9 @@ struct LocalizerOptions {
   double lost_search_growth = 1.5;  // search widens by this after a lost frame
   double max_search_px = 20.0;
   // Threads of the per-frame parallel loops (landmarks, relocalisation
-  // hypotheses); 0: all cores. Set per localiser, never process-wide.
+  // hypotheses, the PH tables of its own cache); 0: OpenMP's default (all
+  // cores unless OMP_NUM_THREADS says otherwise). Set per localiser, never
+  // process-wide; the results do not depend on it.
   int num_threads = 0;
   void Check() const;
 };
@@ -73,12 +75,15 @@ struct FrameResult {
   TriangulationResult triangulation;
 };
 
-// The PH tables the junction tracker uses, built per edge height on first use.
-std::shared_ptr<PhTableCache> MakeTrackingPhTables(std::shared_ptr<const RadiusTable> table);
+// The PH tables the junction tracker uses, built per edge height on first use
+// with `num_threads` threads (0: OpenMP's default).
+std::shared_ptr<PhTableCache> MakeTrackingPhTables(std::shared_ptr<const RadiusTable> table,
+                                                   int num_threads = 0);
 
 // Builds the tracker of `method` (the vertex tracker lives in track/vertex_tracker.h).
 // `ph_tables` (built on first use, per edge height) may be shared by every
-// localiser of one calibration and map; null: a cache of its own.
+// localiser of one calibration and map; null: a cache of its own, built with
+// options.num_threads threads.
 std::unique_ptr<LandmarkTracker> MakeTracker(TrackingMethod method, const Sensor& sensor,
                                              std::shared_ptr<const RadiusTable> table,
                                              const LocalizerOptions& options,
@@ -104,6 +109,22 @@ class Localizer {
   // Tracks from `pose` (first a wide, then a narrow search); true if accepted.
   bool TrackFrom(const Pose2& pose, double search_px, FrameResult* fr, TriangulationResult* tri) const;
   bool Relocalize(const cv::Mat& grey, FrameResult* fr, TriangulationResult* tri) const;
+  // The steps of Process:
+  void CheckFrame(const cv::Mat& grey, int frame) const;
+  // the last pose moved on by the last frame-to-frame motion;
+  Pose2 ConstantVelocityPrediction() const;
+  // that prediction, then the visual compass's heading (fills `signature`);
+  std::vector<Pose2> CandidatePoses(const cv::Mat& grey, const Pose2& pred,
+                                    std::vector<float>* signature) const;
+  // tracking from each candidate, then with wider searches until accepted;
+  void TrackPredictions(const std::vector<Pose2>& predictions, FrameResult* fr,
+                        TriangulationResult* tri) const;
+  // narrow passes around the solved pose when landmarks were off-centre;
+  void RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) const;
+  // the room-wide search after relocalize_after lost frames;
+  void RelocalizeIfLost(const cv::Mat& grey, FrameResult* fr, TriangulationResult* tri);
+  // the output row and the motion model's state.
+  void RecordOutcome(const FrameResult& fr, const TriangulationResult& tri, int n_found, PoseRow* row);
 
   Calibration calib_;
   Map map_;
@@ -118,7 +139,6 @@ class Localizer {
   Pose2 last_, previous_;
   int n_good_ = 0;   // consecutive good frames (for the velocity model)
   int n_lost_ = 0;   // consecutive lost frames
-  bool relocalized_ = false;  // the last frame's pose came from relocalisation
   bool started_ = false;
 };
 

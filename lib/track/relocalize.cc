@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <exception>
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
+#include "hough/threads.h"
 
 namespace pano {
 
@@ -51,12 +53,49 @@ std::vector<float> RadialEdgeHistogram(const cv::Mat& grey, const Sensor& s, int
   return out;
 }
 
+namespace {
+
+// The best heading at one grid position: the predicted vertical edges'
+// support in the radial-edge histogram, less a little per predicted edge.
+PoseHypothesis BestHeadingAt(const Eigen::Vector2d& position, const std::vector<float>& hist, int bins,
+                             const Sensor& sensor, const RadiusTable& table, const Map& map,
+                             const Scene& scene, const std::vector<Landmark>& landmarks,
+                             const PredictionOptions& prediction) {
+  const Pose2 at0{position.x(), position.y(), 0.0};
+  const std::vector<PredictedLandmark> pred =
+      PredictLandmarks(landmarks, map, scene, sensor, table, at0, prediction);
+  // Distinct vertical edges (a rectangle's two corners share one).
+  std::vector<int> edge_bins;
+  for (const PredictedLandmark& p : pred) {
+    int b = static_cast<int>(std::floor((p.azimuth + M_PI) / (2 * M_PI) * bins));
+    b = (b % bins + bins) % bins;
+    if (std::find(edge_bins.begin(), edge_bins.end(), b) == edge_bins.end()) edge_bins.push_back(b);
+  }
+  PoseHypothesis best{at0, 0.0};
+  if (edge_bins.size() < 3) return best;
+  // At heading theta the azimuths are those at 0 minus theta.
+  for (int t = 0; t < bins; ++t) {
+    double sum = 0;
+    for (int b : edge_bins) sum += hist[(b - t + bins) % bins];
+    // Support of the predicted edges, less a little for each predicted
+    // edge: a pose that predicts edges where there are none is worse.
+    const double score = sum - 0.15 * edge_bins.size();
+    if (score > best.score) {
+      best.score = score;
+      best.pose.theta = wrap_angle((t + 0.5) * 2 * M_PI / bins);
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
 std::vector<PoseHypothesis> RelocalizationHypotheses(const cv::Mat& grey, const Sensor& sensor,
                                                      const RadiusTable& table, const Map& map,
                                                      const Scene& scene,
                                                      const std::vector<Landmark>& landmarks,
                                                      const PredictionOptions& prediction,
-                                                     const RelocalizeOptions& opt) {
+                                                     const RelocalizeOptions& opt, int num_threads) {
   opt.Check();
   const int bins = opt.heading_bins;
   const std::vector<float> hist = RadialEdgeHistogram(grey, sensor, bins);
@@ -72,35 +111,16 @@ std::vector<PoseHypothesis> RelocalizationHypotheses(const cv::Mat& grey, const 
           map.IsFree(x, y + margin) && map.IsFree(x, y - margin))
         positions.emplace_back(x, y);
   std::vector<PoseHypothesis> scored(positions.size());
-#pragma omp parallel for schedule(dynamic, 4)
+  std::vector<std::exception_ptr> errors(positions.size());
+#pragma omp parallel for schedule(dynamic, 4) num_threads(ThreadCount(num_threads))
   for (int i = 0; i < static_cast<int>(positions.size()); ++i) {
-    const Pose2 at0{positions[i].x(), positions[i].y(), 0.0};
-    const std::vector<PredictedLandmark> pred =
-        PredictLandmarks(landmarks, map, scene, sensor, table, at0, prediction);
-    // Distinct vertical edges (a rectangle's two corners share one).
-    std::vector<int> edge_bins;
-    for (const PredictedLandmark& p : pred) {
-      int b = static_cast<int>(std::floor((p.azimuth + M_PI) / (2 * M_PI) * bins));
-      b = (b % bins + bins) % bins;
-      if (std::find(edge_bins.begin(), edge_bins.end(), b) == edge_bins.end()) edge_bins.push_back(b);
+    try {
+      scored[i] = BestHeadingAt(positions[i], hist, bins, sensor, table, map, scene, landmarks, prediction);
+    } catch (...) {
+      errors[static_cast<size_t>(i)] = std::current_exception();
     }
-    PoseHypothesis best{at0, 0.0};
-    if (edge_bins.size() >= 3) {
-      // At heading theta the azimuths are those at 0 minus theta.
-      for (int t = 0; t < bins; ++t) {
-        double sum = 0;
-        for (int b : edge_bins) sum += hist[(b - t + bins) % bins];
-        // Support of the predicted edges, less a little for each predicted
-        // edge: a pose that predicts edges where there are none is worse.
-        const double score = sum - 0.15 * edge_bins.size();
-        if (score > best.score) {
-          best.score = score;
-          best.pose.theta = wrap_angle((t + 0.5) * 2 * M_PI / bins);
-        }
-      }
-    }
-    scored[i] = best;
   }
+  RethrowFirst(errors);
   std::sort(scored.begin(), scored.end(),
             [](const PoseHypothesis& a, const PoseHypothesis& b) { return a.score > b.score; });
   // Distinct hypotheses: at least two grid steps or 20 degrees apart.

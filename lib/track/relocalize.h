@@ -32,11 +32,14 @@ struct PoseHypothesis {
   double score = 0.0;
 };
 
+// The best distinct hypotheses, strongest first; the grid positions are
+// scored on `num_threads` threads (0: OpenMP's default), with the same result
+// for any count.
 std::vector<PoseHypothesis> RelocalizationHypotheses(const cv::Mat& grey, const Sensor& sensor,
                                                      const RadiusTable& table, const Map& map,
                                                      const Scene& scene,
                                                      const std::vector<Landmark>& landmarks,
                                                      const PredictionOptions& prediction,
-                                                     const RelocalizeOptions& options);
+                                                     const RelocalizeOptions& options, int num_threads = 0);
 
 }  // namespace pano

@@ -5,6 +5,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
+#include "hough/threads.h"
 
 namespace pano {
 
@@ -117,13 +118,14 @@ void QuasiCylindricalView::WarpRegion(const cv::Mat& padded, int x0, int y0, int
             out->ptr<float>(y));
 }
 
-void QuasiCylindricalView::Warp(const cv::Mat& grey, cv::Mat* view) const {
+void QuasiCylindricalView::Warp(const cv::Mat& grey, cv::Mat* view, int num_threads) const {
   cv::Mat padded;
   PadFrame(grey, &padded);
   const int stride = static_cast<int>(padded.step[0]);
   view->create(rows_, cols(), CV_32FC1);
   const int n_rows = rows_, n_cols = cols();
-#pragma omp parallel for schedule(static)
+  // Interpolation only: the rows cannot throw.
+#pragma omp parallel for schedule(static) num_threads(ThreadCount(num_threads))
   for (int y = 0; y < n_rows; ++y)
     WarpRow(padded.ptr<uint8_t>(0), stride, &taps_[static_cast<size_t>(y) * n_cols], n_cols, view->ptr<float>(y));
 }

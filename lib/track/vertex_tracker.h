@@ -94,7 +94,8 @@ class QuasiCylindricalView {
   const cv::Mat& map_v() const { return map_v_; }
   // Warps a grey frame (CV_8UC1 of the sensor's size) into a CV_32FC1 view by
   // bilinear interpolation, rows in parallel (OpenMP). Outside the image: 0.
-  void Warp(const cv::Mat& grey, cv::Mat* view) const;
+  // Rows on `num_threads` threads (0: OpenMP's default).
+  void Warp(const cv::Mat& grey, cv::Mat* view, int num_threads = 0) const;
   // The frame with one pixel of zeros round it, as WarpRegion reads it.
   void PadFrame(const cv::Mat& grey, cv::Mat* padded) const;
   // View pixels [x0, x0 + w) x [y0, y0 + h) (inside the view) of a padded

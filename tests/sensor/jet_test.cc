@@ -129,7 +129,8 @@ TEST_CASE("project with ceres::Jet at the limb (no room for a central difference
 }
 
 TEST_CASE("backproject with ceres::Jet compiles and keeps values", "[jet]") {
-  const SensorParams<double>& p = test::AllSensorModels()[0].sensor.params;
+  // A copy: the models' vector is a temporary that ends with this statement.
+  const SensorParams<double> p = test::AllSensorModels()[0].sensor.params;
   SensorParams<JetT> pj = ToJets(p);
   JetT o[3], d[3];
   REQUIRE(backproject(pj, JetT(400.0), JetT(300.0), o, d));

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <set>
 
+#include "core/error.h"
 #include "test_rng.h"
 #include "track/compass.h"
 #include "track/edge_profile.h"
@@ -130,6 +131,49 @@ TEST_CASE("relocalisation: a robot started at a wrong pose finds itself", "[relo
     REQUIRE(rows[i].status == PoseStatus::kOk);
     CHECK(std::hypot(rows[i].pose.x - r.truth[i].pose.x, rows[i].pose.y - r.truth[i].pose.y) < 0.1);
   }
+}
+
+// Every field of two trajectories, compared exactly.
+void CheckSameRows(const std::vector<PoseRow>& a, const std::vector<PoseRow>& b) {
+  REQUIRE(a.size() == b.size());
+  for (size_t i = 0; i < a.size(); ++i) {
+    INFO("frame " << i);
+    CHECK(a[i].status == b[i].status);
+    CHECK(a[i].pose.x == b[i].pose.x);
+    CHECK(a[i].pose.y == b[i].pose.y);
+    CHECK(a[i].pose.theta == b[i].pose.theta);
+    CHECK(a[i].n_landmarks == b[i].n_landmarks);
+    CHECK((a[i].residual == b[i].residual || (std::isnan(a[i].residual) && std::isnan(b[i].residual))));
+    REQUIRE(a[i].extra.size() == b[i].extra.size());
+    for (size_t k = 0; k < a[i].extra.size(); ++k)
+      CHECK((a[i].extra[k] == b[i].extra[k] || (std::isnan(a[i].extra[k]) && std::isnan(b[i].extra[k]))));
+  }
+}
+
+TEST_CASE("localiser threads: identical trajectories for 1, 2 and 4 threads, through a kidnapping",
+          "[threads]") {
+  // Frames 27..36 of the kidnap preset: tracking, the jump at frame 30 (lost,
+  // then relocalised), tracking again: every parallel loop of the localiser.
+  const test::RenderedCase r = test::RenderPreset("kidnap", 10, 27);
+  for (TrackingMethod method : {TrackingMethod::kJunction, TrackingMethod::kVertex}) {
+    INFO("method " << tracking_method_name(method));
+    LocalizerOptions opt;
+    opt.method = method;
+    opt.num_threads = 1;
+    const std::vector<PoseRow> one = test::Localize(r, opt, r.c.poses[27]);
+    // The run is worth comparing: tracked before the jump, lost at it, found again.
+    CHECK(one[0].status == PoseStatus::kOk);
+    CHECK(one[3].status == PoseStatus::kLost);
+    CHECK(one.back().status == PoseStatus::kOk);
+    for (int threads : {2, 4}) {
+      INFO(threads << " threads");
+      opt.num_threads = threads;
+      CheckSameRows(one, test::Localize(r, opt, r.c.poses[27]));
+    }
+  }
+  LocalizerOptions bad;
+  bad.num_threads = -1;
+  CHECK_THROWS_AS(Localizer(r.c.calib, r.c.map, r.table, bad), Error);
 }
 
 TEST_CASE("accuracy summary: RMS, std, max, outliers, tracked frames", "[accuracy]") {

@@ -1,9 +1,13 @@
 // panosim: catadioptric ray tracer for test sequences and calibration images
-// with exact ground truth. Thin front end over lib/render.
+// with exact ground truth. Thin front end over lib/render: one function adds
+// each subcommand's options, one runs it.
 #include <CLI/CLI.hpp>
 
+#include <cctype>
 #include <cmath>
+#include <cstdlib>
 #include <iostream>
+#include <map>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -18,20 +22,28 @@
 
 namespace {
 
-std::vector<double> ParseNumbers(const std::string& text, size_t n, const std::string& option,
-                                 const std::string& expected) {
-  std::vector<double> out;
-  std::stringstream ss(text);
-  std::string f;
-  while (std::getline(ss, f, ',')) {
-    char* end = nullptr;
-    const double v = std::strtod(f.c_str(), &end);
-    if (end == f.c_str() || *end != '\0' || !std::isfinite(v))
-      throw pano::Error(option + ": '" + f + "' is not a number (expected " + expected + ")");
-    out.push_back(v);
-  }
-  if (out.size() != n) throw pano::Error(option + ": expected " + expected + ", got '" + text + "'");
-  return out;
+// The form of each comma-separated list option, for its parse errors.
+std::map<std::string, std::string>& ListForms() {
+  static std::map<std::string, std::string> forms;
+  return forms;
+}
+
+// An option of exactly `n` comma-separated finite numbers ("x,y,theta").
+CLI::Option* AddNumberList(CLI::App* app, const std::string& name, std::vector<double>* values, int n,
+                           const std::string& form, const std::string& help) {
+  ListForms()[name] = form;
+  const CLI::Validator finite(
+      [](std::string& text) -> std::string {
+        char* end = nullptr;
+        const double v = std::strtod(text.c_str(), &end);
+        if (end == text.c_str() || *end != '\0' || !std::isfinite(v))
+          return "'" + text + "' is not a finite number";
+        return std::string();
+      },
+      "");
+  std::string upper = form.substr(0, form.find(' '));
+  for (char& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return app->add_option(name, *values, help)->delimiter(',')->expected(n)->type_name(upper)->check(finite);
 }
 
 // Render options given on the command line; each overrides a preset's value
@@ -79,6 +91,228 @@ struct RenderFlags {
   }
 };
 
+struct StillArgs {
+  std::string map_path, calib_path, out, preset;
+  std::vector<double> pose;
+  int frame_index = 0;
+  RenderFlags flags;
+};
+
+CLI::App* AddStill(CLI::App* app, StillArgs* a) {
+  CLI::App* still = app->add_subcommand("still", "Render one frame to a PNG (8-bit grey)");
+  still->add_option("--map", a->map_path, "Map file (YAML, spec section 4)");
+  still->add_option("--calib", a->calib_path, "Calibration file (YAML, spec section 3)");
+  AddNumberList(still, "--pose", &a->pose, 3, "x,y,theta (map units, radians)",
+                "Robot pose x,y,theta: pinhole world position (map units), heading (radians)");
+  still->add_option("--preset", a->preset, "Take map, sensor, options and pose from a preset instead");
+  still->add_option("--frame", a->frame_index, "With --preset: the frame whose pose to render")
+      ->default_val(0);
+  still->add_option("-o,--output", a->out, "Output PNG")->required();
+  a->flags.Add(still, true);
+  return still;
+}
+
+// The still's sensor, map, pose and options: from a preset or from files.
+void StillScene(const StillArgs& a, pano::Sensor* sensor, pano::Map* map, pano::Pose2* pose,
+                pano::RenderOptions* ro) {
+  if (!a.preset.empty()) {
+    if (!a.map_path.empty() || !a.calib_path.empty() || !a.pose.empty())
+      throw pano::Error("--preset: give either --preset or --map/--calib/--pose, not both");
+    const pano::SequenceCase c = pano::MakePreset(a.preset);
+    if (a.frame_index < 0 || a.frame_index >= static_cast<int>(c.poses.size()))
+      throw pano::Error("--frame: " + std::to_string(a.frame_index) + " is outside 0.." +
+                        std::to_string(c.poses.size() - 1) + " of preset '" + a.preset + "'");
+    *sensor = c.calib.sensor;
+    *map = c.map;
+    *pose = c.poses[static_cast<size_t>(a.frame_index)];
+    *ro = c.options;
+    return;
+  }
+  if (a.map_path.empty()) throw pano::Error("--map: required (or give --preset)");
+  if (a.calib_path.empty()) throw pano::Error("--calib: required (or give --preset)");
+  if (a.pose.empty()) throw pano::Error("--pose: required: x,y,theta (map units, radians)");
+  *map = pano::ReadMap(a.map_path);
+  *sensor = pano::ReadCalibration(a.calib_path).sensor;
+  *pose = {a.pose[0], a.pose[1], a.pose[2]};
+  pano::CheckPose(*map, *pose, "--pose");
+}
+
+void RunStill(const StillArgs& a) {
+  pano::Sensor sensor;
+  pano::Map map;
+  pano::Pose2 pose;
+  pano::RenderOptions ro;
+  StillScene(a, &sensor, &map, &pose, &ro);
+  a.flags.Apply(&ro, true);
+  ro.Check("options");
+  pano::WritePng(a.out, pano::RenderStill(sensor, map, pose, ro));
+}
+
+struct SequenceArgs {
+  std::string traj_path, out, preset, map_path, calib_path;
+  double fps = 10.0;
+  bool frames = false, no_video = false, quiet = false, force = false;
+  CLI::Option* o_fps = nullptr;
+  RenderFlags flags;
+};
+
+CLI::App* AddSequence(CLI::App* app, SequenceArgs* a) {
+  CLI::App* seq = app->add_subcommand(
+      "sequence",
+      "Render a sequence: DIR/video.mp4 (H.264), DIR/gt.csv (ground truth, spec section 5), "
+      "DIR/map.yaml (no distractors), DIR/calib.yaml, DIR/case.yaml, and DIR/frames/ with --frames");
+  seq->add_option("--preset", a->preset, "Built-in case: paper-synthetic, paper-real, cluttered, kidnap");
+  seq->add_option("--map", a->map_path, "Map file (YAML, spec section 4)");
+  seq->add_option("--calib", a->calib_path, "Calibration file (YAML, spec section 3)");
+  seq->add_option(
+      "--trajectory", a->traj_path,
+      "Poses, one per frame: CSV with header x,y,theta (radians), or a pose CSV (spec section 5)");
+  a->o_fps = seq->add_option("--fps", a->fps, "Frame rate of the video and of gt.csv times")->default_val(10);
+  seq->add_option("-o,--output", a->out, "Output folder (created; must not exist unless --force)")
+      ->required();
+  seq->add_flag("--frames", a->frames, "Also write lossless DIR/frames/frame_%04d.png");
+  seq->add_flag("--no-video", a->no_video, "Do not write video.mp4 (needs --frames)");
+  seq->add_flag("-q,--quiet", a->quiet, "No progress on stderr");
+  seq->add_flag("--force", a->force, "Replace an existing output folder");
+  a->flags.Add(seq, true);
+  return seq;
+}
+
+pano::SequenceCase SequenceCaseOf(const SequenceArgs& a) {
+  if (!a.preset.empty()) {
+    if (!a.map_path.empty() || !a.calib_path.empty() || !a.traj_path.empty())
+      throw pano::Error("--preset: give either --preset or --map/--calib/--trajectory, not both");
+    pano::SequenceCase c = pano::MakePreset(a.preset);
+    if (a.o_fps->count()) c.fps = a.fps;
+    return c;
+  }
+  if (a.map_path.empty()) throw pano::Error("--map: required (or give --preset)");
+  if (a.calib_path.empty()) throw pano::Error("--calib: required (or give --preset)");
+  if (a.traj_path.empty()) throw pano::Error("--trajectory: required (or give --preset)");
+  return pano::MakeCase(a.map_path, a.calib_path, a.traj_path, a.fps);
+}
+
+void RunSequence(const SequenceArgs& a) {
+  pano::SequenceCase c = SequenceCaseOf(a);
+  a.flags.Apply(&c.options, true);
+  c.options.Check("options");
+  pano::SequenceWriteOptions wo;
+  wo.frames = a.frames;
+  wo.video = !a.no_video;
+  wo.quiet = a.quiet;
+  wo.overwrite = a.force;
+  const pano::SequenceWriteResult r = pano::WriteSequence(c, a.out, wo);
+  if (!a.quiet)
+    std::cerr << "panosim: wrote " << r.frames << " frames to " << a.out
+              << (r.codec.empty() ? "" : " (video codec " + r.codec + ")") << "\n";
+}
+
+struct TargetsArgs {
+  std::string calib_path, poses_path, out;
+  std::vector<double> board;
+  int auto_n = 0;
+  bool quiet = false, force = false;
+  CLI::Option *o_poses = nullptr, *o_auto = nullptr;
+  RenderFlags flags;
+};
+
+CLI::App* AddTargets(CLI::App* app, TargetsArgs* a) {
+  CLI::App* tg = app->add_subcommand(
+      "targets",
+      "Render chessboard calibration images: DIR/cal_NNN.png, DIR/targets.yaml (known poses, spec "
+      "section 6), DIR/targets_unknown.yaml (no poses), DIR/truth.yaml (the calibration used)");
+  tg->add_option("--calib", a->calib_path, "Calibration file of the sensor to render (YAML, spec section 3)")
+      ->required();
+  AddNumberList(tg, "--board", &a->board, 3, "cols,rows,square",
+                "cols,rows,square: inner corners along x and y, square size (map units)")
+      ->required();
+  a->o_poses = tg->add_option("--poses", a->poses_path,
+                              "Board poses CSV: header rx,ry,rz,tx,ty,tz, then one line per image; "
+                              "X_sensor = R(rvec) X_board + tvec (OpenCV)");
+  a->o_auto = tg->add_option("--auto", a->auto_n,
+                             "Generate N fully visible board poses around the mirror: near it, from 20 degrees "
+                             "below to 60 above it, corners out to the limb (the placement that calibrates "
+                             "best with unknown poses)");
+  a->o_poses->excludes(a->o_auto);
+  tg->add_option("-o,--output", a->out, "Output folder (created; must not exist unless --force)")->required();
+  tg->add_flag("-q,--quiet", a->quiet, "No progress on stderr");
+  tg->add_flag("--force", a->force, "Replace an existing output folder");
+  a->flags.Add(tg, false);
+  return tg;
+}
+
+std::string Joined(const std::vector<double>& values) {
+  std::ostringstream s;
+  for (size_t i = 0; i < values.size(); ++i) s << (i ? "," : "") << values[i];
+  return s.str();
+}
+
+pano::TargetBoard BoardOf(const std::vector<double>& b) {
+  pano::TargetBoard board;
+  board.cols = static_cast<int>(b[0]);
+  board.rows = static_cast<int>(b[1]);
+  board.square = b[2];
+  if (board.cols != b[0] || board.rows != b[1] || board.cols < 2 || board.rows < 2 || !(board.square > 0.0))
+    throw pano::Error("--board: expected integer cols,rows >= 2 and a positive square size, got " +
+                      Joined(b));
+  return board;
+}
+
+std::vector<pano::BoardPose> BoardPosesOf(const TargetsArgs& a, const pano::Sensor& sensor,
+                                          const pano::TargetBoard& board, unsigned long long seed) {
+  if (a.o_poses->count()) {
+    std::vector<pano::BoardPose> poses = pano::ReadBoardPoses(a.poses_path);
+    for (size_t i = 0; i < poses.size(); ++i)
+      if (!pano::BoardFullyVisible(sensor, board, poses[i], 0.0, 1.0))
+        std::cerr << "panosim: warning: " << a.poses_path << ": line " << i + 2
+                  << ": not every inner corner of the board is in view\n";
+    return poses;
+  }
+  if (a.o_auto->count()) return pano::AutoBoardPoses(sensor, board, a.auto_n, seed);
+  throw pano::Error("--poses or --auto: give the board poses file or the number of images to generate");
+}
+
+void RunTargets(const TargetsArgs& a) {
+  const pano::Calibration calib = pano::ReadCalibration(a.calib_path);
+  const pano::TargetBoard board = BoardOf(a.board);
+  pano::RenderOptions ro;
+  a.flags.Apply(&ro, false);
+  ro.Check("options");
+  const std::vector<pano::BoardPose> poses = BoardPosesOf(a, calib.sensor, board, ro.seed);
+  pano::TargetsWriteOptions wo;
+  wo.overwrite = a.force;
+  wo.quiet = a.quiet;
+  pano::WriteTargetImages(a.out, calib, board, poses, ro, wo);
+}
+
+void ListPresets() {
+  for (const std::string& n : pano::PresetNames()) {
+    const pano::SequenceCase c = pano::MakePreset(n);
+    std::cout << n << ": " << c.poses.size() << " frames, " << c.calib.sensor.image_width << "x"
+              << c.calib.sensor.image_height << ", " << c.description << "\n";
+  }
+}
+
+// Command-line errors in the program's one-line form; help and version as CLI11 prints them.
+int ParseCommandLine(CLI::App* app, int argc, char** argv) {
+  try {
+    app->parse(argc, argv);
+    return -1;
+  } catch (const CLI::CallForHelp& e) {
+    return app->exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app->exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app->exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::string message = e.what();
+    for (const auto& [name, form] : ListForms())
+      if (message.rfind(name + ":", 0) == 0) message += " (expected " + form + ")";
+    std::cerr << "panosim: " << message << "\n";
+    return 1;
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -87,169 +321,20 @@ int main(int argc, char** argv) {
       "mirror of revolution). Renders stills, test sequences with ground truth, and chessboard "
       "calibration images. Lengths are in the map's units; angles in radians."};
   app.require_subcommand(1);
-
-  // still
-  CLI::App* still = app.add_subcommand("still", "Render one frame to a PNG (8-bit grey)");
-  std::string map_path, calib_path, pose_text, out, preset;
-  int frame_index = 0;
-  RenderFlags still_flags;
-  still->add_option("--map", map_path, "Map file (YAML, spec section 4)");
-  still->add_option("--calib", calib_path, "Calibration file (YAML, spec section 3)");
-  still->add_option("--pose", pose_text, "Robot pose x,y,theta: pinhole world position (map units), heading (radians)");
-  still->add_option("--preset", preset, "Take map, sensor, options and pose from a preset instead");
-  still->add_option("--frame", frame_index, "With --preset: the frame whose pose to render")->default_val(0);
-  still->add_option("-o,--output", out, "Output PNG")->required();
-  still_flags.Add(still, true);
-
-  // sequence
-  CLI::App* seq = app.add_subcommand(
-      "sequence",
-      "Render a sequence: DIR/video.mp4 (H.264), DIR/gt.csv (ground truth, spec section 5), "
-      "DIR/map.yaml (no distractors), DIR/calib.yaml, DIR/case.yaml, and DIR/frames/ with --frames");
-  std::string traj_path, seq_out, seq_preset, seq_map, seq_calib;
-  double fps = 10.0;
-  bool frames = false, no_video = false, quiet = false, force = false;
-  RenderFlags seq_flags;
-  seq->add_option("--preset", seq_preset, "Built-in case: paper-synthetic, paper-real, cluttered, kidnap");
-  seq->add_option("--map", seq_map, "Map file (YAML, spec section 4)");
-  seq->add_option("--calib", seq_calib, "Calibration file (YAML, spec section 3)");
-  seq->add_option("--trajectory", traj_path,
-                  "Poses, one per frame: CSV with header x,y,theta (radians), or a pose CSV (spec section 5)");
-  CLI::Option* o_fps = seq->add_option("--fps", fps, "Frame rate of the video and of gt.csv times")->default_val(10);
-  seq->add_option("-o,--output", seq_out, "Output folder (created; must not exist unless --force)")->required();
-  seq->add_flag("--frames", frames, "Also write lossless DIR/frames/frame_%04d.png");
-  seq->add_flag("--no-video", no_video, "Do not write video.mp4 (needs --frames)");
-  seq->add_flag("-q,--quiet", quiet, "No progress on stderr");
-  seq->add_flag("--force", force, "Replace an existing output folder");
-  seq_flags.Add(seq, true);
-
-  // targets
-  CLI::App* tg = app.add_subcommand(
-      "targets",
-      "Render chessboard calibration images: DIR/cal_NNN.png, DIR/targets.yaml (known poses, spec "
-      "section 6), DIR/targets_unknown.yaml (no poses), DIR/truth.yaml (the calibration used)");
-  std::string tg_calib, board_text, poses_path, tg_out;
-  int auto_n = 0;
-  bool tg_quiet = false, tg_force = false;
-  RenderFlags tg_flags;
-  tg->add_option("--calib", tg_calib, "Calibration file of the sensor to render (YAML, spec section 3)")->required();
-  tg->add_option("--board", board_text, "cols,rows,square: inner corners along x and y, square size (map units)")
-      ->required();
-  CLI::Option* o_poses = tg->add_option("--poses", poses_path,
-                                        "Board poses CSV: header rx,ry,rz,tx,ty,tz, then one line per image; "
-                                        "X_sensor = R(rvec) X_board + tvec (OpenCV)");
-  CLI::Option* o_auto = tg->add_option(
-      "--auto", auto_n,
-      "Generate N fully visible board poses around the mirror: near it, from 20 degrees below to 60 above it, "
-      "corners out to the limb (the placement that calibrates best with unknown poses)");
-  o_poses->excludes(o_auto);
-  tg->add_option("-o,--output", tg_out, "Output folder (created; must not exist unless --force)")->required();
-  tg->add_flag("-q,--quiet", tg_quiet, "No progress on stderr");
-  tg->add_flag("--force", tg_force, "Replace an existing output folder");
-  tg_flags.Add(tg, false);
-
-  CLI::App* list = app.add_subcommand("presets", "List the built-in presets");
-
-  CLI11_PARSE(app, argc, argv);
-
+  StillArgs still_args;
+  SequenceArgs seq_args;
+  TargetsArgs tg_args;
+  const CLI::App* still = AddStill(&app, &still_args);
+  const CLI::App* seq = AddSequence(&app, &seq_args);
+  const CLI::App* tg = AddTargets(&app, &tg_args);
+  const CLI::App* list = app.add_subcommand("presets", "List the built-in presets");
+  const int parsed = ParseCommandLine(&app, argc, argv);
+  if (parsed >= 0) return parsed;
   try {
-    if (*still) {
-      pano::Sensor sensor;
-      pano::Map map;
-      pano::Pose2 pose;
-      pano::RenderOptions ro;
-      if (!preset.empty()) {
-        if (!map_path.empty() || !calib_path.empty() || !pose_text.empty())
-          throw pano::Error("--preset: give either --preset or --map/--calib/--pose, not both");
-        const pano::SequenceCase c = pano::MakePreset(preset);
-        if (frame_index < 0 || frame_index >= static_cast<int>(c.poses.size()))
-          throw pano::Error("--frame: " + std::to_string(frame_index) + " is outside 0.." +
-                            std::to_string(c.poses.size() - 1) + " of preset '" + preset + "'");
-        sensor = c.calib.sensor;
-        map = c.map;
-        pose = c.poses[static_cast<size_t>(frame_index)];
-        ro = c.options;
-      } else {
-        if (map_path.empty()) throw pano::Error("--map: required (or give --preset)");
-        if (calib_path.empty()) throw pano::Error("--calib: required (or give --preset)");
-        if (pose_text.empty()) throw pano::Error("--pose: required: x,y,theta (map units, radians)");
-        map = pano::ReadMap(map_path);
-        sensor = pano::ReadCalibration(calib_path).sensor;
-        const std::vector<double> p = ParseNumbers(pose_text, 3, "--pose", "x,y,theta (map units, radians)");
-        pose = {p[0], p[1], p[2]};
-        pano::CheckPose(map, pose, "--pose");
-      }
-      still_flags.Apply(&ro, true);
-      ro.Check("options");
-      const cv::Mat img = pano::RenderStill(sensor, map, pose, ro);
-      pano::WritePng(out, img);
-      return 0;
-    }
-    if (*seq) {
-      pano::SequenceCase c;
-      if (!seq_preset.empty()) {
-        if (!seq_map.empty() || !seq_calib.empty() || !traj_path.empty())
-          throw pano::Error("--preset: give either --preset or --map/--calib/--trajectory, not both");
-        c = pano::MakePreset(seq_preset);
-        if (o_fps->count()) c.fps = fps;
-      } else {
-        if (seq_map.empty()) throw pano::Error("--map: required (or give --preset)");
-        if (seq_calib.empty()) throw pano::Error("--calib: required (or give --preset)");
-        if (traj_path.empty()) throw pano::Error("--trajectory: required (or give --preset)");
-        c = pano::MakeCase(seq_map, seq_calib, traj_path, fps);
-      }
-      seq_flags.Apply(&c.options, true);
-      c.options.Check("options");
-      pano::SequenceWriteOptions wo;
-      wo.frames = frames;
-      wo.video = !no_video;
-      wo.quiet = quiet;
-      wo.overwrite = force;
-      const pano::SequenceWriteResult r = pano::WriteSequence(c, seq_out, wo);
-      if (!quiet)
-        std::cerr << "panosim: wrote " << r.frames << " frames to " << seq_out
-                  << (r.codec.empty() ? "" : " (video codec " + r.codec + ")") << "\n";
-      return 0;
-    }
-    if (*tg) {
-      const pano::Calibration calib = pano::ReadCalibration(tg_calib);
-      const std::vector<double> b = ParseNumbers(board_text, 3, "--board", "cols,rows,square");
-      pano::TargetBoard board;
-      board.cols = static_cast<int>(b[0]);
-      board.rows = static_cast<int>(b[1]);
-      board.square = b[2];
-      if (board.cols != b[0] || board.rows != b[1] || board.cols < 2 || board.rows < 2 || !(board.square > 0.0))
-        throw pano::Error("--board: expected integer cols,rows >= 2 and a positive square size, got '" +
-                          board_text + "'");
-      pano::RenderOptions ro;
-      tg_flags.Apply(&ro, false);
-      ro.Check("options");
-      std::vector<pano::BoardPose> poses;
-      if (o_poses->count()) {
-        poses = pano::ReadBoardPoses(poses_path);
-        for (size_t i = 0; i < poses.size(); ++i)
-          if (!pano::BoardFullyVisible(calib.sensor, board, poses[i], 0.0, 1.0))
-            std::cerr << "panosim: warning: " << poses_path << ": line " << i + 2
-                      << ": not every inner corner of the board is in view\n";
-      } else if (o_auto->count()) {
-        poses = pano::AutoBoardPoses(calib.sensor, board, auto_n, ro.seed);
-      } else {
-        throw pano::Error("--poses or --auto: give the board poses file or the number of images to generate");
-      }
-      pano::TargetsWriteOptions wo;
-      wo.overwrite = tg_force;
-      wo.quiet = tg_quiet;
-      pano::WriteTargetImages(tg_out, calib, board, poses, ro, wo);
-      return 0;
-    }
-    if (*list) {
-      for (const std::string& n : pano::PresetNames()) {
-        const pano::SequenceCase c = pano::MakePreset(n);
-        std::cout << n << ": " << c.poses.size() << " frames, " << c.calib.sensor.image_width << "x"
-                  << c.calib.sensor.image_height << ", " << c.description << "\n";
-      }
-      return 0;
-    }
+    if (*still) RunStill(still_args);
+    if (*seq) RunSequence(seq_args);
+    if (*tg) RunTargets(tg_args);
+    if (*list) ListPresets();
   } catch (const pano::Error& e) {
     std::cerr << "panosim: " << e.what() << "\n";
     return 1;
