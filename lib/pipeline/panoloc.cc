@@ -232,10 +232,6 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
   CheckOutputs(opt, jobs);
   if (!opt.out_dir.empty()) fs::create_directories(opt.out_dir);
   res.table = TableForMap(res.calib, res.map, opt.quiet);
-  // One set of PH tables for every input (they depend on the sensor and the
-  // map's edge heights only).
-  res.ph_tables = MakeTrackingPhTables(res.table);
-
   const int threads = opt.num_threads > 0 ? opt.num_threads
                                           : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   const int n_jobs = std::clamp(opt.jobs > 0 ? opt.jobs : threads, 1, static_cast<int>(jobs.size()));
@@ -245,6 +241,9 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
   // a decoding thread of its own: leave it a core, since OpenMP's spinning
   // barriers collapse when the cores are oversubscribed.
   if (run.localizer.num_threads == 0) run.localizer.num_threads = std::max(1, threads / n_jobs - 1);
+  // One set of PH tables for every input (they depend on the sensor and the
+  // map's edge heights only).
+  res.ph_tables = MakeTrackingPhTables(res.table, run.localizer.num_threads);
   run.fps = opt.fps;
   run.cancel = opt.cancel;
   std::atomic<long> done{0};

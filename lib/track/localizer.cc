@@ -5,7 +5,7 @@
 #include <exception>
 
 #include "core/error.h"
-#include "hough/threads.h"
+#include "core/parallel.h"
 
 namespace pano {
 

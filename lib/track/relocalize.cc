@@ -6,7 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
-#include "hough/threads.h"
+#include "core/parallel.h"
 
 namespace pano {
 
