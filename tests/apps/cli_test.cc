@@ -2,45 +2,22 @@
 // their one-line errors.
 #include <catch2/catch.hpp>
 
-#include <array>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
-#include <sys/wait.h>
 
 #include "io/calibration.h"
+#include "run_command.h"
 #include "test_paths.h"
 
 namespace pano {
 namespace {
 
-struct Run {
-  int code = -1;
-  std::string out;  // stdout and stderr together
-};
-
-Run Exec(const std::string& args) {
-  const char* dir = std::getenv("PANO_BIN_DIR");
-  REQUIRE(dir != nullptr);
-  const std::string cmd = std::string(dir) + "/" + args + " 2>&1";
-  Run r;
-  FILE* p = popen(cmd.c_str(), "r");
-  REQUIRE(p != nullptr);
-  std::array<char, 4096> buf;
-  size_t n;
-  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
-  const int status = pclose(p);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
-
-int Lines(const std::string& s) {
-  int n = 0;
-  for (char c : s) n += c == '\n';
-  return n;
-}
+using Run = test::CommandRun;
+Run Exec(const std::string& args) { return test::RunProgram(args); }
+int Lines(const std::string& s) { return test::CountLines(s); }
 
 TEST_CASE("panocalib project/backproject agree with the sensor model; bad input fails cleanly",
           "[panocalib_project]") {
