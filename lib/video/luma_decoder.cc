@@ -153,7 +153,8 @@ struct LumaDecoder::Impl {
     int64_t t = p.pts != AV_NOPTS_VALUE ? p.pts : p.dts;
     if (t == AV_NOPTS_VALUE) return;
     t += std::max<int64_t>(p.duration, 0);
-    const int64_t end = av_rescale_q(t, format->streams[p.stream_index]->time_base, AVRational{1, AV_TIME_BASE});
+    const AVRational microseconds{1, AV_TIME_BASE};  // AV_TIME_BASE_Q is a C compound literal
+    const int64_t end = av_rescale_q(t, format->streams[p.stream_index]->time_base, microseconds);
     if (data_end == AV_NOPTS_VALUE || end > data_end) data_end = end;
   }
 
