@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "expect_error.h"
 #include "core/error.h"
 #include "core/test_fifo.h"
 #include "io/calibration.h"
@@ -17,28 +18,14 @@
 namespace pano {
 namespace {
 
+using test::ExpectError;
+
 namespace fs = std::filesystem;
 
 std::string Write(const std::string& dir, const std::string& name, const std::string& text) {
   const std::string p = dir + "/" + name;
   std::ofstream(p, std::ios::binary) << text;
   return p;
-}
-
-// `f` must throw pano::Error (nothing else) whose one-line message names
-// `path` and contains every fragment.
-template <typename F>
-void ExpectError(F f, const std::string& path, std::initializer_list<std::string> fragments) {
-  try {
-    f();
-    FAIL("expected an error for " << path);
-  } catch (const Error& e) {
-    const std::string msg = e.what();
-    INFO("message: " << msg);
-    CHECK(msg.find(path) != std::string::npos);
-    CHECK(msg.find('\n') == std::string::npos);
-    for (const auto& frag : fragments) CHECK(msg.find(frag) != std::string::npos);
-  }
 }
 
 const std::string kCalib =

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "expect_error.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "io/calibration.h"
@@ -17,26 +18,12 @@
 namespace pano {
 namespace {
 
+using test::ExpectError;
+
 std::string Write(const std::string& dir, const std::string& name, const std::string& text) {
   const std::string p = dir + "/" + name;
   std::ofstream(p) << text;
   return p;
-}
-
-// Runs `f`, which must throw pano::Error whose message names `path` and
-// contains every fragment.
-template <typename F>
-void ExpectError(F f, const std::string& path, std::initializer_list<std::string> fragments) {
-  try {
-    f();
-    FAIL("expected an error for " << path);
-  } catch (const Error& e) {
-    const std::string msg = e.what();
-    INFO("message: " << msg);
-    CHECK(msg.find(path) != std::string::npos);
-    CHECK(msg.find('\n') == std::string::npos);
-    for (const auto& frag : fragments) CHECK(msg.find(frag) != std::string::npos);
-  }
 }
 
 const char* kCalib = R"(model: sphere

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <thread>
 
+#include "expect_error.h"
 #include "core/error.h"
 #include "io/pose_csv.h"
 #include "pipeline/output_names.h"
@@ -19,19 +20,11 @@
 namespace pano {
 namespace {
 
+using test::ErrorOf;
+
 namespace fs = std::filesystem;
 
 std::string Scratch(const std::string& name) { return test::ScratchDir(name + "_" + std::to_string(::getpid())); }
-
-template <typename F>
-std::string ErrorOf(F f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
 
 TEST_CASE("output names: inputs with one name get their folders in front; clashes that remain are errors",
           "[output_names]") {

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "expect_error.h"
 #include "core/error.h"
 #include "io/calibration.h"
 #include "io/map.h"
@@ -16,15 +17,7 @@
 namespace pano {
 namespace {
 
-template <typename F>
-std::string ErrorOf(F f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
+using test::ErrorOf;
 
 TEST_CASE("panoloc rejects bad inputs with clear messages", "[bad_input]") {
   const std::string dir = test::ScratchDir("track_bad");
