@@ -9,6 +9,7 @@ set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=${BUILD_DIR:-$root/build-asan}
 jobs=${JOBS:-$(nproc)}
+bash "$root/scripts/install-deps.sh"
 
 cmake -S "$root" -B "$build" -DPANO_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DPANO_BUILD_BENCHMARKS=OFF -DPANO_ENABLE_CUDA=OFF "$@"
