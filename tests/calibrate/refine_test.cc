@@ -50,16 +50,17 @@ TEST_CASE("refined corners remove the detector's bias (rendered boards, known po
   WARN("detected corners: RMS " << before.rms_px << " px, mirror distance error " << 100 * before.distance_error
                                 << " %; refined: RMS " << after.rms_px << " px, " << 100 * after.distance_error
                                 << " %");
-  // The issue's bounds with known poses: RMS 0.3 px, mirror distance 1 %.
-  // The boards reach the limb, where the detector's corners are off by up to
-  // a pixel; the refinement must bring them under the bound.
+  // The issue's bounds with known poses: RMS 0.3 px, mirror distance 1 %; the
+  // distance is guarded at 0.6 % (measured 0.19 %). The boards reach the
+  // limb, where the detector's corners are off by up to a pixel; the
+  // refinement must bring them under the bounds.
   CHECK(after.rms_px < 0.3);
   CHECK(after.rms_px < before.rms_px);
-  CHECK(after.distance_error < 0.01);
+  CHECK(after.distance_error < 0.006);
   CHECK(after.distance_error <= before.distance_error + 0.002);
 }
 
-TEST_CASE("rendered boards, unknown poses: parameters within twice the bounds", "[rendered_unknown]") {
+TEST_CASE("rendered boards, unknown poses: parameters near the truth", "[rendered_unknown]") {
   // The issue's synthetic acceptance on a smaller set: panosim's --auto
   // boards (near, up to 60 degrees above the mirror), noise 2 grey levels,
   // the whole pipeline from the images with the board poses estimated.
@@ -79,11 +80,11 @@ TEST_CASE("rendered boards, unknown poses: parameters within twice the bounds", 
                                                   << " boards");
   CHECK_FALSE(r.poses_known);
   CHECK(r.views.size() >= 11);
-  CHECK(std::abs(focal) < 0.01);
-  CHECK(std::abs(p.cx - truth.sensor.params.cx) < 1.0);
-  CHECK(std::abs(p.cy - truth.sensor.params.cy) < 1.0);
-  CHECK(std::abs(radius) < 0.02);
-  CHECK(std::abs(distance) < 0.02);
+  CHECK(std::abs(focal) < 0.004);  // measured 0.14 %; the issue's bound for unknown poses is 1 %
+  CHECK(std::abs(p.cx - truth.sensor.params.cx) < 0.01);   // measured 0.0032 px
+  CHECK(std::abs(p.cy - truth.sensor.params.cy) < 0.03);   // measured 0.0107 px
+  CHECK(std::abs(radius) < 0.002);  // measured 0.065 %
+  CHECK(std::abs(distance) < 0.002);  // measured 0.055 %
   CHECK(r.rms_px < 0.3);
 }
 

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "core/error.h"
 #include "hough_fixtures.h"
@@ -47,7 +48,7 @@ TEST_CASE("PH table matches E(E^-1(R_i, Z) cos dtheta, Z) on lines of the room",
   WARN("PH table vs exact over " << n_checked << " line points: PH worst " << worst_fwd
                                  << " px, PH^-1 worst " << worst_inv << " px");
   CHECK(n_checked > 1000);
-  CHECK(worst_exact_fn < 1e-6);
+  CHECK(worst_exact_fn < 100 * std::numeric_limits<double>::epsilon() * 250);  // rounding at radii up to 250 px
   // Tracking bins are 0.5 px and whole-image bins 1 px: the table's error must
   // be well below (a tenth of) the smaller.
   CHECK(worst_fwd < 0.05);
@@ -70,7 +71,7 @@ TEST_CASE("PH table built from the exact model equals the exact composition at t
       if (!s.inverse_image_radius(r, -30.0, &D) || D > 3000 || D * std::cos(dt) < 25) continue;
       if (!ExactPh(s, -30.0, r, dt, &ex) || ex < 5.0) continue;
       REQUIRE(ph.Main(r, -dt, &got));  // even in dtheta
-      CHECK(got == Approx(ex).margin(1e-3));
+      CHECK(got == Approx(ex).margin(3e-5));
       ++n;
     }
   CHECK(n > 100);

@@ -146,19 +146,19 @@ TEST_CASE("nominal-height approximation error of the whole-image mode", "[nomina
   Fixture f;
   // Exact plane: only the table error remains.
   const double exact = NominalHeightError(f.sensor, f.ph.plane_table(0), -30.0, 40.0, 250.0, 1.2);
-  CHECK(exact < 0.05);
+  CHECK(exact < 0.004);
   // Lines of the paper's room voted in the nominal planes -30 (below the
   // pinhole) and 60 (above), D_main 40..250, |dtheta| <= 60 degrees.
   for (double z : {-25.0, -20.0, -15.0, -10.0}) {
     const double err = NominalHeightError(f.sensor, f.ph.plane_table(0), z, 40.0, 250.0, M_PI / 3);
     WARN("nominal Z -30, true Z " << z << ": worst |PH_nominal - R_main| " << err << " px");
     CHECK(err > exact);  // the approximation is measured, not zero
-    CHECK(err < 6.0);
+    CHECK(err < 0.6);
   }
   for (double z : {15.0, 30.0, 45.0, 70.0, 90.0}) {
     const double err = NominalHeightError(f.sensor, f.ph.plane_table(3), z, 40.0, 250.0, M_PI / 3);
     WARN("nominal Z 60, true Z " << z << ": worst |PH_nominal - R_main| " << err << " px");
-    CHECK(err < 6.0);
+    CHECK(err < 1.2);
   }
 }
 

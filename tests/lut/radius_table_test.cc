@@ -2,6 +2,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <limits>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -54,8 +55,8 @@ TEST_CASE("bilinear E(D,Z) is within 0.02 px of the exact model between the node
   }
   INFO("tested " << tested << " points, " << missed << " next to the visibility edge");
   CHECK(tested > 100000);
-  CHECK(missed < tested / 50);
-  CHECK(worst < 0.02);
+  CHECK(missed < tested / 300);  // measured 206 of 183 701 at worst over 10 seeds
+  CHECK(worst < 0.003);          // measured 0.00106 px at worst over 10 seeds
   WARN("E(D,Z) table: worst interpolation error " << worst << " px over " << tested << " points");
 }
 
@@ -97,11 +98,12 @@ TEST_CASE("tabulated inverse D = E^-1(R, Z) round-trips through the exact model"
     }
   }
   CHECK(tested > 35000);
-  CHECK(degenerate < tested / 100);
+  CHECK(degenerate < tested / 800);  // measured 19 of about 44 000 at worst over 10 seeds
   CHECK(worst_px < 0.02);
-  // In the band the answer is still within a pixel or so: (R, Z) barely
-  // constrains D there, for the table as for the sensor itself.
-  CHECK(worst_band_px < 1.5);
+  // In the band (R, Z) barely constrains D, for the table as for the sensor
+  // itself, yet the answer stays within a fraction of a pixel (measured
+  // 0.236 px at worst over 10 seeds).
+  CHECK(worst_band_px < 0.6);
   WARN("inverse table: worst error " << worst_px << " px over " << tested
                                      << " points outside the mirror's height band, "
                                      << worst_band_px << " px inside it");
@@ -109,7 +111,7 @@ TEST_CASE("tabulated inverse D = E^-1(R, Z) round-trips through the exact model"
   double D_exact, R;
   REQUIRE(s.image_radius(120.0, 25.0, &R));
   REQUIRE(s.inverse_image_radius(R, 25.0, &D_exact));
-  CHECK(D_exact == Approx(120.0).epsilon(1e-10));
+  CHECK(D_exact == Approx(120.0).epsilon(500 * std::numeric_limits<double>::epsilon()));
 }
 
 TEST_CASE("table files: round trip, corrupt, truncated and mismatched files", "[file_format]") {

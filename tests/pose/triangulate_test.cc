@@ -4,6 +4,7 @@
 
 #include <Eigen/Dense>
 #include <cmath>
+#include <limits>
 
 #include "pose/triangulate.h"
 #include "test_rng.h"
@@ -27,30 +28,36 @@ std::vector<BearingObservation> Observe(const Pose2& pose, const std::vector<Eig
 const std::vector<Eigen::Vector2d> kLandmarks = {{0, 60},   {0, 95},   {40, 200}, {75, 200},
                                                  {200, 130}, {200, 90}, {150, 0},  {110, 0}};
 
+// Exact bearings give the pose to rounding: bounds of 100 ulps at the scale
+// of the room (positions, distances) and of a half turn (headings).
+constexpr double kEps = std::numeric_limits<double>::epsilon();
+constexpr double kPositionTol = 100 * kEps * 200;  // about 4.4e-12 map units
+constexpr double kHeadingTol = 100 * kEps * M_PI;  // about 7e-14 rad
+
 TEST_CASE("noise-free bearings give the exact pose", "[exact]") {
   for (const Pose2 truth : {Pose2{100, 100, 0.3}, Pose2{60, 130, -2.5}, Pose2{150, 40, 3.1}}) {
     const auto obs = Observe(truth, kLandmarks);
     // Start the heading 20 degrees off: Newton-Raphson on Eqn 2 converges.
     const TriangulationResult r = Triangulate(obs, {0, 0, truth.theta + 0.35});
     REQUIRE(r.ok);
-    CHECK(std::abs(r.pose.x - truth.x) < 1e-9);
-    CHECK(std::abs(r.pose.y - truth.y) < 1e-9);
-    CHECK(std::abs(wrap_angle(r.pose.theta - truth.theta)) < 1e-9);
-    CHECK(r.residual < 1e-9);
+    CHECK(std::abs(r.pose.x - truth.x) < kPositionTol);
+    CHECK(std::abs(r.pose.y - truth.y) < kPositionTol);
+    CHECK(std::abs(wrap_angle(r.pose.theta - truth.theta)) < kHeadingTol);
+    CHECK(r.residual < kPositionTol);
     CHECK(r.inliers.size() == kLandmarks.size());
     // The paper's solve alone (Eqns 1-2) is exact too.
     TriangulationOptions paper;
     paper.refine = false;
     const TriangulationResult p = Triangulate(obs, {0, 0, truth.theta - 0.35}, paper);
     REQUIRE(p.ok);
-    CHECK(std::abs(p.pose.x - truth.x) < 1e-9);
-    CHECK(std::abs(p.pose.y - truth.y) < 1e-9);
+    CHECK(std::abs(p.pose.x - truth.x) < kPositionTol);
+    CHECK(std::abs(p.pose.y - truth.y) < kPositionTol);
     // Eqn 1 at the true heading.
     Eigen::Vector2d pos;
     double s;
     REQUIRE(PositionFromBearings(obs, truth.theta, &pos, &s));
-    CHECK((pos - Eigen::Vector2d(truth.x, truth.y)).norm() < 1e-9);
-    CHECK(s < 1e-18);
+    CHECK((pos - Eigen::Vector2d(truth.x, truth.y)).norm() < kPositionTol);
+    CHECK(s < (100 * kEps * 100) * (100 * kEps * 100));  // a sum of squared distances
   }
 }
 
@@ -117,8 +124,8 @@ TEST_CASE("an outlying bearing is rejected", "[outliers]") {
   REQUIRE(r.ok);
   CHECK(r.inliers.size() == kLandmarks.size() - 1);
   CHECK(std::find(r.inliers.begin(), r.inliers.end(), 3) == r.inliers.end());
-  CHECK(std::hypot(r.pose.x - truth.x, r.pose.y - truth.y) < 1e-9);
-  CHECK(std::abs(r.bearing_residuals[3]) == Approx(5.0 * M_PI / 180).epsilon(1e-6));
+  CHECK(std::hypot(r.pose.x - truth.x, r.pose.y - truth.y) < kPositionTol);
+  CHECK(std::abs(r.bearing_residuals[3]) == Approx(5.0 * M_PI / 180).epsilon(500 * kEps));
 }
 
 TEST_CASE("too few or bad observations fail with a reason", "[bad_input]") {

@@ -2,7 +2,9 @@
 // pixel, and point -> pixel -> ray through the point.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "sensor_models.h"
 #include "test_rng.h"
@@ -10,7 +12,7 @@
 namespace pano {
 namespace {
 
-// project(point on backproject(pixel)) must land on the pixel within 1e-6 px,
+// project(point on backproject(pixel)) must land on the pixel to rounding,
 // over a dense polar grid of the mirror's annulus.
 void CheckPixelRoundTrip(const test::NamedSensor& ns) {
   const Sensor& s = ns.sensor;
@@ -38,11 +40,12 @@ void CheckPixelRoundTrip(const test::NamedSensor& ns) {
     }
   }
   INFO(ns.name << ": worst pixel round-trip error " << worst << " px over " << n << " points");
-  CHECK(worst < 1e-6);
+  CHECK(worst < 100 * std::numeric_limits<double>::epsilon() * std::max(s.image_width, s.image_height));
   WARN(ns.name << ": pixel round trip worst " << worst << " px over " << n << " points");
 }
 
-// The ray back-projected from project(X) passes through X (relative 1e-9).
+// The ray back-projected from project(X) passes through X (relative 2e-10:
+// the solver's tolerance, measured 5.5e-11 at worst).
 void CheckPointRoundTrip(const test::NamedSensor& ns, std::mt19937_64& rng) {
   const Sensor& s = ns.sensor;
   const double scale = s.params.vertex_distance + s.params.curvature_radius;
@@ -63,15 +66,15 @@ void CheckPointRoundTrip(const test::NamedSensor& ns, std::mt19937_64& rng) {
   }
   INFO(ns.name << ": " << visible << " visible points, worst relative miss " << worst);
   CHECK(visible > 2000);
-  CHECK(worst < 1e-9);
+  CHECK(worst < 2e-10);
   WARN(ns.name << ": point round trip worst relative miss " << worst);
 }
 
-TEST_CASE("pixel -> ray -> point -> pixel within 1e-6 px, every model", "[round_trip]") {
+TEST_CASE("pixel -> ray -> point -> pixel to rounding, every model", "[round_trip]") {
   for (const auto& ns : test::AllSensorModels()) CheckPixelRoundTrip(ns);
 }
 
-TEST_CASE("point -> pixel -> ray through the point within 1e-9, every model", "[round_trip]") {
+TEST_CASE("point -> pixel -> ray through the point within 2e-10, every model", "[round_trip]") {
   PANO_SEEDED_RNG(20261122);
   for (const auto& ns : test::AllSensorModels()) CheckPointRoundTrip(ns, rng);
 }

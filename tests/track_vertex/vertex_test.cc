@@ -74,18 +74,18 @@ TEST_CASE("the view's geometry: horizon width, maps, round trips, padding", "[wa
     CHECK(std::abs(wrap_angle(view.azimuth_of_x(x) - a)) < 1e-12);
     CHECK(view.radius_of_y(y) == Approx(r).margin(1e-12));
     // The maps, interpolated at the view position, give the pixel back.
-    CHECK(std::abs(Bilinear(view.map_u(), x, y) - px.x()) < 0.01);
-    CHECK(std::abs(Bilinear(view.map_v(), x, y) - px.y()) < 0.01);
+    CHECK(std::abs(Bilinear(view.map_u(), x, y) - px.x()) < 0.003);
+    CHECK(std::abs(Bilinear(view.map_v(), x, y) - px.y()) < 0.003);
   }
   // Columns at whole azimuths: exact; padding repeats the other end.
   for (int y = 0; y < view.rows(); y += 17)
     for (int x = 0; x < view.cols(); x += 13) {
       const Eigen::Vector2d px = s.from_polar(view.radius_of_y(y), view.azimuth_of_x(x));
-      CHECK(std::abs(view.map_u().at<float>(y, x) - px.x()) < 1e-3);
-      CHECK(std::abs(view.map_v().at<float>(y, x) - px.y()) < 1e-3);
+      CHECK(std::abs(view.map_u().at<float>(y, x) - px.x()) < 5e-5);
+      CHECK(std::abs(view.map_v().at<float>(y, x) - px.y()) < 5e-5);
       if (x < view.pad()) {
-        CHECK(std::abs(view.map_u().at<float>(y, x) - view.map_u().at<float>(y, x + view.width())) < 0.01);
-        CHECK(std::abs(view.map_v().at<float>(y, x) - view.map_v().at<float>(y, x + view.width())) < 0.01);
+        CHECK(view.map_u().at<float>(y, x) == view.map_u().at<float>(y, x + view.width()));
+        CHECK(view.map_v().at<float>(y, x) == view.map_v().at<float>(y, x + view.width()));
       }
     }
 }
@@ -111,7 +111,7 @@ TEST_CASE("the warp interpolates the frame bilinearly at the maps' points", "[wa
         if (expect < 0.0 || expect > 253.0 || other < 0.0 || other > s.image_width - 1.0) continue;
         ++checked;
         INFO("view (" << x << ", " << y << ")");
-        CHECK(std::abs(warped.at<float>(y, x) - expect) < 0.01);
+        CHECK(std::abs(warped.at<float>(y, x) - expect) < 5e-5);
       }
     CHECK(checked > 20000);
   }
@@ -161,8 +161,8 @@ TEST_CASE("each of the 8 corner types is found at its sub-pixel position", "[cor
                                      << "; corner azimuth " << a_c);
         const LandmarkMeasurement m = tracker.Measure(p, 5.0);
         REQUIRE(m.found);
-        CHECK(std::abs(wrap_angle(m.azimuth - a_c)) * r_c < 0.5);
-        CHECK(std::abs(m.radius - r_c) < 0.5);
+        CHECK(std::abs(wrap_angle(m.azimuth - a_c)) * r_c < 0.3);
+        CHECK(std::abs(m.radius - r_c) < 0.3);
         // The opposite shade is not this corner.
         p.v_polarity = p.h_polarity = lighter ? -1 : 1;
         CHECK_FALSE(tracker.Measure(p, 5.0).found);
@@ -197,7 +197,7 @@ TEST_CASE("a straight edge or a flat patch is not a corner; a mixed corner is", 
   tracker.BeginFrame(img);
   m = tracker.Measure(p, 4.0);
   REQUIRE(m.found);
-  CHECK(std::abs(wrap_angle(m.azimuth - 0.5)) * 120.0 < 0.7);
+  CHECK(std::abs(wrap_angle(m.azimuth - 0.5)) * 120.0 < 0.12);
 }
 
 TEST_CASE("two like corners in one window: the best wins unless a margin is asked", "[corner_types]") {
@@ -221,7 +221,7 @@ TEST_CASE("two like corners in one window: the best wins unless a margin is aske
   plain.BeginFrame(img);
   const LandmarkMeasurement m = plain.Measure(p, 10.0);
   REQUIRE(m.found);
-  CHECK(std::abs(wrap_angle(m.azimuth - 0.50)) * 120.0 < 0.5);
+  CHECK(std::abs(wrap_angle(m.azimuth - 0.50)) * 120.0 < 0.04);
   VertexOptions o;
   o.min_peak_margin = 0.3;
   VertexTracker strict(s, o);
@@ -278,7 +278,7 @@ TEST_CASE("panoloc's runner with the vertex method on 14 frames of paper-synthet
   CHECK(v.n_lost == 0);
   REQUIRE(v.has_accuracy);
   CHECK(v.accuracy.compared == 14);
-  CHECK(v.accuracy.std <= 0.5);  // the paper's figure
+  CHECK(v.accuracy.std <= 0.15);  // measured 0.050 (the paper reports 0.5)
   CHECK(v.accuracy.rms <= 0.25);
   CHECK(v.accuracy.outliers == 0);
   const std::vector<PoseRow> rows = ReadPoseCsv(o.output);
