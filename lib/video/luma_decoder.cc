@@ -180,6 +180,14 @@ struct LumaDecoder::Impl {
       done = true;
       return;
     }
+    if (rd >= 0 && (timed_out || (format->pb && format->pb->error < 0))) {
+      // The demuxer hands out what it had buffered when the input stalled or
+      // failed (a stream's partial last packet): its frame would be damaged.
+      av_packet_unref(packet);
+      pending = timed_out ? NoData() : "read failed (" + AvError(format->pb->error) + ")";
+      StartFlush();
+      return;
+    }
     if (rd >= 0 && (packet->flags & AV_PKT_FLAG_CORRUPT)) {
       av_packet_unref(packet);
       pending = format->pb && avio_feof(format->pb) ? Truncated() : "damaged packet in the container";

@@ -174,7 +174,10 @@ TEST_CASE("a UDP stream on loopback is followed until it stops", "[udp]") {
     for (int& i : v) i += first;
     return v;
   }());
-  CHECK(r.indices.back() == kSent - 1);
+  // What the demuxer still held when the stream went silent is not handed
+  // out (its last packet may be partial): at most the last few frames.
+  CHECK(r.indices.back() <= kSent - 1);
+  CHECK(r.indices.back() >= kSent - 3);
   REQUIRE(r.times.size() == r.indices.size());
   for (size_t i = 0; i < r.times.size(); ++i)
     CHECK(r.times[i] == Approx((r.indices[i] - first) / test::kFrameRate).margin(1e-3));
