@@ -5,7 +5,7 @@
 // through (the calibrator differentiates projections by automatic
 // differentiation, the reflection solve included).
 //
-// Frames (spec ../shared/spec/formats.md, sections 1-2): the sensor frame has
+// Frames (the file-format spec, sections 1-2): the sensor frame has
 // its origin at the pinhole, z up along the mirror axis. The camera looks up;
 //   u - cx = f * x / z,   v - cy = f * aspect * y / z
 // so the image azimuth atan2((v-cy)/aspect, u-cx) equals the bearing
