@@ -14,10 +14,36 @@ bool SampleLine(const cv::Mat& grey, const Eigen::Vector2d& start, const Eigen::
   return true;
 }
 
-bool FindStep(const float* p, int n, int polarity, int baseline, double min_step, StepEdge* edge) {
-  const int h = std::max(1, baseline / 2);
-  if (n < 2 * h + 3) return false;
-  // Signed rise over the baseline centred on each sample (SIMD-friendly).
+namespace {
+
+float MeanOf(const float* p, int n, int a, int b) {
+  a = std::clamp(a, 0, n - 1);
+  b = std::clamp(b, 0, n - 1);
+  float s = 0;
+  for (int i = a; i <= b; ++i) s += p[i];
+  return s / static_cast<float>(b - a + 1);
+}
+
+// The edge's location by the area method over samples [a, b], the ramp
+// lying inside and the plateaus `left` and `right` outside: with n_i the
+// profile normalised from left (0) to right (1), an ideal step at x gives
+// sum n_i = b + 0.5 - x.
+double AreaLocation(const float* p, int a, int b, float left, float right) {
+  double area = 0.0;
+  const double inv = 1.0 / (right - left);
+  for (int i = a; i <= b; ++i) area += (p[i] - left) * inv;
+  return b + 0.5 - area;
+}
+
+}  // namespace
+
+bool FindStep(const float* p, int n, int polarity, int baseline, double min_step, StepEdge* edge,
+              double ramp) {
+  // Half-width of the rise: the baseline's, or enough to span the ramp.
+  const int h = std::max(std::max(1, baseline / 2), static_cast<int>(std::ceil(0.5 * ramp)) + 1);
+  const int w = 3;  // plateau samples either side
+  if (n < 2 * (h + w) + 1) return false;
+  // Signed rise over the window centred on each sample (SIMD-friendly).
   int best = -1;
   float best_rise = static_cast<float>(min_step);
   const float sgn = polarity >= 0 ? 1.0f : -1.0f;
@@ -29,42 +55,37 @@ bool FindStep(const float* p, int n, int polarity, int baseline, double min_step
     }
   }
   if (best < 0) return false;
-  // Plateaus: the mean a little outside the step on each side.
-  const int w = h + 1;
-  auto mean = [&](int a, int b) {
-    a = std::clamp(a, 0, n - 1);
-    b = std::clamp(b, 0, n - 1);
-    float s = 0;
-    for (int i = a; i <= b; ++i) s += p[i];
-    return s / (b - a + 1);
-  };
-  const float lo = mean(best - 2 * w, best - w), hi = mean(best + w, best + 2 * w);
-  const float mid = 0.5f * (lo + hi);
-  double loc = -1.0;
-  // The crossing of `mid` nearest the derivative peak.
-  for (int d = 0; d <= w && loc < 0; ++d) {
-    for (int i : {best - d, best + d - 1}) {
-      if (i < 0 || i + 1 >= n) continue;
-      const float a = p[i] - mid, b = p[i + 1] - mid;
-      if ((a <= 0 && b > 0) || (a >= 0 && b < 0)) {
-        loc = i + a / (a - b);
-        break;
-      }
-    }
-  }
-  if (loc < 0) {
-    // Parabola through the rise at the peak and its neighbours.
-    auto rise = [&](int i) {
-      i = std::clamp(i, h, n - h - 1);
-      return sgn * (p[i + h] - p[i - h]);
-    };
-    const double a = rise(best - 1), b = rise(best), c = rise(best + 1);
-    const double den = a - 2 * b + c;
-    loc = best + (den < 0 ? 0.5 * (a - c) / den : 0.0);
+  // The plateaus either side of the ramp, first a whole rise window away,
+  // then right beside the ramp's own extent: plateaus measured far out pick
+  // up shading and other structure, whose error the area multiplies by the
+  // window's width.
+  const int c0 = best;
+  float left = MeanOf(p, n, c0 - h - w, c0 - h), right = MeanOf(p, n, c0 + h, c0 + h + w);
+  double loc = best;
+  for (int pass = 0; pass < 3; ++pass) {
+    if (!(sgn * (right - left) > 0.5 * min_step)) return false;
+    // The ramp's extent: where the normalised profile leaves 0 and 1
+    // (allowing for noise), plus the optics' tails.
+    const int c = static_cast<int>(std::lround(loc));
+    if (c < w + 4 || c > n - 1 - w - 4) return false;
+    const float inv = 1.0f / (right - left);
+    int a = c, b = c;
+    // No wider than the expected ramp: beyond it lies other structure.
+    const int lo = std::max(w + 4, c - h - 1), hi = std::min(n - 1 - w - 4, c + h + 1);
+    while (a > lo && (p[a - 1] - left) * inv > 0.15f) --a;
+    while (b < hi && (p[b + 1] - left) * inv < 0.85f) ++b;
+    edge->width = b - a + 1;
+    a -= 3;
+    b += 3;
+    left = MeanOf(p, n, a - w, a - 1);
+    right = MeanOf(p, n, b + 1, b + w);
+    if (!(sgn * (right - left) > 0.5 * min_step)) return false;
+    loc = AreaLocation(p, a, b, left, right);
+    if (!(loc >= a && loc <= b)) return false;  // not one clean step
   }
   edge->location = loc;
-  edge->strength = sgn * (hi - lo);
-  return edge->strength > 0.5 * min_step;
+  edge->strength = sgn * (right - left);
+  return true;
 }
 
 }  // namespace pano

@@ -28,32 +28,42 @@ JunctionTracker::JunctionTracker(const Sensor& sensor, std::shared_ptr<PhTableCa
 
 namespace {
 
+// Ramps narrower than the step detector's 2 px baseline need no allowance:
+// allowing for them only lets marginal edges through.
+double RampAllowance(double ramp_px) { return ramp_px < 2.0 ? 0.0 : ramp_px; }
+
 struct Step {
-  double radius, azimuth, strength;
+  double radius, azimuth, strength, width_px;
   Eigen::Vector2d px;
 };
 
-// A linear sample of half-length `half` px through (radius, azimuth) along
-// the tangential (`radial` false) or radial direction, searched for a step of
-// `polarity` along increasing azimuth / radius.
+// A linear sample through (radius, azimuth) along the tangential (`radial`
+// false) or radial direction, searched for a step of `polarity` along
+// increasing azimuth / radius within `half` px of the centre; the step may be
+// a ramp up to `ramp_px` wide (motion blur). The sample reaches beyond `half`
+// by the ramp and the plateaus the step detector needs either side.
 bool LinearStep(const cv::Mat& grey, const Sensor& s, const JunctionOptions& o, double radius,
-                double azimuth, double half, int polarity, bool radial, Step* out) {
-  const int n = 2 * static_cast<int>(std::ceil(half / o.sample_step_px)) + 1;
-  if (n > 256) return false;
+                double azimuth, double half, int polarity, bool radial, Step* out,
+                double ramp_px = 0.0) {
+  const double reach = half + 0.5 * ramp_px + 3.5;
+  const int n = 2 * static_cast<int>(std::ceil(reach / o.sample_step_px)) + 1;
+  if (n > 512) return false;
   const double c = std::cos(azimuth), sn = std::sin(azimuth), a = s.params.aspect;
   // Direction in pixels of one unit of (aspect-free) image length.
   const Eigen::Vector2d dir = radial ? Eigen::Vector2d(c, a * sn) : Eigen::Vector2d(-sn, a * c);
   const Eigen::Vector2d centre = s.from_polar(radius, azimuth);
   const double half_n = (n - 1) / 2;
   const Eigen::Vector2d start = centre - half_n * o.sample_step_px * dir;
-  float profile[256];
+  float profile[512];
   if (!SampleLine(grey, start, o.sample_step_px * dir, n, profile)) return false;
   StepEdge e;
   const int baseline = std::max(2, static_cast<int>(std::lround(2.0 / o.sample_step_px)));
-  if (!FindStep(profile, n, polarity, baseline, o.min_step, &e)) return false;
+  if (!FindStep(profile, n, polarity, baseline, o.min_step, &e, ramp_px / o.sample_step_px)) return false;
+  if (std::abs(e.location - half_n) * o.sample_step_px > half + 0.5 * ramp_px) return false;
   out->px = start + e.location * o.sample_step_px * dir;
   s.to_polar(out->px.x(), out->px.y(), &out->radius, &out->azimuth);
   out->strength = e.strength;
+  out->width_px = e.width * o.sample_step_px;
   return true;
 }
 
@@ -64,6 +74,7 @@ struct JunctionTracker::VerticalEdge {
   double nearest_radius = 0.0;  // radius of its found step nearest the junction
   int direction = 1;            // +1: the edge runs outwards from the junction
   int polarity = 1;             // step polarity along increasing azimuth
+  double ramp_px = 0.0;         // widest motion blur across it at the corner (px)
 };
 
 struct JunctionTracker::HorizontalEdge {
@@ -71,6 +82,8 @@ struct JunctionTracker::HorizontalEdge {
   double nearest_azimuth = 0.0;  // azimuth of its sample nearest the junction
   int side = 1;                  // the edge runs towards +side azimuth from the junction
   int polarity = 1;              // step polarity along increasing radius
+  double ramp_px = 0.0;          // widest motion blur across it (px)
+  double along_blur_px = 0.0;    // ... and along it: its ends smear this far
 };
 
 bool JunctionTracker::FindVerticalEdge(const PredictedLandmark& p, double half, VerticalEdge* edge,
@@ -79,14 +92,17 @@ bool JunctionTracker::FindVerticalEdge(const PredictedLandmark& p, double half, 
   // Tangential samples along the radial segment.
   edge->direction = p.v_radius > p.corner_radius ? 1 : -1;
   edge->polarity = p.v_polarity * p.inside_azimuth_sign;
+  edge->ramp_px = RampAllowance(p.tangential_motion_px);
   const double v_len = std::abs(p.v_radius - p.corner_radius);
   const double v_spacing = std::max(o.sample_spacing_px, (v_len - 2 * o.corner_gap_px) / o.max_samples);
   std::vector<Step> v_steps;
   for (double d = o.corner_gap_px; d < v_len - o.corner_gap_px && static_cast<int>(v_steps.size()) < o.max_samples;
        d += v_spacing) {
     Step st;
-    if (LinearStep(grey_, sensor_, o, p.corner_radius + edge->direction * d, p.azimuth, half, edge->polarity,
-                   false, &st))
+    const double r = p.corner_radius + edge->direction * d;
+    // Tangential motion grows with the radius under rotation.
+    const double ramp = edge->ramp_px * r / p.corner_radius;
+    if (LinearStep(grey_, sensor_, o, r, p.azimuth, half, edge->polarity, false, &st, ramp))
       v_steps.push_back(st);
   }
   if (static_cast<int>(v_steps.size()) < o.min_vertical_points) {
@@ -101,8 +117,10 @@ bool JunctionTracker::FindVerticalEdge(const PredictedLandmark& p, double half, 
   const double median = sorted[sorted.size() / 2];
   double sum_dtheta = 0.0;
   int n_in = 0;
+  // A blurred edge is located less precisely: widen the truncation with it.
+  const double truncation = o.truncation_px + 0.1 * edge->ramp_px;
   for (size_t k = 0; k < v_steps.size(); ++k) {
-    if (std::abs(offsets[k] - median) > o.truncation_px) continue;
+    if (std::abs(offsets[k] - median) > truncation) continue;
     sum_dtheta += wrap_angle(v_steps[k].azimuth - p.azimuth);
     if (n_in++ == 0) edge->nearest_radius = v_steps[k].radius;
     m->edge_points.push_back(v_steps[k].px);
@@ -112,8 +130,26 @@ bool JunctionTracker::FindVerticalEdge(const PredictedLandmark& p, double half, 
     return false;
   }
   edge->azimuth = wrap_angle(p.azimuth + sum_dtheta / n_in);
+  std::vector<double> widths;
+  for (const Step& st : v_steps) widths.push_back(st.width_px);
+  std::nth_element(widths.begin(), widths.begin() + widths.size() / 2, widths.end());
+  m->edge_width_px = widths[widths.size() / 2];
   return true;
 }
+
+namespace {
+
+// |dr / ds| of the predicted PH curve at `theta`, s the arc length (px).
+double RadialSlope(const PhTable& ph, const PredictedLandmark& p, double theta) {
+  const double dt = 0.25 / p.corner_radius;
+  double ra, rb;
+  if (!ph.Curve(p.r_main, wrap_angle(theta - dt - p.theta_main), &ra) ||
+      !ph.Curve(p.r_main, wrap_angle(theta + dt - p.theta_main), &rb))
+    return 0.0;
+  return std::abs(rb - ra) / (2.0 * dt * p.corner_radius);
+}
+
+}  // namespace
 
 bool JunctionTracker::FindHorizontalEdge(const PredictedLandmark& p, double half, const PhTable& ph,
                                          HorizontalEdge* edge, LandmarkMeasurement* m) const {
@@ -122,6 +158,7 @@ bool JunctionTracker::FindHorizontalEdge(const PredictedLandmark& p, double half
   // transform's tracking mode.
   edge->side = p.inside_azimuth_sign;
   edge->polarity = p.h_polarity * p.inside_radius_sign;
+  edge->along_blur_px = RampAllowance(p.tangential_motion_px);
   const double arc = std::abs(wrap_angle(p.h_end_azimuth - p.azimuth));
   const double gap = o.corner_gap_px / p.corner_radius;
   const double h_spacing =
@@ -133,8 +170,11 @@ bool JunctionTracker::FindHorizontalEdge(const PredictedLandmark& p, double half
     const double theta = wrap_angle(p.azimuth + edge->side * dt);
     double r_pred;
     if (!ph.Curve(p.r_main, wrap_angle(theta - p.theta_main), &r_pred)) continue;
+    // A tangential smear moves a curved edge radially by its slope.
+    const double ramp = RampAllowance(p.radial_motion_px + RadialSlope(ph, p, theta) * edge->along_blur_px);
+    edge->ramp_px = std::max(edge->ramp_px, ramp);
     Step st;
-    if (!LinearStep(grey_, sensor_, o, r_pred, theta, half, edge->polarity, true, &st)) continue;
+    if (!LinearStep(grey_, sensor_, o, r_pred, theta, half, edge->polarity, true, &st, ramp)) continue;
     votes.push_back({st.radius, theta, 1.0});
     h_steps.push_back(st);
   }
@@ -175,7 +215,8 @@ bool JunctionTracker::VerticalEnd(const VerticalEdge& v, double r_junction, doub
                                   LandmarkMeasurement* m) const {
   auto has_step = [&](double r) {
     Step st;
-    return LinearStep(grey_, sensor_, opt_, r, v.azimuth, kProbeHalfPx, v.polarity, false, &st);
+    return LinearStep(grey_, sensor_, opt_, r, v.azimuth, kProbeHalfPx, v.polarity, false, &st,
+                      v.ramp_px * r / r_junction);
   };
   double r_in = v.nearest_radius, r_out = r_junction - v.direction * (opt_.corner_gap_px + 1.5);
   if (has_step(r_out)) {
@@ -197,10 +238,13 @@ bool JunctionTracker::HorizontalEnd(const PhTable& ph, const HorizontalEdge& h, 
     double r;
     Step st;
     return ph.Curve(h.fit.r_main, wrap_angle(theta - h.fit.theta_main), &r) &&
-           LinearStep(grey_, sensor_, opt_, r, theta, kProbeHalfPx, h.polarity, true, &st);
+           LinearStep(grey_, sensor_, opt_, r, theta, kProbeHalfPx, h.polarity, true, &st, h.ramp_px);
   };
+  // Motion blur smears the edge's end past the junction by up to half the
+  // tangential motion.
   double t_in = h.nearest_azimuth;
-  double t_out = wrap_angle(theta_v - h.side * (opt_.corner_gap_px + 1.5) / r_junction);
+  double t_out =
+      wrap_angle(theta_v - h.side * (opt_.corner_gap_px + 1.5 + 0.5 * h.along_blur_px) / r_junction);
   if (has_step(t_out)) {
     m->why = "horizontal edge runs past the junction";
     return false;
@@ -225,8 +269,9 @@ bool JunctionTracker::LocateJunction(const PhTable& ph, const VerticalEdge& v, c
   if (!VerticalEnd(v, r_junction, &r_vertical_end, m) ||
       !HorizontalEnd(ph, h, v.azimuth, r_junction, &t_horizontal_end, m))
     return false;
-  if (std::abs(r_vertical_end - r_junction) > opt_.junction_tolerance_px ||
-      std::abs(wrap_angle(t_horizontal_end - v.azimuth)) * r_junction > opt_.junction_tolerance_px) {
+  if (std::abs(r_vertical_end - r_junction) > opt_.junction_tolerance_px + 0.5 * h.ramp_px ||
+      std::abs(wrap_angle(t_horizontal_end - v.azimuth)) * r_junction >
+          opt_.junction_tolerance_px + 0.5 * h.along_blur_px) {
     m->why = "edges do not meet";
     return false;
   }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/angles.h"
 #include "core/error.h"
 
 namespace pano {
@@ -142,6 +143,19 @@ std::vector<PredictedLandmark> PredictLandmarks(const std::vector<Landmark>& lan
     out.push_back(p);
   }
   return out;
+}
+
+void SetImageMotion(const Map& map, const Sensor& sensor, const RadiusTable& table,
+                    const Pose2& previous, double fraction, std::vector<PredictedLandmark>* predicted) {
+  for (PredictedLandmark& p : *predicted) {
+    const Eigen::Vector3d c = sensor_from_world(previous, map.sensor_height, p.landmark->corner);
+    const double azimuth = sensor.image_azimuth(std::atan2(c.y(), c.x()));
+    double radius;
+    if (!table.radius(c.head<2>().norm(), c.z(), &radius)) radius = p.corner_radius;
+    p.full_tangential_motion_px = std::abs(wrap_angle(p.azimuth - azimuth)) * p.corner_radius;
+    p.tangential_motion_px = fraction * p.full_tangential_motion_px;
+    p.radial_motion_px = fraction * std::abs(p.corner_radius - radius);
+  }
 }
 
 std::vector<PredictedLandmark> SelectSpread(std::vector<PredictedLandmark> all, int max_count) {

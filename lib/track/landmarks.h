@@ -63,6 +63,13 @@ struct PredictedLandmark {
   // predicts no contrast.
   int v_polarity = 0;
   int h_polarity = 0;
+  // The corner's predicted image motion over one frame interval (px), across
+  // the vertical edge (tangential) and across the horizontal one (radial):
+  // the widest motion blur its edges can show. The localiser sets them from
+  // its motion model; 0: a still camera.
+  double tangential_motion_px = 0.0;
+  double radial_motion_px = 0.0;
+  double full_tangential_motion_px = 0.0;  // before scaling by the exposure
 };
 
 struct PredictionOptions {
@@ -81,6 +88,13 @@ std::vector<PredictedLandmark> PredictLandmarks(const std::vector<Landmark>& lan
                                                 const Map& map, const Scene& scene,
                                                 const Sensor& sensor, const RadiusTable& table,
                                                 const Pose2& pose, const PredictionOptions& opt);
+
+// Sets each predicted landmark's image motion (tangential_motion_px,
+// radial_motion_px) for a camera that moved from `previous` to the pose the
+// landmarks were predicted from, scaled by `fraction` (the part of that
+// motion the exposure spans).
+void SetImageMotion(const Map& map, const Sensor& sensor, const RadiusTable& table,
+                    const Pose2& previous, double fraction, std::vector<PredictedLandmark>* predicted);
 
 // The predicted landmarks reordered so that the first `max_count` (0: all)
 // are spread in azimuth: the nearest in each of max_count equal sectors, then

@@ -23,6 +23,10 @@ void LocalizerOptions::Check() const {
   if (max_landmarks != 0 && max_landmarks < 3) throw Error("localiser: max_landmarks: expected 0 or >= 3");
   if (refine_passes < 0 || refine_passes > 5) throw Error("localiser: refine_passes: expected 0..5");
   if (!(refine_threshold_px >= 0.0)) throw Error("localiser: refine_threshold_px: expected >= 0");
+  if (!(exposure_fraction >= 0.0 && exposure_fraction <= 1.0))
+    throw Error("localiser: exposure_fraction: expected 0..1");
+  if (!(unknown_turn_per_frame >= 0.0 && unknown_turn_per_frame < M_PI))
+    throw Error("localiser: unknown_turn_per_frame: expected 0..pi radians");
   if (!(lost_search_growth >= 1.0)) throw Error("localiser: lost_search_growth: expected >= 1");
   if (relocalize_after < 0 || relocalize_min_landmarks < 3)
     throw Error("localiser: relocalize_after >= 0 and relocalize_min_landmarks >= 3 expected");
@@ -63,6 +67,8 @@ Localizer::Localizer(const Calibration& calib, const Map& map,
 
 void Localizer::Reset(const Pose2& initial) {
   initial_ = last_ = previous_ = initial;
+  frame_motion_ = Pose2{0, 0, 0};
+  blur_fraction_ = opt_.exposure_fraction;
   n_good_ = 0;
   n_lost_ = 0;
   started_ = true;
@@ -73,6 +79,14 @@ void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out) c
   std::vector<PredictedLandmark> ordered = SelectSpread(
       PredictLandmarks(landmarks_, map_, scene_, calib_.sensor, *table_, pose, opt_.prediction),
       opt_.max_landmarks);
+  // The motion over the last frame interval; unknown: the fastest turn.
+  const bool known = n_good_ >= 2 && n_lost_ == 0;
+  const Pose2 motion = known ? frame_motion_ : Pose2{0, 0, opt_.unknown_turn_per_frame};
+  const Pose2 before{pose.x - motion.x, pose.y - motion.y, pose.theta - motion.theta};
+  // Edges may be blurred a little more than the estimate says.
+  const double fraction = known ? std::min(opt_.exposure_fraction, 1.3 * blur_fraction_ + 0.05)
+                                : opt_.exposure_fraction;
+  SetImageMotion(map_, calib_.sensor, *table_, before, fraction, &ordered);
   const int n_all = static_cast<int>(ordered.size());
   const int n_first = opt_.max_landmarks > 0 ? std::min(n_all, opt_.max_landmarks) : n_all;
   std::vector<LandmarkMeasurement> meas(n_all);
@@ -258,6 +272,28 @@ void Localizer::RelocalizeIfLost(const cv::Mat& grey, FrameResult* fr, Triangula
   n_good_ = 0;  // no velocity across the jump
 }
 
+void Localizer::UpdateBlurEstimate(const FrameResult& fr) {
+  // A box ramp of width W seen through optics of width w0 measures about
+  // sqrt((0.7 W)^2 + w0^2) between its 15 % and 85 % levels.
+  std::vector<double> fractions, still;
+  for (size_t i = 0; i < fr.measurements.size(); ++i) {
+    const LandmarkMeasurement& m = fr.measurements[i];
+    const double motion = fr.predicted[i].full_tangential_motion_px;
+    if (!m.found || m.edge_width_px < 0) continue;
+    if (motion < 1.0) still.push_back(m.edge_width_px);
+    if (motion < 4.0) continue;
+    const double w2 = m.edge_width_px * m.edge_width_px - still_edge_width_px_ * still_edge_width_px_;
+    fractions.push_back(std::sqrt(std::max(0.0, w2)) / (0.7 * motion));
+  }
+  auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  if (still.size() >= 3) still_edge_width_px_ = 0.8 * still_edge_width_px_ + 0.2 * median(still);
+  if (fractions.size() >= 3)
+    blur_fraction_ = std::clamp(0.5 * blur_fraction_ + 0.5 * median(fractions), 0.0, opt_.exposure_fraction);
+}
+
 void Localizer::RecordOutcome(const FrameResult& fr, const TriangulationResult& tri, int n_found,
                               PoseRow* row) {
   if (Acceptable(fr, tri)) {
@@ -269,6 +305,9 @@ void Localizer::RecordOutcome(const FrameResult& fr, const TriangulationResult& 
     for (int k = 0; k < 3; ++k) row->extra.push_back(std::sqrt(std::max(0.0, tri.covariance(k, k))));
     previous_ = n_good_ > 0 ? last_ : tri.pose;
     last_ = tri.pose;
+    if (n_good_ > 0)
+      frame_motion_ = Pose2{last_.x - previous_.x, last_.y - previous_.y, wrap_angle(last_.theta - previous_.theta)};
+    UpdateBlurEstimate(fr);
     ++n_good_;
     n_lost_ = 0;
     return;

@@ -57,6 +57,13 @@ struct LocalizerOptions {
   int relocalize_after = 2;
   int relocalize_min_landmarks = 6;
   RelocalizeOptions relocalize;
+  // The longest exposure expected, as a fraction of the frame interval:
+  // motion blur spans at most this fraction of a landmark's image motion
+  // between frames, and the edge detectors allow ramps that wide. 1: any.
+  double exposure_fraction = 1.0;
+  // Until the motion is known (the first frames, after a lost one), edges
+  // may be blurred by a turn this fast (radians per frame).
+  double unknown_turn_per_frame = 12.0 * M_PI / 180;
   double lost_search_growth = 1.5;  // search widens by this after a lost frame
   double max_search_px = 20.0;
   // Threads of the per-frame parallel loops (landmarks, relocalisation
@@ -137,6 +144,15 @@ class Localizer {
   std::vector<float> last_signature_;
   Pose2 initial_;
   Pose2 last_, previous_;
+  // The camera's motion over the last frame interval (world frame), for the
+  // landmarks' expected motion blur; kept while lost.
+  Pose2 frame_motion_;
+  // The exposure as a fraction of the frame interval, estimated from the
+  // widths of the tracked edges against their image motion; and the width
+  // of an edge the camera does not move across (the optics' blur, px).
+  double blur_fraction_ = 1.0;
+  double still_edge_width_px_ = 1.5;
+  void UpdateBlurEstimate(const FrameResult& fr);
   int n_good_ = 0;   // consecutive good frames (for the velocity model)
   int n_lost_ = 0;   // consecutive lost frames
   bool started_ = false;

@@ -18,6 +18,9 @@ struct LandmarkMeasurement {
   double azimuth = 0.0;  // image azimuth of the landmark (radians)
   double radius = 0.0;   // image radius of the junction (px)
   double weight = 1.0;   // confidence for the triangulation
+  // Median width (px) between the 15 % and 85 % levels of the steps across
+  // its vertical edge: the motion blur seen; -1 unknown.
+  double edge_width_px = -1.0;
   const char* why = "";  // reason when not found
   // For the debug video: image points of the found edges, and the tracked
   // horizontal edge's PH parameters.
