@@ -60,17 +60,43 @@ void RobustPoseOptions::Check() const {
   if (!(prior_gate_confidence > 0.0) || !(prior_gate_confidence < 1.0))
     throw Error("robust pose: prior_gate_confidence: expected in (0, 1)");
   if (refine_iterations < 1) throw Error("robust pose: refine_iterations: expected at least 1");
+  if (local_optimisations < 1) throw Error("robust pose: local_optimisations: expected at least 1");
 }
 
 namespace {
 
-// Scores hypotheses (MSAC) and keeps the best: the first of equal costs, so
-// that the result depends only on the order of generation.
+// A scored hypothesis: its MSAC cost over all bearings and its consensus.
+struct Candidate {
+  Pose2 pose;
+  double cost = 0.0;
+  std::vector<int> inliers;
+  bool from_pair = false;
+};
+
+// MSAC cost of a pose over all bearings: each costs min(r^2, threshold^2).
+double MsacCost(const std::vector<BearingObservation>& obs, const Pose2& pose, double threshold,
+                std::vector<int>* inliers) {
+  const double tau2 = threshold * threshold;
+  double cost = 0.0;
+  if (inliers) inliers->clear();
+  for (size_t i = 0; i < obs.size(); ++i) {
+    const double r = BearingResidual(obs[i], pose);
+    cost += std::min(r * r, tau2);
+    if (inliers && r * r < tau2) inliers->push_back(static_cast<int>(i));
+  }
+  return cost;
+}
+
+// Scores hypotheses and keeps the best few with distinct consensus sets
+// (many triples of one consensus give nearly the same pose; refining more
+// than one set settles near-ties between a true and a coincidental one).
+// Of equal costs the first is kept, so the result depends only on the order
+// of generation.
 class HypothesisScorer {
  public:
   HypothesisScorer(const std::vector<BearingObservation>& obs, const Pose2& prior,
                    const RobustPoseOptions& opt)
-      : obs_(obs), prior_(prior), opt_(opt), tau2_(opt.inlier_threshold * opt.inlier_threshold) {
+      : obs_(obs), prior_(prior), opt_(opt) {
     if (opt.gate_with_prior) gate_ = ChiSquareQuantile(opt.prior_gate_confidence, 3);
   }
 
@@ -80,30 +106,37 @@ class HypothesisScorer {
       return;
     }
     ++out->hypotheses;
-    double cost = 0.0;
-    int support = 0;
-    for (const BearingObservation& o : obs_) {
-      const double r = BearingResidual(o, pose);
-      cost += std::min(r * r, tau2_);
-      support += r * r < tau2_;
+    Candidate c{pose, 0.0, {}, from_pair};
+    c.cost = MsacCost(obs_, pose, opt_.inlier_threshold, &c.inliers);
+    for (Candidate& kept : best_) {
+      if (kept.inliers != c.inliers) continue;
+      if (c.cost < kept.cost) kept = std::move(c);
+      Sort();
+      return;
     }
-    if (found_ && !(cost < out->best_cost)) return;
-    found_ = true;
-    out->best_cost = cost;
-    out->consensus = support;
-    out->hypothesis = pose;
-    out->from_heading_prior = from_pair;
+    if (static_cast<int>(best_.size()) == opt_.local_optimisations) {
+      if (!(c.cost < best_.back().cost)) return;
+      best_.pop_back();
+    }
+    best_.push_back(std::move(c));
+    Sort();
   }
 
-  bool found() const { return found_; }
+  bool found() const { return !best_.empty(); }
+  int best_support() const { return best_.empty() ? 0 : static_cast<int>(best_[0].inliers.size()); }
+  const std::vector<Candidate>& best() const { return best_; }
 
  private:
+  void Sort() {
+    std::stable_sort(best_.begin(), best_.end(),
+                     [](const Candidate& a, const Candidate& b) { return a.cost < b.cost; });
+  }
+
   const std::vector<BearingObservation>& obs_;
   const Pose2 prior_;
   const RobustPoseOptions& opt_;
-  const double tau2_;
   double gate_ = std::numeric_limits<double>::infinity();
-  bool found_ = false;
+  std::vector<Candidate> best_;  // by cost, at most local_optimisations
 };
 
 void ScoreTriple(const std::vector<BearingObservation>& obs, int i, int j, int k,
@@ -163,16 +196,8 @@ void GenerateHypotheses(const std::vector<BearingObservation>& obs, const Pose2&
     DrawDistinct(&rng, n, 3, idx);
     ScoreTriple(obs, idx[0], idx[1], idx[2], scorer, out);
     if (pairs) ScorePair(obs, idx[0], idx[1], prior.theta, scorer, out);
-    if (scorer->found()) needed = AdaptiveSamples(double(out->consensus) / n, opt);
+    if (scorer->found()) needed = AdaptiveSamples(double(scorer->best_support()) / n, opt);
   }
-}
-
-std::vector<int> InliersOf(const std::vector<BearingObservation>& obs, const Pose2& pose,
-                           double threshold) {
-  std::vector<int> inliers;
-  for (size_t i = 0; i < obs.size(); ++i)
-    if (std::abs(BearingResidual(obs[i], pose)) < threshold) inliers.push_back(static_cast<int>(i));
-  return inliers;
 }
 
 // Triangulate on the subset `use`, its result re-indexed to `obs`.
@@ -187,6 +212,33 @@ TriangulationResult TriangulateSubset(const std::vector<BearingObservation>& obs
   r.bearing_residuals.resize(obs.size());
   for (size_t i = 0; i < obs.size(); ++i) r.bearing_residuals[i] = BearingResidual(obs[i], r.pose);
   return r;
+}
+
+// Refine on the consensus, re-select the inliers among all bearings against
+// the refined pose, refine again, until the set settles.
+TriangulationResult LocalOptimisation(const std::vector<BearingObservation>& obs, const Candidate& c,
+                                      const RobustPoseOptions& opt, const TriangulationOptions& topt,
+                                      int* refinements) {
+  Pose2 pose = c.pose;
+  std::vector<int> use = c.inliers;
+  TriangulationResult best;
+  best.failure = "too few inliers (" + std::to_string(use.size()) + ")";
+  for (int it = 0; it < opt.refine_iterations; ++it) {
+    if (static_cast<int>(use.size()) < std::max(3, topt.min_landmarks)) break;
+    TriangulationResult r = TriangulateSubset(obs, use, pose, topt);
+    ++*refinements;
+    if (!r.ok) {
+      if (!best.ok) best = r;
+      break;
+    }
+    best = r;
+    pose = r.pose;
+    std::vector<int> next;
+    MsacCost(obs, pose, opt.inlier_threshold, &next);
+    if (next == use) break;
+    use = std::move(next);
+  }
+  return best;
 }
 
 }  // namespace
@@ -214,27 +266,26 @@ RobustTriangulationResult RobustTriangulate(const std::vector<BearingObservation
     out.failure = "no hypothesis: every minimal sample was degenerate or gated";
     return out;
   }
-  // Local optimisation: refine on the consensus, re-select, refine again.
-  Pose2 pose = out.hypothesis;
-  std::vector<int> use = InliersOf(obs, pose, opt.inlier_threshold);
+  // Refine each kept consensus; the refined pose with the lowest MSAC cost
+  // over all bearings wins (the first of equal costs).
   TriangulationResult best;
-  for (int it = 0; it < opt.refine_iterations; ++it) {
-    if (static_cast<int>(use.size()) < std::max(3, topt.min_landmarks)) break;
-    TriangulationResult r = TriangulateSubset(obs, use, pose, topt);
-    ++out.refinements;
+  std::string first_failure;
+  for (const Candidate& c : scorer.best()) {
+    TriangulationResult r = LocalOptimisation(obs, c, opt, topt, &out.refinements);
     if (!r.ok) {
-      if (!best.ok) best = r;  // keep the first failure's reason
-      break;
+      if (first_failure.empty()) first_failure = r.failure;
+      continue;
     }
-    best = r;
-    pose = r.pose;
-    std::vector<int> next = InliersOf(obs, pose, opt.inlier_threshold);
-    if (next == use) break;
-    use = std::move(next);
+    const double cost = MsacCost(obs, r.pose, opt.inlier_threshold, nullptr);
+    if (best.ok && !(cost < out.best_cost)) continue;
+    best = std::move(r);
+    out.best_cost = cost;
+    out.consensus = static_cast<int>(c.inliers.size());
+    out.hypothesis = c.pose;
+    out.from_heading_prior = c.from_pair;
   }
   if (!best.ok) {
-    out.failure = best.failure.empty() ? "too few inliers (" + std::to_string(use.size()) + ")"
-                                       : "refinement failed: " + best.failure;
+    out.failure = "refinement failed: " + first_failure;
     return out;
   }
   static_cast<TriangulationResult&>(out) = best;

@@ -101,6 +101,11 @@ struct RobustPoseOptions {
   // Refine on the consensus set, re-select the inliers among all bearings
   // against the refined pose, and refine again, up to this many times.
   int refine_iterations = 2;
+  // So many best hypotheses with distinct consensus sets are refined; the
+  // refined pose of lowest MSAC cost wins. More than one settles near-ties
+  // between the true consensus and a coincidental one (an outlier that fits
+  // a wrong pose with some inliers).
+  int local_optimisations = 3;
   void Check() const;
 };
 
@@ -108,11 +113,12 @@ struct RobustTriangulationResult : TriangulationResult {
   int hypotheses = 0;         // minimal solutions scored
   int hypotheses_gated = 0;   // discarded by the prior gate
   int samples = 0;            // minimal samples drawn (triples and pairs)
-  double best_cost = 0.0;     // MSAC cost of the best hypothesis (rad^2)
-  int consensus = 0;          // inliers of the best hypothesis
-  bool from_heading_prior = false;  // best hypothesis came from a pair
-  Pose2 hypothesis;           // the best minimal solution, before refinement
-  int refinements = 0;        // Triangulate calls made
+  // Of the hypothesis whose refinement won:
+  double best_cost = 0.0;     // MSAC cost of the refined pose (rad^2)
+  int consensus = 0;          // its inliers before refinement
+  bool from_heading_prior = false;  // it came from a pair and the prior heading
+  Pose2 hypothesis;           // the minimal solution, before refinement
+  int refinements = 0;        // Triangulate calls made, all hypotheses
 };
 
 // Deterministic for a given input and options. On success `inliers` and
