@@ -140,7 +140,8 @@ double NormalQuantile(double p);
 double ChiSquareCdf(double x, int dof);
 double ChiSquareSurvival(double x, int dof);
 // Wilson-Hilferty: chi-square(k) ~ k (1 - 2/(9k) + z sqrt(2/(9k)))^3.
-// Within 1e-3 relative from 5 dof at the usual confidences, worse below.
+// In the upper tail (0.95 to 0.999) within 3 % at 1 dof, 0.3 % from 20
+// dof: good enough to seed the exact solve, not to replace it.
 double ChiSquareQuantileWilsonHilferty(double p, int dof);
 // The quantile, Wilson-Hilferty polished by safeguarded Newton on the CDF.
 double ChiSquareQuantile(double p, int dof);

@@ -295,5 +295,167 @@ TEST_CASE("gross outliers: the consensus loop finds the inliers, the plain solve
               << " of which > 1 unit off " << plain_far);
 }
 
+
+// Corners of rectangles around a 200 x 200 room (as triangulate_test.cc).
+const std::vector<Eigen::Vector2d> kLandmarks = {{0, 60},   {0, 95},   {40, 200}, {75, 200},
+                                                 {200, 130}, {200, 90}, {150, 0},  {110, 0}};
+
+TEST_CASE("a prior 30 degrees off and two outliers: the plain solve is biased, the robust one exact",
+          "[robust]") {
+  const Pose2 truth{100, 100, 0.3};
+  auto obs = Observe(truth, kLandmarks);
+  // Both corners of one rectangle mistracked.
+  obs[2].bearing += 20 * kDeg;
+  obs[3].bearing += 30 * kDeg;
+  const Pose2 prior{truth.x, truth.y, truth.theta + 30 * kDeg};
+  const TriangulationResult plain = Triangulate(obs, prior);
+  const RobustTriangulationResult robust = RobustTriangulate(obs, prior);
+  REQUIRE(robust.ok);
+  WARN("plain: ok " << plain.ok << " '" << plain.failure << "' position error "
+                    << PositionError(plain.pose, truth) << ", heading error "
+                    << HeadingError(plain.pose, truth) / kDeg << " deg, inliers " << plain.inliers.size()
+                    << "; robust: position error " << PositionError(robust.pose, truth)
+                    << ", inliers " << robust.inliers.size() << ", hypotheses " << robust.hypotheses
+                    << ", refinements " << robust.refinements);
+  // The plain solve keeps a wrong pose (measured 21.2 units off): Newton
+  // from 30 degrees off settles in the minimum the outliers pull to, and
+  // its rejection then drops good bearings.
+  REQUIRE(plain.ok);
+  CHECK(PositionError(plain.pose, truth) > 20.0);
+  CHECK(robust.inliers == std::vector<int>{0, 1, 4, 5, 6, 7});
+  CHECK(PositionError(robust.pose, truth) < 100 * kEps * 200);
+  CHECK(HeadingError(robust.pose, truth) < 100 * kEps * M_PI);
+  CHECK(robust.samples == 56);  // every triple of 8
+  CHECK(std::abs(robust.bearing_residuals[2]) == Approx(20 * kDeg).epsilon(1e-12));
+  CHECK(std::abs(robust.bearing_residuals[3]) == Approx(30 * kDeg).epsilon(1e-12));
+}
+
+TEST_CASE("many landmarks: random triples, deterministic, seed independent", "[robust_sampling]") {
+  PANO_SEEDED_RNG(11);
+  const double sigma = 0.05 * kDeg;
+  const Pose2 truth{90, 120, -2.0};
+  auto obs = Observe(truth, RandomLandmarks(rng, truth, 24));
+  const std::vector<int> bad = Corrupt(rng, sigma, 8, &obs);  // a third
+  const Pose2 prior{truth.x + 20, truth.y - 20, truth.theta + 45 * kDeg};
+  const RobustTriangulationResult a = RobustTriangulate(obs, prior);
+  const RobustTriangulationResult b = RobustTriangulate(obs, prior);
+  REQUIRE(a.ok);
+  REQUIRE(b.ok);
+  // Deterministic: the same input gives bit-identical output.
+  CHECK(a.pose.x == b.pose.x);
+  CHECK(a.pose.y == b.pose.y);
+  CHECK(a.pose.theta == b.pose.theta);
+  CHECK(a.samples == b.samples);
+  CHECK(a.inliers == Complement(24, bad));
+  // Adaptive: at 2/3 inliers 0.9999 needs ceil(log(1e-4) / log(1 - 8/27)) = 27
+  // triples, below the minimum of 50.
+  CHECK(a.samples == RobustPoseOptions().min_samples);
+  // Another seed draws other triples but finds the same consensus.
+  RobustPoseOptions other;
+  other.seed = 12345;
+  const RobustTriangulationResult c = RobustTriangulate(obs, prior, other);
+  REQUIRE(c.ok);
+  CHECK(c.inliers == a.inliers);
+  CHECK(PositionError(c.pose, a.pose) < 1e-9 * 200);
+  WARN("24 landmarks, 8 outliers: " << a.samples << " triples, " << a.hypotheses << " hypotheses, position error "
+                                    << PositionError(a.pose, truth) << " units");
+}
+
+TEST_CASE("heading-prior pairs and the prior gate", "[robust_sampling]") {
+  const Pose2 truth{100, 100, 0.3};
+  auto obs = Observe(truth, kLandmarks);
+  obs[2].bearing += 25 * kDeg;
+  obs[5].bearing -= 15 * kDeg;
+  // Pairs with the prior heading are hypotheses too: 56 triples + 28 pairs.
+  RobustPoseOptions pairs;
+  pairs.prior_heading_sigma = 2 * kDeg;
+  const RobustTriangulationResult p = RobustTriangulate(obs, {0, 0, truth.theta + 1 * kDeg}, pairs);
+  REQUIRE(p.ok);
+  CHECK(p.samples == 56 + 28);
+  CHECK(p.inliers == std::vector<int>{0, 1, 3, 4, 6, 7});
+  CHECK(PositionError(p.pose, truth) < 100 * kEps * 200);
+  // Gate around the right prior: the outliers' hypotheses are discarded.
+  RobustPoseOptions gate;
+  gate.gate_with_prior = true;
+  gate.prior_covariance = Eigen::Vector3d(25, 25, std::pow(5 * kDeg, 2)).asDiagonal();
+  const Pose2 near{truth.x + 3, truth.y - 3, truth.theta + 2 * kDeg};
+  const RobustTriangulationResult g = RobustTriangulate(obs, near, gate);
+  REQUIRE(g.ok);
+  CHECK(g.hypotheses_gated > 0);
+  CHECK(g.hypotheses + g.hypotheses_gated == 53);  // 3 triples have no pose in front
+  CHECK(PositionError(g.pose, truth) < 100 * kEps * 200);
+  WARN("gate around the right prior: " << g.hypotheses_gated << " of 53 hypotheses gated");
+  // Gate around a wrong prior (50 units off, 5 sigma): nothing passes.
+  const RobustTriangulationResult w = RobustTriangulate(obs, {150, 150, truth.theta}, gate);
+  CHECK_FALSE(w.ok);
+  CHECK(w.hypotheses_gated == 53);
+  CHECK(w.failure.find("gated") != std::string::npos);
+}
+
+TEST_CASE("robust solve: bad options and inputs", "[robust_bad_input]") {
+  const Pose2 truth{100, 100, 0.0};
+  auto obs = Observe(truth, kLandmarks);
+  RobustPoseOptions bad;
+  bad.inlier_threshold = 0.0;
+  CHECK_THROWS_WITH(RobustTriangulate(obs, truth, bad), Catch::Contains("inlier_threshold"));
+  bad = RobustPoseOptions();
+  bad.max_samples = bad.min_samples - 1;
+  CHECK_THROWS_WITH(RobustTriangulate(obs, truth, bad), Catch::Contains("max_samples"));
+  bad = RobustPoseOptions();
+  bad.local_optimisations = 0;
+  CHECK_THROWS_WITH(RobustTriangulate(obs, truth, bad), Catch::Contains("local_optimisations"));
+  CHECK_FALSE(RobustTriangulate(Observe(truth, {{0, 60}, {0, 95}}), truth).ok);
+  obs[3].landmark.x() = std::nan("");
+  const RobustTriangulationResult r = RobustTriangulate(obs, truth);
+  CHECK_FALSE(r.ok);
+  CHECK(r.failure.find("non-finite") != std::string::npos);
+}
+
+// Chi-square quantiles from the standard tables (3 decimals).
+struct TableRow {
+  double p;
+  int dof;
+  double quantile;
+};
+const TableRow kChiSquareTable[] = {
+    {0.95, 1, 3.841},   {0.95, 2, 5.991},   {0.95, 3, 7.815},   {0.95, 5, 11.070},  {0.95, 10, 18.307},
+    {0.95, 20, 31.410}, {0.95, 30, 43.773}, {0.99, 1, 6.635},   {0.99, 2, 9.210},   {0.99, 3, 11.345},
+    {0.99, 5, 15.086},  {0.99, 10, 23.209}, {0.99, 20, 37.566}, {0.99, 30, 50.892}, {0.999, 1, 10.828},
+    {0.999, 2, 13.816}, {0.999, 3, 16.266}, {0.999, 4, 18.467}, {0.999, 5, 20.515}, {0.999, 10, 29.588},
+    {0.999, 20, 45.315}, {0.999, 30, 59.703}, {0.05, 2, 0.103}, {0.05, 5, 1.145},  {0.05, 10, 3.940},
+    {0.05, 30, 18.493}};
+
+TEST_CASE("chi-square quantiles match the tables", "[chi2]") {
+  double worst_wh = 0.0, worst_wh_from20 = 0.0;
+  for (const TableRow& row : kChiSquareTable) {
+    INFO("p " << row.p << " dof " << row.dof);
+    const double q = ChiSquareQuantile(row.p, row.dof);
+    // Exact to the table's rounding (half a unit of the third decimal).
+    CHECK(std::abs(q - row.quantile) <= 0.0005 + 1e-12);
+    // The CDF inverts it.
+    CHECK(ChiSquareCdf(q, row.dof) == Approx(row.p).epsilon(1e-12));
+    CHECK(ChiSquareSurvival(q, row.dof) == Approx(1 - row.p).epsilon(1e-10));
+    // Wilson-Hilferty alone, in the upper tail that the tests use.
+    if (row.p < 0.5) continue;
+    const double wh = std::abs(ChiSquareQuantileWilsonHilferty(row.p, row.dof) / q - 1);
+    worst_wh = std::max(worst_wh, wh);
+    if (row.dof >= 20) worst_wh_from20 = std::max(worst_wh_from20, wh);
+  }
+  WARN("Wilson-Hilferty relative error in the upper tail: worst " << worst_wh << ", from 20 dof "
+                                                                   << worst_wh_from20);
+  CHECK(worst_wh < 0.031);         // measured 3.04e-2 (1 dof, 0.999)
+  CHECK(worst_wh_from20 < 0.003);  // measured 2.76e-3 (20 dof, 0.999)
+  // dof 1 at 0.999 is 10.828 exactly the square of the normal 0.9995 quantile.
+  CHECK(ChiSquareQuantile(0.999, 1) == Approx(std::pow(NormalQuantile(0.9995), 2)).epsilon(1e-12));
+  CHECK(NormalQuantile(0.975) == Approx(1.959963984540054).epsilon(1e-14));
+  CHECK(NormalQuantile(0.001) == Approx(-3.090232306167813).epsilon(1e-14));
+  CHECK(NormalQuantile(0.5) == 0.0);
+  // dof 2: the CDF is 1 - exp(-x / 2) in closed form.
+  for (double x : {0.01, 0.5, 2.0, 7.0, 30.0})
+    CHECK(ChiSquareSurvival(x, 2) == Approx(std::exp(-x / 2)).epsilon(1e-13));
+  CHECK_THROWS_WITH(ChiSquareQuantile(0.9, 0), Catch::Contains("dof"));
+  CHECK_THROWS_WITH(ChiSquareQuantile(1.0, 3), Catch::Contains("p:"));
+}
+
 }  // namespace
 }  // namespace pano
