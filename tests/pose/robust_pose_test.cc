@@ -457,5 +457,161 @@ TEST_CASE("chi-square quantiles match the tables", "[chi2]") {
   CHECK_THROWS_WITH(ChiSquareQuantile(1.0, 3), Catch::Contains("p:"));
 }
 
+
+struct IntegrityStats {
+  int trials = 0, solved = 0, consistent = 0;
+  double sum_chi2_per_dof = 0.0, sum_quality = 0.0;
+};
+
+// Robust solves of noisy bearings from 12 random landmarks, `bias(b)` added
+// to each bearing b (an unmodelled error), checked for integrity.
+template <typename Bias>
+IntegrityStats RunIntegrity(uint64_t seed, double sigma, Bias bias, int trials) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> noise(0.0, sigma);
+  IntegrityStats st;
+  IntegrityOptions iopt;
+  iopt.sigma_bearing = sigma;
+  for (int t = 0; t < trials; ++t) {
+    const Pose2 truth = RandomPose(rng);
+    auto obs = Observe(truth, RandomLandmarks(rng, truth, 12));
+    for (auto& o : obs) o.bearing += noise(rng) + bias(o.bearing);
+    const RobustTriangulationResult r = RobustTriangulate(obs, truth);
+    ++st.trials;
+    if (!r.ok) continue;
+    ++st.solved;
+    const IntegrityReport rep = IntegrityCheck(r, obs, iopt);
+    st.consistent += rep.consistent;
+    st.sum_chi2_per_dof += rep.chi2 / rep.dof;
+    st.sum_quality += rep.quality;
+  }
+  return st;
+}
+
+TEST_CASE("integrity: consistent solutions pass, unmodelled bias fails", "[integrity]") {
+  const double sigma = 0.05 * kDeg;
+  const int trials = 500;
+  const IntegrityStats good = RunIntegrity(13, sigma, [](double) { return 0.0; }, trials);
+  // Mirror decentring: a bearing error varying with the azimuth, 0.15
+  // degrees (3 sigma) at most; no pose absorbs it and no single bearing is
+  // an outlier at the 0.5 degree threshold.
+  const IntegrityStats biased =
+      RunIntegrity(13, sigma, [](double b) { return 0.15 * kDeg * std::sin(2 * b); }, trials);
+  WARN("integrity at 0.999, " << trials << " trials of 12 landmarks, 0.05 deg noise:\n  consistent: "
+                              << good.consistent << " of " << good.solved << " pass, mean chi2/dof "
+                              << good.sum_chi2_per_dof / good.solved << ", mean quality "
+                              << good.sum_quality / good.solved << "\n  0.15 deg sin(2b) bias: "
+                              << biased.consistent << " of " << biased.solved << " pass, mean chi2/dof "
+                              << biased.sum_chi2_per_dof / biased.solved << ", mean quality "
+                              << biased.sum_quality / biased.solved);
+  REQUIRE(good.solved == trials);
+  REQUIRE(biased.solved == trials);
+  // At 0.999 one in a thousand consistent solutions fails by chance.
+  CHECK(good.consistent >= trials - 3);
+  // chi2 / dof is 1 on average for the right sigma (the standard error of
+  // the mean over 500 trials of 9 dof is about 0.02).
+  CHECK(good.sum_chi2_per_dof / good.solved == Approx(1.0).epsilon(0.08));
+  CHECK(biased.consistent <= trials / 4);  // measured 101
+  CHECK(biased.sum_quality < 0.5 * good.sum_quality);
+
+  // One case, noise free: the bias alone gives chi2 far beyond the quantile.
+  const Pose2 truth{95, 110, 0.8};
+  auto obs = Observe(truth, kLandmarks);
+  for (auto& o : obs) o.bearing += 0.15 * kDeg * std::sin(2 * o.bearing);
+  const RobustTriangulationResult r = RobustTriangulate(obs, truth);
+  REQUIRE(r.ok);
+  IntegrityOptions iopt;
+  iopt.sigma_bearing = sigma;
+  const IntegrityReport rep = IntegrityCheck(r, obs, iopt);
+  WARN("8 landmarks, bias only: chi2 " << rep.chi2 << " (threshold " << rep.chi2_threshold << ", dof "
+                                       << rep.dof << "), p " << rep.p_value << ", quality "
+                                       << rep.quality << ", position error "
+                                       << PositionError(r.pose, truth));
+  CHECK(rep.inliers == 8);
+  CHECK(rep.dof == 5);
+  CHECK(rep.chi2_threshold == Approx(20.515).margin(5e-4));
+  CHECK_FALSE(rep.consistent);
+  CHECK(rep.p_value < 1e-3);
+  CHECK(rep.quality < 0.1);
+}
+
+TEST_CASE("integrity: predicted position std matches the scatter; quality follows the evidence",
+          "[integrity]") {
+  PANO_SEEDED_RNG(14);
+  const double sigma = 0.05 * kDeg;
+  std::normal_distribution<double> noise(0.0, sigma);
+  const Pose2 truth{95, 110, 0.8};
+  IntegrityOptions iopt;
+  iopt.sigma_bearing = sigma;
+  Eigen::Matrix2d scatter = Eigen::Matrix2d::Zero();
+  double predicted = 0.0, condition = 0.0;
+  const int trials = 2000;
+  for (int t = 0; t < trials; ++t) {
+    auto obs = Observe(truth, kLandmarks);
+    for (auto& o : obs) o.bearing += noise(rng);
+    const RobustTriangulationResult r = RobustTriangulate(obs, truth);
+    REQUIRE(r.ok);
+    const IntegrityReport rep = IntegrityCheck(r, obs, iopt);
+    const Eigen::Vector2d e(r.pose.x - truth.x, r.pose.y - truth.y);
+    scatter += e * e.transpose() / trials;
+    predicted = rep.position_std;
+    condition = rep.condition;
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(scatter);
+  const double empirical = std::sqrt(es.eigenvalues().maxCoeff());
+  WARN("8 landmarks, 0.05 deg: position std predicted " << predicted << ", empirical " << empirical
+                                                         << "; condition " << condition);
+  // The standard error of a std from 2000 samples is about 1.6 %.
+  CHECK(empirical == Approx(predicted).epsilon(0.05));
+
+  // Quality: more inliers raise it, an outlier among the observations and
+  // weaker geometry lower it, a failed solve gives 0.
+  const auto obs = Observe(truth, kLandmarks);
+  const RobustTriangulationResult all = RobustTriangulate(obs, truth);
+  const std::vector<BearingObservation> five(obs.begin(), obs.begin() + 5);
+  const RobustTriangulationResult fewer = RobustTriangulate(five, truth);
+  auto with_outlier = obs;
+  with_outlier[4].bearing += 10 * kDeg;
+  const RobustTriangulationResult outlier = RobustTriangulate(with_outlier, truth);
+  REQUIRE(all.ok);
+  REQUIRE(fewer.ok);
+  REQUIRE(outlier.ok);
+  const IntegrityReport q_all = IntegrityCheck(all, obs, iopt);
+  const IntegrityReport q_fewer = IntegrityCheck(fewer, five, iopt);
+  const IntegrityReport q_outlier = IntegrityCheck(outlier, with_outlier, iopt);
+  WARN("quality: 8 of 8 " << q_all.quality << ", 5 of 5 " << q_fewer.quality << ", 7 of 8 "
+                          << q_outlier.quality);
+  CHECK(q_all.consistent);
+  CHECK(q_all.chi2 < 1e-20);
+  CHECK(q_all.p_value == 1.0);
+  CHECK(q_outlier.inliers == 7);
+  CHECK(q_outlier.observations == 8);
+  CHECK(q_fewer.quality < q_all.quality);
+  CHECK(q_outlier.quality < q_all.quality);
+  CHECK(q_fewer.position_std > q_all.position_std);
+  // 8 inliers, no residual: fraction 1, redundancy 5 / (5 + 3), consistency
+  // 1, geometry 1 / (1 + std^2).
+  CHECK(q_all.quality == Approx(5.0 / 8.0 / (1 + std::pow(q_all.position_std, 2))).epsilon(1e-12));
+  CHECK(IntegrityCheck(TriangulationResult(), obs, iopt).quality == 0.0);
+  IntegrityOptions bad;
+  bad.confidence = 1.0;
+  CHECK_THROWS_WITH(IntegrityCheck(all, obs, bad), Catch::Contains("confidence"));
+}
+
+TEST_CASE("Mahalanobis distance of a pose, heading wrapped", "[integrity]") {
+  const Eigen::Matrix3d cov = Eigen::Vector3d(4.0, 9.0, 0.01).asDiagonal();
+  // (1 / 2)^2 + (3 / 3)^2 + (0.05 / 0.1)^2 = 1.5, across the +-pi seam.
+  const double d2 = PoseMahalanobis2({11, 23, -M_PI + 0.02}, {10, 20, M_PI - 0.03}, cov);
+  CHECK(d2 == Approx(1.5).epsilon(1e-12));
+  // Correlated: against an explicit inverse.
+  Eigen::Matrix3d c;
+  c << 4, 1, 0.1, 1, 9, -0.2, 0.1, -0.2, 0.5;
+  const Eigen::Vector3d e(1, -2, 0.3);
+  CHECK(PoseMahalanobis2({1, -2, 0.3}, {0, 0, 0}, c) == Approx(e.dot(c.inverse() * e)).epsilon(1e-12));
+  // Gating: 3 dof at 0.999.
+  CHECK(d2 < ChiSquareQuantile(0.999, 3));
+  CHECK(std::isinf(PoseMahalanobis2({1, 0, 0}, {0, 0, 0}, Eigen::Matrix3d::Zero())));
+}
+
 }  // namespace
 }  // namespace pano
