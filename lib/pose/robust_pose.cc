@@ -106,8 +106,12 @@ class HypothesisScorer {
       return;
     }
     ++out->hypotheses;
-    Candidate c{pose, 0.0, {}, from_pair};
-    c.cost = MsacCost(obs_, pose, opt_.inlier_threshold, &c.inliers);
+    // No better than the worst kept: it can neither enter nor replace one.
+    const double cost = MsacCost(obs_, pose, opt_.inlier_threshold, nullptr);
+    if (static_cast<int>(best_.size()) == opt_.local_optimisations && !(cost < best_.back().cost))
+      return;
+    Candidate c{pose, cost, {}, from_pair};
+    MsacCost(obs_, pose, opt_.inlier_threshold, &c.inliers);
     for (Candidate& kept : best_) {
       if (kept.inliers != c.inliers) continue;
       if (c.cost < kept.cost) kept = std::move(c);

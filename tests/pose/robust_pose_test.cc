@@ -536,7 +536,7 @@ TEST_CASE("integrity: consistent solutions pass, unmodelled bias fails", "[integ
 }
 
 TEST_CASE("integrity: predicted position std matches the scatter; quality follows the evidence",
-          "[integrity]") {
+          "[integrity_geometry]") {
   PANO_SEEDED_RNG(14);
   const double sigma = 0.05 * kDeg;
   std::normal_distribution<double> noise(0.0, sigma);
@@ -598,7 +598,7 @@ TEST_CASE("integrity: predicted position std matches the scatter; quality follow
   CHECK_THROWS_WITH(IntegrityCheck(all, obs, bad), Catch::Contains("confidence"));
 }
 
-TEST_CASE("Mahalanobis distance of a pose, heading wrapped", "[integrity]") {
+TEST_CASE("Mahalanobis distance of a pose, heading wrapped", "[mahalanobis]") {
   const Eigen::Matrix3d cov = Eigen::Vector3d(4.0, 9.0, 0.01).asDiagonal();
   // (1 / 2)^2 + (3 / 3)^2 + (0.05 / 0.1)^2 = 1.5, across the +-pi seam.
   const double d2 = PoseMahalanobis2({11, 23, -M_PI + 0.02}, {10, 20, M_PI - 0.03}, cov);
