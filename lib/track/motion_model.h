@@ -110,7 +110,9 @@ class MotionModel {
   explicit MotionModel(const MotionModelOptions& options = {});
 
   // Starts at `pose` at time t with zero velocity of the given standard
-  // deviations (per world axis, map units/s, and rad/s).
+  // deviations (per world axis, map units/s, and rad/s). The step starts a
+  // new chain for the smoother and counts the pose as this frame's
+  // measurement.
   void Reset(double t, const Pose2& pose, const Eigen::Matrix3d& pose_covariance,
              double speed_sigma, double turn_rate_sigma);
   // After a relocalisation: the pose is new, the velocity unknown (zero with
