@@ -61,7 +61,7 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
   std::optional<DebugVideo> dbg;
   if (!job.debug_video.empty())
     dbg.emplace(job.debug_video, cv::Size(s.image_width, s.image_height), source->fps() > 0 ? source->fps() : 10.0);
-  PoseCsvWriter csv(job.output, {"std_x", "std_y", "std_theta"}, PoseCsvStaging::kPartial);
+  PoseCsvWriter csv(job.output, {"std_x", "std_y", "std_theta", "quality"}, PoseCsvStaging::kPartial);
   std::vector<PoseRow> rows;
   cv::Mat grey;
   sum->end = VideoEnd::kDone;

@@ -31,8 +31,39 @@ void LocalizerOptions::Check() const {
   if (relocalize_after < 0 || relocalize_min_landmarks < 3)
     throw Error("localiser: relocalize_after >= 0 and relocalize_min_landmarks >= 3 expected");
   if (num_threads < 0) throw Error("localiser: num_threads: expected 0 (all cores) or more");
+  if (relocalize_max_interval < 1) throw Error("localiser: relocalize_max_interval: expected >= 1");
+  if (!(gate_chi2 > 0) || !(gate_heading_sigma > 0) || !(gate_position_fraction > 0))
+    throw Error("localiser: gate_chi2, gate_heading_sigma and gate_position_fraction: expected > 0");
+  if (!(integrity_confidence > 0.5 && integrity_confidence < 1.0))
+    throw Error("localiser: integrity_confidence: expected 0.5..1");
+  if (!(min_bearing_sigma > 0) || !(initial_bearing_sigma > 0) || !(max_bearing_sigma >= min_bearing_sigma))
+    throw Error("localiser: min_bearing_sigma and initial_bearing_sigma: expected > 0");
+  if (!(relocalize_min_fraction >= 0 && relocalize_min_fraction <= 1) || relocalize_margin < 0 ||
+      !(relocalize_distinct > 0))
+    throw Error("localiser: relocalize_min_fraction 0..1, relocalize_margin >= 0, relocalize_distinct > 0 expected");
   relocalize.Check();
+  robust.Check();
+  motion.Check();
 }
+
+namespace {
+
+// Map units per metre, from the map's `units` (or, for unnamed units, a room
+// taken to be about 5 m across): the motion model's defaults are in metres.
+double UnitsPerMetre(const Map& map) {
+  const std::string& u = map.units;
+  if (u == "m" || u == "metre" || u == "metres" || u == "meter" || u == "meters") return 1.0;
+  if (u == "cm") return 100.0;
+  if (u == "mm") return 1000.0;
+  if (u == "in" || u == "inch" || u == "inches") return 39.37;
+  if (u == "ft" || u == "feet") return 3.281;
+  Eigen::Vector2d lo, hi;
+  double top;
+  map.Extent(&lo, &hi, &top);
+  return std::max(1e-6, (hi - lo).maxCoeff() / 5.0);
+}
+
+}  // namespace
 
 std::shared_ptr<PhTableCache> MakeTrackingPhTables(std::shared_ptr<const RadiusTable> table,
                                                    int num_threads) {
@@ -62,17 +93,36 @@ Localizer::Localizer(const Calibration& calib, const Map& map,
       compass_(calib.sensor) {
   opt_.Check();
   if (!table_ || table_->empty()) throw Error("localiser: no E(D,Z) lookup table");
+  const double scale = UnitsPerMetre(map_);
+  motion_options_ = opt_.motion;
+  motion_options_.accel_sigma *= scale;
+  motion_options_.max_speed *= scale;
+  motion_options_.max_position_sigma *= scale;
+  motion_ = MotionModel(motion_options_);
   tracker_ = MakeTracker(opt_.method, calib_.sensor, table_, opt_, std::move(ph_tables));
 }
 
-void Localizer::Reset(const Pose2& initial) {
+void Localizer::Reset(const Pose2& initial, bool hint) {
   initial_ = last_ = previous_ = initial;
   frame_motion_ = Pose2{0, 0, 0};
   blur_fraction_ = opt_.exposure_fraction;
   n_good_ = 0;
   n_lost_ = 0;
   started_ = true;
+  known_start_ = true;
+  start_is_hint_ = hint;
+  ever_tracked_ = false;
+  motion_ = MotionModel(motion_options_);
+  last_dt_ = 0.0;
+  next_relocalize_frame_ = 0;
+  relocalize_failures_ = 0;
+  bearing_sigma_ = 0.0;
   last_signature_.clear();
+}
+
+void Localizer::ResetUnknown() {
+  Reset(Pose2{0, 0, 0}, true);
+  known_start_ = false;
 }
 
 void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out) const {
@@ -119,7 +169,7 @@ void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out) c
   out->measurements = std::move(meas);
 }
 
-TriangulationResult Localizer::Solve(const FrameResult& fr, const Pose2& prior) const {
+std::vector<BearingObservation> Localizer::Observations(const FrameResult& fr) const {
   std::vector<BearingObservation> obs;
   for (size_t i = 0; i < fr.predicted.size(); ++i) {
     const LandmarkMeasurement& m = fr.measurements[i];
@@ -131,7 +181,13 @@ TriangulationResult Localizer::Solve(const FrameResult& fr, const Pose2& prior) 
     o.id = static_cast<int>(i);
     obs.push_back(o);
   }
-  return Triangulate(obs, prior, opt_.triangulation);
+  return obs;
+}
+
+TriangulationResult Localizer::Solve(const FrameResult& fr, const Pose2& prior) const {
+  const std::vector<BearingObservation> obs = Observations(fr);
+  if (!opt_.robust_pose || obs.size() < 4) return Triangulate(obs, prior, opt_.triangulation);
+  return RobustTriangulate(obs, prior, opt_.robust, opt_.triangulation);
 }
 
 bool Localizer::TrackFrom(const Pose2& pose, double search_px, FrameResult* fr,
@@ -154,21 +210,43 @@ bool Localizer::Relocalize(const cv::Mat& grey, FrameResult* fr, TriangulationRe
   const std::vector<PoseHypothesis> hyps =
       RelocalizationHypotheses(grey, calib_.sensor, *table_, map_, scene_, landmarks_, opt_.prediction,
                                opt_.relocalize, opt_.num_threads);
-  bool found = false;
+  Eigen::Vector2d lo, hi;
+  double top;
+  map_.Extent(&lo, &hi, &top);
+  const double distinct = opt_.relocalize_distinct * (hi - lo).maxCoeff();
+  struct Verified {
+    FrameResult fr;
+    TriangulationResult tri;
+  };
+  std::vector<Verified> verified;
   for (const PoseHypothesis& h : hyps) {
-    FrameResult cand;
-    TriangulationResult t;
+    Verified v;
     // The normal search first: a wide one invites wrong edges.
-    if (!TrackFrom(h.pose, opt_.search_px, &cand, &t) && !TrackFrom(h.pose, opt_.max_search_px, &cand, &t))
+    if (!TrackFrom(h.pose, opt_.search_px, &v.fr, &v.tri) && !TrackFrom(h.pose, opt_.max_search_px, &v.fr, &v.tri))
       continue;
-    if (static_cast<int>(t.inliers.size()) < opt_.relocalize_min_landmarks) continue;
-    if (!found || t.inliers.size() > tri->inliers.size()) {
-      *fr = std::move(cand);
-      *tri = t;
-      found = true;
-    }
+    const int inliers = static_cast<int>(v.tri.inliers.size());
+    // Of the landmarks chosen to track (more are tracked when few are found).
+    const size_t chosen = opt_.max_landmarks > 0 ? std::min<size_t>(v.fr.predicted.size(), opt_.max_landmarks)
+                                                 : v.fr.predicted.size();
+    if (inliers < opt_.relocalize_min_landmarks || inliers < opt_.relocalize_min_fraction * static_cast<double>(chosen))
+      continue;
+    verified.push_back(std::move(v));
   }
-  return found;
+  if (verified.empty()) return false;
+  auto count = [](const Verified& v) { return static_cast<int>(v.tri.inliers.size()); };
+  const auto best = std::max_element(verified.begin(), verified.end(),
+                                     [&](const Verified& a, const Verified& b) { return count(a) < count(b); });
+  for (const Verified& v : verified) {
+    const double apart = std::hypot(v.tri.pose.x - best->tri.pose.x, v.tri.pose.y - best->tri.pose.y);
+    if (&v != &*best && apart > distinct && count(v) > count(*best) - opt_.relocalize_margin) return false;
+  }
+  // The best-supported pose, unambiguous, must also pass the integrity test
+  // (a pose with fewer inliers that passes it is no better: few bearings
+  // fit a wrong pose easily).
+  if (!Consistent(&best->fr, best->tri)) return false;
+  *fr = std::move(best->fr);
+  *tri = best->tri;
+  return true;
 }
 
 bool Localizer::Acceptable(const FrameResult& fr, const TriangulationResult& tri) const {
@@ -176,6 +254,49 @@ bool Localizer::Acceptable(const FrameResult& fr, const TriangulationResult& tri
   const double n_pred = static_cast<double>(fr.predicted.size());
   return tri.rms_bearing <= opt_.max_rms_bearing &&
          (n_pred < 8 || tri.inliers.size() >= opt_.min_inlier_fraction * n_pred);
+}
+
+namespace {
+
+// A triangulated pose as a measurement for the motion model: its covariance
+// with floors (it is estimated from a few residuals), the position's from
+// the mean distance of the landmarks used.
+PoseMeasurement MeasurementOf(const TriangulationResult& tri, const std::vector<BearingObservation>& obs,
+                              double position_fraction, double heading_sigma) {
+  double distance = 0.0;
+  for (int i : tri.inliers) distance += (obs[static_cast<size_t>(i)].landmark - Eigen::Vector2d(tri.pose.x, tri.pose.y)).norm();
+  distance /= std::max<size_t>(1, tri.inliers.size());
+  PoseMeasurement m;
+  m.pose = tri.pose;
+  m.covariance = tri.covariance;
+  const double sp = position_fraction * distance;
+  m.covariance(0, 0) += sp * sp;
+  m.covariance(1, 1) += sp * sp;
+  m.covariance(2, 2) += heading_sigma * heading_sigma;
+  return m;
+}
+
+}  // namespace
+
+bool Localizer::Consistent(FrameResult* fr, const TriangulationResult& tri) const {
+  IntegrityOptions io;
+  // Twice the recent noise: the residuals' spread varies from frame to
+  // frame with blur and geometry; a wrong junction is off by far more.
+  io.sigma_bearing = std::clamp(bearing_sigma_ > 0 ? 4.0 * bearing_sigma_ : opt_.initial_bearing_sigma,
+                                opt_.min_bearing_sigma, opt_.max_bearing_sigma);
+  io.confidence = opt_.integrity_confidence;
+  const std::vector<BearingObservation> obs = Observations(*fr);
+  fr->integrity = IntegrityCheck(tri, obs, io);
+  // Three bearings always fit a pose: without a spare one nothing is checked.
+  return fr->integrity.testable && fr->integrity.consistent;
+}
+
+bool Localizer::AgreesWithMotion(FrameResult* fr, const TriangulationResult& tri) const {
+  if (!motion_.initialized()) return true;
+  const PoseMeasurement m =
+      MeasurementOf(tri, Observations(*fr), opt_.gate_position_fraction, opt_.gate_heading_sigma);
+  fr->innovation = motion_.Innovation(m);
+  return fr->innovation <= opt_.gate_chi2;
 }
 
 void Localizer::CheckFrame(const cv::Mat& grey, int frame) const {
@@ -187,14 +308,16 @@ void Localizer::CheckFrame(const cv::Mat& grey, int frame) const {
                 std::to_string(calib_.sensor.image_height));
 }
 
-Pose2 Localizer::ConstantVelocityPrediction() const {
-  Pose2 pred = last_;
-  if (opt_.constant_velocity && n_good_ >= 2) {
-    pred.x += last_.x - previous_.x;
-    pred.y += last_.y - previous_.y;
-    pred.theta = wrap_angle(pred.theta + wrap_angle(last_.theta - previous_.theta));
-  }
-  return pred;
+Pose2 Localizer::PredictMotion(double time_s) {
+  if (!motion_.initialized()) return last_;  // the start pose, or the last one before a loss
+  const double t = std::isfinite(time_s) ? std::max(time_s, motion_.time()) : motion_.time() + last_dt_;
+  const double dt = t - motion_.time();
+  // The frame interval: the shortest recent step (a dropped frame is longer).
+  if (dt > 0) last_dt_ = last_dt_ > 0 && dt > last_dt_ ? 0.95 * last_dt_ + 0.05 * dt : dt;
+  motion_.Predict(t);
+  const Eigen::Vector2d v = motion_.PredictedVelocity();
+  frame_motion_ = Pose2{v.x() * last_dt_, v.y() * last_dt_, motion_.PredictedHeadingRate() * last_dt_};
+  return opt_.constant_velocity && n_good_ >= 2 ? motion_.pose() : last_;
 }
 
 std::vector<Pose2> Localizer::CandidatePoses(const cv::Mat& grey, const Pose2& pred,
@@ -261,15 +384,30 @@ void Localizer::RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) 
   }
 }
 
-void Localizer::RelocalizeIfLost(const cv::Mat& grey, FrameResult* fr, TriangulationResult* tri) {
-  if (Acceptable(*fr, *tri) || opt_.relocalize_after <= 0 || n_lost_ + 1 < opt_.relocalize_after) return;
+bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, FrameResult* fr, TriangulationResult* tri) {
+  // Before the first pose (no start, or a start the frames did not confirm)
+  // at once; later after relocalize_after lost frames, then less and less
+  // often while it keeps failing.
+  const bool due = ever_tracked_ ? opt_.relocalize_after > 0 && n_lost_ + 1 >= opt_.relocalize_after
+                                 : opt_.relocalize_after > 0 || !known_start_ || start_is_hint_;
+  if (!due || frame < next_relocalize_frame_) return false;
   FrameResult found;
   TriangulationResult t;
-  if (!Relocalize(grey, &found, &t)) return;
+  if (!Relocalize(grey, &found, &t)) {
+    ++relocalize_failures_;
+    next_relocalize_frame_ = frame + std::min(opt_.relocalize_max_interval, 1 << std::min(relocalize_failures_, 16));
+    return false;
+  }
+  relocalize_failures_ = 0;
+  next_relocalize_frame_ = 0;
   fr->predicted = std::move(found.predicted);
   fr->measurements = std::move(found.measurements);
+  fr->integrity = found.integrity;
+  fr->innovation = -1.0;
+  fr->relocalized = true;
   *tri = t;
   n_good_ = 0;  // no velocity across the jump
+  return true;
 }
 
 void Localizer::UpdateBlurEstimate(const FrameResult& fr) {
@@ -294,34 +432,45 @@ void Localizer::UpdateBlurEstimate(const FrameResult& fr) {
     blur_fraction_ = std::clamp(0.5 * blur_fraction_ + 0.5 * median(fractions), 0.0, opt_.exposure_fraction);
 }
 
-void Localizer::RecordOutcome(const FrameResult& fr, const TriangulationResult& tri, int n_found,
-                              PoseRow* row) {
-  if (Acceptable(fr, tri)) {
+void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, bool accepted, int n_found) {
+  PoseRow* row = &fr->row;
+  if (accepted) {
     row->status = PoseStatus::kOk;
     row->pose = tri.pose;
     row->n_landmarks = static_cast<int>(tri.inliers.size());
     row->residual = tri.residual;
     row->extra.clear();
     for (int k = 0; k < 3; ++k) row->extra.push_back(std::sqrt(std::max(0.0, tri.covariance(k, k))));
+    row->extra.push_back(fr->integrity.quality);
+    const PoseMeasurement m =
+        MeasurementOf(tri, Observations(*fr), opt_.gate_position_fraction, opt_.gate_heading_sigma);
+    if (!motion_.initialized())
+      motion_.Reset(row->time_s, tri.pose, m.covariance, motion_options_.max_speed, motion_options_.max_turn_rate);
+    else if (fr->relocalized)
+      motion_.Reinitialize(std::max(row->time_s, motion_.time()), tri.pose, m.covariance);
+    else
+      motion_.Update(m);
+    bearing_sigma_ = bearing_sigma_ > 0 ? 0.9 * bearing_sigma_ + 0.1 * tri.rms_bearing : tri.rms_bearing;
     previous_ = n_good_ > 0 ? last_ : tri.pose;
     last_ = tri.pose;
-    if (n_good_ > 0)
+    if (n_good_ > 0 && !motion_.initialized())
       frame_motion_ = Pose2{last_.x - previous_.x, last_.y - previous_.y, wrap_angle(last_.theta - previous_.theta)};
-    UpdateBlurEstimate(fr);
+    UpdateBlurEstimate(*fr);
+    ever_tracked_ = true;
     ++n_good_;
     n_lost_ = 0;
     return;
   }
-  if (row->frame == 0 || !n_good_) {
+  if (!ever_tracked_ && known_start_ && row->frame == 0) {
     // No measurement yet: report the user's initial pose as such.
-    row->status = n_good_ == 0 && row->frame == 0 ? PoseStatus::kInit : PoseStatus::kLost;
+    row->status = PoseStatus::kInit;
     row->pose = initial_;
   } else {
-    // Lost: tracking goes on from the last good pose.
+    // Lost: tracking goes on from the motion model's prediction.
     row->status = PoseStatus::kLost;
   }
   row->n_landmarks = n_found;
-  row->extra.assign(3, std::nan(""));
+  row->extra.assign(4, std::nan(""));
   n_good_ = 0;
   ++n_lost_;
 }
@@ -329,23 +478,31 @@ void Localizer::RecordOutcome(const FrameResult& fr, const TriangulationResult& 
 FrameResult Localizer::Process(const cv::Mat& grey, int frame, double time_s) {
   CheckFrame(grey, frame);
   FrameResult fr;
-  // Prediction: the last pose, moved on by the last frame-to-frame motion.
-  fr.predicted_pose = ConstantVelocityPrediction();
-  std::vector<float> signature;
-  const std::vector<Pose2> predictions = CandidatePoses(grey, fr.predicted_pose, &signature);
-  tracker_->BeginFrame(grey);
-  TriangulationResult tri;
-  TrackPredictions(predictions, &fr, &tri);
-  RefineAroundSolution(&fr, &tri);
-  fr.triangulation = tri;
   fr.row.frame = frame;
   fr.row.time_s = time_s;
+  tracker_->BeginFrame(grey);
+  TriangulationResult tri;
+  bool accepted = false;
+  std::vector<float> signature;
+  if (known_start_ || ever_tracked_) {
+    // Prediction from the motion model, then the visual compass's heading.
+    fr.predicted_pose = PredictMotion(time_s);
+    const std::vector<Pose2> predictions = CandidatePoses(grey, fr.predicted_pose, &signature);
+    TrackPredictions(predictions, &fr, &tri);
+    RefineAroundSolution(&fr, &tri);
+    // A pose is reported only when its residuals are consistent and it
+    // agrees with the motion so far.
+    accepted = Acceptable(fr, tri) && Consistent(&fr, tri) && AgreesWithMotion(&fr, tri);
+  } else if (opt_.compass) {
+    signature = compass_.Signature(grey);
+  }
   int n_found = 0;  // before any relocalisation: what tracking from the prediction found
   for (const auto& m : fr.measurements) n_found += m.found;
-  // Lost for a while (the robot may have been carried): search the room.
-  RelocalizeIfLost(grey, &fr, &tri);
+  // Lost for a while (the robot may have been carried), or never found: search the room.
+  if (!accepted) accepted = RelocalizeIfLost(grey, frame, &fr, &tri);
+  fr.triangulation = tri;
   if (opt_.compass) last_signature_ = std::move(signature);
-  RecordOutcome(fr, tri, n_found, &fr.row);
+  RecordOutcome(&fr, tri, accepted, n_found);
   return fr;
 }
 

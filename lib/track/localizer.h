@@ -12,6 +12,7 @@
 #include "sensor/calibration.h"
 #include "scene/map.h"
 #include "pose/pose_row.h"
+#include "pose/robust_pose.h"
 #include "lut/radius_table.h"
 #include "pose/triangulate.h"
 #include "scene/scene.h"
@@ -19,6 +20,7 @@
 #include "track/junction_tracker.h"
 #include "track/landmarks.h"
 #include "track/relocalize.h"
+#include "track/motion_model.h"
 #include "track/tracker.h"
 #include "track/vertex_tracker.h"
 
@@ -33,6 +35,33 @@ struct LocalizerOptions {
   JunctionOptions junction;
   VertexOptions vertex;
   TriangulationOptions triangulation;
+  // The pose from the bearings through a consensus over minimal solutions
+  // (3 bearings) before the least-squares refinement: one wrong junction
+  // cannot bias the start.
+  bool robust_pose = true;
+  RobustPoseOptions robust;
+  // The motion model (lengths in metres: scaled to the map's units). A pose
+  // whose innovation against its prediction exceeds gate_chi2 (squared
+  // Mahalanobis distance, 3 dof; 21.1 is the 99.99 % quantile) is not
+  // reported: a wrong pose is worse than a lost frame.
+  MotionModelOptions motion;
+  double gate_chi2 = 21.1;
+  // Floors on a triangulated pose's standard deviations for the gate (its
+  // covariance comes from a few residuals): heading (radians) and position
+  // as a fraction of the mean landmark distance.
+  double gate_heading_sigma = 0.1 * M_PI / 180;
+  double gate_position_fraction = 0.002;
+  // Integrity: the bearing residuals must be consistent (chi-square at
+  // integrity_confidence) with the bearing noise seen on recent frames,
+  // never taken below min_bearing_sigma (radians).
+  double integrity_confidence = 0.9999;
+  // The noise assumed is four times the recent RMS residual (blur and
+  // geometry vary from frame to frame; a frame a little worse than the
+  // last is still right), within [min_bearing_sigma, max_bearing_sigma]:
+  // the cap keeps a drift into biased bearings from widening the test.
+  double min_bearing_sigma = 0.05 * M_PI / 180;
+  double max_bearing_sigma = 0.3 * M_PI / 180;
+  double initial_bearing_sigma = 0.2 * M_PI / 180;  // until good frames have been seen
   double search_px = 8.0;         // half-width of the first pass's linear samples
   // Landmarks tracked per frame: at most this many, spread in azimuth (one
   // per sector, the nearest first). 0: all in view.
@@ -50,12 +79,22 @@ struct LocalizerOptions {
   // at least this fraction of the predicted landmarks as inliers (when at
   // least 8 were predicted): a few wrong junctions can triangulate exactly.
   double max_rms_bearing = 0.5 * M_PI / 180;
-  double min_inlier_fraction = 0.35;
+  double min_inlier_fraction = 0.5;
   // After this many consecutive lost frames, search the whole room for the
   // pose (0: never). Relocalisation accepts a pose only with at least
   // relocalize_min_landmarks inliers.
   int relocalize_after = 2;
+  // After a failed relocalisation the next waits 1, 2, 4 ... frames (at
+  // most this many): a long loss costs a bounded share of the frames.
+  int relocalize_max_interval = 8;
   int relocalize_min_landmarks = 6;
+  // A relocalised pose also needs this fraction of its predicted landmarks
+  // as inliers, and must beat every hypothesis elsewhere in the room
+  // (further than relocalize_distinct, as a fraction of the room's size) by
+  // relocalize_margin inliers: symmetric rooms offer near-copies of a view.
+  double relocalize_min_fraction = 0.5;
+  int relocalize_margin = 2;
+  double relocalize_distinct = 0.05;
   RelocalizeOptions relocalize;
   // The longest exposure expected, as a fraction of the frame interval:
   // motion blur spans at most this fraction of a landmark's image motion
@@ -77,6 +116,9 @@ struct LocalizerOptions {
 struct FrameResult {
   PoseRow row;
   Pose2 predicted_pose;
+  bool relocalized = false;     // the pose came from the room-wide search
+  double innovation = -1.0;     // squared Mahalanobis distance from the prediction (-1: none)
+  IntegrityReport integrity;    // of the reported pose
   std::vector<PredictedLandmark> predicted;
   std::vector<LandmarkMeasurement> measurements;  // one per predicted landmark
   TriangulationResult triangulation;
@@ -100,8 +142,13 @@ class Localizer {
  public:
   Localizer(const Calibration& calib, const Map& map, std::shared_ptr<const RadiusTable> table,
             const LocalizerOptions& options, std::shared_ptr<PhTableCache> ph_tables = nullptr);
-  // Starts a sequence at a known pose.
-  void Reset(const Pose2& initial);
+  // Starts a sequence at a known pose. With `hint` false the pose is a
+  // guess only: tracking starts from it, and the room-wide search takes
+  // over at once if the first frame does not confirm it.
+  void Reset(const Pose2& initial, bool hint = false);
+  // Starts a sequence with no idea of the pose: the first frame is
+  // localised by the room-wide search.
+  void ResetUnknown();
   // Processes one grey frame (CV_8UC1 of the calibration's size).
   FrameResult Process(const cv::Mat& grey, int frame, double time_s);
 
@@ -113,13 +160,18 @@ class Localizer {
   void Measure(const Pose2& pose, double search_px, FrameResult* out) const;
   TriangulationResult Solve(const FrameResult& fr, const Pose2& prior) const;
   bool Acceptable(const FrameResult& fr, const TriangulationResult& tri) const;
+  std::vector<BearingObservation> Observations(const FrameResult& fr) const;
+  // The integrity test of an acceptable solution (fills fr->integrity).
+  bool Consistent(FrameResult* fr, const TriangulationResult& tri) const;
+  // The innovation gate against the motion model (fills fr->innovation).
+  bool AgreesWithMotion(FrameResult* fr, const TriangulationResult& tri) const;
   // Tracks from `pose` (first a wide, then a narrow search); true if accepted.
   bool TrackFrom(const Pose2& pose, double search_px, FrameResult* fr, TriangulationResult* tri) const;
   bool Relocalize(const cv::Mat& grey, FrameResult* fr, TriangulationResult* tri) const;
   // The steps of Process:
   void CheckFrame(const cv::Mat& grey, int frame) const;
-  // the last pose moved on by the last frame-to-frame motion;
-  Pose2 ConstantVelocityPrediction() const;
+  // the motion model's prediction for time t (started at the first frame);
+  Pose2 PredictMotion(double time_s);
   // that prediction, then the visual compass's heading (fills `signature`);
   std::vector<Pose2> CandidatePoses(const cv::Mat& grey, const Pose2& pred,
                                     std::vector<float>* signature) const;
@@ -129,9 +181,9 @@ class Localizer {
   // narrow passes around the solved pose when landmarks were off-centre;
   void RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) const;
   // the room-wide search after relocalize_after lost frames;
-  void RelocalizeIfLost(const cv::Mat& grey, FrameResult* fr, TriangulationResult* tri);
+  bool RelocalizeIfLost(const cv::Mat& grey, int frame, FrameResult* fr, TriangulationResult* tri);
   // the output row and the motion model's state.
-  void RecordOutcome(const FrameResult& fr, const TriangulationResult& tri, int n_found, PoseRow* row);
+  void RecordOutcome(FrameResult* fr, const TriangulationResult& tri, bool accepted, int n_found);
 
   Calibration calib_;
   Map map_;
@@ -156,6 +208,16 @@ class Localizer {
   int n_good_ = 0;   // consecutive good frames (for the velocity model)
   int n_lost_ = 0;   // consecutive lost frames
   bool started_ = false;
+  bool known_start_ = true;   // initial_ is a pose to track from (not unknown)
+  bool start_is_hint_ = false;  // ... but only a guess
+  bool ever_tracked_ = false;
+  MotionModel motion_;
+  MotionModelOptions motion_options_;  // in map units
+  double last_dt_ = 0.0;               // seconds between the last two frames
+  int next_relocalize_frame_ = 0;
+  int relocalize_failures_ = 0;
+  // The bearing noise of recent good frames (radians), for the integrity test.
+  double bearing_sigma_ = 0.0;
 };
 
 }  // namespace pano
