@@ -247,18 +247,18 @@ double MaxTurn(const std::vector<Pose2>& poses, const std::vector<int>& skip = {
 }
 
 // The paper-real room and sensor, 300 frames 1.2..2.5 cm apart along a smooth
-// wandering loop; the heading follows the path plus an offset that wiggles,
-// at times, fast enough for turns of up to 8 degrees per frame.
+// loop (an ellipse, radius of curvature 25 cm and more); the heading follows
+// the path plus an offset that wiggles, at times fast enough for turns of up
+// to 8 degrees per frame.
 SequenceCase FastTurns() {
   SequenceCase c = PaperReal();
   c.name = "fast-turns";
   c.description =
       "The paper-real room and sensor (noise 4, 3x3 blur): 300 frames 1.2..2.5 cm apart along a "
-      "smooth wandering loop, the heading wiggling about the path at up to 8 degrees per frame";
+      "smooth loop, the heading wiggling about the path at up to 8 degrees per frame";
   const int n = 300;
   auto curve = [](double u) {
-    return Eigen::Vector2d(110.0 + 70.0 * std::cos(u) + 10.0 * std::cos(3.0 * u),
-                           80.0 + 36.0 * std::sin(u) + 8.0 * std::sin(2.0 * u + 0.7));
+    return Eigen::Vector2d(110.0 + 65.0 * std::cos(u), 68.0 + 40.0 * std::sin(u));
   };
   // Arc length of the curve, densely sampled.
   const int dense = 20000;
