@@ -317,6 +317,21 @@ TEST_CASE("the presets of real conditions: frames, speeds, turns and kidnaps", "
   CHECK(mb.poses.size() == 300);
   CHECK(mb.poses[123].theta == ft.poses[123].theta);
   CHECK(mb.options.exposure == 0.5);
+  {
+    const SequenceRenderer sr(mb);
+    int k_min = 1 << 30, k_max = 0;
+    double k_mean = 0.0;
+    for (int i = 0; i < sr.frames(); ++i) {
+      const int k = sr.BlurSamples(i);
+      k_min = std::min(k_min, k);
+      k_max = std::max(k_max, k);
+      k_mean += static_cast<double>(k) / sr.frames();
+    }
+    WARN("motion-blur: " << k_min << ".." << k_max << " sub-frames per frame, mean " << k_mean
+                         << "; rim radius " << mb.calib.sensor.limb_radius() << " px");
+    CHECK(k_min == 4);  // 1.2 cm and little turning: about 4 px at the rim over the exposure
+    CHECK(k_max == 19);  // 8 degrees and 2.5 cm per frame
+  }
   const SequenceCase rc = MakePreset("real-conditions");
   CHECK(rc.poses.size() == 300);
   CHECK(rc.options.exposure == 0.5);

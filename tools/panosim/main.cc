@@ -92,7 +92,8 @@ struct RenderFlags {
     if (!sequence) return;
     o_exposure = app->add_option("--exposure", exposure,
                                  "Motion blur: shutter open for this fraction of the frame interval (0..1), "
-                                 "centred on the frame's time, so gt.csv holds the mid-exposure pose")
+                                 "centred on the frame's time, so gt.csv holds the mid-exposure pose; the frame "
+                                 "is the mean of sub-frames (one ray per pixel each when 4 or more)")
                      ->default_val(0);
     o_blur_samples = app->add_option("--blur-samples", blur_samples,
                                      "Sub-frames averaged per blurred frame (1..64; 0: enough for about 1 px "
@@ -103,8 +104,9 @@ struct RenderFlags {
                                       "within 1 +- A (0..0.9)")
                           ->default_val(0);
     o_people = app->add_option("--people", people,
-                               "People walking back and forth (not in map.yaml): prisms 2 % of the room wide, "
-                               "60..90 % of its height, 1 % of the room per frame (0..50)")
+                               "People walking back and forth (not in map.yaml): dark prisms 4 % of the room's "
+                               "larger side wide, 60..90 % of its height, walking 1 % of that side per frame, "
+                               "kept 8 % of it from the sensor (0..50)")
                    ->default_val(0);
     o_covered = app->add_option("--covered-frames", covered_frames,
                                 "Frames (seeded, not the first 5) where a dark object in front of the lens "
