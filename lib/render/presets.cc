@@ -3,12 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <random>
 #include <sstream>
 
 #include "core/error.h"
 #include "io/calibration.h"
 #include "io/map.h"
 #include "io/pose_csv.h"
+#include "render/sequence.h"
 
 namespace pano {
 
@@ -231,7 +233,172 @@ SequenceCase Kidnap() {
   c.options.supersample = 3;
   c.options.noise_sigma = 1.5;
   c.options.seed = 30;
-  c.kidnap_frame = 30;
+  c.kidnap_frames = {30};
+  return c;
+}
+
+// Largest heading change between consecutive poses, skipping `skip` frames (kidnaps).
+double MaxTurn(const std::vector<Pose2>& poses, const std::vector<int>& skip = {}) {
+  double m = 0.0;
+  for (size_t i = 1; i < poses.size(); ++i)
+    if (std::find(skip.begin(), skip.end(), static_cast<int>(i)) == skip.end())
+      m = std::max(m, std::abs(wrap_angle(poses[i].theta - poses[i - 1].theta)));
+  return m;
+}
+
+// The paper-real room and sensor, 300 frames 1.2..2.5 cm apart along a smooth
+// loop (an ellipse, radius of curvature 25 cm and more); the heading follows
+// the path plus an offset that wiggles, at times fast enough for turns of up
+// to 8 degrees per frame.
+SequenceCase FastTurns() {
+  SequenceCase c = PaperReal();
+  c.name = "fast-turns";
+  c.description =
+      "The paper-real room and sensor (noise 4, 3x3 blur): 300 frames 1.2..2.5 cm apart along a "
+      "smooth loop, the heading wiggling about the path at up to 8 degrees per frame";
+  const int n = 300;
+  auto curve = [](double u) {
+    return Eigen::Vector2d(110.0 + 65.0 * std::cos(u), 68.0 + 40.0 * std::sin(u));
+  };
+  // Arc length of the curve, densely sampled.
+  const int dense = 20000;
+  std::vector<double> len(dense + 1, 0.0);
+  for (int k = 1; k <= dense; ++k)
+    len[static_cast<size_t>(k)] = len[static_cast<size_t>(k - 1)] +
+                                  (curve(2.0 * M_PI * k / dense) - curve(2.0 * M_PI * (k - 1) / dense)).norm();
+  const double loop = len.back();
+  std::vector<Eigen::Vector2d> pos;
+  std::vector<double> direction;
+  double s = 0.0;
+  size_t j = 0;
+  for (int i = 0; i < n; ++i) {
+    const double in_loop = std::fmod(s, loop);
+    if (i > 0 && in_loop < len[j]) j = 0;
+    while (j + 1 < len.size() && len[j + 1] < in_loop) ++j;
+    const double f = (in_loop - len[j]) / std::max(1e-12, len[j + 1] - len[j]);
+    const double u = 2.0 * M_PI * (static_cast<double>(j) + f) / dense;
+    pos.push_back(curve(u));
+    const Eigen::Vector2d d = curve(u + 1e-4) - curve(u - 1e-4);
+    direction.push_back(std::atan2(d.y(), d.x()));
+    s += 1.85 + 0.65 * std::sin(2.0 * M_PI * i / 97.0 + 0.3);  // 1.2..2.5 cm per frame
+  }
+  auto poses_for = [&](double amplitude) {
+    std::vector<Pose2> out;
+    for (int i = 0; i < n; ++i) {
+      const double envelope = 0.5 - 0.5 * std::cos(2.0 * M_PI * i / 150.0);
+      const double offset = amplitude * envelope * std::sin(2.0 * M_PI * i / 40.0);
+      out.push_back({pos[static_cast<size_t>(i)].x(), pos[static_cast<size_t>(i)].y(),
+                     wrap_angle(direction[static_cast<size_t>(i)] + offset)});
+    }
+    return out;
+  };
+  // The wiggle's amplitude that makes the fastest turn 8 degrees per frame.
+  double lo = 0.0, hi = 2.0;
+  for (int it = 0; it < 50; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (MaxTurn(poses_for(mid)) > 8.0 * M_PI / 180.0 ? hi : lo) = mid;
+  }
+  c.poses = poses_for(lo);
+  c.fps = 10.0;
+  c.options.noise_sigma = 4.0;
+  c.options.seed = 300;
+  return c;
+}
+
+SequenceCase MotionBlur() {
+  SequenceCase c = FastTurns();
+  c.name = "motion-blur";
+  c.description = "fast-turns with motion blur: the shutter open for half the frame interval";
+  c.options.exposure = 0.5;
+  return c;
+}
+
+SequenceCase RealConditions() {
+  SequenceCase c = FastTurns();
+  c.name = "real-conditions";
+  c.description =
+      "fast-turns with every factor of a real camera and room: exposure 0.5, auto-exposure +-20 %, "
+      "surface texture 0.1, 2 people walking, 3 covered frames, 3 dropped frames";
+  c.options.exposure = 0.5;
+  c.options.auto_exposure = 0.2;
+  c.options.texture = 0.1;
+  c.options.people = 2;
+  c.options.covered_frames = 3;
+  c.options.dropped_frames = 3;
+  return c;
+}
+
+// The paper-synthetic room, 3000 frames of a seeded random walk (1..2 units
+// per frame, turns up to 10 degrees per frame, turning on the spot where the
+// way ahead is not clear), kidnapped at frames 1000 and 2000.
+SequenceCase LongRun() {
+  SequenceCase c;
+  c.name = "long-run";
+  c.description =
+      "The paper-synthetic room, 3000 frames of a random walk (1..2 units and up to 10 degrees per "
+      "frame, bouncing off the walls), kidnapped at frames 1000 and 2000 (jumps of 40+ units and "
+      "about 100 degrees)";
+  c.calib = PaperSyntheticCalibration();
+  c.map = SyntheticMap();
+  const int n = 3000;
+  const double max_turn = 10.0 * M_PI / 180.0, clearance = 27.0;
+  auto valid = [&](const Eigen::Vector2d& p) {
+    try {
+      CheckPose(c.map, {p.x(), p.y(), 0.0}, "long-run", clearance);
+      return true;
+    } catch (const Error&) {
+      return false;
+    }
+  };
+  // Portable draws (the standard distributions differ between libraries).
+  std::mt19937_64 engine(3000);
+  auto uniform = [&](std::mt19937_64&) { return (static_cast<double>(engine() >> 11) + 0.5) / 9007199254740992.0; };
+  auto normal = [&](std::mt19937_64& e) {
+    return std::sqrt(-2.0 * std::log(uniform(e))) * std::cos(2.0 * M_PI * uniform(e));
+  };
+  std::mt19937_64& rng = engine;
+  Eigen::Vector2d p(85.0, 75.0);
+  double theta = 0.3, turn = 0.0, bounce = 1.0;
+  c.kidnap_frames = {1000, 2000};
+  for (int i = 0; i < n; ++i) {
+    if (i == 1000 || i == 2000) {
+      Eigen::Vector2d q = p;
+      while (!valid(q) || (q - p).norm() < 40.0)
+        q = {c.map.room.min.x() + uniform(rng) * (c.map.room.max.x() - c.map.room.min.x()),
+             c.map.room.min.y() + uniform(rng) * (c.map.room.max.y() - c.map.room.min.y())};
+      p = q;
+      theta = wrap_angle(theta + (uniform(rng) < 0.5 ? -1.0 : 1.0) * (90.0 + 20.0 * uniform(rng)) * M_PI / 180.0);
+      turn = 0.0;
+    } else if (i > 0) {
+      // A smoothly varying turn rate, clamped to the maximum.
+      turn = std::clamp(0.9 * turn + 0.35 * max_turn * normal(rng), -max_turn, max_turn);
+      const double speed = 1.5 + 0.5 * std::sin(2.0 * M_PI * i / 211.0);
+      const double heading = theta + turn;
+      const Eigen::Vector2d next = p + speed * Eigen::Vector2d(std::cos(heading), std::sin(heading));
+      if (valid(next)) {
+        p = next;
+        theta = wrap_angle(heading);
+        if (turn != 0.0) bounce = turn > 0.0 ? 1.0 : -1.0;
+      } else {
+        // The way ahead is blocked: turn on the spot, keeping the sense of turning.
+        theta = wrap_angle(theta + bounce * max_turn);
+        turn = bounce * max_turn;
+      }
+    }
+    c.poses.push_back({p.x(), p.y(), theta});
+  }
+  c.fps = 10.0;
+  c.options.supersample = 3;
+  c.options.noise_sigma = 1.5;
+  c.options.seed = 3000;
+  return c;
+}
+
+SequenceCase LongRunBlur() {
+  SequenceCase c = LongRun();
+  c.name = "long-run-blur";
+  c.description = "long-run with motion blur: the shutter open for half the frame interval";
+  c.options.exposure = 0.5;
   return c;
 }
 
@@ -249,7 +416,10 @@ Calibration PaperSyntheticCalibration() {
                          "radius 157.2 px.");
 }
 
-std::vector<std::string> PresetNames() { return {"paper-synthetic", "paper-real", "cluttered", "kidnap"}; }
+std::vector<std::string> PresetNames() {
+  return {"paper-synthetic", "paper-real",      "cluttered", "kidnap",       "fast-turns",
+          "motion-blur",     "real-conditions", "long-run",  "long-run-blur"};
+}
 
 SequenceCase MakePreset(const std::string& name) {
   SequenceCase c;
@@ -257,6 +427,11 @@ SequenceCase MakePreset(const std::string& name) {
   else if (name == "paper-real") c = PaperReal();
   else if (name == "cluttered") c = Cluttered();
   else if (name == "kidnap") c = Kidnap();
+  else if (name == "fast-turns") c = FastTurns();
+  else if (name == "motion-blur") c = MotionBlur();
+  else if (name == "real-conditions") c = RealConditions();
+  else if (name == "long-run") c = LongRun();
+  else if (name == "long-run-blur") c = LongRunBlur();
   else {
     std::string list;
     for (const std::string& n : PresetNames()) list += (list.empty() ? "" : ", ") + n;
@@ -274,6 +449,21 @@ void CheckCase(const SequenceCase& c, const std::string& what, double clearance)
   if (!(c.fps > 0.0) || !std::isfinite(c.fps)) throw Error(what + ": fps: expected a positive frame rate");
   for (size_t i = 0; i < c.poses.size(); ++i)
     CheckPose(c.map, c.poses[i], what + ": frame " + std::to_string(i), clearance);
+  const int n = static_cast<int>(c.poses.size());
+  for (size_t k = 0; k < c.kidnap_frames.size(); ++k) {
+    const int f = c.kidnap_frames[k];
+    if (f < 1 || f >= n || (k > 0 && f <= c.kidnap_frames[k - 1]))
+      throw Error(what + ": kidnap frames: expected ascending frames in 1.." + std::to_string(n - 1) +
+                  ", got " + std::to_string(f));
+  }
+  if (c.options.people > 0 && !c.map.room.present)
+    throw Error(what + ": people: the map has no room for people to walk in");
+  try {
+    CoveredFrames(c.options, n);  // also checks the dropped frames
+    DroppedFrames(c.options, n);
+  } catch (const Error& e) {
+    throw Error(what + ": " + e.what());
+  }
 }
 
 std::vector<Pose2> SmoothPath(const std::vector<Eigen::Vector2d>& wp, int n, double heading_offset) {

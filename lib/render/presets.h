@@ -20,10 +20,11 @@ struct SequenceCase {
   std::vector<Pose2> poses;  // one per frame
   double fps = 10.0;
   RenderOptions options;
-  int kidnap_frame = -1;  // first frame after a sudden jump of the pose (-1: none)
+  std::vector<int> kidnap_frames;  // first frames after sudden jumps of the pose (ascending)
 };
 
-// Names of the built-in presets: paper-synthetic, paper-real, cluttered, kidnap.
+// Names of the built-in presets: paper-synthetic, paper-real, cluttered, kidnap,
+// fast-turns, motion-blur, real-conditions, long-run, long-run-blur.
 std::vector<std::string> PresetNames();
 // Throws pano::Error "preset 'x': unknown (expected one of ...)".
 SequenceCase MakePreset(const std::string& name);

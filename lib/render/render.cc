@@ -59,6 +59,23 @@ void RenderOptions::Check(const std::string& what) const {
   if (!std::isfinite(gradient_angle)) fail("gradient-angle", "expected a finite angle in radians");
   if (!(background >= 0.0 && background <= 1.0)) fail("background", "expected a shade between 0 and 1");
   if (!(camera_radius_px >= 0.0) || !std::isfinite(camera_radius_px)) fail("camera-radius", "expected a non-negative radius in pixels");
+  if (!(exposure >= 0.0 && exposure <= 1.0)) fail("exposure", "expected a fraction of the frame interval, 0..1");
+  if (blur_samples < 0 || blur_samples > 64) fail("blur-samples", "expected 0 (automatic) or 1..64 sub-frames, got " + std::to_string(blur_samples));
+  if (!(auto_exposure >= 0.0 && auto_exposure <= 0.9)) fail("auto-exposure", "expected a gain amplitude 0..0.9");
+  if (!(texture >= 0.0 && texture <= 1.0)) fail("texture", "expected a texture amplitude 0..1");
+  if (people < 0 || people > 50) fail("people", "expected 0..50 people, got " + std::to_string(people));
+  if (covered_frames < 0) fail("covered-frames", "expected a non-negative number of frames");
+  if (dropped_frames < 0) fail("dropped-frames", "expected a non-negative number of frames");
+}
+
+double SurfaceTexture(const Eigen::Vector3d& p, double wavelength) {
+  // Three oblique directions (none in a coordinate plane), so that every wall,
+  // floor and box face shows a two-dimensional pattern; weights sum to 1.
+  const double k = 2.0 * M_PI / wavelength;
+  const double a = 0.62 * p.x() + 0.50 * p.y() + 0.60 * p.z();
+  const double b = -0.71 * p.x() + 0.33 * p.y() + 0.62 * p.z();
+  const double c = 0.27 * p.x() - 0.83 * p.y() + 0.49 * p.z();
+  return 0.4 * std::sin(k * a + 1.3) + 0.35 * std::sin(1.37 * k * b + 0.4) + 0.25 * std::sin(2.3 * k * c + 2.1);
 }
 
 void CheckPose(const Map& map, const Pose2& pose, const std::string& what, double clearance) {
@@ -183,9 +200,12 @@ Renderer::Renderer(const Sensor& sensor, const Scene& scene, double sensor_heigh
       sensor_height_(sensor_height),
       options_(options),
       table_(Checked(sensor, options), options.supersample, options.camera_radius_px),
-      centre_table_(sensor, 1, options.camera_radius_px) {}
+      centre_table_(sensor, 1, options.camera_radius_px) {
+  const Eigen::Vector3d extent = scene.max() - scene.min();
+  texture_wavelength_ = std::max(1e-6, 0.06 * std::max(extent.x(), extent.y()));
+}
 
-void Renderer::BuildFrame(const Pose2& pose, Frame* f) const {
+void Renderer::BuildFrame(const Pose2& pose, const std::vector<Surface>& extra, Frame* f) const {
   f->pose = pose;
   f->ct = std::cos(pose.theta);
   f->st = std::sin(pose.theta);
@@ -222,8 +242,9 @@ void Renderer::BuildFrame(const Pose2& pose, Frame* f) const {
   f->cands.clear();
   f->generic.clear();
   const auto& surfs = scene_.surfaces();
-  for (int i = 0; i < static_cast<int>(surfs.size()); ++i) {
-    const Surface& s = surfs[static_cast<size_t>(i)];
+  const int n_scene = static_cast<int>(surfs.size());
+  for (int i = 0; i < n_scene + static_cast<int>(extra.size()); ++i) {
+    const Surface& s = i < n_scene ? surfs[static_cast<size_t>(i)] : extra[static_cast<size_t>(i - n_scene)];
     Cand c{};
     c.id = i;
     c.shade = s.shade;
@@ -274,6 +295,7 @@ void Renderer::BuildFrame(const Pose2& pose, Frame* f) const {
         mark(st, w, item);
       }
     } else {
+      if (i >= n_scene) throw Error("renderer: extra surface '" + s.name + "' is neither vertical nor horizontal");
       f->generic.push_back(i);
     }
   }
@@ -306,6 +328,7 @@ struct TraceResult {
   int id;
   double r;  // horizontal distance of the hit from the axis
   double wx, wy;
+  double z;  // height of the hit relative to the pinhole
 };
 
 template <typename Frame, typename Cand, typename Ray>
@@ -319,7 +342,7 @@ inline TraceResult TraceRay(const Frame& f, const std::vector<Cand>& cands, cons
   const double ps = ray.ps, pz = ray.pz, ds = ray.ds, dz = ray.dz;
   const double kz = ds > 0.0 ? dz / ds : (dz >= 0 ? 1e300 : -1e300);
   double best = std::numeric_limits<double>::infinity();
-  TraceResult res{background, -1, 0.0, wx, wy};
+  TraceResult res{background, -1, 0.0, wx, wy, 0.0};
   const int* it = f.bin_items.data() + f.bin_start[bin];
   const int* end = f.bin_items.data() + f.bin_start[bin + 1];
   for (; it != end; ++it) {
@@ -337,6 +360,7 @@ inline TraceResult TraceRay(const Frame& f, const std::vector<Cand>& cands, cons
       res.shade = q.shade;
       res.id = q.id;
       res.r = r;
+      res.z = z;
     } else {
       const double dzr = q.zlo - pz;
       if (!(dzr * dz > 0.0)) continue;
@@ -350,6 +374,7 @@ inline TraceResult TraceRay(const Frame& f, const std::vector<Cand>& cands, cons
       res.shade = q.shade;
       res.id = q.id;
       res.r = r;
+      res.z = q.zlo;
     }
   }
   return res;
@@ -358,24 +383,48 @@ inline TraceResult TraceRay(const Frame& f, const std::vector<Cand>& cands, cons
 }  // namespace
 
 cv::Mat Renderer::Render(const Pose2& pose, int frame_index) const {
-  Frame f;
-  BuildFrame(pose, &f);
+  const Sensor& sensor = table_.sensor();
+  cv::Mat img(sensor.image_height, sensor.image_width, CV_32FC1, cv::Scalar(0));
+  Accumulate(pose, 1.0, {}, false, &img);
+  return FinishImage(img, options_, frame_index, options_.noise_sigma > 0.0 ? MirrorMask() : cv::Mat());
+}
+
+cv::Mat Renderer::MirrorMask() const {
   const Sensor& sensor = table_.sensor();
   const int W = sensor.image_width, Hh = sensor.image_height;
-  cv::Mat img(Hh, W, CV_32FC1, cv::Scalar(0));
-  const auto& rays = table_.rays();
   const auto& starts = table_.starts();
-  const float inv_n = 1.0f / static_cast<float>(table_.supersample() * table_.supersample());
+  cv::Mat mask(Hh, W, CV_8UC1, cv::Scalar(0));
+  for (int v = 0; v < Hh; ++v)
+    for (int u = 0; u < W; ++u)
+      if (starts[static_cast<size_t>(v) * W + u + 1] > starts[static_cast<size_t>(v) * W + u])
+        mask.at<uint8_t>(v, u) = 255;
+  return mask;
+}
+
+void Renderer::Accumulate(const Pose2& pose, double gain, const std::vector<Surface>& extra,
+                          bool one_ray, cv::Mat* sum) const {
+  Frame f;
+  BuildFrame(pose, extra, &f);
+  const RayTable& table = one_ray ? centre_table_ : table_;
+  const Sensor& sensor = table.sensor();
+  const int W = sensor.image_width, Hh = sensor.image_height;
+  if (sum->rows != Hh || sum->cols != W || sum->type() != CV_32FC1)
+    throw Error("renderer: the sum image must be CV_32FC1 of the sensor's size");
+  f.gain *= gain;
+  const auto& rays = table.rays();
+  const auto& starts = table.starts();
+  const float inv_n = 1.0f / static_cast<float>(table.supersample() * table.supersample());
   const bool gradient = options_.gradient > 0.0;
+  const bool texture = options_.texture > 0.0;
   const bool generic = !f.generic.empty();
   const double H = sensor_height_;
   // Rows in parallel; an exception leaves the loop.
   ParallelFor(Hh, [&](int v) {
-    float* row = img.ptr<float>(v);
+    float* row = sum->ptr<float>(v);
     for (int u = 0; u < W; ++u) {
       const int b = starts[static_cast<size_t>(v) * W + u], e = starts[static_cast<size_t>(v) * W + u + 1];
       if (b == e) continue;
-      float sum = 0.0f;
+      float acc = 0.0f;
       for (int k = b; k < e; ++k) {
         const RayTable::Ray& ray = rays[static_cast<size_t>(k)];
         TraceResult t = TraceRay(f, f.cands, ray, options_.background);
@@ -388,6 +437,7 @@ cv::Mat Renderer::Render(const Pose2& pose, int frame_index) const {
             t.shade = h.shade;
             t.id = h.surface;
             t.r = ray.ps + h.t * ray.ds;
+            t.z = ray.pz + h.t * ray.dz;
           }
         }
         double val = t.shade * f.gain;
@@ -395,26 +445,20 @@ cv::Mat Renderer::Render(const Pose2& pose, int frame_index) const {
           const double x = pose.x + t.r * t.wx, y = pose.y + t.r * t.wy;
           val *= std::max(0.0, 1.0 + f.gx * (x - f.cx) + f.gy * (y - f.cy));
         }
-        sum += static_cast<float>(std::clamp(val, 0.0, 1.0));
+        if (texture && t.id >= 0) {
+          const Eigen::Vector3d w(pose.x + t.r * t.wx, pose.y + t.r * t.wy, H + t.z);
+          val *= 1.0 + options_.texture * SurfaceTexture(w, texture_wavelength_);
+        }
+        acc += static_cast<float>(std::clamp(val, 0.0, 1.0));
       }
-      row[u] = 255.0f * sum * inv_n;
+      row[u] += 255.0f * acc * inv_n;
     }
   });
-  // Mask of the mirror's pixels, for the noise.
-  cv::Mat mask;
-  if (options_.noise_sigma > 0.0) {
-    mask = cv::Mat(Hh, W, CV_8UC1, cv::Scalar(0));
-    for (int v = 0; v < Hh; ++v)
-      for (int u = 0; u < W; ++u)
-        if (starts[static_cast<size_t>(v) * W + u + 1] > starts[static_cast<size_t>(v) * W + u])
-          mask.at<uint8_t>(v, u) = 255;
-  }
-  return FinishImage(img, options_, frame_index, mask);
 }
 
-cv::Mat Renderer::SurfaceIds(const Pose2& pose) const {
+cv::Mat Renderer::SurfaceIds(const Pose2& pose, const std::vector<Surface>& extra) const {
   Frame f;
-  BuildFrame(pose, &f);
+  BuildFrame(pose, extra, &f);
   const Sensor& sensor = centre_table_.sensor();
   const int W = sensor.image_width, Hh = sensor.image_height;
   cv::Mat ids(Hh, W, CV_32SC1, cv::Scalar(-1));

@@ -29,6 +29,16 @@ struct RenderOptions {
   double background = 0.0;         // shade of rays that meet no surface (no room)
   double camera_radius_px = 0.0;   // dark disc of this image radius: the camera's own reflection
   uint64_t seed = 1;               // noise seed; frame i uses (seed, i)
+  // Factors of real cameras and rooms (all off by default). The per-frame ones
+  // (exposure, auto_exposure, people, covered and dropped frames) act in a
+  // sequence (SequenceRenderer); texture acts on every render.
+  double exposure = 0.0;           // motion blur: open shutter, fraction of the frame interval (0..1)
+  int blur_samples = 0;            // sub-frames per blurred frame (0: automatic, 1..64)
+  double auto_exposure = 0.0;      // per-frame gain drift and steps, +-amplitude (0..0.9)
+  double texture = 0.0;            // world-fixed surface texture: shade * (1 + texture * t), t in [-1, 1] (0..1)
+  int people = 0;                  // moving cylinders (people) not in the map (0..50)
+  int covered_frames = 0;          // frames where a dark object covers most of the mirror
+  int dropped_frames = 0;          // frames left out of the video and gt.csv
   // Throws pano::Error naming `what` (an option or file) and the problem.
   void Check(const std::string& what) const;
 };
@@ -60,6 +70,11 @@ class RayTable {
   std::vector<int> starts_;
 };
 
+// World-fixed texture pattern t(p) in [-1, 1]: a few sines of the world point
+// with wavelengths near `wavelength` (map units), smooth and not periodic along
+// any plane's axes.
+double SurfaceTexture(const Eigen::Vector3d& world, double wavelength);
+
 class Renderer {
  public:
   // `scene` must outlive the renderer. sensor_height: the pinhole's world height.
@@ -67,20 +82,32 @@ class Renderer {
            const RenderOptions& options);
   // The frame seen from `pose` (CV_8UC1); `frame_index` selects the noise.
   cv::Mat Render(const Pose2& pose, int frame_index = 0) const;
+  // Adds to `sum` (CV_32FC1, image size) the grey levels (0..255) seen from
+  // `pose`, before blur and noise, with `gain` on the illumination and
+  // `extra` surfaces (moving objects; vertical or horizontal quads only, ids
+  // after the scene's). `one_ray`: one ray per pixel instead of s x s.
+  void Accumulate(const Pose2& pose, double gain, const std::vector<Surface>& extra, bool one_ray,
+                  cv::Mat* sum) const;
+  // Pixels that see the mirror (CV_8UC1, 255), where noise is added.
+  cv::Mat MirrorMask() const;
   // Surface index seen by each pixel's centre (CV_32SC1; -1 outside the
-  // mirror or nothing met). For tests and debugging.
-  cv::Mat SurfaceIds(const Pose2& pose) const;
+  // mirror or nothing met; scene surfaces first, then `extra`). For tests and debugging.
+  cv::Mat SurfaceIds(const Pose2& pose, const std::vector<Surface>& extra = {}) const;
   const RenderOptions& options() const { return options_; }
+  const Scene& scene() const { return scene_; }
+  double sensor_height() const { return sensor_height_; }
+  const Sensor& sensor() const { return table_.sensor(); }
 
  private:
   struct Cand;
   struct Frame;
-  void BuildFrame(const Pose2& pose, Frame* f) const;
+  void BuildFrame(const Pose2& pose, const std::vector<Surface>& extra, Frame* f) const;
   const Scene& scene_;
   double sensor_height_;
   RenderOptions options_;
   RayTable table_;
-  RayTable centre_table_;  // one ray per pixel, for SurfaceIds
+  RayTable centre_table_;  // one ray per pixel, for SurfaceIds and fast sub-frames
+  double texture_wavelength_ = 1.0;
 };
 
 // One still: builds the scene (with distractors unless options say not) and renders.

@@ -15,6 +15,7 @@
 #include "io/map.h"
 #include "io/pose_csv.h"
 #include "io/yaml_util.h"
+#include "render/sequence.h"
 
 namespace fs = std::filesystem;
 
@@ -93,7 +94,16 @@ std::string CaseYaml(const SequenceCase& c, const std::string& codec) {
   w.Key("y").Double(c.poses.front().y);
   w.Key("theta").Double(c.poses.front().theta);
   w.EndMap();
-  if (c.kidnap_frame >= 0) w.Key("kidnap_frame").Int(c.kidnap_frame);
+  auto int_list = [&](const std::vector<int>& values) {
+    w.BeginList();
+    for (int v : values) w.Int(v);
+    w.EndList();
+  };
+  if (!c.kidnap_frames.empty()) {
+    w.Key("kidnap_frame").Int(c.kidnap_frames.front());  // the first, for readers of one kidnap
+    w.Key("kidnap_frames");
+    int_list(c.kidnap_frames);
+  }
   if (!codec.empty()) {
     w.Key("video").String("video.mp4");
     w.Key("video_codec").String(codec);
@@ -107,6 +117,23 @@ std::string CaseYaml(const SequenceCase& c, const std::string& codec) {
   w.Key("gradient_angle").Double(r.gradient_angle);
   w.Key("distractors").Int(static_cast<long long>(c.map.distractors.size()));
   w.Key("camera_radius_px").Double(r.camera_radius_px);
+  // The factors of real cameras and rooms, only when on (older cases stay as they were).
+  const int n = static_cast<int>(c.poses.size());
+  if (r.exposure > 0.0) {
+    w.Key("exposure").Double(r.exposure);
+    w.Key("blur_samples").Int(r.blur_samples);
+  }
+  if (r.auto_exposure > 0.0) w.Key("auto_exposure").Double(r.auto_exposure);
+  if (r.texture > 0.0) w.Key("texture").Double(r.texture);
+  if (r.people > 0) w.Key("people").Int(r.people);
+  if (r.covered_frames > 0) {
+    w.Key("covered_frames");  // true frame numbers (see gt.csv's time column)
+    int_list(CoveredFrames(r, n));
+  }
+  if (r.dropped_frames > 0) {
+    w.Key("dropped_frames");  // true frame numbers left out of video.mp4 and gt.csv
+    int_list(DroppedFrames(r, n));
+  }
   w.EndMap();
   w.EndMap();
   return w.Text();
@@ -118,8 +145,8 @@ SequenceWriteResult WriteSequence(const SequenceCase& c, const std::string& dir,
   if (!wo.video && !wo.frames) throw Error("--no-video: nothing to write (give --frames)");
   StagingDir sd(dir, wo.overwrite);
   const Sensor& sensor = c.calib.sensor;
-  const Scene scene = Scene::FromMap(c.map, c.options.distractors);
-  const Renderer renderer(sensor, scene, c.map.sensor_height, c.options);
+  const SequenceRenderer renderer(c);
+  const Scene& scene = renderer.scene();
   SequenceWriteResult res;
   cv::VideoWriter video;
   const cv::Size size(sensor.image_width, sensor.image_height);
@@ -139,20 +166,24 @@ SequenceWriteResult WriteSequence(const SequenceCase& c, const std::string& dir,
   PoseCsvWriter gt(sd.File("gt.csv"));
   const int n = static_cast<int>(c.poses.size());
   cv::Mat bgr;
+  // Dropped frames are left out: the video stays constant-rate, and gt.csv's
+  // frame column is the video's frame index while its time is the true time.
+  int written = 0;
   for (int i = 0; i < n; ++i) {
+    if (renderer.Dropped(i)) continue;
     const Pose2& pose = c.poses[static_cast<size_t>(i)];
-    const cv::Mat img = renderer.Render(pose, i);
+    const cv::Mat img = renderer.RenderFrame(i);
     if (wo.video) {
       cv::cvtColor(img, bgr, cv::COLOR_GRAY2BGR);
       video.write(bgr);
     }
     if (wo.frames) {
       char name[64];
-      std::snprintf(name, sizeof(name), "frames/frame_%04d.png", i);
+      std::snprintf(name, sizeof(name), "frames/frame_%04d.png", written);
       WritePng(sd.File(name), img);
     }
     PoseRow row;
-    row.frame = i;
+    row.frame = written++;
     row.time_s = i / c.fps;
     row.status = PoseStatus::kOk;
     row.pose = pose;
@@ -170,7 +201,7 @@ SequenceWriteResult WriteSequence(const SequenceCase& c, const std::string& dir,
   WriteCalibration(sd.File("calib.yaml"), calib);
   WriteFileAtomic(sd.File("case.yaml"), CaseYaml(c, res.codec));
   sd.Commit();
-  res.frames = n;
+  res.frames = written;
   return res;
 }
 

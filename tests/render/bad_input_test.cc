@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "core/error.h"
 #include "render/presets.h"
@@ -94,6 +96,15 @@ TEST_CASE("bad input: clear one-line errors, non-zero exit, nothing written", "[
   ExpectOneLineError(r, "supersample", "1..8");
   r = Panosim("still --map " + good_map + " --calib " + dir + "/nope.yaml --pose 100,100,0 -o " + dir + "/a.png");
   ExpectOneLineError(r, "nope.yaml", "");
+  r = Panosim("sequence --preset paper-synthetic --exposure 1.5 -q -o " + dir + "/seq");
+  ExpectOneLineError(r, "exposure", "0..1");
+  r = Panosim("sequence --preset paper-synthetic --people 51 -q -o " + dir + "/seq");
+  ExpectOneLineError(r, "people", "0..50");
+  r = Panosim("sequence --preset paper-synthetic --dropped-frames 20 --covered-frames 20 -q -o " + dir + "/seq");
+  ExpectOneLineError(r, "preset 'paper-synthetic'", "do not fit");
+  r = Panosim("still --preset paper-synthetic --texture -0.1 -o " + dir + "/a.png");
+  ExpectOneLineError(r, "texture", "0..1");
+  CHECK_FALSE(fs::exists(dir + "/seq"));
   r = Panosim("targets --calib " + calib + " --board 9,6 --auto 2 -o " + dir + "/cal");
   ExpectOneLineError(r, "--board", "cols,rows,square");
   CHECK_FALSE(fs::exists(dir + "/cal"));
@@ -129,6 +140,26 @@ TEST_CASE("library errors name the option or file", "[bad_input]") {
   RenderOptions o;
   o.gradient = 2.0;
   CHECK_THROWS_WITH(o.Check("opts"), Catch::StartsWith("opts: gradient"));
+  o.gradient = 0.0;
+  for (auto [set, key] : std::vector<std::pair<void (*)(RenderOptions*), std::string>>{
+           {[](RenderOptions* x) { x->exposure = -0.1; }, "exposure"},
+           {[](RenderOptions* x) { x->blur_samples = 65; }, "blur-samples"},
+           {[](RenderOptions* x) { x->auto_exposure = 1.0; }, "auto-exposure"},
+           {[](RenderOptions* x) { x->texture = 1.5; }, "texture"},
+           {[](RenderOptions* x) { x->people = -1; }, "people"},
+           {[](RenderOptions* x) { x->covered_frames = -1; }, "covered-frames"},
+           {[](RenderOptions* x) { x->dropped_frames = -1; }, "dropped-frames"}}) {
+    RenderOptions bad;
+    set(&bad);
+    CHECK_THROWS_WITH(bad.Check("opts"), Catch::StartsWith("opts: " + key));
+  }
+  SequenceCase no_room = c;
+  no_room.map.room.present = false;
+  no_room.options.people = 1;
+  CHECK_THROWS_WITH(CheckCase(no_room, "case"), Catch::Contains("people"));
+  SequenceCase bad_kidnap = c;
+  bad_kidnap.kidnap_frames = {10, 5};
+  CHECK_THROWS_WITH(CheckCase(bad_kidnap, "case"), Catch::Contains("kidnap frames"));
 }
 
 }  // namespace

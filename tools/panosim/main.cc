@@ -57,10 +57,18 @@ struct RenderFlags {
   bool no_distractors = false;
   double camera_radius = 0.0;
   unsigned long long seed = 1;
+  double texture = 0.0;
+  double exposure = 0.0;
+  int blur_samples = 0;
+  double auto_exposure = 0.0;
+  int people = 0, covered_frames = 0, dropped_frames = 0;
+  CLI::Option *o_texture = nullptr, *o_exposure = nullptr, *o_blur_samples = nullptr, *o_auto_exposure = nullptr,
+              *o_people = nullptr, *o_covered = nullptr, *o_dropped = nullptr;
   std::vector<CLI::Option*> opts;
   CLI::Option *o_ss, *o_noise, *o_blur, *o_grad, *o_grad_angle, *o_nodis, *o_cam, *o_seed;
 
-  void Add(CLI::App* app, bool scene) {
+  // scene: options of rendering a room; sequence: the per-frame factors too.
+  void Add(CLI::App* app, bool scene, bool sequence = false) {
     o_ss = app->add_option("--supersample", supersample, "Rays per pixel side: s x s subsamples per pixel (1..8)")
                ->default_val(3);
     o_noise = app->add_option("--noise", noise, "Gaussian noise sigma in grey levels (0..255 scale)")->default_val(0);
@@ -77,6 +85,38 @@ struct RenderFlags {
     o_cam = app->add_option("--camera-radius", camera_radius,
                             "Image radius (px) of a black disc at the centre: the camera's own reflection")
                 ->default_val(0);
+    o_texture = app->add_option("--texture", texture,
+                                "World-fixed surface texture: every surface's shade times (1 + A t), t a smooth "
+                                "pattern in [-1, 1] of the world point, wavelength about 6 % of the room (0..1)")
+                    ->default_val(0);
+    if (!sequence) return;
+    o_exposure = app->add_option("--exposure", exposure,
+                                 "Motion blur: shutter open for this fraction of the frame interval (0..1), "
+                                 "centred on the frame's time, so gt.csv holds the mid-exposure pose; the frame "
+                                 "is the mean of sub-frames (one ray per pixel each when 4 or more)")
+                     ->default_val(0);
+    o_blur_samples = app->add_option("--blur-samples", blur_samples,
+                                     "Sub-frames averaged per blurred frame (1..64; 0: enough for about 1 px "
+                                     "between sub-frames at the mirror's rim, 2..32)")
+                         ->default_val(0);
+    o_auto_exposure = app->add_option("--auto-exposure", auto_exposure,
+                                      "Per-frame gain before clipping: slow drift and steps every 40..80 frames, "
+                                      "within 1 +- A (0..0.9)")
+                          ->default_val(0);
+    o_people = app->add_option("--people", people,
+                               "People walking back and forth (not in map.yaml): dark prisms 4 % of the room's "
+                               "larger side wide, 60..90 % of its height, walking 1 % of that side per frame, "
+                               "kept 8 % of it from the sensor (0..50)")
+                   ->default_val(0);
+    o_covered = app->add_option("--covered-frames", covered_frames,
+                                "Frames (seeded, not the first 5) where a dark object in front of the lens "
+                                "covers 60..100 % of the mirror; listed in case.yaml")
+                    ->default_val(0);
+    o_dropped = app->add_option("--dropped-frames", dropped_frames,
+                                "Frames (seeded, not the first 5) left out of video.mp4 and gt.csv; the video "
+                                "stays constant-rate, gt.csv's frame column is the video's frame index and "
+                                "its time column the true time; listed in case.yaml")
+                    ->default_val(0);
   }
   void Apply(pano::RenderOptions* o, bool scene) const {
     if (o_ss->count()) o->supersample = supersample;
@@ -88,6 +128,14 @@ struct RenderFlags {
     if (o_grad_angle->count()) o->gradient_angle = gradient_angle;
     if (o_nodis->count()) o->distractors = !no_distractors;
     if (o_cam->count()) o->camera_radius_px = camera_radius;
+    if (o_texture->count()) o->texture = texture;
+    if (!o_exposure) return;
+    if (o_exposure->count()) o->exposure = exposure;
+    if (o_blur_samples->count()) o->blur_samples = blur_samples;
+    if (o_auto_exposure->count()) o->auto_exposure = auto_exposure;
+    if (o_people->count()) o->people = people;
+    if (o_covered->count()) o->covered_frames = covered_frames;
+    if (o_dropped->count()) o->dropped_frames = dropped_frames;
   }
 };
 
@@ -161,7 +209,9 @@ CLI::App* AddSequence(CLI::App* app, SequenceArgs* a) {
       "sequence",
       "Render a sequence: DIR/video.mp4 (H.264), DIR/gt.csv (ground truth, spec section 5), "
       "DIR/map.yaml (no distractors), DIR/calib.yaml, DIR/case.yaml, and DIR/frames/ with --frames");
-  seq->add_option("--preset", a->preset, "Built-in case: paper-synthetic, paper-real, cluttered, kidnap");
+  seq->add_option("--preset", a->preset,
+                  "Built-in case (panosim presets lists them): paper-synthetic, paper-real, cluttered, kidnap, "
+                  "fast-turns, motion-blur, real-conditions, long-run, long-run-blur; the options below apply on top");
   seq->add_option("--map", a->map_path, "Map file (YAML, spec section 4)");
   seq->add_option("--calib", a->calib_path, "Calibration file (YAML, spec section 3)");
   seq->add_option(
@@ -174,7 +224,7 @@ CLI::App* AddSequence(CLI::App* app, SequenceArgs* a) {
   seq->add_flag("--no-video", a->no_video, "Do not write video.mp4 (needs --frames)");
   seq->add_flag("-q,--quiet", a->quiet, "No progress on stderr");
   seq->add_flag("--force", a->force, "Replace an existing output folder");
-  a->flags.Add(seq, true);
+  a->flags.Add(seq, true, true);
   return seq;
 }
 
