@@ -18,7 +18,7 @@ TEST_CASE("case.yaml quotes names and descriptions, numbers stay plain", "[case_
   c.poses = {{100.5, -0.0, 0.785398}, {101.0, 0.0, 0.8}};
   c.fps = 12.5;
   c.options.seed = 18446744073709551615ULL;
-  c.kidnap_frame = 1;
+  c.kidnap_frames = {1};
   const std::string text = CaseYaml(c, "mp4v");
   INFO(text);
   CHECK(text.rfind("# panosim test case", 0) == 0);
