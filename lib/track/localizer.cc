@@ -117,6 +117,8 @@ void Localizer::Reset(const Pose2& initial, bool hint) {
   next_relocalize_frame_ = 0;
   relocalize_failures_ = 0;
   bearing_sigma_ = 0.0;
+  motion_updates_ = 0;
+  frame_pose_ = initial;
   last_signature_.clear();
 }
 
@@ -130,7 +132,7 @@ void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out) c
       PredictLandmarks(landmarks_, map_, scene_, calib_.sensor, *table_, pose, opt_.prediction),
       opt_.max_landmarks);
   // The motion over the last frame interval; unknown: the fastest turn.
-  const bool known = n_good_ >= 2 && n_lost_ == 0;
+  const bool known = motion_updates_ >= 2;
   const Pose2 motion = known ? frame_motion_ : Pose2{0, 0, opt_.unknown_turn_per_frame};
   const Pose2 before{pose.x - motion.x, pose.y - motion.y, pose.theta - motion.theta};
   // Edges may be blurred a little more than the estimate says.
@@ -187,7 +189,13 @@ std::vector<BearingObservation> Localizer::Observations(const FrameResult& fr) c
 TriangulationResult Localizer::Solve(const FrameResult& fr, const Pose2& prior) const {
   const std::vector<BearingObservation> obs = Observations(fr);
   if (!opt_.robust_pose || obs.size() < 4) return Triangulate(obs, prior, opt_.triangulation);
-  return RobustTriangulate(obs, prior, opt_.robust, opt_.triangulation);
+  // Inliers within five times the recent noise: an edge half hidden by
+  // someone walking past is off by less than the fixed threshold, but far
+  // more than the noise.
+  RobustPoseOptions robust = opt_.robust;
+  if (bearing_sigma_ > 0)
+    robust.inlier_threshold = std::clamp(5.0 * bearing_sigma_, opt_.min_inlier_threshold, opt_.robust.inlier_threshold);
+  return RobustTriangulate(obs, prior, robust, opt_.triangulation);
 }
 
 bool Localizer::TrackFrom(const Pose2& pose, double search_px, FrameResult* fr,
@@ -317,7 +325,8 @@ Pose2 Localizer::PredictMotion(double time_s) {
   motion_.Predict(t);
   const Eigen::Vector2d v = motion_.PredictedVelocity();
   frame_motion_ = Pose2{v.x() * last_dt_, v.y() * last_dt_, motion_.PredictedHeadingRate() * last_dt_};
-  return opt_.constant_velocity && n_good_ >= 2 ? motion_.pose() : last_;
+  // The velocity is known after two poses, and stays so over short losses.
+  return opt_.constant_velocity && motion_updates_ >= 2 ? motion_.pose() : last_;
 }
 
 std::vector<Pose2> Localizer::CandidatePoses(const cv::Mat& grey, const Pose2& pred,
@@ -329,11 +338,11 @@ std::vector<Pose2> Localizer::CandidatePoses(const cv::Mat& grey, const Pose2& p
   std::vector<Pose2> predictions{pred};
   if (!opt_.compass) return predictions;
   *signature = compass_.Signature(grey);
-  if (last_signature_.empty() || n_good_ < 1) return predictions;
+  if (last_signature_.empty() || !ever_tracked_) return predictions;
   double score;
   const double turn = compass_.Rotation(last_signature_, *signature, opt_.compass_max_rotation, &score);
   Pose2 by_compass = pred;
-  by_compass.theta = wrap_angle(last_.theta + turn);
+  by_compass.theta = wrap_angle(frame_pose_.theta + turn);
   if (score >= opt_.compass_min_score &&
       std::abs(wrap_angle(by_compass.theta - pred.theta)) > 0.5 * M_PI / 180)
     predictions.push_back(by_compass);
@@ -444,12 +453,17 @@ void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, b
     row->extra.push_back(fr->integrity.quality);
     const PoseMeasurement m =
         MeasurementOf(tri, Observations(*fr), opt_.gate_position_fraction, opt_.gate_heading_sigma);
-    if (!motion_.initialized())
+    if (!motion_.initialized()) {
       motion_.Reset(row->time_s, tri.pose, m.covariance, motion_options_.max_speed, motion_options_.max_turn_rate);
-    else if (fr->relocalized)
+      motion_updates_ = 1;
+    } else if (fr->relocalized) {
       motion_.Reinitialize(std::max(row->time_s, motion_.time()), tri.pose, m.covariance);
-    else
+      motion_updates_ = 1;
+    } else {
       motion_.Update(m);
+      ++motion_updates_;
+    }
+    frame_pose_ = tri.pose;
     bearing_sigma_ = bearing_sigma_ > 0 ? 0.9 * bearing_sigma_ + 0.1 * tri.rms_bearing : tri.rms_bearing;
     previous_ = n_good_ > 0 ? last_ : tri.pose;
     last_ = tri.pose;
@@ -471,6 +485,7 @@ void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, b
   }
   row->n_landmarks = n_found;
   row->extra.assign(4, std::nan(""));
+  frame_pose_ = fr->predicted_pose;
   n_good_ = 0;
   ++n_lost_;
 }

@@ -39,7 +39,8 @@ struct LocalizerOptions {
   // (3 bearings) before the least-squares refinement: one wrong junction
   // cannot bias the start.
   bool robust_pose = true;
-  RobustPoseOptions robust;
+  RobustPoseOptions robust;  // its inlier_threshold is the largest used
+  double min_inlier_threshold = 0.15 * M_PI / 180;
   // The motion model (lengths in metres: scaled to the map's units). A pose
   // whose innovation against its prediction exceeds gate_chi2 (squared
   // Mahalanobis distance, 3 dof; 21.1 is the 99.99 % quantile) is not
@@ -214,6 +215,8 @@ class Localizer {
   MotionModel motion_;
   MotionModelOptions motion_options_;  // in map units
   double last_dt_ = 0.0;               // seconds between the last two frames
+  int motion_updates_ = 0;             // poses fused since the model (re)started
+  Pose2 frame_pose_;                   // the estimate at the previous frame (for the compass)
   int next_relocalize_frame_ = 0;
   int relocalize_failures_ = 0;
   // The bearing noise of recent good frames (radians), for the integrity test.
