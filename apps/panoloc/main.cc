@@ -101,8 +101,9 @@ int main(int argc, char** argv) {
   app.add_option("--calib", o.calib_path, "Calibration YAML (panocalib's output)")->required();
   app.add_option("--map", o.map_path, "Map YAML of the room's landmarks")->required();
   app.add_option("--init", init,
-                 "Initial pose x,y,theta (map units, radians); default: initial_pose of the "
-                 "case.yaml beside the input")
+                 "A guess of the initial pose x,y,theta (map units, radians) to start tracking from; "
+                 "default: initial_pose of the case.yaml beside the input; without either, the first "
+                 "frame is localised by searching the whole room")
       ->delimiter(',')
       ->expected(3);
   app.add_option("-o,--output", o.output, "Output pose CSV (one input); - writes it to standard output");

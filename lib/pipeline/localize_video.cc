@@ -57,7 +57,10 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
                                  FrameSource* source, VideoSummary* sum) {
   const Sensor& s = res.calib.sensor;
   Localizer loc(res.calib, res.map, res.table, opt.localizer, res.ph_tables);
-  loc.Reset(job.init);
+  if (job.init)
+    loc.Reset(*job.init, /*hint=*/true);
+  else
+    loc.ResetUnknown();
   std::optional<DebugVideo> dbg;
   if (!job.debug_video.empty())
     dbg.emplace(job.debug_video, cv::Size(s.image_width, s.image_height), source->fps() > 0 ? source->fps() : 10.0);

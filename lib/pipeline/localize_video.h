@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "pipeline/accuracy.h"
@@ -18,7 +19,9 @@ namespace pano {
 struct VideoJob {
   std::string input;        // video file, image folder, printf pattern or live input ("-", /dev/video0, rtsp://)
   std::string output;       // pose CSV (written as <output>.partial until the run ends); "-": standard output
-  Pose2 init;               // the pose at the first frame
+  // A guess of the pose at the first frame, which tracking starts from; none:
+  // the first frame is localised by searching the whole room.
+  std::optional<Pose2> init;
   std::string gt;           // ground-truth pose CSV for the accuracy summary; empty: none
   std::string debug_video;  // annotated video; empty: none
   std::string plot;         // trajectory PNG; empty: none

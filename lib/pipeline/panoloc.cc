@@ -84,12 +84,12 @@ std::string GtBeside(const std::string& input) {
   return fs::exists(g) ? g.string() : "";
 }
 
-Pose2 InitialPoseOf(const std::string& input, const PanolocOptions& opt, const Map& map) {
-  if (opt.init) return *opt.init;
+// --init, else the case.yaml's initial_pose, else none (the first frame is
+// localised by searching the room).
+std::optional<Pose2> InitialPoseOf(const std::string& input, const PanolocOptions& opt, const Map& map) {
+  if (opt.init) return opt.init;
   const std::optional<Pose2> p = InitialPoseBeside(input);
-  if (!p)
-    throw Error(input + (FrameSource::IsLive(input) ? ": a live input needs --init"
-                                                    : ": no --init given and no case.yaml with initial_pose beside it"));
+  if (!p) return std::nullopt;
   if (!map.IsFree(p->x, p->y))
     throw Error(input + ": the initial pose in case.yaml lies outside the room of " + opt.map_path);
   return *p;

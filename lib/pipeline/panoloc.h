@@ -32,7 +32,9 @@ struct PanolocOptions {
   std::string out_dir;               // or: DIR/<input name>.csv per input (output_names.h)
   std::string calib_path;
   std::string map_path;
-  std::optional<Pose2> init;         // else initial_pose of case.yaml beside the input
+  // A guess of the pose at each input's first frame; else initial_pose of
+  // the case.yaml beside the input; else none: a room-wide search.
+  std::optional<Pose2> init;
   double fps = 0.0;                  // > 0: time_s = frame / fps; 0: the input's timestamps (VideoRunOptions)
   int jobs = 0;                      // inputs processed at once; 0: as many as the threads allow
   int num_threads = 0;               // threads of the whole run; 0: all cores
