@@ -62,7 +62,7 @@ TEST_CASE("panoloc's video path: H.264 video in, pose CSV out, accuracy against 
   CHECK(s[0].accuracy.std <= 0.02);  // measured 0.0068 with libx264
   const std::vector<PoseRow> rows = ReadPoseCsv(o.output);
   CHECK(rows.size() == 12);
-  CHECK(rows[5].extra.size() == 3);  // std_x, std_y, std_theta
+  CHECK(rows[5].extra.size() == 4);  // std_x, std_y, std_theta, quality
   CHECK(std::filesystem::exists(o.plot));
 }
 

@@ -1,0 +1,91 @@
+// The localiser under real conditions: motion blur from fast turns, no
+// initial pose, a wrong initial guess, a kidnapping. Frames are rendered in
+// memory by panosim's sequence renderer (its motion blur averages sub-frame
+// renders over an exposure centred on the frame's time).
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+#include "render/sequence.h"
+#include "track_fixture.h"
+
+namespace pano {
+namespace {
+
+test::RenderedCase RenderSequence(const std::string& preset, int n_frames) {
+  test::RenderedCase r;
+  r.c = MakePreset(preset);
+  r.c.poses.resize(static_cast<size_t>(n_frames));
+  const SequenceRenderer renderer(r.c);
+  for (int i = 0; i < n_frames; ++i) {
+    r.frames.push_back(renderer.RenderFrame(i));
+    PoseRow row;
+    row.frame = i;
+    row.pose = r.c.poses[static_cast<size_t>(i)];
+    r.truth.push_back(row);
+  }
+  r.c.map.distractors.clear();
+  r.table = TableForMap(r.c.calib, r.c.map, true);
+  return r;
+}
+
+// Frames reported ok whose position is further than `limit` from the truth.
+int WrongOk(const std::vector<PoseRow>& rows, const std::vector<PoseRow>& truth, double limit) {
+  int n = 0;
+  for (size_t i = 0; i < rows.size(); ++i)
+    n += rows[i].status == PoseStatus::kOk &&
+         std::hypot(rows[i].pose.x - truth[i].pose.x, rows[i].pose.y - truth[i].pose.y) > limit;
+  return n;
+}
+
+TEST_CASE("motion blur over half the frame interval, turns up to 8 degrees per frame: every frame, sub-mm",
+          "[motion_blur]") {
+  const test::RenderedCase r = RenderSequence("motion-blur", 40);
+  const std::vector<PoseRow> rows = test::Localize(r, LocalizerOptions(), r.c.poses.front());
+  const AccuracySummary a = CompareToGroundTruth(rows, r.truth);
+  INFO(FormatAccuracy(a, "cm"));
+  CHECK(a.tracked == 40);
+  CHECK(a.rms <= 0.04);                // measured 0.029 cm
+  CHECK(a.heading_rms_deg <= 0.025);   // measured 0.016 deg
+  CHECK(WrongOk(rows, r.truth, 0.5) == 0);
+}
+
+TEST_CASE("no initial pose: the first frame is localised by searching the room", "[global_start]") {
+  for (const char* preset : {"paper-synthetic", "paper-real"}) {
+    const test::RenderedCase r = test::RenderPreset(preset, 3);
+    Localizer loc(r.c.calib, r.c.map, r.table, LocalizerOptions());
+    loc.ResetUnknown();
+    const PoseRow first = loc.Process(r.frames[0], 0, 0.0).row;
+    INFO(preset);
+    REQUIRE(first.status == PoseStatus::kOk);
+    CHECK(std::hypot(first.pose.x - r.truth[0].pose.x, first.pose.y - r.truth[0].pose.y) < 0.05);
+  }
+}
+
+TEST_CASE("a wrong initial guess is not reported: the room-wide search takes over", "[global_start]") {
+  const test::RenderedCase r = test::RenderPreset("paper-synthetic", 4);
+  Localizer loc(r.c.calib, r.c.map, r.table, LocalizerOptions());
+  Pose2 guess = r.c.poses.front();
+  guess.x += 40.0;
+  guess.theta += 1.5;
+  loc.Reset(guess, /*hint=*/true);
+  std::vector<PoseRow> rows;
+  for (int i = 0; i < 4; ++i) rows.push_back(loc.Process(r.frames[static_cast<size_t>(i)], i, 0.1 * i).row);
+  CHECK(WrongOk(rows, r.truth, 0.1) == 0);
+  CHECK(rows[0].status == PoseStatus::kOk);  // found at once by the search
+}
+
+TEST_CASE("kidnapped: lost at the jump, recovered within 2 frames, nothing wrong reported ok", "[kidnap]") {
+  test::RenderedCase r = test::RenderPreset("kidnap", 40);
+  const std::vector<PoseRow> rows = test::Localize(r, LocalizerOptions(), r.c.poses.front());
+  const int jump = r.c.kidnap_frames.front();
+  CHECK(WrongOk(rows, r.truth, 0.5) == 0);
+  int first_ok = -1;
+  for (int i = jump; i < 40 && first_ok < 0; ++i)
+    if (rows[static_cast<size_t>(i)].status == PoseStatus::kOk) first_ok = i;
+  CHECK(first_ok >= jump);
+  CHECK(first_ok <= jump + 2);
+}
+
+}  // namespace
+}  // namespace pano
