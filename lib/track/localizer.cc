@@ -316,17 +316,21 @@ void Localizer::CheckFrame(const cv::Mat& grey, int frame) const {
                 std::to_string(calib_.sensor.image_height));
 }
 
-Pose2 Localizer::PredictMotion(double time_s) {
+Pose2 Localizer::PredictMotion(double time_s, const OdometryIncrement* odometry) {
   if (!motion_.initialized()) return last_;  // the start pose, or the last one before a loss
   const double t = std::isfinite(time_s) ? std::max(time_s, motion_.time()) : motion_.time() + last_dt_;
   const double dt = t - motion_.time();
   // The frame interval: the shortest recent step (a dropped frame is longer).
   if (dt > 0) last_dt_ = last_dt_ > 0 && dt > last_dt_ ? 0.95 * last_dt_ + 0.05 * dt : dt;
-  motion_.Predict(t);
+  if (odometry)
+    motion_.PredictWithOdometry(t, *odometry);
+  else
+    motion_.Predict(t);
+  motion_stepped_ = true;
   const Eigen::Vector2d v = motion_.PredictedVelocity();
   frame_motion_ = Pose2{v.x() * last_dt_, v.y() * last_dt_, motion_.PredictedHeadingRate() * last_dt_};
   // The velocity is known after two poses, and stays so over short losses.
-  return opt_.constant_velocity && motion_updates_ >= 2 ? motion_.pose() : last_;
+  return (opt_.constant_velocity && motion_updates_ >= 2) || odometry ? motion_.pose() : last_;
 }
 
 std::vector<Pose2> Localizer::CandidatePoses(const cv::Mat& grey, const Pose2& pred,
@@ -464,6 +468,7 @@ void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, b
       ++motion_updates_;
     }
     frame_pose_ = tri.pose;
+    motion_stepped_ = true;
     bearing_sigma_ = bearing_sigma_ > 0 ? 0.9 * bearing_sigma_ + 0.1 * tri.rms_bearing : tri.rms_bearing;
     previous_ = n_good_ > 0 ? last_ : tri.pose;
     last_ = tri.pose;
@@ -490,8 +495,10 @@ void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, b
   ++n_lost_;
 }
 
-FrameResult Localizer::Process(const cv::Mat& grey, int frame, double time_s) {
+FrameResult Localizer::Process(const cv::Mat& grey, int frame, double time_s,
+                               const OdometryIncrement* odometry) {
   CheckFrame(grey, frame);
+  motion_stepped_ = false;
   FrameResult fr;
   fr.row.frame = frame;
   fr.row.time_s = time_s;
@@ -501,7 +508,7 @@ FrameResult Localizer::Process(const cv::Mat& grey, int frame, double time_s) {
   std::vector<float> signature;
   if (known_start_ || ever_tracked_) {
     // Prediction from the motion model, then the visual compass's heading.
-    fr.predicted_pose = PredictMotion(time_s);
+    fr.predicted_pose = PredictMotion(time_s, odometry);
     const std::vector<Pose2> predictions = CandidatePoses(grey, fr.predicted_pose, &signature);
     TrackPredictions(predictions, &fr, &tri);
     RefineAroundSolution(&fr, &tri);
@@ -518,6 +525,8 @@ FrameResult Localizer::Process(const cv::Mat& grey, int frame, double time_s) {
   fr.triangulation = tri;
   if (opt_.compass) last_signature_ = std::move(signature);
   RecordOutcome(&fr, tri, accepted, n_found);
+  fr.has_motion_step = motion_stepped_;
+  if (fr.has_motion_step) fr.motion_step = motion_.step();
   return fr;
 }
 

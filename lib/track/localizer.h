@@ -120,6 +120,10 @@ struct FrameResult {
   bool relocalized = false;     // the pose came from the room-wide search
   double innovation = -1.0;     // squared Mahalanobis distance from the prediction (-1: none)
   IntegrityReport integrity;    // of the reported pose
+  // The motion model's step at this frame, for a smoother (FixedLagSmoother);
+  // absent before the first pose.
+  bool has_motion_step = false;
+  MotionStep motion_step;
   std::vector<PredictedLandmark> predicted;
   std::vector<LandmarkMeasurement> measurements;  // one per predicted landmark
   TriangulationResult triangulation;
@@ -150,8 +154,12 @@ class Localizer {
   // Starts a sequence with no idea of the pose: the first frame is
   // localised by the room-wide search.
   void ResetUnknown();
-  // Processes one grey frame (CV_8UC1 of the calibration's size).
-  FrameResult Process(const cv::Mat& grey, int frame, double time_s);
+  // Processes one grey frame (CV_8UC1 of the calibration's size) taken at
+  // time_s. `odometry`, when given, is the robot's own measure of its motion
+  // since the previous frame (wheel odometry): the prediction uses it
+  // instead of the constant-velocity model.
+  FrameResult Process(const cv::Mat& grey, int frame, double time_s,
+                      const OdometryIncrement* odometry = nullptr);
 
   const Map& map() const { return map_; }
   const Sensor& sensor() const { return calib_.sensor; }
@@ -172,7 +180,7 @@ class Localizer {
   // The steps of Process:
   void CheckFrame(const cv::Mat& grey, int frame) const;
   // the motion model's prediction for time t (started at the first frame);
-  Pose2 PredictMotion(double time_s);
+  Pose2 PredictMotion(double time_s, const OdometryIncrement* odometry);
   // that prediction, then the visual compass's heading (fills `signature`);
   std::vector<Pose2> CandidatePoses(const cv::Mat& grey, const Pose2& pred,
                                     std::vector<float>* signature) const;
@@ -216,6 +224,7 @@ class Localizer {
   MotionModelOptions motion_options_;  // in map units
   double last_dt_ = 0.0;               // seconds between the last two frames
   int motion_updates_ = 0;             // poses fused since the model (re)started
+  bool motion_stepped_ = false;        // the model took a step at this frame
   Pose2 frame_pose_;                   // the estimate at the previous frame (for the compass)
   int next_relocalize_frame_ = 0;
   int relocalize_failures_ = 0;
