@@ -6,6 +6,7 @@
 
 #include "core/error.h"
 #include "core/parallel.h"
+#include "track/edge_profile.h"
 
 namespace pano {
 
@@ -240,6 +241,45 @@ CornerType VertexTracker::TypeOf(const PredictedLandmark& p) {
   return t;
 }
 
+namespace {
+
+// Motion blur across the vertical edge (a ramp `ramp_cols` wide) flattens the
+// template's response along x, so noise decides where on the ramp its peak
+// falls. Locate the edge instead as the centre of its ramp, by the step
+// detector's area method in the face's rows next to the corner (median
+// over the rows), within the ramp's half-width of the template's peak; also
+// the ramp's median width (columns, 15 % to 85 %). False when too few rows
+// show the step there.
+bool LocateBlurredEdge(const QuasiCylindricalView& view, const cv::Mat& padded, const CornerType& type,
+                       double ramp_cols, int half_y, CornerPeak* peak, double* width_cols) {
+  const int reach = static_cast<int>(std::ceil(ramp_cols)) + 12;  // the ramp, its tails, the plateaus
+  const int x0 = static_cast<int>(std::floor(peak->x)) - reach, w = 2 * reach + 1;
+  const int rows = std::max(3, half_y - 1);
+  const int y0 = type.y_sign > 0 ? static_cast<int>(std::ceil(peak->y)) + 2
+                                 : static_cast<int>(std::floor(peak->y)) - 1 - rows;
+  if (x0 < 0 || x0 + w > view.cols() || y0 < 0 || y0 + rows > view.rows()) return false;
+  cv::Mat strip;
+  view.WarpRegion(padded, x0, y0, w, rows, &strip);
+  std::vector<double> xs, widths;
+  for (int r = 0; r < rows; ++r) {
+    StepEdge e;
+    if (!FindStep(strip.ptr<float>(r), w, type.x_sign * type.v_polarity, 2, 8.0, &e, ramp_cols)) continue;
+    if (std::abs(x0 + e.location - peak->x) > 0.5 * ramp_cols + 2.0) continue;  // another edge
+    xs.push_back(x0 + e.location);
+    widths.push_back(e.width);
+  }
+  if (xs.size() < 3) return false;
+  auto median = [](std::vector<double>* v) {
+    std::nth_element(v->begin(), v->begin() + v->size() / 2, v->end());
+    return (*v)[v->size() / 2];
+  };
+  peak->x = median(&xs);
+  *width_cols = median(&widths);
+  return true;
+}
+
+}  // namespace
+
 LandmarkMeasurement VertexTracker::Measure(const PredictedLandmark& p, double search_px) const {
   LandmarkMeasurement m;
   if (padded_.empty()) {
@@ -297,6 +337,16 @@ LandmarkMeasurement VertexTracker::Measure(const PredictedLandmark& p, double se
   if (peak.score - peak.second < opt_.min_peak_margin) {
     m.why = "ambiguous: another corner-like response in the search window";
     return m;
+  }
+  const double ramp_cols = p.tangential_motion_px * px_per_rad / std::max(p.corner_radius, 1.0);
+  if (ramp_cols >= 2.0) {
+    double width_cols;
+    if (!LocateBlurredEdge(view_, padded_, type, ramp_cols, hy, &peak, &width_cols)) {
+      m.why = "blurred vertical edge not located";
+      return m;
+    }
+    m.azimuth = wrap_angle(view_.azimuth_of_x(peak.x));
+    m.edge_width_px = width_cols * p.corner_radius / px_per_rad;
   }
   m.found = true;
   // For the debug video: the face quadrant's two sides from the corner.
