@@ -194,7 +194,7 @@ TriangulationResult Localizer::Solve(const FrameResult& fr, const Pose2& prior) 
   // more than the noise.
   RobustPoseOptions robust = opt_.robust;
   if (bearing_sigma_ > 0)
-    robust.inlier_threshold = std::clamp(5.0 * bearing_sigma_, opt_.min_inlier_threshold, opt_.robust.inlier_threshold);
+    robust.inlier_threshold = std::clamp(3.0 * bearing_sigma_, opt_.min_inlier_threshold, opt_.robust.inlier_threshold);
   return RobustTriangulate(obs, prior, robust, opt_.triangulation);
 }
 
@@ -290,7 +290,7 @@ bool Localizer::Consistent(FrameResult* fr, const TriangulationResult& tri) cons
   IntegrityOptions io;
   // Twice the recent noise: the residuals' spread varies from frame to
   // frame with blur and geometry; a wrong junction is off by far more.
-  io.sigma_bearing = std::clamp(bearing_sigma_ > 0 ? 4.0 * bearing_sigma_ : opt_.initial_bearing_sigma,
+  io.sigma_bearing = std::clamp(bearing_sigma_ > 0 ? 3.0 * bearing_sigma_ : opt_.initial_bearing_sigma,
                                 opt_.min_bearing_sigma, opt_.max_bearing_sigma);
   io.confidence = opt_.integrity_confidence;
   const std::vector<BearingObservation> obs = Observations(*fr);
@@ -469,7 +469,15 @@ void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, b
     }
     frame_pose_ = tri.pose;
     motion_stepped_ = true;
-    bearing_sigma_ = bearing_sigma_ > 0 ? 0.9 * bearing_sigma_ + 0.1 * tri.rms_bearing : tri.rms_bearing;
+    // The noise from all the bearings (a robust scale, the median absolute
+    // residual): the inliers' own RMS is trimmed by the threshold it sets.
+    std::vector<double> abs_residuals;
+    for (double r : tri.bearing_residuals) abs_residuals.push_back(std::abs(r));
+    if (!abs_residuals.empty()) {
+      std::nth_element(abs_residuals.begin(), abs_residuals.begin() + abs_residuals.size() / 2, abs_residuals.end());
+      const double scale = 1.4826 * abs_residuals[abs_residuals.size() / 2];
+      bearing_sigma_ = bearing_sigma_ > 0 ? 0.9 * bearing_sigma_ + 0.1 * scale : scale;
+    }
     previous_ = n_good_ > 0 ? last_ : tri.pose;
     last_ = tri.pose;
     if (n_good_ > 0 && !motion_.initialized())
