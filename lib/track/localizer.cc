@@ -188,13 +188,20 @@ std::vector<BearingObservation> Localizer::Observations(const FrameResult& fr) c
 
 TriangulationResult Localizer::Solve(const FrameResult& fr, const Pose2& prior) const {
   const std::vector<BearingObservation> obs = Observations(fr);
-  if (!opt_.robust_pose || obs.size() < 4) return Triangulate(obs, prior, opt_.triangulation);
+  TriangulationResult plain = Triangulate(obs, prior, opt_.triangulation);
+  if (!opt_.robust_pose || obs.size() < 4) return plain;
   // Inliers within five times the recent noise: an edge half hidden by
   // someone walking past is off by less than the fixed threshold, but far
   // more than the noise.
   RobustPoseOptions robust = opt_.robust;
   if (bearing_sigma_ > 0)
     robust.inlier_threshold = std::clamp(3.0 * bearing_sigma_, opt_.min_inlier_threshold, opt_.robust.inlier_threshold);
+  // Every bearing agreeing with the least-squares pose: nothing to reject
+  // (most frames; the consensus costs milliseconds).
+  if (plain.ok && plain.inliers.size() == obs.size() &&
+      std::all_of(plain.bearing_residuals.begin(), plain.bearing_residuals.end(),
+                  [&](double r) { return std::abs(r) <= robust.inlier_threshold; }))
+    return plain;
   return RobustTriangulate(obs, prior, robust, opt_.triangulation);
 }
 
