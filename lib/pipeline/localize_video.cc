@@ -139,13 +139,19 @@ class SmoothedCsv {
   std::vector<PoseRow> rows_;
 };
 
+// Frame times this close outside the odometry's times count as its ends:
+// the two clocks are written with finitely many decimals (299 * 0.1 s is
+// not 29.9 s in binary).
+constexpr double kOdometryTimeSlack_s = 1e-3;
+
 // The odometry increment from the previous frame's time to this one's; none
 // outside the log's times.
 std::optional<OdometryIncrement> OdometryBetween(const std::vector<OdometrySample>& samples, double t0,
                                                  double t1, const OdometryOptions& options) {
-  if (samples.empty() || !(t0 >= samples.front().time_s) || !(t1 <= samples.back().time_s) || !(t1 >= t0))
-    return std::nullopt;
-  return Between(samples, t0, t1, options);
+  if (samples.empty() || !(t1 >= t0)) return std::nullopt;
+  const double first = samples.front().time_s, last = samples.back().time_s;
+  if (!(t0 >= first - kOdometryTimeSlack_s) || !(t1 <= last + kOdometryTimeSlack_s)) return std::nullopt;
+  return Between(samples, std::clamp(t0, first, last), std::clamp(t1, first, last), options);
 }
 
 // The per-frame loop; fills the counts of `sum` and returns its rows. A
