@@ -15,6 +15,8 @@
 #include "io/pose_csv.h"
 #include "pipeline/panoloc.h"
 #include "pipeline_fixture.h"
+#include "render/presets.h"
+#include "render/writers.h"
 #include "test_paths.h"
 
 namespace pano {
@@ -168,6 +170,62 @@ TEST_CASE("--odometry from the ground truth, in another frame and unit: tracks a
   REQUIRE(p.size() == 1);
   CHECK(p[0].ok);
   CHECK(p[0].frames_without_odometry == c.n_frames - 6);
+}
+
+TEST_CASE("--odometry keeps tracking where every 8th frame alone is too far apart", "[odometry]") {
+  const std::string dir = Scratch("pipeline_odometry_sparse");
+  SequenceCase sc = MakePreset("paper-synthetic");
+  SequenceWriteOptions w;
+  w.frames = true;
+  w.video = false;
+  w.quiet = true;
+  WriteSequence(sc, dir + "/seq", w);
+  // Frames 0, 8, 16, ... as an input at 10/8 frames/s: their times are those
+  // of the whole sequence, which the odometry log covers.
+  const int step = 8;
+  fs::create_directories(dir + "/sparse");
+  std::ofstream gt(dir + "/sparse_gt.csv");
+  gt << kPoseCsvHeader << "\n";
+  std::ofstream odo(dir + "/odometry.csv");
+  odo << kOdometryCsvHeader << "\n";
+  for (int k = 0; k < static_cast<int>(sc.poses.size()); ++k) {
+    const Pose2& p = sc.poses[k];
+    char line[160];
+    std::snprintf(line, sizeof line, "%.6f,%.8f,%.8f,%.8f\n", k / sc.fps, p.x, p.y, p.theta);
+    odo << line;
+    if (k % step) continue;
+    char name[64];
+    std::snprintf(name, sizeof name, "/frame_%04d.png", k);
+    fs::create_symlink(dir + "/seq/frames" + name, dir + "/sparse" + name);
+    PoseRow row;
+    row.frame = k / step;
+    row.time_s = k / sc.fps;
+    row.pose = p;
+    gt << FormatPoseRow(row) << "\n";
+  }
+  gt.close();
+  odo.close();
+  PanolocOptions o = OneInput(dir + "/sparse", dir + "/plain.csv");
+  o.init = sc.poses.front();
+  o.map_path = dir + "/seq/map.yaml";
+  o.calib_path = dir + "/seq/calib.yaml";
+  o.gt = dir + "/sparse_gt.csv";
+  o.fps = sc.fps / step;
+  const std::vector<VideoSummary> plain = RunPanoloc(o);
+  o.output = dir + "/odo.csv";
+  o.odometry = dir + "/odometry.csv";
+  const std::vector<VideoSummary> with = RunPanoloc(o);
+  REQUIRE(plain.size() == 1);
+  REQUIRE(with.size() == 1);
+  // Measured: 8 of 9 frames tracked without odometry (RMS 0.0313), all 9
+  // with it (RMS 0.0102).
+  INFO(with[0].error);
+  REQUIRE(with[0].frames == 9);
+  CHECK(with[0].frames_without_odometry == 0);
+  CHECK(with[0].n_ok == 9);
+  CHECK(plain[0].n_ok < with[0].n_ok);
+  CHECK(with[0].accuracy.rms == Approx(0.0102).margin(0.001));
+  CHECK(with[0].accuracy.rms < plain[0].accuracy.rms);
 }
 
 TEST_CASE("a bad odometry file: one line naming it, nothing written", "[odometry]") {
