@@ -154,7 +154,8 @@ std::optional<OdometryIncrement> OdometryBetween(const std::vector<OdometrySampl
   return Between(samples, std::clamp(t0, first, last), std::clamp(t1, first, last), options);
 }
 
-// The per-frame loop; fills the counts of `sum` and returns its rows. A
+// The per-frame loop; fills the counts of `sum` and returns its rows (the
+// smoothed CSV's in `smoothed_rows`, when the job asks for one). A
 // decode error or a frame of another size ends the input as incomplete.
 std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res, const VideoRunOptions& opt,
                                  FrameSource* source, VideoSummary* sum, std::vector<PoseRow>* smoothed_rows) {
