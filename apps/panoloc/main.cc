@@ -69,7 +69,10 @@ bool Report(const pano::VideoSummary& s, bool quiet, std::FILE* out) {
     const std::string note = why.empty() ? "" : " (" + why + ")";
     std::fprintf(out, "%s: %d frames, %d ok, %d lost, %.1f frames/s -> %s%s\n", s.input.c_str(), s.frames,
                  s.n_ok, s.n_lost, s.seconds > 0 ? s.frames / s.seconds : 0.0, s.output.c_str(), note.c_str());
+    if (!s.smoothed_output.empty()) std::fprintf(out, "  smoothed -> %s\n", s.smoothed_output.c_str());
     if (s.has_accuracy) std::fprintf(out, "  %s\n", pano::FormatAccuracy(s.accuracy, "units").c_str());
+    if (s.has_smoothed_accuracy)
+      std::fprintf(out, "  smoothed: %s\n", pano::FormatAccuracy(s.smoothed_accuracy, "units").c_str());
     std::fflush(out);
   } else if (!why.empty()) {
     std::fprintf(stderr, "panoloc: %s: %s\n", s.input.c_str(), why.c_str());
@@ -118,6 +121,17 @@ int main(int argc, char** argv) {
   app.add_option("--debug-video", o.debug_video,
                  "Annotated video: predicted edges, found edge points, junctions, landmark ids");
   app.add_option("--plot", o.plot, "PNG of the map from above with the trajectory (and ground truth)");
+  app.add_flag("--smooth", o.smooth,
+               "Also write <output stem>.smoothed.csv: the poses smoothed over the following frames "
+               "(fixed-lag Rauch-Tung-Striebel); needs a file output");
+  auto* smooth_lag = app.add_option("--smooth-lag", o.smooth_lag,
+                                    "Frames of the future that smooth each pose (implies --smooth)")
+                         ->capture_default_str();
+  app.add_option("--odometry", o.odometry,
+                 "Wheel odometry CSV (time,x,y,theta on the video's clock; one input): the motion "
+                 "between frames that the prediction uses instead of constant velocity");
+  app.add_option("--odometry-scale", o.odometry_scale, "Map units per unit of the odometry's positions")
+      ->capture_default_str();
   app.add_option("--method", method,
                  "Tracking method: junction (PH line junctions) or vertex (corner templates in the "
                  "quasi-cylindrical view)")
@@ -139,6 +153,7 @@ int main(int argc, char** argv) {
   }
   pano::SetDecoderLogging(verbose);
   try {
+    if (smooth_lag->count() > 0) o.smooth = true;
     if (!init.empty()) o.init = pano::Pose2{init[0], init[1], init[2]};
     o.localizer.method = method == "vertex" ? pano::TrackingMethod::kVertex : pano::TrackingMethod::kJunction;
     o.cancel = &g_cancel;

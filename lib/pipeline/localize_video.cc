@@ -1,8 +1,11 @@
 #include "pipeline/localize_video.h"
 
+#include <Eigen/Core>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <deque>
 #include <opencv2/core.hpp>
 #include <optional>
 
@@ -23,6 +26,35 @@ const char* video_end_name(VideoEnd end) {
     case VideoEnd::kNotTracked: return "not tracked";
   }
   return "?";
+}
+
+namespace {
+
+// Map units per metre from the map's `units`, else a room taken to be about
+// 5 m across: how the localiser scales its motion model's metre defaults.
+double MapUnitsPerMetre(const Map& map) {
+  const std::string& u = map.units;
+  if (u == "m" || u == "metre" || u == "metres" || u == "meter" || u == "meters") return 1.0;
+  if (u == "cm") return 100.0;
+  if (u == "mm") return 1000.0;
+  if (u == "in" || u == "inch" || u == "inches") return 39.37;
+  if (u == "ft" || u == "feet") return 3.281;
+  Eigen::Vector2d lo, hi;
+  double top;
+  map.Extent(&lo, &hi, &top);
+  return std::max(1e-6, (hi - lo).maxCoeff() / 5.0);
+}
+
+}  // namespace
+
+OdometryOptions OdometryOptionsForMap(const Map& map, double map_units_per_odometry_unit) {
+  const double scale = MapUnitsPerMetre(map);
+  OdometryOptions o;
+  o.map_units_per_odometry_unit = map_units_per_odometry_unit;
+  // Variance per distance: length^2 / length for positions, 1 / length for headings.
+  o.position_variance_per_distance *= scale;
+  o.heading_variance_per_distance /= scale;
+  return o;
 }
 
 namespace {
@@ -51,10 +83,82 @@ double FrameTime(int frame, double timestamp, double override_fps, double input_
   return frame / (input_fps > 0 ? input_fps : 10.0);
 }
 
-// The per-frame loop; fills the counts of `sum` and returns its rows. A
+// The smoothed pose CSV: the main rows held back until the smoother has
+// their frame's state (`lag` frames later), then written in frame order.
+class SmoothedCsv {
+ public:
+  SmoothedCsv(const std::string& path, const FixedLagSmootherOptions& options)
+      : csv_(path, {"std_x", "std_y", "std_theta", "quality"}, PoseCsvStaging::kPartial), smoother_(options) {}
+
+  void Add(const FrameResult& fr) {
+    pending_.push_back({fr.row, fr.has_motion_step});
+    if (fr.has_motion_step) Apply(smoother_.Push(fr.motion_step));
+    WriteReady();
+  }
+  // Writes the frames still held back and closes the file (renaming it into place).
+  void Finish() {
+    Apply(smoother_.Flush());
+    WriteReady();
+    csv_.Close();
+  }
+  const std::vector<PoseRow>& rows() const { return rows_; }
+
+ private:
+  struct Pending {
+    PoseRow row;
+    bool awaits_state;  // its frame's step is in the smoother
+  };
+  // The smoother returns its frames' states oldest first: they belong to the
+  // oldest rows awaiting one.
+  void Apply(const std::vector<SmoothedState>& states) {
+    auto it = pending_.begin();
+    for (const SmoothedState& s : states) {
+      while (it != pending_.end() && !it->awaits_state) ++it;
+      if (it == pending_.end()) throw Error("smoother: more smoothed states than frames");
+      // Only a measured pose is reported as such; lost and init rows stay empty.
+      if (it->row.status == PoseStatus::kOk) {
+        it->row.pose = s.state.pose();
+        const Eigen::Matrix3d cov = s.state.pose_covariance();
+        it->row.extra.resize(4, std::nan(""));
+        for (int k = 0; k < 3; ++k) it->row.extra[k] = std::sqrt(std::max(0.0, cov(k, k)));
+      }
+      it->awaits_state = false;
+    }
+  }
+  void WriteReady() {
+    while (!pending_.empty() && !pending_.front().awaits_state) {
+      csv_.Write(pending_.front().row);
+      rows_.push_back(pending_.front().row);
+      pending_.pop_front();
+    }
+  }
+
+  PoseCsvWriter csv_;
+  FixedLagSmoother smoother_;
+  std::deque<Pending> pending_;
+  std::vector<PoseRow> rows_;
+};
+
+// Frame times this close outside the odometry's times count as its ends:
+// the two clocks are written with finitely many decimals (299 * 0.1 s is
+// not 29.9 s in binary).
+constexpr double kOdometryTimeSlack_s = 1e-3;
+
+// The odometry increment from the previous frame's time to this one's; none
+// outside the log's times.
+std::optional<OdometryIncrement> OdometryBetween(const std::vector<OdometrySample>& samples, double t0,
+                                                 double t1, const OdometryOptions& options) {
+  if (samples.empty() || !(t1 >= t0)) return std::nullopt;
+  const double first = samples.front().time_s, last = samples.back().time_s;
+  if (!(t0 >= first - kOdometryTimeSlack_s) || !(t1 <= last + kOdometryTimeSlack_s)) return std::nullopt;
+  return Between(samples, std::clamp(t0, first, last), std::clamp(t1, first, last), options);
+}
+
+// The per-frame loop; fills the counts of `sum` and returns its rows (the
+// smoothed CSV's in `smoothed_rows`, when the job asks for one). A
 // decode error or a frame of another size ends the input as incomplete.
 std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res, const VideoRunOptions& opt,
-                                 FrameSource* source, VideoSummary* sum) {
+                                 FrameSource* source, VideoSummary* sum, std::vector<PoseRow>* smoothed_rows) {
   const Sensor& s = res.calib.sensor;
   Localizer loc(res.calib, res.map, res.table, opt.localizer, res.ph_tables);
   if (job.init)
@@ -65,7 +169,10 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
   if (!job.debug_video.empty())
     dbg.emplace(job.debug_video, cv::Size(s.image_width, s.image_height), source->fps() > 0 ? source->fps() : 10.0);
   PoseCsvWriter csv(job.output, {"std_x", "std_y", "std_theta", "quality"}, PoseCsvStaging::kPartial);
+  std::optional<SmoothedCsv> smoothed;
+  if (!job.smoothed_output.empty()) smoothed.emplace(job.smoothed_output, opt.smoother);
   std::vector<PoseRow> rows;
+  double previous_time = 0.0;
   cv::Mat grey;
   sum->end = VideoEnd::kDone;
   for (int frame = 0;; ++frame) {
@@ -87,8 +194,16 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
                    ", the frames before it " + SizeText(s.image_width, s.image_height);
       break;
     }
-    const FrameResult fr = loc.Process(grey, frame, FrameTime(frame, timestamp, opt.fps, source->fps()));
+    const double time_s = FrameTime(frame, timestamp, opt.fps, source->fps());
+    std::optional<OdometryIncrement> odometry;
+    if (job.odometry && frame > 0) {
+      odometry = OdometryBetween(*job.odometry, previous_time, time_s, opt.odometry);
+      sum->frames_without_odometry += !odometry;
+    }
+    previous_time = time_s;
+    const FrameResult fr = loc.Process(grey, frame, time_s, odometry ? &*odometry : nullptr);
     csv.Write(fr.row);
+    if (smoothed) smoothed->Add(fr);
     rows.push_back(fr.row);
     ++sum->frames;
     sum->n_ok += fr.row.status == PoseStatus::kOk;
@@ -99,7 +214,17 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
   // The rows written are intact however the loop ended: the outputs are
   // finished with them.
   csv.Close();
+  if (smoothed) {
+    smoothed->Finish();
+    *smoothed_rows = smoothed->rows();
+  }
   if (dbg) dbg->Commit();
+  if (sum->frames_without_odometry > 0 && !opt.quiet)
+    std::fprintf(stderr,
+                 "panoloc: note: %s: %d of %d frames lie outside the odometry's times [%.3f, %.3f] s: "
+                 "predicted without it\n",
+                 job.input.c_str(), sum->frames_without_odometry, std::max(0, sum->frames - 1),
+                 job.odometry->front().time_s, job.odometry->back().time_s);
   return rows;
 }
 
@@ -113,11 +238,16 @@ void LocalizeInto(const VideoJob& job, const SharedResources& res, const VideoRu
     throw Error(job.input + ": frame size " + SizeText(source.width(), source.height()) +
                 " does not match the calibration's " + SizeText(s.image_width, s.image_height) + " (" +
                 res.calib_path + ")");
-  const std::vector<PoseRow> rows = TrackFrames(job, res, opt, &source, sum);
+  std::vector<PoseRow> smoothed;
+  const std::vector<PoseRow> rows = TrackFrames(job, res, opt, &source, sum, &smoothed);
   if (!job.plot.empty()) WritePlot(job.plot, res.map, rows, gt);
   if (!gt.empty()) {
     sum->has_accuracy = true;
     sum->accuracy = CompareToGroundTruth(rows, gt, TypicalRange(res.map, gt));
+    if (!job.smoothed_output.empty()) {
+      sum->has_smoothed_accuracy = true;
+      sum->smoothed_accuracy = CompareToGroundTruth(smoothed, gt, TypicalRange(res.map, gt));
+    }
   }
   if (sum->end == VideoEnd::kDone && TooFewTracked(sum->frames, sum->n_ok)) {
     sum->end = VideoEnd::kNotTracked;
@@ -131,6 +261,7 @@ VideoSummary LocalizeVideo(const VideoJob& job, const SharedResources& shared, c
   VideoSummary sum;
   sum.input = job.input;
   sum.output = job.output;
+  sum.smoothed_output = job.smoothed_output;
   const auto t0 = std::chrono::steady_clock::now();
   try {
     LocalizeInto(job, shared, options, &sum);

@@ -8,10 +8,12 @@
 #include <optional>
 #include <string>
 
+#include "io/odometry.h"
 #include "pipeline/accuracy.h"
 #include "sensor/calibration.h"
 #include "scene/map.h"
 #include "track/localizer.h"
+#include "track/motion_model.h"
 
 namespace pano {
 
@@ -25,6 +27,13 @@ struct VideoJob {
   std::string gt;           // ground-truth pose CSV for the accuracy summary; empty: none
   std::string debug_video;  // annotated video; empty: none
   std::string plot;         // trajectory PNG; empty: none
+  // Pose CSV of the fixed-lag smoother's estimates (staged like `output`);
+  // empty: none. Rows of frames with a measured pose (ok) carry the smoothed
+  // pose and standard deviations; every other row is as in `output`.
+  std::string smoothed_output;
+  // Wheel odometry on the input's clock: the increment between consecutive
+  // frames is the prediction's control input. Null: constant velocity.
+  std::shared_ptr<const std::vector<OdometrySample>> odometry;
 };
 
 // Loaded once and shared, read-only, by every input of a run.
@@ -46,7 +55,17 @@ struct VideoRunOptions {
   // and the input ends as interrupted, its rows and outputs kept.
   const std::atomic<bool>* cancel = nullptr;
   std::atomic<long>* frames_done = nullptr;  // incremented per frame, for progress displays
+  FixedLagSmootherOptions smoother;          // for VideoJob::smoothed_output
+  // For VideoJob::odometry: the log's scale, and its noise in map units
+  // (OdometryOptionsForMap scales the defaults).
+  OdometryOptions odometry;
+  bool quiet = false;  // no notes on stderr (odometry not covering frames)
 };
+
+// The odometry noise defaults (which suit metres) with the length-based
+// variances rescaled for the map's units, as the localiser rescales its
+// motion model; `map_units_per_odometry_unit` is set from the argument.
+OdometryOptions OdometryOptionsForMap(const Map& map, double map_units_per_odometry_unit);
 
 // A run that reads frames but tracks fewer than this fraction of them (over
 // at least kMinFramesJudged frames), or none at all, failed: its settings
@@ -72,6 +91,10 @@ struct VideoSummary {
   double seconds = 0.0;
   bool has_accuracy = false;
   AccuracySummary accuracy;
+  std::string smoothed_output;  // empty: none written
+  bool has_smoothed_accuracy = false;
+  AccuracySummary smoothed_accuracy;
+  int frames_without_odometry = 0;  // frames after the first outside the odometry's times
 };
 
 // Localises one input. Never throws: failures are in the summary.

@@ -36,6 +36,15 @@ void PanolocOptions::Check() const {
   if (jobs < 0) throw Error("--jobs (jobs): expected 0 (as many as the threads allow) or more");
   if (num_threads < 0) throw Error("--threads (num_threads): expected 0 (all cores) or more");
   if (fps < 0 || !std::isfinite(fps)) throw Error("--fps (fps): expected a positive number");
+  if (smooth && out_dir.empty() && PoseCsvWriter::WritesDirectly(output))
+    throw Error("--smooth (smooth): needs a file output (-o FILE.csv or --out-dir DIR) beside which to "
+                "write the smoothed CSV");
+  if (smooth && (smooth_lag < 0 || smooth_lag > 10000))
+    throw Error("--smooth-lag (smooth_lag): expected 0 to 10000 frames, got " + std::to_string(smooth_lag));
+  if (!odometry.empty() && inputs.size() > 1)
+    throw Error("--odometry (odometry): takes one input");
+  if (!(odometry_scale > 0) || !std::isfinite(odometry_scale))
+    throw Error("--odometry-scale (odometry_scale): expected a positive number");
   if (init && (!std::isfinite(init->x) || !std::isfinite(init->y) || !std::isfinite(init->theta)))
     throw Error("--init (init): expected finite x,y,theta");
   localizer.Check();
@@ -55,6 +64,10 @@ std::shared_ptr<const RadiusTable> TableForMap(const Calibration& calib, const M
     }
   }
   return std::make_shared<RadiusTable>(RadiusTable::Build(calib.sensor, need));
+}
+
+std::string SmoothedOutputPath(const std::string& output) {
+  return fs::path(output).replace_extension(".smoothed.csv").string();
 }
 
 std::optional<Pose2> InitialPoseBeside(const std::string& input) {
@@ -108,6 +121,7 @@ std::vector<PlannedJob> PlanJobs(const PanolocOptions& opt, const Map& map) {
     j.gt = opt.gt == "auto" ? GtBeside(j.input) : opt.gt;
     j.debug_video = opt.debug_video;
     j.plot = opt.plot;
+    if (opt.smooth) j.smoothed_output = SmoothedOutputPath(j.output);
     try {
       j.init = InitialPoseOf(j.input, opt, map);
     } catch (const std::exception& e) {
@@ -119,7 +133,7 @@ std::vector<PlannedJob> PlanJobs(const PanolocOptions& opt, const Map& map) {
 
 // No output may overwrite a file the run reads, or another output.
 void CheckOutputs(const PanolocOptions& opt, const std::vector<PlannedJob>& jobs) {
-  NamedPaths reads = {{"--calib", opt.calib_path}, {"--map", opt.map_path}};
+  NamedPaths reads = {{"--calib", opt.calib_path}, {"--map", opt.map_path}, {"--odometry", opt.odometry}};
   NamedPaths writes;
   const std::string out_option = opt.out_dir.empty() ? "-o" : "--out-dir";
   for (const PlannedJob& p : jobs) {
@@ -128,6 +142,7 @@ void CheckOutputs(const PanolocOptions& opt, const std::vector<PlannedJob>& jobs
     writes.push_back({out_option, p.job.output});
     writes.push_back({"--debug-video", p.job.debug_video});
     writes.push_back({"--plot", p.job.plot});
+    writes.push_back({"--smooth", p.job.smoothed_output});
   }
   CheckOutputsDistinct(reads, writes);
 }
@@ -228,8 +243,13 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
   if (opt.init && !res.map.IsFree(opt.init->x, opt.init->y))
     throw Error("--init: (" + std::to_string(opt.init->x) + ", " + std::to_string(opt.init->y) +
                 ") is outside the room or inside a box of " + opt.map_path);
-  const std::vector<PlannedJob> jobs = PlanJobs(opt, res.map);
+  std::vector<PlannedJob> jobs = PlanJobs(opt, res.map);
   CheckOutputs(opt, jobs);
+  if (!opt.odometry.empty()) {
+    // Read before any output is created: a bad log leaves nothing behind.
+    auto samples = std::make_shared<const std::vector<OdometrySample>>(ReadOdometryCsv(opt.odometry));
+    for (PlannedJob& p : jobs) p.job.odometry = samples;
+  }
   if (!opt.out_dir.empty()) fs::create_directories(opt.out_dir);
   res.table = TableForMap(res.calib, res.map, opt.quiet);
   const int threads = opt.num_threads > 0 ? opt.num_threads
@@ -246,6 +266,9 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
   res.ph_tables = MakeTrackingPhTables(res.table, run.localizer.num_threads);
   run.fps = opt.fps;
   run.cancel = opt.cancel;
+  run.quiet = opt.quiet;
+  run.smoother.lag = opt.smooth_lag;
+  run.odometry = OdometryOptionsForMap(res.map, opt.odometry_scale);
   std::atomic<long> done{0};
   run.frames_done = &done;
 

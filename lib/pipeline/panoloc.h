@@ -42,6 +42,15 @@ struct PanolocOptions {
   std::string gt;                    // ground truth CSV (one input), or "auto": DIR/gt.csv beside each input
   std::string debug_video;           // one input only
   std::string plot;                  // one input only
+  // A second pose CSV beside each output, <output stem>.smoothed.csv: the
+  // fixed-lag smoother's poses, `smooth_lag` frames behind the filter. Needs
+  // a file output (not "-" or a special file).
+  bool smooth = false;
+  int smooth_lag = 10;
+  // Wheel odometry CSV (io/odometry.h; one input only): the prediction's
+  // control input between frames. Empty: constant velocity.
+  std::string odometry;
+  double odometry_scale = 1.0;       // map units per unit of the odometry's positions
   // localizer.num_threads 0: the run's threads shared out between the inputs
   // processed at once, one left to each input's decoder.
   LocalizerOptions localizer;
@@ -60,6 +69,9 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& options);
 // Loads the calibration's lookup table when it exists, matches and covers
 // the map; otherwise builds one (a note on stderr says why).
 std::shared_ptr<const RadiusTable> TableForMap(const Calibration& calib, const Map& map, bool quiet);
+
+// `<output stem>.smoothed.csv` beside a pose CSV (out.csv -> out.smoothed.csv).
+std::string SmoothedOutputPath(const std::string& output);
 
 // Reads initial_pose from the case.yaml beside `input` (or one folder up),
 // when there is one. None for live inputs.
