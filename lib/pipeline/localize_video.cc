@@ -28,27 +28,9 @@ const char* video_end_name(VideoEnd end) {
   return "?";
 }
 
-namespace {
-
-// Map units per metre from the map's `units`, else a room taken to be about
-// 5 m across: how the localiser scales its motion model's metre defaults.
-double MapUnitsPerMetre(const Map& map) {
-  const std::string& u = map.units;
-  if (u == "m" || u == "metre" || u == "metres" || u == "meter" || u == "meters") return 1.0;
-  if (u == "cm") return 100.0;
-  if (u == "mm") return 1000.0;
-  if (u == "in" || u == "inch" || u == "inches") return 39.37;
-  if (u == "ft" || u == "feet") return 3.281;
-  Eigen::Vector2d lo, hi;
-  double top;
-  map.Extent(&lo, &hi, &top);
-  return std::max(1e-6, (hi - lo).maxCoeff() / 5.0);
-}
-
-}  // namespace
 
 OdometryOptions OdometryOptionsForMap(const Map& map, double map_units_per_odometry_unit) {
-  const double scale = MapUnitsPerMetre(map);
+  const double scale = map.UnitsPerMetre();
   OdometryOptions o;
   o.map_units_per_odometry_unit = map_units_per_odometry_unit;
   // Variance per distance: length^2 / length for positions, 1 / length for headings.

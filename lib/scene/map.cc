@@ -65,4 +65,17 @@ void CheckMap(const Map& m, const std::string& what) {
   }
 }
 
+double Map::UnitsPerMetre() const {
+  const std::string& u = units;
+  if (u == "m" || u == "metre" || u == "metres" || u == "meter" || u == "meters") return 1.0;
+  if (u == "cm") return 100.0;
+  if (u == "mm") return 1000.0;
+  if (u == "in" || u == "inch" || u == "inches") return 39.37;
+  if (u == "ft" || u == "feet") return 3.281;
+  Eigen::Vector2d lo, hi;
+  double top;
+  Extent(&lo, &hi, &top);
+  return std::max(1e-6, (hi - lo).maxCoeff() / 5.0);
+}
+
 }  // namespace pano

@@ -51,6 +51,10 @@ struct Map {
   // Horizontal extent of the room, rectangles, distractors and boxes, and
   // the height of the highest of them.
   void Extent(Eigen::Vector2d* lo, Eigen::Vector2d* hi, double* top) const;
+  // Map units per metre, from `units` (m, cm, mm, in, ft); for other units
+  // the room is taken to be about 5 m across. Scales defaults given in
+  // metres (the motion model's, the odometry's noise).
+  double UnitsPerMetre() const;
 };
 
 // Checks the geometry (positive sizes, unique ids, shades in 0..1); `what`

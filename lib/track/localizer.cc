@@ -46,24 +46,6 @@ void LocalizerOptions::Check() const {
   motion.Check();
 }
 
-namespace {
-
-// Map units per metre, from the map's `units` (or, for unnamed units, a room
-// taken to be about 5 m across): the motion model's defaults are in metres.
-double UnitsPerMetre(const Map& map) {
-  const std::string& u = map.units;
-  if (u == "m" || u == "metre" || u == "metres" || u == "meter" || u == "meters") return 1.0;
-  if (u == "cm") return 100.0;
-  if (u == "mm") return 1000.0;
-  if (u == "in" || u == "inch" || u == "inches") return 39.37;
-  if (u == "ft" || u == "feet") return 3.281;
-  Eigen::Vector2d lo, hi;
-  double top;
-  map.Extent(&lo, &hi, &top);
-  return std::max(1e-6, (hi - lo).maxCoeff() / 5.0);
-}
-
-}  // namespace
 
 std::shared_ptr<PhTableCache> MakeTrackingPhTables(std::shared_ptr<const RadiusTable> table,
                                                    int num_threads) {
@@ -93,7 +75,7 @@ Localizer::Localizer(const Calibration& calib, const Map& map,
       compass_(calib.sensor) {
   opt_.Check();
   if (!table_ || table_->empty()) throw Error("localiser: no E(D,Z) lookup table");
-  const double scale = UnitsPerMetre(map_);
+  const double scale = map_.UnitsPerMetre();
   motion_options_ = opt_.motion;
   motion_options_.accel_sigma *= scale;
   motion_options_.max_speed *= scale;
