@@ -397,7 +397,8 @@ bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, FrameResult* fr
   TriangulationResult t;
   if (!Relocalize(grey, &found, &t)) {
     ++relocalize_failures_;
-    next_relocalize_frame_ = frame + std::min(opt_.relocalize_max_interval, 1 << std::min(relocalize_failures_, 16));
+    next_relocalize_frame_ =
+        frame + std::min(opt_.relocalize_max_interval, 1 << std::clamp(relocalize_failures_ - 2, 0, 16));
     return false;
   }
   relocalize_failures_ = 0;

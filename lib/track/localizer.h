@@ -85,8 +85,9 @@ struct LocalizerOptions {
   // pose (0: never). Relocalisation accepts a pose only with at least
   // relocalize_min_landmarks inliers.
   int relocalize_after = 2;
-  // After a failed relocalisation the next waits 1, 2, 4 ... frames (at
-  // most this many): a long loss costs a bounded share of the frames.
+  // After three failed relocalisations in a row the next waits 2, 4 ...
+  // frames (at most this many): a long loss costs a bounded share of the
+  // frames, a short one is searched on every frame.
   int relocalize_max_interval = 8;
   int relocalize_min_landmarks = 6;
   // A relocalised pose also needs this fraction of its predicted landmarks
