@@ -34,6 +34,7 @@ void LocalizerOptions::Check() const {
   if (relocalize_max_interval < 1) throw Error("localiser: relocalize_max_interval: expected >= 1");
   if (!(gate_chi2 > 0) || !(gate_heading_sigma > 0) || !(gate_position_fraction > 0))
     throw Error("localiser: gate_chi2, gate_heading_sigma and gate_position_fraction: expected > 0");
+  if (!(min_quality >= 0.0 && min_quality < 1.0)) throw Error("localiser: min_quality: expected 0..1");
   if (!(integrity_confidence > 0.5 && integrity_confidence < 1.0))
     throw Error("localiser: integrity_confidence: expected 0.5..1");
   if (!(min_bearing_sigma > 0) || !(initial_bearing_sigma > 0) || !(max_bearing_sigma >= min_bearing_sigma))
@@ -285,7 +286,7 @@ bool Localizer::Consistent(FrameResult* fr, const TriangulationResult& tri) cons
   const std::vector<BearingObservation> obs = Observations(*fr);
   fr->integrity = IntegrityCheck(tri, obs, io);
   // Three bearings always fit a pose: without a spare one nothing is checked.
-  return fr->integrity.testable && fr->integrity.consistent;
+  return fr->integrity.testable && fr->integrity.consistent && fr->integrity.quality >= opt_.min_quality;
 }
 
 bool Localizer::AgreesWithMotion(FrameResult* fr, const TriangulationResult& tri) const {

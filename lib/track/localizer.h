@@ -56,6 +56,10 @@ struct LocalizerOptions {
   // integrity_confidence) with the bearing noise seen on recent frames,
   // never taken below min_bearing_sigma (radians).
   double integrity_confidence = 0.9999;
+  // ... and its quality figure (IntegrityReport::quality: inliers, spare
+  // bearings, consistency, geometry) at least this: below it the evidence is
+  // too thin to act on (few inliers of many, a weak geometry).
+  double min_quality = 0.15;
   // The noise assumed is four times the recent RMS residual (blur and
   // geometry vary from frame to frame; a frame a little worse than the
   // last is still right), within [min_bearing_sigma, max_bearing_sigma]:
