@@ -9,30 +9,13 @@
 
 #include "core/angles.h"
 #include "core/error.h"
+#include "io/csv_util.h"
 
 namespace pano {
 
 const char* const kOdometryCsvHeader = "time,x,y,theta";
 
 namespace {
-
-std::vector<std::string> SplitCsv(const std::string& line) {
-  std::vector<std::string> out(1);
-  for (char c : line) {
-    if (c == ',') out.emplace_back();
-    else if (c != '\r') out.back() += c;
-  }
-  return out;
-}
-
-double ParseDouble(const std::string& s, const std::string& where, const char* column) {
-  char* end = nullptr;
-  errno = 0;
-  const double v = std::strtod(s.c_str(), &end);
-  if (s.empty() || end != s.c_str() + s.size() || errno == ERANGE || !std::isfinite(v))
-    throw Error(where + ": column " + column + ": expected a finite number, got '" + s + "'");
-  return v;
-}
 
 // The shortest text that reads back as the same number, for messages.
 std::string Number(double v) {
@@ -90,10 +73,10 @@ std::vector<OdometrySample> ReadOdometryCsv(const std::string& path) {
     if (f.size() != 4)
       throw Error(where + ": expected 4 columns, got " + std::to_string(f.size()));
     OdometrySample s;
-    s.time_s = ParseDouble(f[0], where, "time");
-    s.pose.x = ParseDouble(f[1], where, "x");
-    s.pose.y = ParseDouble(f[2], where, "y");
-    s.pose.theta = ParseDouble(f[3], where, "theta");
+    s.time_s = ParseCsvDouble(f[0], where, "time");
+    s.pose.x = ParseCsvDouble(f[1], where, "x");
+    s.pose.y = ParseCsvDouble(f[2], where, "y");
+    s.pose.theta = ParseCsvDouble(f[3], where, "theta");
     if (!samples.empty() && !(s.time_s > samples.back().time_s))
       throw Error(where + ": times must increase strictly (" + f[0] + " after " +
                   Number(samples.back().time_s) + ")");

@@ -8,36 +8,13 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "io/csv_util.h"
 
 namespace pano {
 
 const char* const kPoseCsvHeader = "frame,time_s,x,y,theta_rad,status,n_landmarks,residual";
 
 namespace {
-
-std::vector<std::string> SplitCsv(const std::string& line) {
-  std::vector<std::string> out;
-  std::string cur;
-  for (char c : line) {
-    if (c == ',') {
-      out.push_back(cur);
-      cur.clear();
-    } else if (c != '\r') {
-      cur += c;
-    }
-  }
-  out.push_back(cur);
-  return out;
-}
-
-double ParseDouble(const std::string& s, const std::string& where, const char* column) {
-  char* end = nullptr;
-  errno = 0;
-  const double v = std::strtod(s.c_str(), &end);
-  if (s.empty() || end != s.c_str() + s.size() || errno == ERANGE || !std::isfinite(v))
-    throw Error(where + ": column " + column + ": expected a finite number, got '" + s + "'");
-  return v;
-}
 
 int ParseInt(const std::string& s, const std::string& where, const char* column) {
   char* end = nullptr;
@@ -70,7 +47,7 @@ std::vector<PoseRow> ReadPoseCsv(const std::string& path) {
                   std::to_string(f.size()));
     PoseRow r;
     r.frame = ParseInt(f[0], where, "frame");
-    r.time_s = ParseDouble(f[1], where, "time_s");
+    r.time_s = ParseCsvDouble(f[1], where, "time_s");
     if (f[5] == "ok") r.status = PoseStatus::kOk;
     else if (f[5] == "lost") r.status = PoseStatus::kLost;
     else if (f[5] == "init") r.status = PoseStatus::kInit;
@@ -79,14 +56,14 @@ std::vector<PoseRow> ReadPoseCsv(const std::string& path) {
       if (!f[2].empty() || !f[3].empty() || !f[4].empty())
         throw Error(where + ": a 'lost' row must leave x, y and theta_rad empty");
     } else {
-      r.pose.x = ParseDouble(f[2], where, "x");
-      r.pose.y = ParseDouble(f[3], where, "y");
-      r.pose.theta = ParseDouble(f[4], where, "theta_rad");
+      r.pose.x = ParseCsvDouble(f[2], where, "x");
+      r.pose.y = ParseCsvDouble(f[3], where, "y");
+      r.pose.theta = ParseCsvDouble(f[4], where, "theta_rad");
     }
     r.n_landmarks = ParseInt(f[6], where, "n_landmarks");
-    r.residual = f[7].empty() ? 0.0 : ParseDouble(f[7], where, "residual");
+    r.residual = f[7].empty() ? 0.0 : ParseCsvDouble(f[7], where, "residual");
     for (size_t k = 8; k < f.size(); ++k)
-      r.extra.push_back(f[k].empty() ? std::nan("") : ParseDouble(f[k], where, ("column " + std::to_string(k + 1)).c_str()));
+      r.extra.push_back(f[k].empty() ? std::nan("") : ParseCsvDouble(f[k], where, ("column " + std::to_string(k + 1)).c_str()));
     if (!rows.empty() && r.frame <= rows.back().frame)
       throw Error(where + ": frame numbers must increase (" + f[0] + " after " +
                   std::to_string(rows.back().frame) + ")");

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "render/split_mix.h"
 #include "core/parallel.h"
 
 namespace pano {
@@ -32,17 +33,6 @@ double BoxDistance(const Eigen::Vector2d& p, const Eigen::Vector2d& mn, const Ei
   return std::hypot(dx, dy);
 }
 
-// SplitMix64: a small, fast, well-mixed generator with a portable output.
-struct SplitMix {
-  uint64_t state;
-  uint64_t Next() {
-    uint64_t z = (state += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  }
-  double Uniform() { return (static_cast<double>(Next() >> 11) + 0.5) * (1.0 / 9007199254740992.0); }
-};
 
 constexpr int kBins = 4096;  // azimuth bins of the per-frame candidate lists
 

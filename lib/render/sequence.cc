@@ -6,23 +6,13 @@
 
 #include "core/angles.h"
 #include "core/error.h"
+#include "render/split_mix.h"
 
 namespace pano {
 
 namespace {
 
-// SplitMix64 (as in render.cc): small, portable, well mixed.
-struct Mix {
-  uint64_t state;
-  uint64_t Next() {
-    uint64_t z = (state += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  }
-  double Uniform() { return (static_cast<double>(Next() >> 11) + 0.5) * (1.0 / 9007199254740992.0); }
-  double Uniform(double lo, double hi) { return lo + (hi - lo) * Uniform(); }
-};
+using Mix = SplitMix;
 
 // One generator per factor, so that turning one factor on changes no other.
 Mix MixFor(uint64_t seed, uint64_t salt) {

@@ -17,21 +17,15 @@
 namespace pano {
 namespace {
 
-namespace fs = std::filesystem;
+using test::Scratch;
+using test::FilesIn;
 
-std::string Scratch(const std::string& name) { return test::ScratchDir(name + "_" + std::to_string(::getpid())); }
+namespace fs = std::filesystem;
 
 std::vector<std::string> Panoloc(const std::string& args) {
   std::vector<std::string> argv = {test::Program("panoloc")};
   for (const std::string& w : test::Words(args + " " + test::GetSmallCase().Args())) argv.push_back(w);
   return argv;
-}
-
-std::vector<std::string> FilesIn(const std::string& dir) {
-  std::vector<std::string> names;
-  for (const auto& e : fs::directory_iterator(dir)) names.push_back(e.path().filename().string());
-  std::sort(names.begin(), names.end());
-  return names;
 }
 
 // panoloc on a long input, stopped by `sig` once some rows are written.

@@ -20,11 +20,11 @@
 namespace pano {
 namespace {
 
+using test::Scratch;
+
 using test::ErrorOf;
 
 namespace fs = std::filesystem;
-
-std::string Scratch(const std::string& name) { return test::ScratchDir(name + "_" + std::to_string(::getpid())); }
 
 TEST_CASE("output names: inputs with one name get their folders in front; clashes that remain are errors",
           "[output_names]") {

@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
@@ -181,6 +182,27 @@ int CountLines(const std::string& text) {
   int n = 0;
   for (char ch : text) n += ch == '\n';
   return n;
+}
+
+std::string Scratch(const std::string& name) { return ScratchDir(name + "_" + std::to_string(::getpid())); }
+
+std::vector<std::string> FilesIn(const std::string& dir) {
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(dir)) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+PanolocOptions OneInput(const std::string& input, const std::string& output) {
+  const SmallCase& c = GetSmallCase();
+  PanolocOptions o;
+  o.inputs = {input};
+  o.output = output;
+  o.calib_path = c.calib;
+  o.map_path = c.map;
+  o.init = c.init;
+  o.quiet = true;
+  return o;
 }
 
 }  // namespace pano::test

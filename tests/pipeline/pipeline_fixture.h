@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "pipeline/panoloc.h"
 #include "pose/pose_row.h"
 #include "sensor/sensor.h"
 
@@ -24,6 +25,13 @@ struct SmallCase {
   std::string Args() const;
 };
 const SmallCase& GetSmallCase();
+
+// A scratch folder of this test process (`name` made unique by the pid).
+std::string Scratch(const std::string& name);
+// The names of the entries of `dir`, sorted.
+std::vector<std::string> FilesIn(const std::string& dir);
+// panoloc's options for one input of the small case, quiet.
+PanolocOptions OneInput(const std::string& input, const std::string& output);
 
 // A folder of `n` images that are links to the case's frames, forwards then
 // backwards (0..11, 11..0, ...): an input as long as needed that keeps

@@ -21,28 +21,11 @@
 namespace pano {
 namespace {
 
+using test::Scratch;
+using test::FilesIn;
+using test::OneInput;
+
 namespace fs = std::filesystem;
-
-std::string Scratch(const std::string& name) { return test::ScratchDir(name + "_" + std::to_string(::getpid())); }
-
-PanolocOptions OneInput(const std::string& input, const std::string& output) {
-  const test::SmallCase& c = test::GetSmallCase();
-  PanolocOptions o;
-  o.inputs = {input};
-  o.output = output;
-  o.calib_path = c.calib;
-  o.map_path = c.map;
-  o.init = c.init;
-  o.quiet = true;
-  return o;
-}
-
-std::vector<std::string> FilesIn(const std::string& dir) {
-  std::vector<std::string> names;
-  for (const auto& e : fs::directory_iterator(dir)) names.push_back(e.path().filename().string());
-  std::sort(names.begin(), names.end());
-  return names;
-}
 
 TEST_CASE("an input that breaks off after some frames: its rows are kept, the run is incomplete",
           "[incomplete]") {

@@ -12,6 +12,7 @@
 
 #include "core/angles.h"
 #include "pose/robust_pose.h"
+#include "observe.h"
 #include "test_rng.h"
 
 namespace pano {
@@ -20,17 +21,7 @@ namespace {
 constexpr double kEps = std::numeric_limits<double>::epsilon();
 constexpr double kDeg = M_PI / 180;
 
-std::vector<BearingObservation> Observe(const Pose2& pose, const std::vector<Eigen::Vector2d>& lms) {
-  std::vector<BearingObservation> obs;
-  for (size_t i = 0; i < lms.size(); ++i) {
-    BearingObservation o;
-    o.landmark = lms[i];
-    o.bearing = wrap_angle(std::atan2(lms[i].y() - pose.y, lms[i].x() - pose.x) - pose.theta);
-    o.id = static_cast<int>(i);
-    obs.push_back(o);
-  }
-  return obs;
-}
+using test::Observe;
 
 double PositionError(const Pose2& a, const Pose2& b) { return std::hypot(a.x - b.x, a.y - b.y); }
 double HeadingError(const Pose2& a, const Pose2& b) { return std::abs(wrap_angle(a.theta - b.theta)); }

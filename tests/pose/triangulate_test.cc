@@ -7,22 +7,13 @@
 #include <limits>
 
 #include "pose/triangulate.h"
+#include "observe.h"
 #include "test_rng.h"
 
 namespace pano {
 namespace {
 
-std::vector<BearingObservation> Observe(const Pose2& pose, const std::vector<Eigen::Vector2d>& lms) {
-  std::vector<BearingObservation> obs;
-  for (size_t i = 0; i < lms.size(); ++i) {
-    BearingObservation o;
-    o.landmark = lms[i];
-    o.bearing = wrap_angle(std::atan2(lms[i].y() - pose.y, lms[i].x() - pose.x) - pose.theta);
-    o.id = static_cast<int>(i);
-    obs.push_back(o);
-  }
-  return obs;
-}
+using test::Observe;
 
 // Corners of rectangles around a 200 x 200 room, about 70 units away.
 const std::vector<Eigen::Vector2d> kLandmarks = {{0, 60},   {0, 95},   {40, 200}, {75, 200},

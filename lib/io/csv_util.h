@@ -1,0 +1,17 @@
+// Small pieces of the toolkit's CSV readers (pose CSV, odometry CSV).
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace pano {
+
+// The comma-separated fields of one line (a trailing '\r' dropped; no quoting:
+// the toolkit's CSVs hold numbers and single words).
+std::vector<std::string> SplitCsv(const std::string& line);
+
+// A finite number, or pano::Error "<where>: column <column>: expected a
+// finite number, got '<s>'".
+double ParseCsvDouble(const std::string& s, const std::string& where, const char* column);
+
+}  // namespace pano
