@@ -243,14 +243,16 @@ CornerType VertexTracker::TypeOf(const PredictedLandmark& p) {
 
 namespace {
 
-// Motion blur across the vertical edge (a ramp `ramp_cols` wide) flattens the
-// template's response along x, so noise decides where on the ramp its peak
-// falls. Locate the edge instead as the centre of its ramp, by the step
-// detector's area method in the face's rows next to the corner (median
-// over the rows), within the ramp's half-width of the template's peak; also
-// the ramp's median width (columns, 15 % to 85 %). False when too few rows
-// show the step there.
-bool LocateBlurredEdge(const QuasiCylindricalView& view, const cv::Mat& padded, const CornerType& type,
+// The corner's azimuth, refined: the template's correlation peak is broad
+// along x (and flat over the ramp of an edge blurred by the camera's turn,
+// `ramp_cols` wide, where noise decides where it falls), while the step
+// across the vertical edge locates it to a fraction of a pixel. The edge's
+// position is the centre of its ramp by the step detector's area method in
+// the face's rows next to the corner (median over the rows), within the
+// ramp's half-width and 2 columns of the template's peak; also the ramp's
+// median width (columns, 15 % to 85 %). False when too few rows show the
+// step there.
+bool LocateVerticalEdge(const QuasiCylindricalView& view, const cv::Mat& padded, const CornerType& type,
                        double ramp_cols, int half_y, CornerPeak* peak, double* width_cols) {
   const int reach = static_cast<int>(std::ceil(ramp_cols)) + 12;  // the ramp, its tails, the plateaus
   const int x0 = static_cast<int>(std::floor(peak->x)) - reach, w = 2 * reach + 1;
@@ -338,16 +340,17 @@ LandmarkMeasurement VertexTracker::Measure(const PredictedLandmark& p, double se
     m.why = "ambiguous: another corner-like response in the search window";
     return m;
   }
-  const double ramp_cols = p.tangential_motion_px * px_per_rad / std::max(p.corner_radius, 1.0);
-  if (ramp_cols >= 2.0) {
-    double width_cols;
-    if (!LocateBlurredEdge(view_, padded_, type, ramp_cols, hy, &peak, &width_cols)) {
-      m.why = "blurred vertical edge not located";
-      return m;
-    }
-    m.azimuth = wrap_angle(view_.azimuth_of_x(peak.x));
-    m.edge_width_px = width_cols * p.corner_radius / px_per_rad;
+  // Motion blur expected across the vertical edge, in view columns (2 px and
+  // less the detector's own baseline spans).
+  double ramp_cols = p.tangential_motion_px * px_per_rad / std::max(p.corner_radius, 1.0);
+  if (ramp_cols < 2.0) ramp_cols = 0.0;
+  double width_cols;
+  if (!LocateVerticalEdge(view_, padded_, type, ramp_cols, hy, &peak, &width_cols)) {
+    m.why = "vertical edge not located beside the corner";
+    return m;
   }
+  m.azimuth = wrap_angle(view_.azimuth_of_x(peak.x));
+  m.edge_width_px = width_cols * p.corner_radius / px_per_rad;
   m.found = true;
   // For the debug video: the face quadrant's two sides from the corner.
   for (int k = 1; k <= hx; k += 2)

@@ -22,9 +22,13 @@
 //    correlation with every placement over the search window (r_range x
 //    theta_range from the expected image motion) takes O(1) per placement from
 //    the window's integral images. The best response, refined to sub-pixel precision by
-//    a parabola in x and y, gives the corner's azimuth and radius; a best
-//    response below `min_score` means not found, and so does one that another
-//    response a template's size away comes within `min_peak_margin` of.
+//    a parabola in x and y, gives the corner's radius; a best response below
+//    `min_score` means not found, and so does one that another response a
+//    template's size away comes within `min_peak_margin` of.
+//  - The azimuth: the correlation peak is broad along x (flat over the ramp
+//    of an edge blurred by the camera's turn), so the vertical edge beside
+//    the corner is located by the step detector of the line-junction tracker
+//    (track/edge_profile.h) in the face's rows, within the expected ramp.
 // Measure() only reads the per-frame data (the frame, padded), so landmarks
 // are tracked in parallel.
 #pragma once

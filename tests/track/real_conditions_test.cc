@@ -50,6 +50,19 @@ TEST_CASE("motion blur over half the frame interval, turns up to 8 degrees per f
   CHECK(WrongOk(rows, r.truth, 0.5) == 0);
 }
 
+TEST_CASE("motion blur, vertex method: the corner's edge located at the centre of its ramp", "[motion_blur]") {
+  const test::RenderedCase r = RenderSequence("motion-blur", 40);
+  LocalizerOptions o;
+  o.method = TrackingMethod::kVertex;
+  const std::vector<PoseRow> rows = test::Localize(r, o, r.c.poses.front());
+  const AccuracySummary a = CompareToGroundTruth(rows, r.truth);
+  INFO(FormatAccuracy(a, "cm"));
+  CHECK(a.tracked == 40);
+  CHECK(a.rms <= 0.06);              // measured 0.046 cm
+  CHECK(a.heading_rms_deg <= 0.03);  // measured 0.020 deg
+  CHECK(WrongOk(rows, r.truth, 0.5) == 0);
+}
+
 TEST_CASE("no initial pose: the first frame is localised by searching the room", "[global_start]") {
   for (const char* preset : {"paper-synthetic", "paper-real"}) {
     const test::RenderedCase r = test::RenderPreset(preset, 3);
