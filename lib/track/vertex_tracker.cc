@@ -248,15 +248,16 @@ namespace {
 // `ramp_cols` wide, where noise decides where it falls), while the step
 // across the vertical edge locates it to a fraction of a pixel. The edge's
 // position is the centre of its ramp by the step detector's area method in
-// the face's rows next to the corner (median over the rows), within the
+// `half_y` rows of the face along the edge from the corner (median over the
+// rows: the more rows, the less texture and noise matter), within the
 // ramp's half-width and 2 columns of the template's peak; also the ramp's
 // median width (columns, 15 % to 85 %). False when too few rows show the
 // step there.
 bool LocateVerticalEdge(const QuasiCylindricalView& view, const cv::Mat& padded, const CornerType& type,
-                       double ramp_cols, int half_y, CornerPeak* peak, double* width_cols) {
+                        double ramp_cols, int half_y, CornerPeak* peak, double* width_cols) {
   const int reach = static_cast<int>(std::ceil(ramp_cols)) + 12;  // the ramp, its tails, the plateaus
   const int x0 = static_cast<int>(std::floor(peak->x)) - reach, w = 2 * reach + 1;
-  const int rows = std::max(3, half_y - 1);
+  const int rows = std::max(3, half_y);
   const int y0 = type.y_sign > 0 ? static_cast<int>(std::ceil(peak->y)) + 2
                                  : static_cast<int>(std::floor(peak->y)) - 1 - rows;
   if (x0 < 0 || x0 + w > view.cols() || y0 < 0 || y0 + rows > view.rows()) return false;
@@ -345,7 +346,8 @@ LandmarkMeasurement VertexTracker::Measure(const PredictedLandmark& p, double se
   double ramp_cols = p.tangential_motion_px * px_per_rad / std::max(p.corner_radius, 1.0);
   if (ramp_cols < 2.0) ramp_cols = 0.0;
   double width_cols;
-  if (!LocateVerticalEdge(view_, padded_, type, ramp_cols, hy, &peak, &width_cols)) {
+  const int edge_rows = std::clamp(static_cast<int>(0.7 * v_len), 3, 24);  // along the vertical edge
+  if (!LocateVerticalEdge(view_, padded_, type, ramp_cols, edge_rows, &peak, &width_cols)) {
     m.why = "vertical edge not located beside the corner";
     return m;
   }

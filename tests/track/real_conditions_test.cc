@@ -58,8 +58,8 @@ TEST_CASE("motion blur, vertex method: the corner's edge located at the centre o
   const AccuracySummary a = CompareToGroundTruth(rows, r.truth);
   INFO(FormatAccuracy(a, "cm"));
   CHECK(a.tracked == 40);
-  CHECK(a.rms <= 0.06);              // measured 0.046 cm
-  CHECK(a.heading_rms_deg <= 0.03);  // measured 0.020 deg
+  CHECK(a.rms <= 0.035);             // measured 0.024 cm
+  CHECK(a.heading_rms_deg <= 0.025); // measured 0.017 deg
   CHECK(WrongOk(rows, r.truth, 0.5) == 0);
 }
 
