@@ -7,9 +7,23 @@ namespace pano {
 
 bool SampleLine(const cv::Mat& grey, const Eigen::Vector2d& start, const Eigen::Vector2d& step,
                 int n, float* out) {
+  if (n <= 0) return true;
+  // A straight line lies inside the image when both its ends do: check them
+  // once, then interpolate without per-sample checks (the same arithmetic
+  // as SampleGrey, so the same values).
+  float ends[2];
+  const Eigen::Vector2d last = start + (n - 1) * step;
+  if (!SampleGrey(grey, start.x(), start.y(), &ends[0]) || !SampleGrey(grey, last.x(), last.y(), &ends[1]))
+    return false;
+  const uchar* data = grey.data;
+  const size_t stride = grey.step[0];
   for (int k = 0; k < n; ++k) {
-    const Eigen::Vector2d p = start + k * step;
-    if (!SampleGrey(grey, p.x(), p.y(), &out[k])) return false;
+    const double x = start.x() + k * step.x(), y = start.y() + k * step.y();
+    const int ix = static_cast<int>(x), iy = static_cast<int>(y);
+    const float fx = static_cast<float>(x - ix), fy = static_cast<float>(y - iy);
+    const uchar* r0 = data + static_cast<size_t>(iy) * stride + ix;
+    const uchar* r1 = r0 + stride;
+    out[k] = (1 - fy) * ((1 - fx) * r0[0] + fx * r0[1]) + fy * ((1 - fx) * r1[0] + fx * r1[1]);
   }
   return true;
 }
