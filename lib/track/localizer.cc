@@ -76,17 +76,13 @@ Localizer::Localizer(const Calibration& calib, const Map& map,
       compass_(calib.sensor) {
   opt_.Check();
   if (!table_ || table_->empty()) throw Error("localiser: no E(D,Z) lookup table");
-  const double scale = map_.UnitsPerMetre();
-  motion_options_ = opt_.motion;
-  motion_options_.accel_sigma *= scale;
-  motion_options_.max_speed *= scale;
-  motion_options_.max_position_sigma *= scale;
+  motion_options_ = opt_.motion.Scaled(map_.UnitsPerMetre());
   motion_ = MotionModel(motion_options_);
   tracker_ = MakeTracker(opt_.method, calib_.sensor, table_, opt_, std::move(ph_tables));
 }
 
 void Localizer::Reset(const Pose2& initial, bool hint) {
-  initial_ = last_ = previous_ = initial;
+  initial_ = last_ = initial;
   frame_motion_ = Pose2{0, 0, 0};
   blur_fraction_ = opt_.exposure_fraction;
   n_good_ = 0;
@@ -469,10 +465,7 @@ void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, b
       const double scale = 1.4826 * abs_residuals[abs_residuals.size() / 2];
       bearing_sigma_ = bearing_sigma_ > 0 ? 0.9 * bearing_sigma_ + 0.1 * scale : scale;
     }
-    previous_ = n_good_ > 0 ? last_ : tri.pose;
     last_ = tri.pose;
-    if (n_good_ > 0 && !motion_.initialized())
-      frame_motion_ = Pose2{last_.x - previous_.x, last_.y - previous_.y, wrap_angle(last_.theta - previous_.theta)};
     UpdateBlurEstimate(*fr);
     ever_tracked_ = true;
     ++n_good_;

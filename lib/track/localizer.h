@@ -209,7 +209,7 @@ class Localizer {
   AzimuthCompass compass_;
   std::vector<float> last_signature_;
   Pose2 initial_;
-  Pose2 last_, previous_;
+  Pose2 last_;  // the last good pose
   // The camera's motion over the last frame interval (world frame), for the
   // landmarks' expected motion blur; kept while lost.
   Pose2 frame_motion_;

@@ -48,13 +48,17 @@ MotionMatrix Symmetric(const MotionMatrix& m) { return 0.5 * (m + m.transpose())
 
 }  // namespace
 
-MotionModelOptions MotionModelOptions::ForMapUnitsPerMetre(double units_per_metre) {
+MotionModelOptions MotionModelOptions::Scaled(double units_per_metre) const {
   CheckPositive(units_per_metre, "units_per_metre");
-  MotionModelOptions o;
+  MotionModelOptions o = *this;
   o.accel_sigma *= units_per_metre;
   o.max_speed *= units_per_metre;
   o.max_position_sigma *= units_per_metre;
   return o;
+}
+
+MotionModelOptions MotionModelOptions::ForMapUnitsPerMetre(double units_per_metre) {
+  return MotionModelOptions().Scaled(units_per_metre);
 }
 
 void MotionModelOptions::Check() const {

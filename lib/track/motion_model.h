@@ -50,7 +50,10 @@ struct MotionModelOptions {
   double max_position_sigma = 10.0;
   double max_heading_sigma = M_PI;
 
-  // The defaults with lengths scaled for a map in units of 1 / units_per_metre.
+  // These options (given in metres) with their lengths scaled for a map in
+  // units of 1 / units_per_metre.
+  MotionModelOptions Scaled(double units_per_metre) const;
+  // The defaults, scaled so.
   static MotionModelOptions ForMapUnitsPerMetre(double units_per_metre);
   // Throws pano::Error naming the first field that is not a positive finite number.
   void Check() const;

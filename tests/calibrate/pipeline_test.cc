@@ -12,7 +12,7 @@
 #include "calibrate/refit.h"
 #include "io/calibration.h"
 #include "io/targets.h"
-#include "render/targets_render.h"
+#include "rendered_targets.h"
 #include "synthetic.h"
 #include "test_paths.h"
 #include "test_rng.h"
@@ -49,18 +49,7 @@ TEST_CASE("two calibrations at once give what one alone gives", "[concurrent]") 
   // pipeline: detection, the unwarped retry, refinement, each with its own
   // threads.
   const Calibration truth = ReadCalibration(test::SourcePath("calib/paper-real.yaml"));
-  const std::string dir = test::ScratchDir("calibrate_concurrent") + "/t";
-  TargetBoard board;
-  board.cols = 9;
-  board.rows = 6;
-  board.square = 3.0;
-  RenderOptions ro;
-  ro.noise_sigma = 2.0;
-  ro.seed = 5;
-  TargetsWriteOptions wo;
-  wo.overwrite = true;
-  wo.quiet = true;
-  WriteTargetImages(dir, truth, board, AutoBoardPoses(truth.sensor, board, 8, 5), ro, wo);
+  const std::string dir = test::RenderTargets("calibrate_concurrent", truth, 8, 5);
   const TargetSet targets = ReadTargets(dir + "/targets.yaml");
   const std::vector<cv::Mat> images = LoadTargetImages(targets);
   CalibrateOptions o;

@@ -7,29 +7,13 @@
 #include "calibrate/calibrate.h"
 #include "io/calibration.h"
 #include "io/targets.h"
-#include "render/targets_render.h"
+#include "rendered_targets.h"
 #include "test_paths.h"
 
 namespace pano {
 namespace {
 
-// panosim targets --auto n --noise 2 --seed seed with the paper-real sphere
-// (board 9 x 6 x 3 cm) into a scratch folder; returns the folder.
-std::string RenderTargets(const std::string& name, const Calibration& truth, int n, uint64_t seed) {
-  const std::string dir = test::ScratchDir(name) + "/t";
-  TargetBoard board;
-  board.cols = 9;
-  board.rows = 6;
-  board.square = 3.0;
-  RenderOptions ro;
-  ro.noise_sigma = 2.0;
-  ro.seed = seed;
-  TargetsWriteOptions wo;
-  wo.overwrite = true;
-  wo.quiet = true;
-  WriteTargetImages(dir, truth, board, AutoBoardPoses(truth.sensor, board, n, seed), ro, wo);
-  return dir;
-}
+using test::RenderTargets;
 
 TEST_CASE("refined corners remove the detector's bias (rendered boards, known poses)", "[refine]") {
   const Calibration truth = ReadCalibration(test::SourcePath("calib/paper-real.yaml"));
