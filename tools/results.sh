@@ -14,9 +14,10 @@ done
 methods="junction"
 if "$bin/panoloc" --help 2>/dev/null | grep -q vertex; then methods="junction vertex"; fi
 # The paper's experiments, then real conditions (fast turns, motion blur, all
-# factors together) and a 3000-frame run with kidnaps (about 5 minutes to
-# render on 2 cores; PRESETS=... chooses others).
-presets=${PRESETS:-"paper-synthetic paper-real cluttered kidnap fast-turns motion-blur real-conditions long-run"}
+# factors together) and 3000-frame runs with kidnaps, without and with
+# motion blur (about 5 minutes each to render on 2 cores; PRESETS=...
+# chooses others).
+presets=${PRESETS:-"paper-synthetic paper-real cluttered kidnap fast-turns motion-blur real-conditions long-run long-run-blur"}
 declare -A paper_std=( ["paper-synthetic/junction"]="0.4" ["paper-synthetic/vertex"]="0.5"
                       ["paper-real/junction"]="3.7" ["paper-real/vertex"]="5" )
 declare -A paper_out=( ["paper-synthetic/junction"]="0 %" ["paper-synthetic/vertex"]="3 %"

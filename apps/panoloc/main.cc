@@ -143,6 +143,11 @@ int main(int argc, char** argv) {
   app.add_option("--min-step", o.localizer.junction.min_step,
                  "Smallest intensity step that counts as an edge (grey levels)")
       ->capture_default_str();
+  app.add_option("--alert-fraction", o.localizer.alert_fraction,
+                 "A frame is ok only when its error bound (5 sigma of its position covariance) is within "
+                 "this fraction of the distance to its landmarks; 0: no bound")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   app.add_flag("-q,--quiet", o.quiet, "No progress line, notes or summary");
   app.add_flag("--verbose", verbose, "Let the decoding libraries (FFmpeg, OpenCV) print their messages");
   app.set_version_flag("--version", PANO_VERSION);

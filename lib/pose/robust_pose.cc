@@ -428,6 +428,8 @@ void IntegrityOptions::Check() const {
   if (!(confidence > 0.0) || !(confidence < 1.0)) throw Error("integrity: confidence: expected in (0, 1)");
   if (!(reference_position_std > 0.0)) throw Error("integrity: reference_position_std: expected > 0");
   if (!(reference_redundancy > 0.0)) throw Error("integrity: reference_redundancy: expected > 0");
+  if (!(protection_sigmas > 0.0) || !(alert_fraction >= 0.0))
+    throw Error("integrity: protection_sigmas: expected > 0, alert_fraction: expected >= 0");
 }
 
 namespace {
@@ -469,7 +471,7 @@ IntegrityReport IntegrityCheck(const TriangulationResult& result,
   rep.observations = static_cast<int>(obs.size());
   if (!result.ok) return rep;
   rep.inliers = static_cast<int>(result.inliers.size());
-  rep.dof = rep.inliers - 3;
+  rep.dof = DistinctBearings(obs, result.inliers) - 3;
   rep.testable = rep.dof >= 1;
   const double sigma2 = opt.sigma_bearing * opt.sigma_bearing;
   for (int i : result.inliers) {
@@ -485,6 +487,14 @@ IntegrityReport IntegrityCheck(const TriangulationResult& result,
     rep.consistent = false;
     rep.position_std = rep.heading_std = rep.condition = std::numeric_limits<double>::infinity();
     return rep;  // quality 0
+  }
+  if (opt.alert_fraction > 0) {
+    double distance = 0.0;
+    for (int i : result.inliers) distance += (obs[i].landmark - Eigen::Vector2d(result.pose.x, result.pose.y)).norm();
+    rep.alert_limit = opt.alert_fraction * distance / std::max<size_t>(1, result.inliers.size());
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> pos(result.covariance.topLeftCorner<2, 2>());
+    rep.protection_level = opt.protection_sigmas * std::sqrt(std::max(0.0, pos.eigenvalues().maxCoeff()));
+    rep.within_alert_limit = rep.protection_level <= rep.alert_limit;
   }
   const double fraction = rep.observations > 0 ? double(rep.inliers) / rep.observations : 0.0;
   const double redundancy = rep.dof > 0 ? rep.dof / (rep.dof + opt.reference_redundancy) : 0.0;

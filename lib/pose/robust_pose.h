@@ -158,13 +158,20 @@ struct IntegrityOptions {
   // Spare inliers (beyond the 3 a pose needs) at which the redundancy
   // factor of the quality is one half.
   double reference_redundancy = 3.0;
+  // Protection: the pose's error bound, protection_sigmas times the largest
+  // position std of its own covariance (from its residuals), must be within
+  // the alert limit, alert_fraction of the mean distance to its inlier
+  // landmarks. A pose resting on a weak geometry or a few noisy bearings is
+  // then not reported, however well its residuals fit. 0 switches it off.
+  double protection_sigmas = 5.0;
+  double alert_fraction = 0.01;
   void Check() const;
 };
 
 struct IntegrityReport {
   int observations = 0;
   int inliers = 0;
-  int dof = 0;               // inliers - 3
+  int dof = 0;               // distinct inlier bearings (DistinctBearings) - 3
   bool testable = false;     // dof >= 1: the residuals can be checked at all
   double chi2 = 0.0;         // sum w_i r_i^2 / sigma^2 over the inliers
   double chi2_threshold = 0.0;  // quantile at `confidence`, dof
@@ -177,6 +184,11 @@ struct IntegrityReport {
   double position_std = 0.0;
   double heading_std = 0.0;
   double condition = 0.0;
+  // protection_sigmas x the largest position std of the result's covariance,
+  // and alert_fraction x the mean inlier landmark distance (map units).
+  double protection_level = 0.0;
+  double alert_limit = 0.0;
+  bool within_alert_limit = true;
   // Quality in [0, 1] for the pose CSV: the product of
   //   inlier fraction     inliers / observations,
   //   redundancy          dof / (dof + reference_redundancy),

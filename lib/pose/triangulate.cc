@@ -135,6 +135,19 @@ bool RefineOnBearings(const std::vector<BearingObservation>& obs, const std::vec
 
 }  // namespace
 
+int DistinctBearings(const std::vector<BearingObservation>& obs, const std::vector<int>& use) {
+  std::vector<int> groups;
+  int single = 0;
+  for (int i : use) {
+    if (obs[static_cast<size_t>(i)].group < 0)
+      ++single;
+    else
+      groups.push_back(obs[static_cast<size_t>(i)].group);
+  }
+  std::sort(groups.begin(), groups.end());
+  return single + static_cast<int>(std::unique(groups.begin(), groups.end()) - groups.begin());
+}
+
 TriangulationResult Triangulate(const std::vector<BearingObservation>& obs, const Pose2& prior,
                                 const TriangulationOptions& opt) {
   opt.Check();
@@ -234,7 +247,7 @@ TriangulationResult Triangulate(const std::vector<BearingObservation>& obs, cons
   res.rms_bearing = std::sqrt(sum_r2 / sum_w);
   // First-order covariance: sigma^2 (J^T W J)^-1, sigma from the residuals
   // when there are spare degrees of freedom, else the configured sigma.
-  const int dof = static_cast<int>(use.size()) - 3;
+  const int dof = DistinctBearings(obs, use) - 3;
   const double sigma2 = dof >= 2 ? sum_r2 / dof : opt.bearing_sigma * opt.bearing_sigma;
   res.covariance = sigma2 * info.inverse();
   return res;

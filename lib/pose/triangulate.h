@@ -24,7 +24,13 @@ struct BearingObservation {
   double bearing = 0.0;            // sensor-frame azimuth, radians
   double weight = 1.0;             // relative confidence (> 0)
   int id = -1;                     // caller's landmark index
+  // Observations of one group lie on one vertical line (two corners of one
+  // edge): one bearing's worth of evidence between them. -1: its own.
+  int group = -1;
 };
+
+// The number of independent bearings among obs[use]: distinct groups.
+int DistinctBearings(const std::vector<BearingObservation>& obs, const std::vector<int>& use);
 
 struct TriangulationOptions {
   int min_landmarks = 3;

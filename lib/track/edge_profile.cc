@@ -9,21 +9,39 @@ bool SampleLine(const cv::Mat& grey, const Eigen::Vector2d& start, const Eigen::
                 int n, float* out) {
   if (n <= 0) return true;
   // A straight line lies inside the image when both its ends do: check them
-  // once, then interpolate without per-sample checks (the same arithmetic
-  // as SampleGrey, so the same values).
+  // once, then interpolate without per-sample checks.
   float ends[2];
   const Eigen::Vector2d last = start + (n - 1) * step;
   if (!SampleGrey(grey, start.x(), start.y(), &ends[0]) || !SampleGrey(grey, last.x(), last.y(), &ends[1]))
     return false;
+  // In float, in chunks whose coordinates, corner pixels and blends are
+  // each one loop the compiler vectorises (the line is inside the image, so
+  // truncation is floor).
   const uchar* data = grey.data;
-  const size_t stride = grey.step[0];
-  for (int k = 0; k < n; ++k) {
-    const double x = start.x() + k * step.x(), y = start.y() + k * step.y();
-    const int ix = static_cast<int>(x), iy = static_cast<int>(y);
-    const float fx = static_cast<float>(x - ix), fy = static_cast<float>(y - iy);
-    const uchar* r0 = data + static_cast<size_t>(iy) * stride + ix;
-    const uchar* r1 = r0 + stride;
-    out[k] = (1 - fy) * ((1 - fx) * r0[0] + fx * r0[1]) + fy * ((1 - fx) * r1[0] + fx * r1[1]);
+  const int stride = static_cast<int>(grey.step[0]);
+  const float sx = static_cast<float>(start.x()), sy = static_cast<float>(start.y());
+  const float dx = static_cast<float>(step.x()), dy = static_cast<float>(step.y());
+  constexpr int kChunk = 32;
+  int offset[kChunk];
+  float fx[kChunk], fy[kChunk], p00[kChunk], p01[kChunk], p10[kChunk], p11[kChunk];
+  for (int k0 = 0; k0 < n; k0 += kChunk) {
+    const int m = std::min(kChunk, n - k0);
+    for (int j = 0; j < m; ++j) {
+      const float x = sx + static_cast<float>(k0 + j) * dx, y = sy + static_cast<float>(k0 + j) * dy;
+      const int ix = static_cast<int>(x), iy = static_cast<int>(y);
+      fx[j] = x - static_cast<float>(ix);
+      fy[j] = y - static_cast<float>(iy);
+      offset[j] = iy * stride + ix;
+    }
+    for (int j = 0; j < m; ++j) {
+      const uchar* r0 = data + offset[j];
+      p00[j] = r0[0];
+      p01[j] = r0[1];
+      p10[j] = r0[stride];
+      p11[j] = r0[stride + 1];
+    }
+    for (int j = 0; j < m; ++j)
+      out[k0 + j] = (1 - fy[j]) * ((1 - fx[j]) * p00[j] + fx[j] * p01[j]) + fy[j] * ((1 - fx[j]) * p10[j] + fx[j] * p11[j]);
   }
   return true;
 }
@@ -76,6 +94,7 @@ bool FindStep(const float* p, int n, int polarity, int baseline, double min_step
   const int c0 = best;
   float left = MeanOf(p, n, c0 - h - w, c0 - h), right = MeanOf(p, n, c0 + h, c0 + h + w);
   double loc = best;
+  int last_a = -1, last_b = -1;
   for (int pass = 0; pass < 3; ++pass) {
     if (!(sgn * (right - left) > 0.5 * min_step)) return false;
     // The ramp's extent: where the normalised profile leaves 0 and 1
@@ -88,6 +107,10 @@ bool FindStep(const float* p, int n, int polarity, int baseline, double min_step
     const int lo = std::max(w + 4, c - h - 1), hi = std::min(n - 1 - w - 4, c + h + 1);
     while (a > lo && (p[a - 1] - left) * inv > 0.15f) --a;
     while (b < hi && (p[b + 1] - left) * inv < 0.85f) ++b;
+    // The same extent as the last pass: the same plateaus and location.
+    if (a == last_a && b == last_b) break;
+    last_a = a;
+    last_b = b;
     edge->width = b - a + 1;
     a -= 3;
     b += 3;

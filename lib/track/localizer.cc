@@ -35,10 +35,14 @@ void LocalizerOptions::Check() const {
   if (!(gate_chi2 > 0) || !(gate_heading_sigma > 0) || !(gate_position_fraction > 0))
     throw Error("localiser: gate_chi2, gate_heading_sigma and gate_position_fraction: expected > 0");
   if (!(min_quality >= 0.0 && min_quality < 1.0)) throw Error("localiser: min_quality: expected 0..1");
+  if (!(protection_sigmas > 0.0) || !(alert_fraction >= 0.0))
+    throw Error("localiser: protection_sigmas: expected > 0, alert_fraction: expected >= 0");
   if (!(integrity_confidence > 0.5 && integrity_confidence < 1.0))
     throw Error("localiser: integrity_confidence: expected 0.5..1");
   if (!(min_bearing_sigma > 0) || !(initial_bearing_sigma > 0) || !(max_bearing_sigma >= min_bearing_sigma))
     throw Error("localiser: min_bearing_sigma and initial_bearing_sigma: expected > 0");
+  if (!(relocalize_confirmed_fraction >= 0))
+    throw Error("localiser: relocalize_confirmed_fraction: expected >= 0 (above 1: every pose confirmed first)");
   if (!(relocalize_min_fraction >= 0 && relocalize_min_fraction <= 1) || relocalize_margin < 0 ||
       !(relocalize_distinct > 0))
     throw Error("localiser: relocalize_min_fraction 0..1, relocalize_margin >= 0, relocalize_distinct > 0 expected");
@@ -106,13 +110,13 @@ void Localizer::ResetUnknown() {
   known_start_ = false;
 }
 
-void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out) const {
+void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, const Pose2* solved_motion) const {
   std::vector<PredictedLandmark> ordered = SelectSpread(
       PredictLandmarks(landmarks_, map_, scene_, calib_.sensor, *table_, pose, opt_.prediction),
       opt_.max_landmarks);
   // The motion over the last frame interval; unknown: the fastest turn.
-  const bool known = motion_updates_ >= 2;
-  const Pose2 motion = known ? frame_motion_ : Pose2{0, 0, opt_.unknown_turn_per_frame};
+  const bool known = motion_updates_ >= 2 || solved_motion;
+  const Pose2 motion = solved_motion ? *solved_motion : known ? frame_motion_ : Pose2{0, 0, opt_.unknown_turn_per_frame};
   const Pose2 before{pose.x - motion.x, pose.y - motion.y, pose.theta - motion.theta};
   // Edges may be blurred a little more than the estimate says.
   const double fraction = known ? std::min(opt_.exposure_fraction, 1.3 * blur_fraction_ + 0.05)
@@ -162,6 +166,19 @@ std::vector<BearingObservation> Localizer::Observations(const FrameResult& fr) c
     o.id = static_cast<int>(i);
     obs.push_back(o);
   }
+  // The top and bottom corners of one edge measure one bearing: they share
+  // its weight, and count once as evidence.
+  for (size_t i = 0; i < obs.size(); ++i) {
+    if (obs[i].group >= 0) continue;
+    std::vector<size_t> same{i};
+    for (size_t j = i + 1; j < obs.size(); ++j)
+      if ((obs[j].landmark - obs[i].landmark).squaredNorm() < 1e-12) same.push_back(j);
+    if (same.size() < 2) continue;
+    for (size_t j : same) {
+      obs[j].group = static_cast<int>(i);
+      obs[j].weight /= static_cast<double>(same.size());
+    }
+  }
   return obs;
 }
 
@@ -201,9 +218,10 @@ bool Localizer::TrackFrom(const Pose2& pose, double search_px, FrameResult* fr,
 }
 
 bool Localizer::Relocalize(const cv::Mat& grey, FrameResult* fr, TriangulationResult* tri) const {
-  const std::vector<PoseHypothesis> hyps =
-      RelocalizationHypotheses(grey, calib_.sensor, *table_, map_, scene_, landmarks_, opt_.prediction,
-                               opt_.relocalize, opt_.num_threads);
+  if (!relocalization_index_)
+    relocalization_index_ = std::make_unique<const RelocalizationIndex>(
+        calib_.sensor, *table_, map_, scene_, landmarks_, opt_.prediction, opt_.relocalize, opt_.num_threads);
+  const std::vector<PoseHypothesis> hyps = relocalization_index_->Hypotheses(grey, opt_.num_threads);
   Eigen::Vector2d lo, hi;
   double top;
   map_.Extent(&lo, &hi, &top);
@@ -279,10 +297,13 @@ bool Localizer::Consistent(FrameResult* fr, const TriangulationResult& tri) cons
   io.sigma_bearing = std::clamp(bearing_sigma_ > 0 ? 3.0 * bearing_sigma_ : opt_.initial_bearing_sigma,
                                 opt_.min_bearing_sigma, opt_.max_bearing_sigma);
   io.confidence = opt_.integrity_confidence;
+  io.protection_sigmas = opt_.protection_sigmas;
+  io.alert_fraction = opt_.alert_fraction;
   const std::vector<BearingObservation> obs = Observations(*fr);
   fr->integrity = IntegrityCheck(tri, obs, io);
   // Three bearings always fit a pose: without a spare one nothing is checked.
-  return fr->integrity.testable && fr->integrity.consistent && fr->integrity.quality >= opt_.min_quality;
+  return fr->integrity.testable && fr->integrity.consistent && fr->integrity.quality >= opt_.min_quality &&
+         fr->integrity.within_alert_limit;
 }
 
 bool Localizer::AgreesWithMotion(FrameResult* fr, const TriangulationResult& tri) const {
@@ -363,18 +384,32 @@ void Localizer::TrackPredictions(const std::vector<Pose2>& predictions, FrameRes
   }
 }
 
+std::optional<Pose2> Localizer::SolvedMotion(const Pose2& pose) const {
+  if (!ever_tracked_ || n_lost_ > 0) return std::nullopt;
+  return Pose2{pose.x - frame_pose_.x, pose.y - frame_pose_.y, wrap_angle(pose.theta - frame_pose_.theta)};
+}
+
 void Localizer::RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) const {
   // How far the found landmarks lie from their predictions (px).
-  double max_shift = 0.0;
-  for (size_t i = 0; i < fr->predicted.size(); ++i)
+  double max_shift = 0.0, max_radius = 0.0;
+  for (size_t i = 0; i < fr->predicted.size(); ++i) {
+    max_radius = std::max(max_radius, fr->predicted[i].corner_radius);
     if (fr->measurements[i].found)
       max_shift =
           std::max(max_shift, std::abs(wrap_angle(fr->measurements[i].azimuth - fr->predicted[i].azimuth)) *
                                   fr->predicted[i].corner_radius);
-  for (int pass = 0;
-       pass < opt_.refine_passes && max_shift > opt_.refine_threshold_px && Acceptable(*fr, *tri); ++pass) {
+  }
+  // A turn faster or slower than predicted blurs the edges more or less
+  // than the search allowed for: measure again with the solved motion.
+  std::optional<Pose2> solved = SolvedMotion(tri->pose);
+  const double turn_error = solved ? std::abs(wrap_angle(solved->theta - frame_motion_.theta)) : 0.0;
+  const bool blur_mispredicted = turn_error * max_radius * blur_fraction_ > opt_.refine_threshold_px;
+  for (int pass = 0; pass < opt_.refine_passes && (max_shift > opt_.refine_threshold_px || blur_mispredicted) &&
+                     Acceptable(*fr, *tri);
+       ++pass) {
     FrameResult again;
-    Measure(tri->pose, opt_.refine_search_px, &again);
+    solved = SolvedMotion(tri->pose);
+    Measure(tri->pose, opt_.refine_search_px, &again, solved ? &*solved : nullptr);
     TriangulationResult tri2 = Solve(again, tri->pose);
     if (!Acceptable(again, tri2)) break;
     fr->predicted = std::move(again.predicted);
@@ -408,6 +443,27 @@ bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, FrameResult* fr
   *tri = t;
   n_good_ = 0;  // no velocity across the jump
   return true;
+}
+
+bool Localizer::Corroborated(const FrameResult& fr, const TriangulationResult& tri) const {
+  // The motion model cannot vouch for it: after a loss its prediction is
+  // too wide to tell a right pose from a wrong one nearby.
+  const size_t chosen = opt_.max_landmarks > 0 ? std::min<size_t>(fr.predicted.size(), opt_.max_landmarks)
+                                               : fr.predicted.size();
+  return tri.inliers.size() >= opt_.relocalize_confirmed_fraction * static_cast<double>(chosen);
+}
+
+void Localizer::HoldForConfirmation(const Pose2& pose) {
+  // As from a start pose given as a hint: no velocity, any turn, and a new
+  // room-wide search at once if the next frame does not track.
+  last_ = frame_pose_ = pose;
+  frame_motion_ = Pose2{0, 0, 0};
+  known_start_ = start_is_hint_ = true;
+  ever_tracked_ = false;
+  motion_ = MotionModel(motion_options_);
+  motion_updates_ = 0;
+  n_good_ = 0;
+  last_signature_.clear();
 }
 
 void Localizer::UpdateBlurEstimate(const FrameResult& fr) {
@@ -447,7 +503,7 @@ void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, b
     if (!motion_.initialized()) {
       motion_.Reset(row->time_s, tri.pose, m.covariance, motion_options_.max_speed, motion_options_.max_turn_rate);
       motion_updates_ = 1;
-    } else if (fr->relocalized) {
+    } else if (fr->relocalized || fr->innovation > opt_.gate_chi2) {
       motion_.Reinitialize(std::max(row->time_s, motion_.time()), tri.pose, m.covariance);
       motion_updates_ = 1;
     } else {
@@ -505,18 +561,23 @@ FrameResult Localizer::Process(const cv::Mat& grey, int frame, double time_s,
     TrackPredictions(predictions, &fr, &tri);
     RefineAroundSolution(&fr, &tri);
     // A pose is reported only when its residuals are consistent and it
-    // agrees with the motion so far.
-    accepted = Acceptable(fr, tri) && Consistent(&fr, tri) && AgreesWithMotion(&fr, tri);
+    // agrees with the motion so far; one the motion model did not expect (a
+    // sudden stop or turn) only on strong evidence, as a relocalised one.
+    accepted = Acceptable(fr, tri) && Consistent(&fr, tri) && (AgreesWithMotion(&fr, tri) || Corroborated(fr, tri));
   } else if (opt_.compass) {
     signature = compass_.Signature(grey);
   }
   int n_found = 0;  // before any relocalisation: what tracking from the prediction found
   for (const auto& m : fr.measurements) n_found += m.found;
   // Lost for a while (the robot may have been carried), or never found: search the room.
-  if (!accepted) accepted = RelocalizeIfLost(grey, frame, &fr, &tri);
+  if (!accepted && RelocalizeIfLost(grey, frame, &fr, &tri)) {
+    accepted = Corroborated(fr, tri);
+    fr.unconfirmed = !accepted;
+  }
   fr.triangulation = tri;
   if (opt_.compass) last_signature_ = std::move(signature);
   RecordOutcome(&fr, tri, accepted, n_found);
+  if (fr.unconfirmed) HoldForConfirmation(tri.pose);
   fr.has_motion_step = motion_stepped_;
   if (fr.has_motion_step) fr.motion_step = motion_.step();
   return fr;

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -60,6 +61,10 @@ struct LocalizerOptions {
   // bearings, consistency, geometry) at least this: below it the evidence is
   // too thin to act on (few inliers of many, a weak geometry).
   double min_quality = 0.15;
+  // ... and its error bound (protection_sigmas x its largest position std)
+  // within alert_fraction of the distance to its landmarks (0: no bound).
+  double protection_sigmas = 5.0;
+  double alert_fraction = 0.01;
   // The noise assumed is four times the recent RMS residual (blur and
   // geometry vary from frame to frame; a frame a little worse than the
   // last is still right), within [min_bearing_sigma, max_bearing_sigma]:
@@ -101,6 +106,11 @@ struct LocalizerOptions {
   double relocalize_min_fraction = 0.5;
   int relocalize_margin = 2;
   double relocalize_distinct = 0.05;
+  // A relocalised pose (the first pose, after a kidnap or a loss) is
+  // reported at once only with this fraction of its chosen landmarks as
+  // inliers; with fewer (a wrong pose fits a few bearings easily) the next
+  // frame must track from it first (above 1: every one).
+  double relocalize_confirmed_fraction = 2.0 / 3.0;
   RelocalizeOptions relocalize;
   // The longest exposure expected, as a fraction of the frame interval:
   // motion blur spans at most this fraction of a landmark's image motion
@@ -123,6 +133,7 @@ struct FrameResult {
   PoseRow row;
   Pose2 predicted_pose;
   bool relocalized = false;     // the pose came from the room-wide search
+  bool unconfirmed = false;     // ... found, but held back for the next frame to confirm
   double innovation = -1.0;     // squared Mahalanobis distance from the prediction (-1: none)
   IntegrityReport integrity;    // of the reported pose
   // The motion model's step at this frame, for a smoother (FixedLagSmoother);
@@ -171,7 +182,11 @@ class Localizer {
   const std::vector<Landmark>& landmarks() const { return landmarks_; }
 
  private:
-  void Measure(const Pose2& pose, double search_px, FrameResult* out) const;
+  // `motion`: this frame's motion when better known than the prediction
+  // (after a first solve); it sets the expected blur of each edge.
+  void Measure(const Pose2& pose, double search_px, FrameResult* out, const Pose2* motion = nullptr) const;
+  // The motion from the previous frame's pose to `pose`, when that pose was measured.
+  std::optional<Pose2> SolvedMotion(const Pose2& pose) const;
   TriangulationResult Solve(const FrameResult& fr, const Pose2& prior) const;
   bool Acceptable(const FrameResult& fr, const TriangulationResult& tri) const;
   std::vector<BearingObservation> Observations(const FrameResult& fr) const;
@@ -196,6 +211,10 @@ class Localizer {
   void RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) const;
   // the room-wide search after relocalize_after lost frames;
   bool RelocalizeIfLost(const cv::Mat& grey, int frame, FrameResult* fr, TriangulationResult* tri);
+  // whether a relocalised pose stands on its own evidence;
+  bool Corroborated(const FrameResult& fr, const TriangulationResult& tri) const;
+  // tracking restarts from a relocalised pose that the next frame must confirm;
+  void HoldForConfirmation(const Pose2& pose);
   // the output row and the motion model's state.
   void RecordOutcome(FrameResult* fr, const TriangulationResult& tri, bool accepted, int n_found);
 
@@ -206,6 +225,8 @@ class Localizer {
   LocalizerOptions opt_;
   std::vector<Landmark> landmarks_;
   std::unique_ptr<LandmarkTracker> tracker_;
+  // Built on the first room-wide search (a tracked run never needs it).
+  mutable std::unique_ptr<const RelocalizationIndex> relocalization_index_;
   AzimuthCompass compass_;
   std::vector<float> last_signature_;
   Pose2 initial_;

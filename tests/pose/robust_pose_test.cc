@@ -589,6 +589,63 @@ TEST_CASE("integrity: predicted position std matches the scatter; quality follow
   CHECK_THROWS_WITH(IntegrityCheck(all, obs, bad), Catch::Contains("confidence"));
 }
 
+TEST_CASE("integrity: two corners of one edge count as one bearing", "[integrity_groups]") {
+  const Pose2 truth{95, 110, 0.8};
+  auto obs = Observe(truth, kLandmarks);  // 8 landmarks
+  CHECK(DistinctBearings(obs, {0, 1, 2, 3, 4, 5, 6, 7}) == 8);
+  // Landmarks 0 and 1 seen again (the edges' other corners): 10
+  // observations, 8 distinct bearings.
+  auto doubled = obs;
+  for (int k : {0, 1}) {
+    BearingObservation o = obs[static_cast<size_t>(k)];
+    o.group = o.id;
+    doubled[static_cast<size_t>(k)].group = o.id;
+    doubled.push_back(o);
+  }
+  CHECK(DistinctBearings(doubled, {0, 1, 2, 3, 4, 5, 6, 7, 8, 9}) == 8);
+  CHECK(DistinctBearings(doubled, {0, 8}) == 1);
+  CHECK(DistinctBearings(doubled, {}) == 0);
+  for (auto& o : doubled) o.bearing += 0.02 * kDeg * std::sin(3 * o.bearing);
+  const TriangulationResult r = Triangulate(doubled, truth);
+  REQUIRE(r.ok);
+  REQUIRE(r.inliers.size() == 10);
+  IntegrityOptions iopt;
+  iopt.sigma_bearing = 0.05 * kDeg;
+  const IntegrityReport rep = IntegrityCheck(r, doubled, iopt);
+  CHECK(rep.inliers == 10);
+  CHECK(rep.dof == 5);  // 8 distinct bearings - 3
+}
+
+TEST_CASE("integrity: the protection level against the alert limit", "[integrity_protection]") {
+  const Pose2 truth{95, 110, 0.8};
+  auto obs = Observe(truth, kLandmarks);
+  for (size_t i = 0; i < obs.size(); ++i) obs[i].bearing += (i % 2 ? 0.03 : -0.03) * kDeg;
+  const TriangulationResult r = Triangulate(obs, truth);
+  REQUIRE(r.ok);
+  IntegrityOptions iopt;
+  iopt.sigma_bearing = 0.05 * kDeg;
+  const IntegrityReport rep = IntegrityCheck(r, obs, iopt);
+  // protection_sigmas x the largest position std of the solution's own
+  // covariance; alert_fraction x the mean inlier distance.
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(r.covariance.topLeftCorner<2, 2>());
+  double distance = 0.0;
+  for (const auto& o : obs) distance += (o.landmark - Eigen::Vector2d(r.pose.x, r.pose.y)).norm();
+  distance /= static_cast<double>(obs.size());
+  CHECK(rep.protection_level == Approx(5.0 * std::sqrt(es.eigenvalues().maxCoeff())).epsilon(1e-12));
+  CHECK(rep.alert_limit == Approx(0.01 * distance).epsilon(1e-12));
+  CHECK(rep.within_alert_limit == (rep.protection_level <= rep.alert_limit));
+  CHECK(rep.within_alert_limit);
+  // A limit tighter than the bound fails it; a zero fraction switches it off.
+  iopt.alert_fraction = 0.5 * rep.protection_level / distance;
+  CHECK_FALSE(IntegrityCheck(r, obs, iopt).within_alert_limit);
+  iopt.alert_fraction = 0.0;
+  const IntegrityReport off = IntegrityCheck(r, obs, iopt);
+  CHECK(off.within_alert_limit);
+  CHECK(off.protection_level == 0.0);
+  iopt.alert_fraction = -1.0;
+  CHECK_THROWS_WITH(IntegrityCheck(r, obs, iopt), Catch::Contains("alert_fraction"));
+}
+
 TEST_CASE("Mahalanobis distance of a pose, heading wrapped", "[mahalanobis]") {
   const Eigen::Matrix3d cov = Eigen::Vector3d(4.0, 9.0, 0.01).asDiagonal();
   // (1 / 2)^2 + (3 / 3)^2 + (0.05 / 0.1)^2 = 1.5, across the +-pi seam.

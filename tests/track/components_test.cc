@@ -3,12 +3,14 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <random>
 #include <set>
 
 #include "core/error.h"
 #include "test_rng.h"
 #include "track/compass.h"
 #include "track/edge_profile.h"
+#include "track/relocalize.h"
 #include "track_fixture.h"
 
 namespace pano {
@@ -131,6 +133,35 @@ TEST_CASE("relocalisation: a robot started at a wrong pose finds itself", "[relo
     REQUIRE(rows[i].status == PoseStatus::kOk);
     CHECK(std::hypot(rows[i].pose.x - r.truth[i].pose.x, rows[i].pose.y - r.truth[i].pose.y) < 0.1);
   }
+}
+
+TEST_CASE("relocalisation: the branch-and-bound heading search equals the exhaustive one",
+          "[relocalize_heading]") {
+  PANO_SEEDED_RNG(21);
+  std::uniform_real_distribution<float> level(0.0f, 1.0f);
+  for (int bins : {720, 725, 36}) {
+    for (int trial = 0; trial < 200; ++trial) {
+      // A histogram of a few peaks over a low floor, quantised so that equal
+      // scores occur (the lowest bin must win).
+      std::vector<float> hist(static_cast<size_t>(bins));
+      for (float& h : hist) h = std::floor(4 * level(rng) * level(rng) * level(rng)) / 4;
+      std::vector<int> edges;
+      std::uniform_int_distribution<int> bin(0, bins - 1);
+      const int n = 3 + trial % 10;
+      for (int k = 0; k < n; ++k) edges.push_back(bin(rng));
+      double exhaustive_score, bounded_score;
+      const int exhaustive = HeadingSearch(hist, 1).Best(edges, &exhaustive_score);
+      const int bounded = HeadingSearch(hist, 8).Best(edges, &bounded_score);
+      INFO("bins " << bins << ", trial " << trial);
+      REQUIRE(bounded == exhaustive);
+      REQUIRE(bounded_score == exhaustive_score);
+    }
+  }
+  // Nothing above zero: no heading.
+  double score;
+  CHECK(HeadingSearch(std::vector<float>(720, 0.0f), 8).Best({1, 2, 3}, &score) == -1);
+  CHECK(score == 0.0);
+  CHECK_THROWS_WITH(HeadingSearch(std::vector<float>(720, 0.0f), 0), Catch::Contains("block"));
 }
 
 // Every field of two trajectories, compared exactly.
