@@ -107,6 +107,9 @@ bool FindStep(const float* p, int n, int polarity, int baseline, double min_step
     const int lo = std::max(w + 4, c - h - 1), hi = std::min(n - 1 - w - 4, c + h + 1);
     while (a > lo && (p[a - 1] - left) * inv > 0.15f) --a;
     while (b < hi && (p[b + 1] - left) * inv < 0.85f) ++b;
+    // A ramp running on well past the widest expected (blurred more than
+    // predicted): its plateaus and so its centre are out of reach.
+    if ((a == lo && (p[a - 1] - left) * inv > 0.3f) || (b == hi && (p[b + 1] - left) * inv < 0.7f)) return false;
     // The same extent as the last pass: the same plateaus and location.
     if (a == last_a && b == last_b) break;
     last_a = a;

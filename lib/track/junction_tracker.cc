@@ -51,7 +51,7 @@ bool LinearStep(const cv::Mat& grey, const Sensor& s, const JunctionOptions& o, 
   const double c = std::cos(azimuth), sn = std::sin(azimuth), a = s.params.aspect;
   // Direction in pixels of one unit of (aspect-free) image length.
   const Eigen::Vector2d dir = radial ? Eigen::Vector2d(c, a * sn) : Eigen::Vector2d(-sn, a * c);
-  const Eigen::Vector2d centre = s.from_polar(radius, azimuth);
+  const Eigen::Vector2d centre(s.params.cx + radius * c, s.params.cy + a * radius * sn);  // from_polar
   const double half_n = (n - 1) / 2;
   const Eigen::Vector2d start = centre - half_n * o.sample_step_px * dir;
   float profile[512];
