@@ -340,35 +340,38 @@ Pose2 Localizer::PredictMotion(double time_s, const OdometryIncrement* odometry)
   return (opt_.constant_velocity && motion_updates_ >= 2) || odometry ? motion_.pose() : last_;
 }
 
-std::vector<Pose2> Localizer::CandidatePoses(const cv::Mat& grey, const Pose2& pred,
-                                             std::vector<float>* signature) const {
-  // The visual compass measures the turn since the last frame from the
-  // images. Translation biases it by a few degrees in a small room, so the
-  // constant-velocity prediction goes first and the compass's heading is
-  // tried when that fails: it keeps sudden turns in view.
-  std::vector<Pose2> predictions{pred};
-  if (!opt_.compass) return predictions;
-  *signature = compass_.Signature(grey);
-  if (last_signature_.empty() || !ever_tracked_) return predictions;
+std::optional<Pose2> Localizer::CompassPose(const Pose2& pred, const std::vector<float>& signature) const {
+  if (!opt_.compass || last_signature_.empty() || !ever_tracked_) return std::nullopt;
   double score;
-  const double turn = compass_.Rotation(last_signature_, *signature, opt_.compass_max_rotation, &score);
+  const double turn = compass_.Rotation(last_signature_, signature, opt_.compass_max_rotation, &score);
   Pose2 by_compass = pred;
   by_compass.theta = wrap_angle(frame_pose_.theta + turn);
-  if (score >= opt_.compass_min_score &&
-      std::abs(wrap_angle(by_compass.theta - pred.theta)) > 0.5 * M_PI / 180)
-    predictions.push_back(by_compass);
-  return predictions;
+  if (score < opt_.compass_min_score || std::abs(wrap_angle(by_compass.theta - pred.theta)) <= 0.5 * M_PI / 180)
+    return std::nullopt;
+  return by_compass;
 }
 
-void Localizer::TrackPredictions(const std::vector<Pose2>& predictions, FrameResult* fr,
+void Localizer::TrackPredictions(const Pose2& pred, const std::vector<float>& signature, FrameResult* fr,
                                  TriangulationResult* tri) const {
   const double search =
       std::min(opt_.max_search_px, opt_.search_px * std::pow(opt_.lost_search_growth, std::min(n_lost_, 8)));
-  for (const Pose2& p : predictions) {
-    Measure(p, search, fr);
-    *tri = Solve(*fr, p);
+  // The visual compass measures the turn since the last frame from the
+  // images. Translation biases it by a few degrees in a small room, so the
+  // motion model's prediction goes first and the compass's heading is
+  // tried (and computed) only when that fails: it keeps sudden turns in view.
+  std::vector<Pose2> predictions{pred};
+  Measure(pred, search, fr);
+  *tri = Solve(*fr, pred);
+  if (Acceptable(*fr, *tri)) {
+    fr->predicted_pose = pred;
+    return;
+  }
+  if (const std::optional<Pose2> by_compass = CompassPose(pred, signature)) {
+    predictions.push_back(*by_compass);
+    Measure(*by_compass, search, fr);
+    *tri = Solve(*fr, *by_compass);
     if (Acceptable(*fr, *tri)) {
-      fr->predicted_pose = p;
+      fr->predicted_pose = *by_compass;
       return;
     }
   }
@@ -553,19 +556,17 @@ FrameResult Localizer::Process(const cv::Mat& grey, int frame, double time_s,
   tracker_->BeginFrame(grey);
   TriangulationResult tri;
   bool accepted = false;
-  std::vector<float> signature;
+  std::vector<float> signature;  // the compass's, of this frame (for the next one too)
+  if (opt_.compass) signature = compass_.Signature(grey);
   if (known_start_ || ever_tracked_) {
     // Prediction from the motion model, then the visual compass's heading.
     fr.predicted_pose = PredictMotion(time_s, odometry);
-    const std::vector<Pose2> predictions = CandidatePoses(grey, fr.predicted_pose, &signature);
-    TrackPredictions(predictions, &fr, &tri);
+    TrackPredictions(fr.predicted_pose, signature, &fr, &tri);
     RefineAroundSolution(&fr, &tri);
     // A pose is reported only when its residuals are consistent and it
     // agrees with the motion so far; one the motion model did not expect (a
     // sudden stop or turn) only on strong evidence, as a relocalised one.
     accepted = Acceptable(fr, tri) && Consistent(&fr, tri) && (AgreesWithMotion(&fr, tri) || Corroborated(fr, tri));
-  } else if (opt_.compass) {
-    signature = compass_.Signature(grey);
   }
   int n_found = 0;  // before any relocalisation: what tracking from the prediction found
   for (const auto& m : fr.measurements) n_found += m.found;

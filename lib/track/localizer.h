@@ -201,12 +201,12 @@ class Localizer {
   void CheckFrame(const cv::Mat& grey, int frame) const;
   // the motion model's prediction for time t (started at the first frame);
   Pose2 PredictMotion(double time_s, const OdometryIncrement* odometry);
-  // that prediction, then the visual compass's heading (fills `signature`);
-  std::vector<Pose2> CandidatePoses(const cv::Mat& grey, const Pose2& pred,
-                                    std::vector<float>* signature) const;
-  // tracking from each candidate, then with wider searches until accepted;
-  void TrackPredictions(const std::vector<Pose2>& predictions, FrameResult* fr,
+  // tracking from that prediction, then from the visual compass's heading
+  // (CompassPose, from this frame's azimuthal `signature`), then with wider
+  // searches until accepted;
+  void TrackPredictions(const Pose2& pred, const std::vector<float>& signature, FrameResult* fr,
                         TriangulationResult* tri) const;
+  std::optional<Pose2> CompassPose(const Pose2& pred, const std::vector<float>& signature) const;
   // narrow passes around the solved pose when landmarks were off-centre;
   void RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) const;
   // the room-wide search after relocalize_after lost frames;
