@@ -95,6 +95,23 @@ TEST_CASE("step detector: sub-sample location of blurred steps, polarity, thresh
   }
 }
 
+TEST_CASE("step detector: a motion-blurred ramp at its centre", "[edge_step]") {
+  // A box-blurred step: linear from 60 to 160 over `width` samples.
+  for (double centre : {27.3, 30.0, 33.8}) {
+    const double width = 16.0;
+    float p[61];
+    for (int i = 0; i < 61; ++i)
+      p[i] = static_cast<float>(60 + 100 * std::clamp((i - centre) / width + 0.5, 0.0, 1.0));
+    StepEdge e;
+    INFO("centre " << centre);
+    // Expected ramp as wide as it is: the centre, to a hundredth of a sample.
+    REQUIRE(FindStep(p, 61, +1, 4, 12.0, &e, width));
+    CHECK(std::abs(e.location - centre) < 0.01);
+    CHECK(e.strength == Approx(100.0).margin(0.5));
+    CHECK(e.width == Approx(0.7 * width).margin(1.0));  // between the 15 % and 85 % levels
+  }
+}
+
 TEST_CASE("visual compass: the rotation between two frames at one position", "[compass]") {
   const SequenceCase c = MakePreset("paper-synthetic");
   const Scene scene = Scene::FromMap(c.map, true);
