@@ -14,6 +14,7 @@
 #include "io/calibration.h"
 #include "io/map.h"
 #include "io/pose_csv.h"
+#include "io/tum.h"
 #include "io/yaml_util.h"
 #include "render/sequence.h"
 
@@ -164,6 +165,7 @@ SequenceWriteResult WriteSequence(const SequenceCase& c, const std::string& dir,
   }
   if (wo.frames) fs::create_directory(sd.File("frames"));
   PoseCsvWriter gt(sd.File("gt.csv"));
+  TumWriter gt_tum(sd.File("gt.tum"), TumConversionForMap(c.map));
   const int n = static_cast<int>(c.poses.size());
   cv::Mat bgr;
   // Dropped frames are left out: the video stays constant-rate, and gt.csv's
@@ -190,10 +192,15 @@ SequenceWriteResult WriteSequence(const SequenceCase& c, const std::string& dir,
     row.n_landmarks = static_cast<int>(VisibleCorners(sensor, c.map, scene, pose).size());
     row.residual = 0.0;
     gt.Write(row);
+    // On the video's clock (its frame / fps), which panoloc's rows carry,
+    // so that evo pairs them by time even after dropped frames.
+    row.time_s = row.frame / c.fps;
+    gt_tum.Write(row);
     if (!wo.quiet && ((i + 1) % 10 == 0 || i + 1 == n))
       std::cerr << "panosim: frame " << i + 1 << "/" << n << "\n";
   }
   gt.Close();
+  gt_tum.Close();
   if (wo.video) video.release();
   WriteMap(sd.File("map.yaml"), c.map, false);
   Calibration calib = c.calib;
