@@ -52,8 +52,9 @@ struct SequenceWriteResult {
 // SequenceRenderer (render/sequence.h); dropped frames are left out of the
 // video, gt.csv and frames/, so gt.csv's frame column is the video's frame
 // index (constant rate) while its time column is the true time. gt.tum: the
-// same poses as a TUM trajectory (io/tum.h: metres, z the sensor height) on
-// the video's clock (frame / fps, as panoloc writes it), for evo.
+// poses of gt.csv, as written (four decimals), as a TUM trajectory (io/tum.h:
+// metres, z the sensor height) on the video's clock (frame / fps, as panoloc
+// writes it), for evo.
 SequenceWriteResult WriteSequence(const SequenceCase& c, const std::string& dir,
                                   const SequenceWriteOptions& options);
 
