@@ -70,6 +70,7 @@ bool Report(const pano::VideoSummary& s, bool quiet, std::FILE* out) {
     std::fprintf(out, "%s: %d frames, %d ok, %d lost, %.1f frames/s -> %s%s\n", s.input.c_str(), s.frames,
                  s.n_ok, s.n_lost, s.seconds > 0 ? s.frames / s.seconds : 0.0, s.output.c_str(), note.c_str());
     if (!s.smoothed_output.empty()) std::fprintf(out, "  smoothed -> %s\n", s.smoothed_output.c_str());
+    if (!s.tum_output.empty()) std::fprintf(out, "  TUM -> %s\n", s.tum_output.c_str());
     if (s.has_accuracy) std::fprintf(out, "  %s\n", pano::FormatAccuracy(s.accuracy, "units").c_str());
     if (s.has_smoothed_accuracy)
       std::fprintf(out, "  smoothed: %s\n", pano::FormatAccuracy(s.smoothed_accuracy, "units").c_str());
@@ -131,6 +132,12 @@ int main(int argc, char** argv) {
                  "Wheel odometry CSV (time,x,y,theta on the video's clock; one input): the motion "
                  "between frames that the prediction uses instead of constant velocity");
   app.add_option("--odometry-scale", o.odometry_scale, "Map units per unit of the odometry's positions")
+      ->capture_default_str();
+  app.add_option("--tum", o.tum,
+                 "Also write the ok frames as a TUM trajectory (t x y z qx qy qz qw, metres; one input), "
+                 "for evo: evo_ape tum gt.tum OUT.tum");
+  app.add_option("--tum-scale", o.tum_scale,
+                 "Metres per map unit in the TUM file (default 0: from the map's units)")
       ->capture_default_str();
   app.add_option("--method", method,
                  "Tracking method: junction (PH line junctions) or vertex (corner templates in the "

@@ -11,6 +11,7 @@
 
 #include "core/error.h"
 #include "io/pose_csv.h"
+#include "io/tum.h"
 #include "pipeline/debug_draw.h"
 #include "pipeline/plot.h"
 #include "video/frame_source.h"
@@ -153,6 +154,8 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
   PoseCsvWriter csv(job.output, {"std_x", "std_y", "std_theta", "quality"}, PoseCsvStaging::kPartial);
   std::optional<SmoothedCsv> smoothed;
   if (!job.smoothed_output.empty()) smoothed.emplace(job.smoothed_output, opt.smoother);
+  std::optional<TumWriter> tum;
+  if (!job.tum.empty()) tum.emplace(job.tum, opt.tum, PoseCsvStaging::kPartial);
   std::vector<PoseRow> rows;
   double previous_time = 0.0;
   cv::Mat grey;
@@ -186,6 +189,7 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
     const FrameResult fr = loc.Process(grey, frame, time_s, odometry ? &*odometry : nullptr);
     csv.Write(fr.row);
     if (smoothed) smoothed->Add(fr);
+    if (tum) tum->Write(fr.row);
     rows.push_back(fr.row);
     ++sum->frames;
     sum->n_ok += fr.row.status == PoseStatus::kOk;
@@ -196,6 +200,7 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
   // The rows written are intact however the loop ended: the outputs are
   // finished with them.
   csv.Close();
+  if (tum) tum->Close();
   if (smoothed) {
     smoothed->Finish();
     *smoothed_rows = smoothed->rows();
@@ -244,6 +249,7 @@ VideoSummary LocalizeVideo(const VideoJob& job, const SharedResources& shared, c
   sum.input = job.input;
   sum.output = job.output;
   sum.smoothed_output = job.smoothed_output;
+  sum.tum_output = job.tum;
   const auto t0 = std::chrono::steady_clock::now();
   try {
     LocalizeInto(job, shared, options, &sum);

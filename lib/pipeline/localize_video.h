@@ -9,6 +9,7 @@
 #include <string>
 
 #include "io/odometry.h"
+#include "io/tum.h"
 #include "pipeline/accuracy.h"
 #include "sensor/calibration.h"
 #include "scene/map.h"
@@ -34,6 +35,8 @@ struct VideoJob {
   // Wheel odometry on the input's clock: the increment between consecutive
   // frames is the prediction's control input. Null: constant velocity.
   std::shared_ptr<const std::vector<OdometrySample>> odometry;
+  // TUM trajectory of the ok rows (io/tum.h; staged like `output`); empty: none.
+  std::string tum;
 };
 
 // Loaded once and shared, read-only, by every input of a run.
@@ -60,6 +63,7 @@ struct VideoRunOptions {
   // (OdometryOptionsForMap scales the defaults).
   OdometryOptions odometry;
   bool quiet = false;  // no notes on stderr (odometry not covering frames)
+  TumConversion tum;   // for VideoJob::tum: map units to metres, z
 };
 
 // The odometry noise defaults (which suit metres) with the length-based
@@ -92,6 +96,7 @@ struct VideoSummary {
   bool has_accuracy = false;
   AccuracySummary accuracy;
   std::string smoothed_output;  // empty: none written
+  std::string tum_output;       // empty: none written
   bool has_smoothed_accuracy = false;
   AccuracySummary smoothed_accuracy;
   int frames_without_odometry = 0;  // frames after the first outside the odometry's times

@@ -45,6 +45,13 @@ void PanolocOptions::Check() const {
     throw Error("--odometry (odometry): takes one input");
   if (!(odometry_scale > 0) || !std::isfinite(odometry_scale))
     throw Error("--odometry-scale (odometry_scale): expected a positive number");
+  if (!tum.empty() && inputs.size() > 1)
+    throw Error("--tum (tum): takes one input");
+  if (tum == "-")
+    throw Error("--tum (tum): expected a file name (the TUM file cannot go to standard output)");
+  if (!(tum_scale >= 0) || !std::isfinite(tum_scale))
+    throw Error("--tum-scale (tum_scale): expected a positive number (metres per map unit), or 0 for the "
+                "map's units");
   if (init && (!std::isfinite(init->x) || !std::isfinite(init->y) || !std::isfinite(init->theta)))
     throw Error("--init (init): expected finite x,y,theta");
   localizer.Check();
@@ -121,6 +128,7 @@ std::vector<PlannedJob> PlanJobs(const PanolocOptions& opt, const Map& map) {
     j.gt = opt.gt == "auto" ? GtBeside(j.input) : opt.gt;
     j.debug_video = opt.debug_video;
     j.plot = opt.plot;
+    j.tum = opt.tum;
     if (opt.smooth) j.smoothed_output = SmoothedOutputPath(j.output);
     try {
       j.init = InitialPoseOf(j.input, opt, map);
@@ -143,6 +151,7 @@ void CheckOutputs(const PanolocOptions& opt, const std::vector<PlannedJob>& jobs
     writes.push_back({"--debug-video", p.job.debug_video});
     writes.push_back({"--plot", p.job.plot});
     writes.push_back({"--smooth", p.job.smoothed_output});
+    writes.push_back({"--tum", p.job.tum});
   }
   CheckOutputsDistinct(reads, writes);
 }
@@ -269,6 +278,7 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
   run.quiet = opt.quiet;
   run.smoother.lag = opt.smooth_lag;
   run.odometry = OdometryOptionsForMap(res.map, opt.odometry_scale);
+  run.tum = TumConversionForMap(res.map, opt.tum_scale);
   std::atomic<long> done{0};
   run.frames_done = &done;
 

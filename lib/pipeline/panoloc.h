@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "io/pose_csv.h"
+#include "io/tum.h"
 #include "pipeline/accuracy.h"
 #include "pipeline/localize_video.h"
 #include "track/localizer.h"
@@ -51,6 +52,11 @@ struct PanolocOptions {
   // control input between frames. Empty: constant velocity.
   std::string odometry;
   double odometry_scale = 1.0;       // map units per unit of the odometry's positions
+  // The ok rows also as a TUM trajectory (io/tum.h; one input only), for
+  // evo and other SLAM evaluation tools: metres, z the sensor's height.
+  // Staged like the pose CSV.
+  std::string tum;
+  double tum_scale = 0.0;            // metres per map unit; 0: from the map's units (Map::UnitsPerMetre)
   // localizer.num_threads 0: the run's threads shared out between the inputs
   // processed at once, one left to each input's decoder.
   LocalizerOptions localizer;

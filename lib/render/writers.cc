@@ -3,17 +3,20 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "core/angles.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "io/calibration.h"
 #include "io/map.h"
 #include "io/pose_csv.h"
+#include "io/tum.h"
 #include "io/yaml_util.h"
 #include "render/sequence.h"
 
@@ -139,6 +142,17 @@ std::string CaseYaml(const SequenceCase& c, const std::string& codec) {
   return w.Text();
 }
 
+namespace {
+
+// `v` printed with `format` and read back: the value a CSV reader gets.
+double AsWritten(double v, const char* format) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, format, v);
+  return std::strtod(buf, nullptr);
+}
+
+}  // namespace
+
 SequenceWriteResult WriteSequence(const SequenceCase& c, const std::string& dir,
                                   const SequenceWriteOptions& wo) {
   CheckCase(c, c.name == "custom" ? "sequence" : "preset '" + c.name + "'");
@@ -164,6 +178,7 @@ SequenceWriteResult WriteSequence(const SequenceCase& c, const std::string& dir,
   }
   if (wo.frames) fs::create_directory(sd.File("frames"));
   PoseCsvWriter gt(sd.File("gt.csv"));
+  TumWriter gt_tum(sd.File("gt.tum"), TumConversionForMap(c.map));
   const int n = static_cast<int>(c.poses.size());
   cv::Mat bgr;
   // Dropped frames are left out: the video stays constant-rate, and gt.csv's
@@ -190,10 +205,19 @@ SequenceWriteResult WriteSequence(const SequenceCase& c, const std::string& dir,
     row.n_landmarks = static_cast<int>(VisibleCorners(sensor, c.map, scene, pose).size());
     row.residual = 0.0;
     gt.Write(row);
+    // On the video's clock (its frame / fps), which panoloc's rows carry,
+    // so that evo pairs them by time even after dropped frames; the pose as
+    // gt.csv has it, the truth panoloc's accuracy is measured against, so
+    // that evo's statistics are panoloc's.
+    row.time_s = row.frame / c.fps;
+    row.pose = {AsWritten(pose.x, "%.4f"), AsWritten(pose.y, "%.4f"),
+                AsWritten(wrap_angle(pose.theta), "%.6f")};
+    gt_tum.Write(row);
     if (!wo.quiet && ((i + 1) % 10 == 0 || i + 1 == n))
       std::cerr << "panosim: frame " << i + 1 << "/" << n << "\n";
   }
   gt.Close();
+  gt_tum.Close();
   if (wo.video) video.release();
   WriteMap(sd.File("map.yaml"), c.map, false);
   Calibration calib = c.calib;

@@ -45,13 +45,16 @@ struct SequenceWriteResult {
   int frames = 0;
 };
 
-// Renders every pose and writes DIR/video.mp4, DIR/gt.csv, DIR/map.yaml
+// Renders every pose and writes DIR/video.mp4, DIR/gt.csv, DIR/gt.tum, DIR/map.yaml
 // (without distractors), DIR/calib.yaml, DIR/case.yaml and, when asked,
 // DIR/frames/. gt.csv: status ok, n_landmarks = corners in view of the map's
 // surfaces (people and covers not counted), residual 0. Frames are rendered by
 // SequenceRenderer (render/sequence.h); dropped frames are left out of the
 // video, gt.csv and frames/, so gt.csv's frame column is the video's frame
-// index (constant rate) while its time column is the true time.
+// index (constant rate) while its time column is the true time. gt.tum: the
+// poses of gt.csv, as written (four decimals), as a TUM trajectory (io/tum.h:
+// metres, z the sensor height) on the video's clock (frame / fps, as panoloc
+// writes it), for evo.
 SequenceWriteResult WriteSequence(const SequenceCase& c, const std::string& dir,
                                   const SequenceWriteOptions& options);
 
