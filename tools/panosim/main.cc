@@ -208,7 +208,7 @@ CLI::App* AddSequence(CLI::App* app, SequenceArgs* a) {
   CLI::App* seq = app->add_subcommand(
       "sequence",
       "Render a sequence: DIR/video.mp4 (H.264), DIR/gt.csv (ground truth, spec section 5), "
-      "DIR/map.yaml (no distractors), DIR/calib.yaml, DIR/case.yaml, and DIR/frames/ with --frames");
+      "DIR/gt.tum (the same for evo: metres, the video's clock), DIR/map.yaml (no distractors), DIR/calib.yaml, DIR/case.yaml, and DIR/frames/ with --frames");
   seq->add_option("--preset", a->preset,
                   "Built-in case (panosim presets lists them): paper-synthetic, paper-real, cluttered, kidnap, "
                   "fast-turns, motion-blur, real-conditions, long-run, long-run-blur; the options below apply on top");
