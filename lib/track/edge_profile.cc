@@ -21,6 +21,7 @@ bool SampleLine(const cv::Mat& grey, const Eigen::Vector2d& start, const Eigen::
   const int stride = static_cast<int>(grey.step[0]);
   const float sx = static_cast<float>(start.x()), sy = static_cast<float>(start.y());
   const float dx = static_cast<float>(step.x()), dy = static_cast<float>(step.y());
+  const int max_ix = grey.cols - 2, max_iy = grey.rows - 2;
   constexpr int kChunk = 32;
   int offset[kChunk];
   float fx[kChunk], fy[kChunk], p00[kChunk], p01[kChunk], p10[kChunk], p11[kChunk];
@@ -28,7 +29,9 @@ bool SampleLine(const cv::Mat& grey, const Eigen::Vector2d& start, const Eigen::
     const int m = std::min(kChunk, n - k0);
     for (int j = 0; j < m; ++j) {
       const float x = sx + static_cast<float>(k0 + j) * dx, y = sy + static_cast<float>(k0 + j) * dy;
-      const int ix = static_cast<int>(x), iy = static_cast<int>(y);
+      // Clamped: float rounding must not step past the last pixel pair
+      // that the ends' check allowed (it can only move by far less than one).
+      const int ix = std::clamp(static_cast<int>(x), 0, max_ix), iy = std::clamp(static_cast<int>(y), 0, max_iy);
       fx[j] = x - static_cast<float>(ix);
       fy[j] = y - static_cast<float>(iy);
       offset[j] = iy * stride + ix;
