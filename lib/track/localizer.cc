@@ -99,6 +99,7 @@ void Localizer::Reset(const Pose2& initial, bool hint) {
   last_dt_ = 0.0;
   next_relocalize_frame_ = 0;
   relocalize_failures_ = 0;
+  held_ = false;
   bearing_sigma_ = 0.0;
   motion_updates_ = 0;
   frame_pose_ = initial;
@@ -236,12 +237,7 @@ bool Localizer::Relocalize(const cv::Mat& grey, FrameResult* fr, TriangulationRe
     // The normal search first: a wide one invites wrong edges.
     if (!TrackFrom(h.pose, opt_.search_px, &v.fr, &v.tri) && !TrackFrom(h.pose, opt_.max_search_px, &v.fr, &v.tri))
       continue;
-    const int inliers = static_cast<int>(v.tri.inliers.size());
-    // Of the landmarks chosen to track (more are tracked when few are found).
-    const size_t chosen = opt_.max_landmarks > 0 ? std::min<size_t>(v.fr.predicted.size(), opt_.max_landmarks)
-                                                 : v.fr.predicted.size();
-    if (inliers < opt_.relocalize_min_landmarks || inliers < opt_.relocalize_min_fraction * static_cast<double>(chosen))
-      continue;
+    if (!EnoughForRelocalized(v.fr, v.tri)) continue;
     verified.push_back(std::move(v));
   }
   if (verified.empty()) return false;
@@ -436,8 +432,6 @@ bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, FrameResult* fr
         frame + std::min(opt_.relocalize_max_interval, 1 << std::clamp(relocalize_failures_ - 2, 0, 16));
     return false;
   }
-  relocalize_failures_ = 0;
-  next_relocalize_frame_ = 0;
   fr->predicted = std::move(found.predicted);
   fr->measurements = std::move(found.measurements);
   fr->integrity = found.integrity;
@@ -448,6 +442,14 @@ bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, FrameResult* fr
   return true;
 }
 
+bool Localizer::EnoughForRelocalized(const FrameResult& fr, const TriangulationResult& tri) const {
+  // Of the landmarks chosen to track (more are tracked when few are found).
+  const size_t chosen = opt_.max_landmarks > 0 ? std::min<size_t>(fr.predicted.size(), opt_.max_landmarks)
+                                               : fr.predicted.size();
+  const int inliers = static_cast<int>(tri.inliers.size());
+  return inliers >= opt_.relocalize_min_landmarks && inliers >= opt_.relocalize_min_fraction * static_cast<double>(chosen);
+}
+
 bool Localizer::Corroborated(const FrameResult& fr, const TriangulationResult& tri) const {
   // The motion model cannot vouch for it: after a loss its prediction is
   // too wide to tell a right pose from a wrong one nearby.
@@ -456,7 +458,7 @@ bool Localizer::Corroborated(const FrameResult& fr, const TriangulationResult& t
   return tri.inliers.size() >= opt_.relocalize_confirmed_fraction * static_cast<double>(chosen);
 }
 
-void Localizer::HoldForConfirmation(const Pose2& pose) {
+void Localizer::HoldForConfirmation(const Pose2& pose, int frame) {
   // As from a start pose given as a hint: no velocity, any turn, and a new
   // room-wide search at once if the next frame does not track.
   last_ = frame_pose_ = pose;
@@ -466,7 +468,14 @@ void Localizer::HoldForConfirmation(const Pose2& pose) {
   motion_ = MotionModel(motion_options_);
   motion_updates_ = 0;
   n_good_ = 0;
+  n_lost_ = 0;  // the confirming frame searches as narrowly as a tracked one
   last_signature_.clear();
+  held_ = true;
+  // Held poses that keep failing to confirm back off like failed searches.
+  next_relocalize_frame_ =
+      relocalize_failures_ >= 3
+          ? frame + std::min(opt_.relocalize_max_interval, 1 << std::clamp(relocalize_failures_ - 2, 0, 16))
+          : 0;
 }
 
 void Localizer::UpdateBlurEstimate(const FrameResult& fr) {
@@ -509,6 +518,7 @@ void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, b
     } else if (fr->relocalized || fr->innovation > opt_.gate_chi2) {
       motion_.Reinitialize(std::max(row->time_s, motion_.time()), tri.pose, m.covariance);
       motion_updates_ = 1;
+      n_good_ = 0;  // no velocity across the jump
     } else {
       motion_.Update(m);
       ++motion_updates_;
@@ -567,7 +577,14 @@ FrameResult Localizer::Process(const cv::Mat& grey, int frame, double time_s,
     // agrees with the motion so far; one the motion model did not expect (a
     // sudden stop or turn) only on strong evidence, as a relocalised one.
     accepted = Acceptable(fr, tri) && Consistent(&fr, tri) && (AgreesWithMotion(&fr, tri) || Corroborated(fr, tri));
+    // A held relocalised pose is confirmed only on as much evidence as a
+    // relocalised pose needs (the frame is nearly the same image).
+    if (held_) {
+      accepted = accepted && EnoughForRelocalized(fr, tri);
+      if (!accepted) ++relocalize_failures_;
+    }
   }
+  held_ = false;
   int n_found = 0;  // before any relocalisation: what tracking from the prediction found
   for (const auto& m : fr.measurements) n_found += m.found;
   // Lost for a while (the robot may have been carried), or never found: search the room.
@@ -578,9 +595,14 @@ FrameResult Localizer::Process(const cv::Mat& grey, int frame, double time_s,
   fr.triangulation = tri;
   if (opt_.compass) last_signature_ = std::move(signature);
   RecordOutcome(&fr, tri, accepted, n_found);
-  if (fr.unconfirmed) HoldForConfirmation(tri.pose);
+  if (accepted) {
+    relocalize_failures_ = 0;
+    next_relocalize_frame_ = 0;
+  }
+  // The step of the model that tracked up to this frame (a hold starts a new one).
   fr.has_motion_step = motion_stepped_;
   if (fr.has_motion_step) fr.motion_step = motion_.step();
+  if (fr.unconfirmed) HoldForConfirmation(tri.pose, frame);
   return fr;
 }
 

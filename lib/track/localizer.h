@@ -213,8 +213,10 @@ class Localizer {
   bool RelocalizeIfLost(const cv::Mat& grey, int frame, FrameResult* fr, TriangulationResult* tri);
   // whether a relocalised pose stands on its own evidence;
   bool Corroborated(const FrameResult& fr, const TriangulationResult& tri) const;
+  // whether a relocalised pose has the inliers a room-wide search requires;
+  bool EnoughForRelocalized(const FrameResult& fr, const TriangulationResult& tri) const;
   // tracking restarts from a relocalised pose that the next frame must confirm;
-  void HoldForConfirmation(const Pose2& pose);
+  void HoldForConfirmation(const Pose2& pose, int frame);
   // the output row and the motion model's state.
   void RecordOutcome(FrameResult* fr, const TriangulationResult& tri, bool accepted, int n_found);
 
@@ -246,6 +248,7 @@ class Localizer {
   bool known_start_ = true;   // initial_ is a pose to track from (not unknown)
   bool start_is_hint_ = false;  // ... but only a guess
   bool ever_tracked_ = false;
+  bool held_ = false;  // this frame must confirm a relocalised pose (HoldForConfirmation)
   MotionModel motion_;
   MotionModelOptions motion_options_;  // in map units
   double last_dt_ = 0.0;               // seconds between the last two frames

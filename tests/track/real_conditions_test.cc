@@ -131,5 +131,32 @@ TEST_CASE("kidnapped: lost at the jump, recovered within 2 frames, nothing wrong
   CHECK(first_ok <= jump + 2);
 }
 
+TEST_CASE("kidnapped, every relocalised pose held for the next frame: recovered within 2 frames, the "
+          "smoother fed throughout", "[kidnap]") {
+  test::RenderedCase r = test::RenderPreset("kidnap", 40);
+  LocalizerOptions o;
+  o.relocalize_confirmed_fraction = 2.0;
+  Localizer loc(r.c.calib, r.c.map, r.table, o);
+  loc.Reset(r.c.poses.front());
+  FixedLagSmoother smoother;
+  std::vector<PoseRow> rows;
+  int held = 0;
+  for (int i = 0; i < 40; ++i) {
+    const FrameResult fr = loc.Process(r.frames[static_cast<size_t>(i)], i, 0.1 * i);
+    held += fr.unconfirmed;
+    // The step of the model that tracked up to the held frame: time goes on.
+    if (fr.has_motion_step) REQUIRE_NOTHROW(smoother.Push(fr.motion_step));
+    rows.push_back(fr.row);
+  }
+  const int jump = r.c.kidnap_frames.front();
+  CHECK(held >= 1);
+  CHECK(WrongOk(rows, r.truth, 0.5) == 0);
+  int first_ok = -1;
+  for (int i = jump; i < 40 && first_ok < 0; ++i)
+    if (rows[static_cast<size_t>(i)].status == PoseStatus::kOk) first_ok = i;
+  CHECK(first_ok >= jump + 1);  // the held frame itself is not reported
+  CHECK(first_ok <= jump + 2);
+}
+
 }  // namespace
 }  // namespace pano
