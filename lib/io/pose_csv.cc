@@ -102,42 +102,30 @@ bool PoseCsvWriter::WritesDirectly(const std::string& path) {
   return !ec && std::filesystem::exists(st) && !std::filesystem::is_regular_file(st);
 }
 
-PoseCsvWriter::PoseCsvWriter(const std::string& path, const std::vector<std::string>& extra,
-                             PoseCsvStaging staging)
-    : path_(path), n_extra_(extra.size()) {
+StagedLineWriter::StagedLineWriter(const std::string& path, PoseCsvStaging staging) : path_(path) {
   if (path == "-") {
     is_stdout_ = true;
     file_ = stdout;
     written_path_ = "standard output";
-  } else {
-    const bool staged = staging == PoseCsvStaging::kPartial && !WritesDirectly(path);
-    written_path_ = staged ? path + kPartialSuffix : path;
-    file_ = std::fopen(written_path_.c_str(), "w");
-    if (!file_) throw Error(written_path_ + ": cannot write: " + std::strerror(errno));
+    return;
   }
-  std::string header = kPoseCsvHeader;
-  for (const std::string& c : extra) header += "," + c;
-  if (std::fprintf(file_, "%s\n", header.c_str()) < 0 || std::fflush(file_) != 0) {
-    const std::string why = std::strerror(errno);
-    if (!is_stdout_) std::fclose(file_);
-    throw Error(written_path_ + ": write failed: " + why);
-  }
+  const bool staged = staging == PoseCsvStaging::kPartial && !PoseCsvWriter::WritesDirectly(path);
+  written_path_ = staged ? path + kPartialSuffix : path;
+  file_ = std::fopen(written_path_.c_str(), "w");
+  if (!file_) throw Error(written_path_ + ": cannot write: " + std::strerror(errno));
 }
 
-PoseCsvWriter::~PoseCsvWriter() {
+StagedLineWriter::~StagedLineWriter() {
   if (file_ && !is_stdout_) std::fclose(file_);
 }
 
-void PoseCsvWriter::Write(const PoseRow& row) {
+void StagedLineWriter::WriteLine(const std::string& line) {
   if (!file_) throw Error(path_ + ": write after close");
-  PoseRow r = row;
-  r.extra.resize(n_extra_, std::nan(""));
-  const std::string line = FormatPoseRow(r);
   if (std::fprintf(file_, "%s\n", line.c_str()) < 0 || std::fflush(file_) != 0)
     throw Error(written_path_ + ": write failed: " + std::strerror(errno));
 }
 
-void PoseCsvWriter::Close() {
+void StagedLineWriter::Close() {
   if (!file_) return;
   std::FILE* f = file_;
   file_ = nullptr;
@@ -148,6 +136,20 @@ void PoseCsvWriter::Close() {
   if (std::fclose(f) != 0) throw Error(written_path_ + ": close failed: " + std::strerror(errno));
   if (written_path_ != path_ && std::rename(written_path_.c_str(), path_.c_str()) != 0)
     throw Error(path_ + ": cannot move " + written_path_ + " into place: " + std::strerror(errno));
+}
+
+PoseCsvWriter::PoseCsvWriter(const std::string& path, const std::vector<std::string>& extra,
+                             PoseCsvStaging staging)
+    : out_(path, staging), n_extra_(extra.size()) {
+  std::string header = kPoseCsvHeader;
+  for (const std::string& c : extra) header += "," + c;
+  out_.WriteLine(header);
+}
+
+void PoseCsvWriter::Write(const PoseRow& row) {
+  PoseRow r = row;
+  r.extra.resize(n_extra_, std::nan(""));
+  out_.WriteLine(FormatPoseRow(r));
 }
 
 }  // namespace pano

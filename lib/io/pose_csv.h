@@ -24,32 +24,50 @@ enum class PoseCsvStaging {
   kPartial,
 };
 
-// Writes rows as they come and flushes each one, so that a crash loses
-// nothing already computed. `extra_columns` are appended to the header.
-// "-" writes to standard output. Special files (devices such as /dev/null,
-// FIFOs, anything under /dev/ or /proc/) are always written directly.
-class PoseCsvWriter {
+// Text lines written as they come, each flushed, so that a crash loses
+// nothing already computed; with kPartial into `<path>.partial`, renamed to
+// `<path>` by Close(). "-" writes to standard output. Special files (devices
+// such as /dev/null, FIFOs, anything under /dev/ or /proc/) are always
+// written directly. Errors name the file.
+class StagedLineWriter {
  public:
-  PoseCsvWriter(const std::string& path, const std::vector<std::string>& extra_columns = {},
-                PoseCsvStaging staging = PoseCsvStaging::kDirect);
-  ~PoseCsvWriter();
-  PoseCsvWriter(const PoseCsvWriter&) = delete;
-  PoseCsvWriter& operator=(const PoseCsvWriter&) = delete;
-  void Write(const PoseRow& row);
+  StagedLineWriter(const std::string& path, PoseCsvStaging staging);
+  ~StagedLineWriter();
+  StagedLineWriter(const StagedLineWriter&) = delete;
+  StagedLineWriter& operator=(const StagedLineWriter&) = delete;
+  void WriteLine(const std::string& line);
   // Flushes and closes; a staged file is renamed into place.
   void Close();
+  bool is_open() const { return file_ != nullptr; }
   const std::string& path() const { return path_; }
-  // Where the rows are written until Close(): `<path>.partial` when staged.
+  // Where the lines are written until Close(): `<path>.partial` when staged.
   const std::string& written_path() const { return written_path_; }
-
-  // True for "-" and special files, which are written directly.
-  static bool WritesDirectly(const std::string& path);
 
  private:
   std::string path_;
   std::string written_path_;
   std::FILE* file_ = nullptr;
   bool is_stdout_ = false;
+};
+
+// Writes pose rows as they come (StagedLineWriter). `extra_columns` are
+// appended to the header.
+class PoseCsvWriter {
+ public:
+  PoseCsvWriter(const std::string& path, const std::vector<std::string>& extra_columns = {},
+                PoseCsvStaging staging = PoseCsvStaging::kDirect);
+  void Write(const PoseRow& row);
+  // Flushes and closes; a staged file is renamed into place.
+  void Close() { out_.Close(); }
+  const std::string& path() const { return out_.path(); }
+  // Where the rows are written until Close(): `<path>.partial` when staged.
+  const std::string& written_path() const { return out_.written_path(); }
+
+  // True for "-" and special files, which are written directly.
+  static bool WritesDirectly(const std::string& path);
+
+ private:
+  StagedLineWriter out_;
   size_t n_extra_ = 0;
 };
 

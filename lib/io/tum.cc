@@ -1,8 +1,6 @@
 #include "io/tum.h"
 
-#include <cerrno>
 #include <cmath>
-#include <cstring>
 
 #include "core/angles.h"
 #include "core/atomic_file.h"
@@ -36,39 +34,27 @@ std::string FormatTumLine(const PoseRow& row, const TumConversion& c) {
   return buf;
 }
 
-TumWriter::TumWriter(const std::string& path, const TumConversion& conversion, PoseCsvStaging staging)
-    : path_(path), conversion_(conversion) {
+namespace {
+
+TumConversion Checked(const std::string& path, const TumConversion& conversion) {
   try {
-    conversion_.Check();
+    conversion.Check();
   } catch (const Error& e) {
     throw Error(path + ": " + e.what());
   }
-  const bool staged = staging == PoseCsvStaging::kPartial && !PoseCsvWriter::WritesDirectly(path);
-  written_path_ = staged ? path + kPartialSuffix : path;
-  file_ = std::fopen(written_path_.c_str(), "w");
-  if (!file_) throw Error(written_path_ + ": cannot write: " + std::strerror(errno));
+  return conversion;
 }
 
-TumWriter::~TumWriter() {
-  if (file_) std::fclose(file_);
-}
+}  // namespace
+
+TumWriter::TumWriter(const std::string& path, const TumConversion& conversion, PoseCsvStaging staging)
+    : conversion_(Checked(path, conversion)), out_(path, staging) {}
 
 bool TumWriter::Write(const PoseRow& row) {
-  if (!file_) throw Error(path_ + ": write after close");
+  if (!out_.is_open()) throw Error(out_.path() + ": write after close");
   if (row.status != PoseStatus::kOk) return false;
-  const std::string line = FormatTumLine(row, conversion_);
-  if (std::fprintf(file_, "%s\n", line.c_str()) < 0 || std::fflush(file_) != 0)
-    throw Error(written_path_ + ": write failed: " + std::strerror(errno));
+  out_.WriteLine(FormatTumLine(row, conversion_));
   return true;
-}
-
-void TumWriter::Close() {
-  if (!file_) return;
-  std::FILE* f = file_;
-  file_ = nullptr;
-  if (std::fclose(f) != 0) throw Error(written_path_ + ": close failed: " + std::strerror(errno));
-  if (written_path_ != path_ && std::rename(written_path_.c_str(), path_.c_str()) != 0)
-    throw Error(path_ + ": cannot move " + written_path_ + " into place: " + std::strerror(errno));
 }
 
 void WriteTumTrajectory(const std::string& path, const std::vector<PoseRow>& rows,

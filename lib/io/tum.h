@@ -5,7 +5,6 @@
 // sensor's height) and the yaw theta about z.
 #pragma once
 
-#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -43,21 +42,16 @@ class TumWriter {
  public:
   TumWriter(const std::string& path, const TumConversion& conversion,
             PoseCsvStaging staging = PoseCsvStaging::kDirect);
-  ~TumWriter();
-  TumWriter(const TumWriter&) = delete;
-  TumWriter& operator=(const TumWriter&) = delete;
   // Writes the row when it is ok; returns whether it did.
   bool Write(const PoseRow& row);
   // Flushes and closes; a staged file is renamed into place.
-  void Close();
-  const std::string& path() const { return path_; }
-  const std::string& written_path() const { return written_path_; }
+  void Close() { out_.Close(); }
+  const std::string& path() const { return out_.path(); }
+  const std::string& written_path() const { return out_.written_path(); }
 
  private:
-  std::string path_;
-  std::string written_path_;
-  TumConversion conversion_;
-  std::FILE* file_ = nullptr;
+  TumConversion conversion_;  // checked before the file is opened
+  StagedLineWriter out_;
 };
 
 // The ok rows of `rows` as a TUM file, written atomically (core/atomic_file.h:

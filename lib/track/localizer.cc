@@ -428,8 +428,7 @@ bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, FrameResult* fr
   TriangulationResult t;
   if (!Relocalize(grey, &found, &t)) {
     ++relocalize_failures_;
-    next_relocalize_frame_ =
-        frame + std::min(opt_.relocalize_max_interval, 1 << std::clamp(relocalize_failures_ - 2, 0, 16));
+    next_relocalize_frame_ = BackedOffRelocalizeFrame(frame);
     return false;
   }
   fr->predicted = std::move(found.predicted);
@@ -442,20 +441,25 @@ bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, FrameResult* fr
   return true;
 }
 
+double Localizer::ChosenLandmarks(const FrameResult& fr) const {
+  // More are tracked when few of the chosen ones are found.
+  return static_cast<double>(opt_.max_landmarks > 0 ? std::min<size_t>(fr.predicted.size(), opt_.max_landmarks)
+                                                     : fr.predicted.size());
+}
+
+int Localizer::BackedOffRelocalizeFrame(int frame) const {
+  return frame + std::min(opt_.relocalize_max_interval, 1 << std::clamp(relocalize_failures_ - 2, 0, 16));
+}
+
 bool Localizer::EnoughForRelocalized(const FrameResult& fr, const TriangulationResult& tri) const {
-  // Of the landmarks chosen to track (more are tracked when few are found).
-  const size_t chosen = opt_.max_landmarks > 0 ? std::min<size_t>(fr.predicted.size(), opt_.max_landmarks)
-                                               : fr.predicted.size();
   const int inliers = static_cast<int>(tri.inliers.size());
-  return inliers >= opt_.relocalize_min_landmarks && inliers >= opt_.relocalize_min_fraction * static_cast<double>(chosen);
+  return inliers >= opt_.relocalize_min_landmarks && inliers >= opt_.relocalize_min_fraction * ChosenLandmarks(fr);
 }
 
 bool Localizer::Corroborated(const FrameResult& fr, const TriangulationResult& tri) const {
   // The motion model cannot vouch for it: after a loss its prediction is
   // too wide to tell a right pose from a wrong one nearby.
-  const size_t chosen = opt_.max_landmarks > 0 ? std::min<size_t>(fr.predicted.size(), opt_.max_landmarks)
-                                               : fr.predicted.size();
-  return tri.inliers.size() >= opt_.relocalize_confirmed_fraction * static_cast<double>(chosen);
+  return static_cast<double>(tri.inliers.size()) >= opt_.relocalize_confirmed_fraction * ChosenLandmarks(fr);
 }
 
 void Localizer::HoldForConfirmation(const Pose2& pose, int frame) {
@@ -472,10 +476,7 @@ void Localizer::HoldForConfirmation(const Pose2& pose, int frame) {
   last_signature_.clear();
   held_ = true;
   // Held poses that keep failing to confirm back off like failed searches.
-  next_relocalize_frame_ =
-      relocalize_failures_ >= 3
-          ? frame + std::min(opt_.relocalize_max_interval, 1 << std::clamp(relocalize_failures_ - 2, 0, 16))
-          : 0;
+  next_relocalize_frame_ = relocalize_failures_ >= 3 ? BackedOffRelocalizeFrame(frame) : 0;
 }
 
 void Localizer::UpdateBlurEstimate(const FrameResult& fr) {

@@ -213,6 +213,10 @@ class Localizer {
   bool RelocalizeIfLost(const cv::Mat& grey, int frame, FrameResult* fr, TriangulationResult* tri);
   // whether a relocalised pose stands on its own evidence;
   bool Corroborated(const FrameResult& fr, const TriangulationResult& tri) const;
+  // the landmarks chosen to track at this frame (max_landmarks of those predicted);
+  double ChosenLandmarks(const FrameResult& fr) const;
+  // the frame before which no room-wide search runs after the recent failures;
+  int BackedOffRelocalizeFrame(int frame) const;
   // whether a relocalised pose has the inliers a room-wide search requires;
   bool EnoughForRelocalized(const FrameResult& fr, const TriangulationResult& tri) const;
   // tracking restarts from a relocalised pose that the next frame must confirm;
