@@ -14,9 +14,9 @@
 #include <cstdio>
 #include <exception>
 
-#include "calibrate/calibrate.h"
-#include "calibrate/omnidir_peer.h"
-#include "io/targets.h"
+#include "panotrack/calibrate/calibrate.h"
+#include "panotrack/calibrate/omnidir_peer.h"
+#include "panotrack/io/targets.h"
 
 namespace {
 

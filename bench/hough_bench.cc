@@ -16,8 +16,8 @@
 
 #include "hough/hough_fixtures.h"
 #include "hough/scene_render.h"
-#include "hough/whole_image.h"
-#include "hough/whole_image_gpu.h"
+#include "panotrack/hough/whole_image.h"
+#include "panotrack/hough/whole_image_gpu.h"
 
 namespace {
 

@@ -5,7 +5,7 @@
 
 #include <random>
 
-#include "lut/radius_table.h"
+#include "panotrack/lut/radius_table.h"
 
 namespace {
 

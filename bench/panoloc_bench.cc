@@ -11,10 +11,10 @@
 #include <thread>
 #include <opencv2/videoio.hpp>
 
-#include "io/map.h"
-#include "render/presets.h"
-#include "render/writers.h"
-#include "pipeline/panoloc.h"
+#include "panotrack/io/map.h"
+#include "panotrack/render/presets.h"
+#include "panotrack/render/writers.h"
+#include "panotrack/pipeline/panoloc.h"
 
 namespace {
 

@@ -4,8 +4,8 @@
 #include <benchmark/benchmark.h>
 #include <omp.h>
 
-#include "render/presets.h"
-#include "render/render.h"
+#include "panotrack/render/presets.h"
+#include "panotrack/render/render.h"
 
 namespace {
 

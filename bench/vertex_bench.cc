@@ -23,11 +23,11 @@
 #include <string>
 #include <thread>
 
-#include "io/calibration.h"
-#include "io/map.h"
-#include "scene/scene.h"
-#include "pipeline/panoloc.h"
-#include "track/vertex_tracker.h"
+#include "panotrack/io/calibration.h"
+#include "panotrack/io/map.h"
+#include "panotrack/scene/scene.h"
+#include "panotrack/pipeline/panoloc.h"
+#include "panotrack/track/vertex_tracker.h"
 
 namespace {
 

@@ -7,7 +7,7 @@
 #include <initializer_list>
 #include <string>
 
-#include "core/error.h"
+#include "panotrack/core/error.h"
 
 namespace pano::test {
 

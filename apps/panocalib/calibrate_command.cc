@@ -5,10 +5,10 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "calibrate/calibrate.h"
+#include "panotrack/calibrate/calibrate.h"
 #include "commands.h"
-#include "core/error.h"
-#include "io/targets.h"
+#include "panotrack/core/error.h"
+#include "panotrack/io/targets.h"
 
 namespace pano::app {
 

@@ -10,7 +10,7 @@ namespace pano::app {
 void AddProjectCommands(CLI::App& app);
 // lut: build the E(D,Z) lookup table of a calibration.
 void AddLutCommand(CLI::App& app);
-// calibrate: fit the sensor to chessboard images (lib/calibrate).
+// calibrate: fit the sensor to chessboard images (lib/panotrack/calibrate).
 void AddCalibrateCommand(CLI::App& app);
 
 }  // namespace pano::app

@@ -9,8 +9,8 @@
 #include <string>
 
 #include "commands.h"
-#include "core/error.h"
-#include "pano/config.h"
+#include "panotrack/core/error.h"
+#include "panotrack/config.h"
 
 namespace {
 

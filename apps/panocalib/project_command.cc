@@ -4,10 +4,10 @@
 #include <string>
 
 #include "commands.h"
-#include "core/error.h"
-#include "io/calibration.h"
-#include "io/map.h"
-#include "lut/radius_table.h"
+#include "panotrack/core/error.h"
+#include "panotrack/io/calibration.h"
+#include "panotrack/io/map.h"
+#include "panotrack/lut/radius_table.h"
 
 namespace pano::app {
 

@@ -9,10 +9,10 @@
 #include <string>
 #include <vector>
 
-#include "core/error.h"
-#include "pano/config.h"
-#include "pipeline/panoloc.h"
-#include "video/logging.h"
+#include "panotrack/core/error.h"
+#include "panotrack/config.h"
+#include "panotrack/pipeline/panoloc.h"
+#include "panotrack/video/logging.h"
 
 namespace {
 

@@ -8,7 +8,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "io/calibration.h"
+#include "panotrack/io/calibration.h"
 #include "run_command.h"
 #include "test_paths.h"
 

@@ -9,9 +9,9 @@
 #include <limits>
 #include <string>
 
-#include "calibrate/calibrate.h"
-#include "calibrate/corner_weights.h"
-#include "io/calibration.h"
+#include "panotrack/calibrate/calibrate.h"
+#include "panotrack/calibrate/corner_weights.h"
+#include "panotrack/io/calibration.h"
 #include "sensor/sensor_models.h"
 #include "synthetic.h"
 #include "test_paths.h"

@@ -9,11 +9,11 @@
 #include <filesystem>
 #include <fstream>
 
-#include "calibrate/calibrate.h"
-#include "core/error.h"
-#include "io/calibration.h"
-#include "io/targets.h"
-#include "lut/radius_table.h"
+#include "panotrack/calibrate/calibrate.h"
+#include "panotrack/core/error.h"
+#include "panotrack/io/calibration.h"
+#include "panotrack/io/targets.h"
+#include "panotrack/lut/radius_table.h"
 #include "synthetic.h"
 #include "test_paths.h"
 #include "test_rng.h"

@@ -8,9 +8,9 @@
 #include <filesystem>
 #include <string>
 
-#include "calibrate/calibrate.h"
-#include "calibrate/omnidir_peer.h"
-#include "io/targets.h"
+#include "panotrack/calibrate/calibrate.h"
+#include "panotrack/calibrate/omnidir_peer.h"
+#include "panotrack/io/targets.h"
 #include "test_paths.h"
 #include "test_skip.h"
 

@@ -8,10 +8,10 @@
 #include <string>
 #include <thread>
 
-#include "calibrate/calibrate.h"
-#include "calibrate/refit.h"
-#include "io/calibration.h"
-#include "io/targets.h"
+#include "panotrack/calibrate/calibrate.h"
+#include "panotrack/calibrate/refit.h"
+#include "panotrack/io/calibration.h"
+#include "panotrack/io/targets.h"
 #include "rendered_targets.h"
 #include "synthetic.h"
 #include "test_paths.h"

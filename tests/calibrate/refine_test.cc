@@ -4,9 +4,9 @@
 // through the fitted model, the bias goes.
 #include <catch2/catch.hpp>
 
-#include "calibrate/calibrate.h"
-#include "io/calibration.h"
-#include "io/targets.h"
+#include "panotrack/calibrate/calibrate.h"
+#include "panotrack/io/calibration.h"
+#include "panotrack/io/targets.h"
 #include "rendered_targets.h"
 #include "test_paths.h"
 

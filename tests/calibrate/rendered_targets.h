@@ -4,9 +4,9 @@
 #include <cstdint>
 #include <string>
 
-#include "io/targets.h"
-#include "render/targets_render.h"
-#include "sensor/calibration.h"
+#include "panotrack/io/targets.h"
+#include "panotrack/render/targets_render.h"
+#include "panotrack/sensor/calibration.h"
 #include "test_paths.h"
 
 namespace pano::test {

@@ -7,7 +7,7 @@
 #include <random>
 #include <vector>
 
-#include "calibrate/calibrate.h"
+#include "panotrack/calibrate/calibrate.h"
 
 namespace pano::test {
 

@@ -8,8 +8,8 @@
 #include <filesystem>
 #include <fstream>
 
-#include "core/atomic_file.h"
-#include "core/error.h"
+#include "panotrack/core/atomic_file.h"
+#include "panotrack/core/error.h"
 #include "core/test_fifo.h"
 #include "test_paths.h"
 #include "test_skip.h"

@@ -9,10 +9,10 @@
 #include <random>
 #include <vector>
 
-#include "hough/ph_table.h"
-#include "hough/tracking.h"
-#include "lut/radius_table.h"
-#include "sensor/sensor.h"
+#include "panotrack/hough/ph_table.h"
+#include "panotrack/hough/tracking.h"
+#include "panotrack/lut/radius_table.h"
+#include "panotrack/sensor/sensor.h"
 
 namespace pano::test {
 

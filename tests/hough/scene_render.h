@@ -2,7 +2,7 @@
 // box room (floor, ceiling, four walls of alternating shade) with vertical
 // rectangles hung on its walls, seen through the catadioptric sensor
 // (pano::Sensor::backproject, then plane intersections), 2 x 2 supersampled.
-// Independent of lib/render on purpose (the truth here is analytic).
+// Independent of lib/panotrack/render on purpose (the truth here is analytic).
 #pragma once
 
 #include <opencv2/core.hpp>
@@ -11,7 +11,7 @@
 #include <limits>
 #include <vector>
 
-#include "sensor/sensor.h"
+#include "panotrack/sensor/sensor.h"
 
 namespace pano::test {
 

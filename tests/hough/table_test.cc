@@ -6,7 +6,7 @@
 #include <cmath>
 #include <limits>
 
-#include "core/error.h"
+#include "panotrack/core/error.h"
 #include "hough_fixtures.h"
 #include "test_rng.h"
 

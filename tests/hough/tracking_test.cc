@@ -9,7 +9,7 @@
 #include <cmath>
 #include <string>
 
-#include "core/error.h"
+#include "panotrack/core/error.h"
 #include "hough_fixtures.h"
 #include "test_rng.h"
 

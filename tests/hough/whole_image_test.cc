@@ -9,9 +9,9 @@
 #include <functional>
 #include <string>
 
-#include "core/error.h"
-#include "hough/whole_image.h"
-#include "hough/whole_image_gpu.h"
+#include "panotrack/core/error.h"
+#include "panotrack/hough/whole_image.h"
+#include "panotrack/hough/whole_image_gpu.h"
 #include "hough_fixtures.h"
 #include "test_skip.h"
 #include "scene_render.h"

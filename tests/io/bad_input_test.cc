@@ -7,12 +7,12 @@
 #include <fstream>
 
 #include "expect_error.h"
-#include "core/error.h"
+#include "panotrack/core/error.h"
 #include "core/test_fifo.h"
-#include "io/calibration.h"
-#include "io/map.h"
-#include "io/targets.h"
-#include "io/yaml_util.h"
+#include "panotrack/io/calibration.h"
+#include "panotrack/io/map.h"
+#include "panotrack/io/targets.h"
+#include "panotrack/io/yaml_util.h"
 #include "test_paths.h"
 
 namespace pano {

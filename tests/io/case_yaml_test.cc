@@ -4,8 +4,8 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include "render/presets.h"
-#include "render/writers.h"
+#include "panotrack/render/presets.h"
+#include "panotrack/render/writers.h"
 
 namespace pano {
 namespace {

@@ -7,12 +7,12 @@
 #include <fstream>
 
 #include "expect_error.h"
-#include "core/atomic_file.h"
-#include "core/error.h"
-#include "io/calibration.h"
-#include "io/map.h"
-#include "io/pose_csv.h"
-#include "io/targets.h"
+#include "panotrack/core/atomic_file.h"
+#include "panotrack/core/error.h"
+#include "panotrack/io/calibration.h"
+#include "panotrack/io/map.h"
+#include "panotrack/io/pose_csv.h"
+#include "panotrack/io/targets.h"
 #include "test_paths.h"
 
 namespace pano {

@@ -5,10 +5,10 @@
 #include <cmath>
 #include <fstream>
 
-#include "core/angles.h"
-#include "core/error.h"
+#include "panotrack/core/angles.h"
+#include "panotrack/core/error.h"
 #include "expect_error.h"
-#include "io/odometry.h"
+#include "panotrack/io/odometry.h"
 #include "test_paths.h"
 
 namespace pano {

@@ -8,13 +8,13 @@
 #include <filesystem>
 #include <set>
 
-#include "core/atomic_file.h"
-#include "core/error.h"
-#include "io/calibration.h"
-#include "io/map.h"
-#include "io/targets.h"
-#include "io/yaml_util.h"
-#include "sensor/catadioptric.h"
+#include "panotrack/core/atomic_file.h"
+#include "panotrack/core/error.h"
+#include "panotrack/io/calibration.h"
+#include "panotrack/io/map.h"
+#include "panotrack/io/targets.h"
+#include "panotrack/io/yaml_util.h"
+#include "panotrack/sensor/catadioptric.h"
 #include "test_paths.h"
 #include "test_rng.h"
 

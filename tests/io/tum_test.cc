@@ -8,9 +8,9 @@
 #include <fstream>
 #include <sstream>
 
-#include "core/error.h"
+#include "panotrack/core/error.h"
 #include "expect_error.h"
-#include "io/tum.h"
+#include "panotrack/io/tum.h"
 #include "test_paths.h"
 
 namespace pano {

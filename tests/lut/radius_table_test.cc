@@ -7,11 +7,11 @@
 #include <filesystem>
 #include <fstream>
 
-#include "core/error.h"
+#include "panotrack/core/error.h"
 #include "core/test_fifo.h"
-#include "io/calibration.h"
-#include "io/map.h"
-#include "lut/radius_table.h"
+#include "panotrack/io/calibration.h"
+#include "panotrack/io/map.h"
+#include "panotrack/lut/radius_table.h"
 #include "test_paths.h"
 #include "test_rng.h"
 

@@ -9,7 +9,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "io/pose_csv.h"
+#include "panotrack/io/pose_csv.h"
 #include "pipeline_fixture.h"
 #include "test_paths.h"
 #include "test_skip.h"

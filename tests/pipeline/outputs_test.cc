@@ -10,10 +10,10 @@
 #include <thread>
 
 #include "expect_error.h"
-#include "core/error.h"
-#include "io/pose_csv.h"
-#include "pipeline/output_names.h"
-#include "pipeline/panoloc.h"
+#include "panotrack/core/error.h"
+#include "panotrack/io/pose_csv.h"
+#include "panotrack/pipeline/output_names.h"
+#include "panotrack/pipeline/panoloc.h"
 #include "pipeline_fixture.h"
 #include "test_paths.h"
 

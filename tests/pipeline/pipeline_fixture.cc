@@ -16,7 +16,7 @@
 #include <sstream>
 #include <thread>
 
-#include "render/writers.h"
+#include "panotrack/render/writers.h"
 #include "test_paths.h"
 
 namespace pano::test {

@@ -8,9 +8,9 @@
 #include <string>
 #include <vector>
 
-#include "pipeline/panoloc.h"
-#include "pose/pose_row.h"
-#include "sensor/sensor.h"
+#include "panotrack/pipeline/panoloc.h"
+#include "panotrack/pose/pose_row.h"
+#include "panotrack/sensor/sensor.h"
 
 namespace pano::test {
 

@@ -10,13 +10,13 @@
 #include <fstream>
 #include <mutex>
 
-#include "core/error.h"
-#include "io/pose_csv.h"
-#include "pipeline/panoloc.h"
+#include "panotrack/core/error.h"
+#include "panotrack/io/pose_csv.h"
+#include "panotrack/pipeline/panoloc.h"
 #include "pipeline_fixture.h"
 #include "test_paths.h"
 #include "test_skip.h"
-#include "video/frame_source.h"
+#include "panotrack/video/frame_source.h"
 
 namespace pano {
 namespace {

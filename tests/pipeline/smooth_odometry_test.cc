@@ -10,13 +10,13 @@
 #include <filesystem>
 #include <fstream>
 
-#include "core/error.h"
-#include "io/odometry.h"
-#include "io/pose_csv.h"
-#include "pipeline/panoloc.h"
+#include "panotrack/core/error.h"
+#include "panotrack/io/odometry.h"
+#include "panotrack/io/pose_csv.h"
+#include "panotrack/pipeline/panoloc.h"
 #include "pipeline_fixture.h"
-#include "render/presets.h"
-#include "render/writers.h"
+#include "panotrack/render/presets.h"
+#include "panotrack/render/writers.h"
 #include "test_paths.h"
 
 namespace pano {

@@ -9,11 +9,11 @@
 #include <map>
 #include <sstream>
 
-#include "core/error.h"
-#include "io/map.h"
-#include "io/pose_csv.h"
-#include "io/tum.h"
-#include "pipeline/panoloc.h"
+#include "panotrack/core/error.h"
+#include "panotrack/io/map.h"
+#include "panotrack/io/pose_csv.h"
+#include "panotrack/io/tum.h"
+#include "panotrack/pipeline/panoloc.h"
 #include "pipeline_fixture.h"
 
 namespace pano {

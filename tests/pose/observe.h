@@ -4,8 +4,8 @@
 #include <cmath>
 #include <vector>
 
-#include "core/angles.h"
-#include "pose/triangulate.h"
+#include "panotrack/core/angles.h"
+#include "panotrack/pose/triangulate.h"
 
 namespace pano::test {
 

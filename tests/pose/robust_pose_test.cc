@@ -10,8 +10,8 @@
 #include <cmath>
 #include <limits>
 
-#include "core/angles.h"
-#include "pose/robust_pose.h"
+#include "panotrack/core/angles.h"
+#include "panotrack/pose/robust_pose.h"
 #include "observe.h"
 #include "test_rng.h"
 

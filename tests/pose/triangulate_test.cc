@@ -6,7 +6,7 @@
 #include <cmath>
 #include <limits>
 
-#include "pose/triangulate.h"
+#include "panotrack/pose/triangulate.h"
 #include "observe.h"
 #include "test_rng.h"
 

@@ -11,9 +11,9 @@
 #include <utility>
 #include <vector>
 
-#include "core/error.h"
-#include "render/presets.h"
-#include "render/render.h"
+#include "panotrack/core/error.h"
+#include "panotrack/render/presets.h"
+#include "panotrack/render/render.h"
 #include "test_paths.h"
 
 namespace pano {

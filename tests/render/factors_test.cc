@@ -8,12 +8,12 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
 
-#include "io/map.h"
-#include "io/pose_csv.h"
-#include "render/presets.h"
-#include "render/render.h"
-#include "render/sequence.h"
-#include "render/writers.h"
+#include "panotrack/io/map.h"
+#include "panotrack/io/pose_csv.h"
+#include "panotrack/render/presets.h"
+#include "panotrack/render/render.h"
+#include "panotrack/render/sequence.h"
+#include "panotrack/render/writers.h"
 #include "test_paths.h"
 
 namespace pano {

@@ -7,8 +7,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "render/presets.h"
-#include "render/render.h"
+#include "panotrack/render/presets.h"
+#include "panotrack/render/render.h"
 
 namespace pano {
 namespace {

@@ -10,14 +10,14 @@
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 
-#include "io/calibration.h"
-#include "io/map.h"
-#include "io/pose_csv.h"
-#include "io/targets.h"
-#include "render/presets.h"
-#include "render/render.h"
-#include "render/targets_render.h"
-#include "render/writers.h"
+#include "panotrack/io/calibration.h"
+#include "panotrack/io/map.h"
+#include "panotrack/io/pose_csv.h"
+#include "panotrack/io/targets.h"
+#include "panotrack/render/presets.h"
+#include "panotrack/render/render.h"
+#include "panotrack/render/targets_render.h"
+#include "panotrack/render/writers.h"
 #include "test_paths.h"
 
 namespace pano {

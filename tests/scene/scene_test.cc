@@ -3,7 +3,7 @@
 
 #include <cmath>
 
-#include "scene/scene.h"
+#include "panotrack/scene/scene.h"
 
 namespace pano {
 namespace {

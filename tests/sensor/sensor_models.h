@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "sensor/sensor.h"
+#include "panotrack/sensor/sensor.h"
 
 namespace pano::test {
 

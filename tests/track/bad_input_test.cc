@@ -6,12 +6,12 @@
 #include <fstream>
 
 #include "expect_error.h"
-#include "core/error.h"
-#include "io/calibration.h"
-#include "io/map.h"
-#include "render/writers.h"
+#include "panotrack/core/error.h"
+#include "panotrack/io/calibration.h"
+#include "panotrack/io/map.h"
+#include "panotrack/render/writers.h"
 #include "test_paths.h"
-#include "video/frame_source.h"
+#include "panotrack/video/frame_source.h"
 #include "track_fixture.h"
 
 namespace pano {

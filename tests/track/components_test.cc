@@ -6,11 +6,11 @@
 #include <random>
 #include <set>
 
-#include "core/error.h"
+#include "panotrack/core/error.h"
 #include "test_rng.h"
-#include "track/compass.h"
-#include "track/edge_profile.h"
-#include "track/relocalize.h"
+#include "panotrack/track/compass.h"
+#include "panotrack/track/edge_profile.h"
+#include "panotrack/track/relocalize.h"
 #include "track_fixture.h"
 
 namespace pano {

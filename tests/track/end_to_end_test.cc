@@ -5,7 +5,7 @@
 
 #include <filesystem>
 
-#include "render/writers.h"
+#include "panotrack/render/writers.h"
 #include "test_paths.h"
 #include "track_fixture.h"
 

@@ -7,10 +7,10 @@
 #include <Eigen/Eigenvalues>
 #include <cmath>
 
-#include "core/angles.h"
-#include "core/error.h"
+#include "panotrack/core/angles.h"
+#include "panotrack/core/error.h"
 #include "test_rng.h"
-#include "track/motion_model.h"
+#include "panotrack/track/motion_model.h"
 
 namespace pano {
 namespace {

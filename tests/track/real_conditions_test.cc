@@ -6,7 +6,7 @@
 
 #include <cmath>
 
-#include "render/sequence.h"
+#include "panotrack/render/sequence.h"
 #include "track_fixture.h"
 
 namespace pano {

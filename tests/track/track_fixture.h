@@ -4,11 +4,11 @@
 
 #include <vector>
 
-#include "render/presets.h"
-#include "render/render.h"
-#include "scene/scene.h"
-#include "track/localizer.h"
-#include "pipeline/panoloc.h"
+#include "panotrack/render/presets.h"
+#include "panotrack/render/render.h"
+#include "panotrack/scene/scene.h"
+#include "panotrack/track/localizer.h"
+#include "panotrack/pipeline/panoloc.h"
 
 namespace pano::test {
 

@@ -5,14 +5,14 @@
 #include <opencv2/core.hpp>
 #include <random>
 
-#include "core/error.h"
-#include "io/pose_csv.h"
-#include "render/presets.h"
-#include "render/writers.h"
+#include "panotrack/core/error.h"
+#include "panotrack/io/pose_csv.h"
+#include "panotrack/render/presets.h"
+#include "panotrack/render/writers.h"
 #include "test_paths.h"
 #include "test_rng.h"
-#include "pipeline/panoloc.h"
-#include "track/vertex_tracker.h"
+#include "panotrack/pipeline/panoloc.h"
+#include "panotrack/track/vertex_tracker.h"
 
 namespace pano {
 namespace {

@@ -7,8 +7,8 @@
 #include "test_paths.h"
 #include "test_skip.h"
 #include "test_videos.h"
-#include "video/frame_source.h"
-#include "video/luma_decoder.h"
+#include "panotrack/video/frame_source.h"
+#include "panotrack/video/luma_decoder.h"
 
 namespace pano {
 namespace {

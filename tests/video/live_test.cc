@@ -12,11 +12,11 @@
 #include <future>
 #include <thread>
 
-#include "core/error.h"
+#include "panotrack/core/error.h"
 #include "test_paths.h"
 #include "test_skip.h"
 #include "test_videos.h"
-#include "video/frame_source.h"
+#include "panotrack/video/frame_source.h"
 
 extern char** environ;
 

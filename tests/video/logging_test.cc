@@ -10,12 +10,12 @@
 #include <iostream>
 #include <opencv2/imgcodecs.hpp>
 
-#include "core/error.h"
+#include "panotrack/core/error.h"
 #include "test_paths.h"
 #include "test_skip.h"
 #include "test_videos.h"
-#include "video/frame_source.h"
-#include "video/logging.h"
+#include "panotrack/video/frame_source.h"
+#include "panotrack/video/logging.h"
 
 namespace pano {
 namespace {

@@ -11,7 +11,7 @@
 #include <iterator>
 #include <numeric>
 
-#include "core/error.h"
+#include "panotrack/core/error.h"
 
 namespace pano::test {
 

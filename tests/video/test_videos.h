@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "video/frame_source.h"
+#include "panotrack/video/frame_source.h"
 
 namespace pano::test {
 

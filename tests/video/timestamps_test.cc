@@ -5,7 +5,7 @@
 #include "test_paths.h"
 #include "test_skip.h"
 #include "test_videos.h"
-#include "video/frame_source.h"
+#include "panotrack/video/frame_source.h"
 
 namespace pano {
 namespace {

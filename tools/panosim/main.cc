@@ -1,5 +1,5 @@
 // panosim: catadioptric ray tracer for test sequences and calibration images
-// with exact ground truth. Thin front end over lib/render: one function adds
+// with exact ground truth. Thin front end over lib/panotrack/render: one function adds
 // each subcommand's options, one runs it.
 #include <CLI/CLI.hpp>
 
@@ -12,13 +12,13 @@
 #include <string>
 #include <vector>
 
-#include "core/error.h"
-#include "io/calibration.h"
-#include "io/map.h"
-#include "render/presets.h"
-#include "render/render.h"
-#include "render/targets_render.h"
-#include "render/writers.h"
+#include "panotrack/core/error.h"
+#include "panotrack/io/calibration.h"
+#include "panotrack/io/map.h"
+#include "panotrack/render/presets.h"
+#include "panotrack/render/render.h"
+#include "panotrack/render/targets_render.h"
+#include "panotrack/render/writers.h"
 
 namespace {
 

@@ -1,0 +1,538 @@
+// The calibration pipeline: options, orchestration, outputs and summary.
+#include "panotrack/calibrate/calibrate.h"
+
+#include <ceres/rotation.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <optional>
+#include <sstream>
+#include <thread>
+
+#include "panotrack/calibrate/internal.h"
+#include "panotrack/core/atomic_file.h"
+#include "panotrack/core/error.h"
+#include "panotrack/core/parallel.h"
+#include "panotrack/lut/radius_table.h"
+
+namespace pano {
+
+using namespace calib_internal;
+
+int CalibrateOptions::Threads() const {
+  return num_threads > 0 ? num_threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
+void CalibrateOptions::Check() const {
+  if (model != MirrorModel::kSphere && model != MirrorModel::kConic)
+    throw Error("--model: expected sphere or conic");
+  if (distortion_terms < -1 || distortion_terms > 2)
+    throw Error("--distortion: expected 0, 1 or 2 radial terms, got " + std::to_string(distortion_terms));
+  if (!(huber_px >= 0.0) || !std::isfinite(huber_px))
+    throw Error("--huber: expected a non-negative number of pixels (0: plain least squares)");
+  if (max_iterations < 1 || max_iterations > 100000)
+    throw Error("--max-iterations: expected 1..100000, got " + std::to_string(max_iterations));
+  if (!(max_rms_px > 0.0)) throw Error("--max-rms: expected a positive number of pixels");
+  if (!std::isfinite(full_weight_px))
+    throw Error("--full-weight: expected a number of pixels per square (0: uniform weights)");
+  if (!(scale_warning_rel_std > 0.0)) throw Error("scale warning threshold: expected a positive fraction");
+  if (num_threads < 0 || num_threads > 1024)
+    throw Error("--threads: expected 0 (every core) or 1..1024, got " + std::to_string(num_threads));
+}
+
+namespace {
+
+int MinImages(bool poses_known) { return poses_known ? 2 : 3; }
+
+void CheckViewCount(size_t n_found, size_t n_total, bool poses_known, const CalibrateOptions& o,
+                    const std::vector<std::string>& not_found) {
+  const size_t need = MinImages(poses_known);
+  if (n_found == 0) {
+    std::string list;
+    for (const std::string& f : not_found) list += (list.empty() ? "" : ", ") + f;
+    throw Error("no chessboard found in any of the " + std::to_string(n_total) +
+                " images (" + list + "): check board.cols/board.rows (inner corners) against the images");
+  }
+  if (n_found < need)
+    throw Error("the board was found in only " + std::to_string(n_found) + " of " + std::to_string(n_total) +
+                " images; the " + mirror_model_name(o.model) + " fit with " +
+                (poses_known ? "known" : "unknown") + " board poses needs at least " +
+                std::to_string(need) + " (more images, boards at several distances and azimuths)");
+}
+
+// Known poses are used when every view has one (and they are not ignored).
+bool PosesKnown(const std::vector<BoardView>& views, const CalibrateOptions& options) {
+  bool all_known = !views.empty();
+  for (const BoardView& v : views) all_known = all_known && v.has_pose;
+  return all_known && !options.ignore_known_poses;
+}
+
+// Warnings about the views themselves, which every fit of them carries.
+std::vector<std::string> InputWarnings(const std::vector<BoardView>& views, const CalibrateOptions& options) {
+  bool all_known = !views.empty(), any_known = false;
+  for (const BoardView& v : views) {
+    all_known = all_known && v.has_pose;
+    any_known = any_known || v.has_pose;
+  }
+  if (any_known && !all_known && !options.ignore_known_poses)
+    return {"some images have board poses and some not: all poses are estimated"};
+  return {};
+}
+
+// The calibration file's contents: the fit's extras and a comment that
+// names the model, the undetermined parameters and the warnings.
+void Describe(CalibrationResult* result, bool poses_known, const std::string& units,
+              const CalibrateOptions& options) {
+  CalibrationResult& res = *result;
+  Calibration& c = res.calib;
+  c.units = units;
+  for (const ParameterEstimate& p : res.parameters)
+    if (!p.fixed && std::isfinite(p.stddev)) c.extras[p.name + "_std"] = p.stddev;
+  c.extras["rms_px"] = res.rms_px;
+  c.extras["images_used"] = static_cast<double>(res.views.size());
+  for (size_t i = 0; i < res.views.size(); ++i)
+    c.extras["rms_image_" + std::to_string(res.views[i].image_index >= 0 ? res.views[i].image_index
+                                                                           : static_cast<int>(i))] =
+        res.image_rms[i];
+  std::ostringstream cm;
+  cm << "panocalib calibrate: " << mirror_model_name(options.model) << " model, " << res.views.size()
+     << " boards, " << (poses_known ? "known" : "unknown (estimated)") << " board poses, RMS "
+     << res.rms_px << " px.\n";
+  std::vector<std::string> undetermined;
+  for (const ParameterEstimate& p : res.parameters)
+    if (!p.fixed && !std::isfinite(p.stddev)) undetermined.push_back(p.name);
+  if (!undetermined.empty()) {
+    cm << "Not determined by the data (no standard deviation):";
+    for (const std::string& u : undetermined) cm << " " << u;
+    cm << "\n";
+  }
+  for (const std::string& w : res.warnings) cm << "Warning: " << w << "\n";
+  c.comment = cm.str();
+  c.sensor.Check("calibration result");
+}
+
+// Checks the fit (throws when its RMS is too high), warns about outlying
+// images after the `warnings` given, and fills the calibration file's contents.
+void Finish(CalibrationResult* result, bool poses_known, const std::string& units, const CalibrateOptions& options,
+            const std::vector<std::string>& warnings) {
+  CalibrationResult& res = *result;
+  res.warnings.insert(res.warnings.begin(), warnings.begin(), warnings.end());
+  if (res.rms_px > options.max_rms_px)
+    throw Error("calibration failed: RMS reprojection error " + std::to_string(res.rms_px) +
+                " px exceeds " + std::to_string(options.max_rms_px) +
+                " px (wrong model, wrong board size, or a failed initialisation: " + res.init_summary + ")");
+  for (size_t i = 0; i < res.image_rms.size(); ++i)
+    if (res.image_rms[i] > std::max(1.0, 4.0 * res.rms_px))
+      res.warnings.push_back(res.views[i].file + ": RMS " + std::to_string(res.image_rms[i]) +
+                             " px, far above the others (a misdetected or moved board?)");
+  Describe(result, poses_known, units, options);
+}
+
+// A start at a previous fit: its sensor and its boards' poses.
+InitialEstimate StartFrom(const CalibrationResult& fit, const std::string& summary) {
+  InitialEstimate start;
+  start.sensor = fit.calib.sensor;
+  start.summary = summary;
+  for (const BoardView& v : fit.views) start.poses.push_back(PackPose(v));
+  return start;
+}
+
+// Initialize, timed when verbose.
+InitialEstimate TimedInitialize(const std::vector<BoardView>& views, const TargetBoard& board, int width,
+                                int height, bool poses_known, const CalibrateOptions& options) {
+  const auto t_init = std::chrono::steady_clock::now();
+  InitialEstimate init = Initialize(views, board, width, height, poses_known, options);
+  if (options.verbose)
+    std::fprintf(stderr, "[initialisation: %.2f s, %zu starts to refine]\n",
+                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t_init).count(),
+                 1 + init.alternatives.size());
+  return init;
+}
+
+// The best start and the other starts (the conic's basins along its
+// near-degenerate valley, whose fits converge slowly and rank only at the
+// end) are fitted in parallel; the best final fit is kept, the earlier start
+// on a tie, so the result does not depend on the thread count. Starts that
+// fail are named in the kept fit's init_summary.
+CalibrationResult FitBestStart(const std::vector<BoardView>& views, const TargetBoard& board,
+                               const InitialEstimate& init, bool poses_known,
+                               const CalibrateOptions& options) {
+  std::vector<const InitialEstimate*> starts = {&init};
+  for (const InitialEstimate& alt : init.alternatives) starts.push_back(&alt);
+  const int n = static_cast<int>(starts.size()), threads = options.Threads();
+  std::vector<CalibrationResult> fits(n);
+  std::vector<std::string> errors(n);
+  std::vector<char> ok(n, 0);
+  ParallelFor(
+      n,
+      [&](int k) {
+        try {
+          fits[k] = FitCalibration(views, board, *starts[k], poses_known, options, n > 1 ? 1 : threads);
+          ok[k] = 1;
+        } catch (const Error& e) {
+          errors[k] = e.what();  // that start failed; the others stand
+        }
+      },
+      true, threads);
+  int best = -1;
+  double seconds = 0.0;
+  for (int k = 0; k < n; ++k) {
+    if (!ok[k]) continue;
+    seconds += fits[k].seconds_fit;
+    if (best < 0 || fits[k].fit_cost < fits[best].fit_cost) best = k;  // what the fit minimises
+  }
+  if (best < 0) throw Error(errors[0]);
+  CalibrationResult res = fits[best];
+  res.seconds_fit = seconds;
+  if (best > 0) res.init_summary = starts[best]->summary + " (kept); " + init.summary;
+  for (int k = 0; k < n; ++k)
+    if (!ok[k]) res.init_summary += "; " + starts[k]->summary + ": fit failed (" + errors[k] + ")";
+  return res;
+}
+
+// Prints each step's wall time on stderr when verbose.
+class StepClock {
+ public:
+  explicit StepClock(bool verbose) : verbose_(verbose) {}
+  void Done(const char* step) {
+    const auto now = std::chrono::steady_clock::now();
+    if (verbose_)
+      std::fprintf(stderr, "[%s: %.2f s]\n", step, std::chrono::duration<double>(now - last_).count());
+    last_ = now;
+  }
+  double Seconds() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  }
+
+ private:
+  bool verbose_;
+  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now(), last_ = start_;
+};
+
+// What the steps of Calibrate share: the input, the detections so far, the
+// current fit, and the warnings that every later fit carries.
+struct Pipeline {
+  Pipeline(const TargetSet& t, const std::vector<cv::Mat>& im, const CalibrateOptions& o)
+      : targets(t), images(im), options(o) {}
+  const TargetSet& targets;
+  const std::vector<cv::Mat>& images;
+  const CalibrateOptions& options;
+  bool poses_known = false;
+  DetectionResult det;
+  CalibrationResult res;
+  std::vector<std::string> carried;
+};
+
+void CheckImages(const TargetSet& targets, const std::vector<cv::Mat>& images) {
+  if (images.size() != targets.images.size()) throw Error("calibration: one image per target entry expected");
+  for (size_t i = 1; i < images.size(); ++i)
+    if (images[i].size() != images[0].size())
+      throw Error(targets.images[i].resolved + ": image size differs from the first image's");
+}
+
+// Median horizontal distance and height of the fitted boards' centres:
+// where the unwarped views look for the missing boards.
+struct BoardPlace {
+  double distance = 0.0, height = 0.0;
+};
+BoardPlace TypicalBoardPlace(const std::vector<BoardView>& views, const TargetBoard& board) {
+  std::vector<double> dist, hgt;
+  for (const BoardView& v : views) {
+    const double mid[3] = {0.5 * (board.cols - 1) * board.square, 0.5 * (board.rows - 1) * board.square, 0.0};
+    Eigen::Vector3d centre;
+    ceres::AngleAxisRotatePoint(v.rvec.data(), mid, centre.data());
+    centre += v.tvec;
+    dist.push_back(std::hypot(centre.x(), centre.y()));
+    hgt.push_back(centre.z());
+  }
+  std::nth_element(dist.begin(), dist.begin() + dist.size() / 2, dist.end());
+  std::nth_element(hgt.begin(), hgt.begin() + hgt.size() / 2, hgt.end());
+  return {dist[dist.size() / 2], hgt[hgt.size() / 2]};
+}
+
+// Step 4a: the images without a board searched in views unwarped through the
+// current fit, in parallel over images (each search then serial; a single
+// image searches its views in parallel instead). Searches that raised an
+// error are warned about.
+std::vector<BoardView> FindUnwarpedBoards(Pipeline* p) {
+  const BoardPlace place = TypicalBoardPlace(p->res.views, p->targets.board);
+  const std::vector<int>& missing = p->det.not_found;
+  const int n_missing = static_cast<int>(missing.size()), threads = p->options.Threads();
+  std::vector<std::vector<Eigen::Vector2d>> corners(n_missing);
+  std::vector<std::string> failures(n_missing);
+  std::vector<char> ok(n_missing, 0);
+  ParallelFor(
+      n_missing,
+      [&](int k) {
+        ok[k] = DetectBoardUnwarped(p->images[missing[k]], p->targets.board, p->res.calib.sensor,
+                                    place.distance, place.height, &corners[k], n_missing > 1 ? 1 : threads,
+                                    &failures[k]);
+      },
+      true, threads);
+  std::vector<BoardView> found;
+  for (int k = 0; k < n_missing; ++k) {
+    if (ok[k]) found.push_back(ViewOfImage(p->targets, missing[k], corners[k], "unwarped"));
+    else if (!failures[k].empty())
+      p->carried.push_back(p->det.not_found_files[k] + ": the search in unwarped views failed (" +
+                           failures[k] + ")");
+  }
+  return found;
+}
+
+// Step 4b: the refit's start: the fitted boards at their fitted poses, the
+// new ones at their known poses or at their poses through the fitted sensor
+// (left out when that fails), in image order.
+void StartWithUnwarpedBoards(const Pipeline& p, std::vector<BoardView> extra, std::vector<BoardView>* views,
+                             InitialEstimate* start) {
+  struct Item {
+    BoardView view;
+    std::array<double, 6> pose;
+  };
+  const TargetBoard& board = p.targets.board;
+  const Sensor& sensor = p.res.calib.sensor;
+  std::vector<Item> items;
+  for (const BoardView& v : p.res.views) items.push_back({v, PackPose(v)});
+  if (p.poses_known) OrderCornersByKnownPose(board, sensor.params.cx, sensor.params.cy, &extra);
+  for (const BoardView& v : extra) {
+    std::array<double, 6> pose{};
+    if (p.poses_known) {
+      pose = PackPose(v);
+    } else if (!InitialPoseFromSensor(v, board, sensor, &pose)) {
+      continue;
+    }
+    items.push_back({v, pose});
+  }
+  std::sort(items.begin(), items.end(),
+            [](const Item& a, const Item& b) { return a.view.image_index < b.view.image_index; });
+  start->sensor = sensor;
+  start->sensor.params.rim_radius = 0.0;
+  start->summary = "refit with the unwarped boards from the previous fit; " + p.res.init_summary;
+  for (const Item& it : items) {
+    views->push_back(it.view);
+    start->poses.push_back(it.pose);
+  }
+}
+
+// The boards found in unwarped views whose RMS is far above the fit's ("" when none).
+std::string OutlyingUnwarpedBoards(const CalibrationResult& fit) {
+  std::string files;
+  for (size_t i = 0; i < fit.views.size(); ++i)
+    if (fit.views[i].method == "unwarped" && fit.image_rms[i] > std::max(1.0, 3.0 * fit.rms_px))
+      files += (files.empty() ? "" : ", ") + fit.views[i].file;
+  return files;
+}
+
+// Takes the images whose board `views` now holds off the not-found lists.
+void DropFoundImages(const std::vector<BoardView>& views, DetectionResult* det) {
+  std::vector<int> missing;
+  std::vector<std::string> missing_files;
+  for (size_t k = 0; k < det->not_found.size(); ++k) {
+    bool used = false;
+    for (const BoardView& v : views) used = used || v.image_index == det->not_found[k];
+    if (!used) {
+      missing.push_back(det->not_found[k]);
+      missing_files.push_back(det->not_found_files[k]);
+    }
+  }
+  det->not_found = missing;
+  det->not_found_files = missing_files;
+}
+
+// Step 4: images without a board retried in unwarped views; when any is
+// found, the fit is repeated with them and kept when the new boards fit
+// like the others.
+void RetryUnwarped(Pipeline* p) {
+  const std::vector<BoardView> extra = FindUnwarpedBoards(p);
+  if (extra.empty()) return;
+  std::vector<BoardView> views;
+  InitialEstimate start;
+  StartWithUnwarpedBoards(*p, extra, &views, &start);
+  std::optional<CalibrationResult> again =
+      TryRefit("the refit with the boards found in unwarped views", views, p->targets.board, start,
+               p->poses_known, p->targets.units, p->options, &p->carried);
+  if (!again) return;
+  const std::string outliers = OutlyingUnwarpedBoards(*again);
+  if (!outliers.empty()) {
+    p->carried.push_back("boards found in unwarped views (" + outliers +
+                         ") fit far worse than the others: left out, the previous fit stands");
+    return;
+  }
+  p->res = std::move(*again);
+  DropFoundImages(p->res.views, &p->det);
+}
+
+// Step 5: every corner (the unwarped boards' too) located again on the board
+// plane through the fitted model, then the model fitted again from where it
+// was. Corners left biased here bias the whole fit, so this comes last.
+void RefineThroughModel(Pipeline* p) {
+  for (int pass = 0; pass < p->options.refine_passes; ++pass) {
+    std::vector<BoardView> views = p->res.views;
+    if (RefineCornersThroughModel(p->images, p->targets.board, p->res.calib.sensor, &views,
+                                  p->options.Threads()) == 0)
+      break;
+    const InitialEstimate start =
+        StartFrom(p->res, "refit on corners refined through the model; " + p->res.init_summary);
+    std::optional<CalibrationResult> again =
+        TryRefit("the refit on corners refined through the model", views, p->targets.board, start,
+                 p->poses_known, p->targets.units, p->options, &p->carried);
+    if (!again) break;
+    p->res = std::move(*again);
+  }
+}
+
+// The final result: the images without a board, every carried warning, the
+// calibration file's comment, the times.
+CalibrationResult Complete(Pipeline* p, const StepClock& clock) {
+  CalibrationResult& res = p->res;
+  res.not_found = p->det.not_found;
+  res.not_found_files = p->det.not_found_files;
+  for (const std::string& w : p->carried)
+    if (std::find(res.warnings.begin(), res.warnings.end(), w) == res.warnings.end())
+      res.warnings.push_back(w);
+  Describe(&res, p->poses_known, p->targets.units, p->options);
+  res.seconds_detect = p->det.seconds;
+  res.seconds_fit = clock.Seconds() - p->det.seconds;
+  res.calib.extras["images_total"] = static_cast<double>(p->images.size());
+  if (!res.not_found_files.empty()) {
+    std::string list;
+    for (const std::string& f : res.not_found_files) list += " " + f;
+    res.calib.comment += "No board found (skipped):" + list + "\n";
+  }
+  return res;
+}
+
+}  // namespace
+
+namespace calib_internal {
+
+std::optional<CalibrationResult> TryRefit(const std::string& what, const std::vector<BoardView>& views,
+                                          const TargetBoard& board, const InitialEstimate& start,
+                                          bool poses_known, const std::string& units,
+                                          const CalibrateOptions& options,
+                                          std::vector<std::string>* carried) {
+  try {
+    CalibrationResult again = FitCalibration(views, board, start, poses_known, options);
+    Finish(&again, poses_known, units, options, *carried);
+    return again;
+  } catch (const Error& e) {
+    carried->push_back(what + " failed (" + e.what() + "); the previous fit stands");
+    return std::nullopt;
+  }
+}
+
+}  // namespace calib_internal
+
+CalibrationResult CalibrateViews(const std::vector<BoardView>& views_in, const TargetBoard& board, int width,
+                                 int height, const std::string& units, const CalibrateOptions& options) {
+  options.Check();
+  if (width <= 0 || height <= 0) throw Error("calibration: image size unknown");
+  std::vector<BoardView> views = views_in;
+  const bool poses_known = PosesKnown(views, options);
+  CheckViewCount(views.size(), views.size(), poses_known, options, {});
+  if (poses_known) OrderCornersByKnownPose(board, 0.5 * (width - 1), 0.5 * (height - 1), &views);
+  const InitialEstimate init = TimedInitialize(views, board, width, height, poses_known, options);
+  CalibrationResult res = FitBestStart(views, board, init, poses_known, options);
+  Finish(&res, poses_known, units, options, InputWarnings(views, options));
+  return res;
+}
+
+CalibrationResult Calibrate(const TargetSet& targets, const CalibrateOptions& options) {
+  options.Check();
+  const std::vector<cv::Mat> images = LoadTargetImages(targets);
+  return Calibrate(targets, images, options);
+}
+
+CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>& images,
+                            const CalibrateOptions& options) {
+  options.Check();
+  StepClock clock(options.verbose);
+  CheckImages(targets, images);
+  Pipeline p(targets, images, options);
+  p.det = DetectBoards(targets, images, options);
+  clock.Done("raw detection");
+  p.poses_known = targets.AllPosesKnown() && !options.ignore_known_poses;
+  CheckViewCount(p.det.views.size(), images.size(), p.poses_known, options, p.det.not_found_files);
+  p.carried = InputWarnings(p.det.views, options);
+  p.carried.insert(p.carried.end(), p.det.warnings.begin(), p.det.warnings.end());
+  p.res = CalibrateViews(p.det.views, targets.board, p.det.image_width, p.det.image_height, targets.units,
+                         options);
+  clock.Done("initialisation and first fit");
+  if (options.unwarp_fallback && !p.det.not_found.empty()) {
+    RetryUnwarped(&p);
+    clock.Done("unwarped detection and refit");
+  }
+  RefineThroughModel(&p);
+  clock.Done("corner refinement and refit");
+  return Complete(&p, clock);
+}
+
+std::string Summary(const CalibrationResult& r) {
+  std::ostringstream o;
+  const Sensor& s = r.calib.sensor;
+  o << "model " << mirror_model_name(s.model) << ", " << s.image_width << "x" << s.image_height << " px, "
+    << r.views.size() << " boards used, board poses " << (r.poses_known ? "known" : "estimated") << "\n";
+  char line[256];
+  for (const ParameterEstimate& p : r.parameters) {
+    if (p.fixed)
+      std::snprintf(line, sizeof line, "  %-17s %14.6g   (fixed)\n", p.name.c_str(), p.value);
+    else if (std::isfinite(p.stddev))
+      std::snprintf(line, sizeof line, "  %-17s %14.6g +- %.3g\n", p.name.c_str(), p.value, p.stddev);
+    else
+      std::snprintf(line, sizeof line, "  %-17s %14.6g   (not determined)\n", p.name.c_str(), p.value);
+    o << line;
+  }
+  if (s.params.rim_radius > 0)
+    o << "  rim_radius        " << s.params.rim_radius << " (set to cover the image; not fitted)\n";
+  std::snprintf(line, sizeof line, "RMS reprojection error %.4f px over %zu boards\n", r.rms_px, r.views.size());
+  o << line;
+  for (size_t i = 0; i < r.views.size(); ++i) {
+    std::snprintf(line, sizeof line, "  %-24s %8.4f px  (%s)\n", r.views[i].file.c_str(), r.image_rms[i],
+                  r.views[i].method.c_str());
+    o << line;
+  }
+  if (!r.not_found_files.empty()) {
+    o << "no board found (skipped):";
+    for (const std::string& f : r.not_found_files) o << " " << f;
+    o << "\n";
+  }
+  std::snprintf(line, sizeof line, "time: detection %.2f s, fit %.2f s\n", r.seconds_detect, r.seconds_fit);
+  o << line;
+  for (const std::string& w : r.warnings) o << "warning: " << w << "\n";
+  return o.str();
+}
+
+void WriteCalibrationOutputs(const CalibrationResult& result, const CalibrationOutputs& out,
+                             const cv::Mat& report_image) {
+  namespace fs = std::filesystem;
+  if (out.calibration.empty()) throw Error("-o: an output calibration file is required");
+  Calibration calib = result.calib;
+  calib.sensor.Check(out.calibration);
+  // Prepare everything before writing anything.
+  RadiusTable table;
+  if (!out.lut.empty()) {
+    table = RadiusTable::Build(calib.sensor, DefaultRanges(calib.sensor));
+    const fs::path cal_dir = fs::absolute(fs::path(out.calibration)).parent_path();
+    const fs::path lut_abs = fs::absolute(fs::path(out.lut));
+    calib.lut = lut_abs.lexically_relative(cal_dir).string();
+    if (calib.lut.empty()) calib.lut = lut_abs.string();
+  }
+  std::vector<uchar> png;
+  if (!out.report.empty()) {
+    if (report_image.empty()) throw Error(out.report + ": no report image to write");
+    if (!cv::imencode(".png", report_image, png)) throw Error(out.report + ": cannot encode the report PNG");
+  }
+  if (!out.lut.empty()) table.Save(out.lut);
+  if (!out.report.empty()) {
+    AtomicFile f(out.report);
+    f.Write(png.data(), png.size());
+    f.Commit();
+  }
+  WriteCalibration(out.calibration, calib);
+}
+
+}  // namespace pano

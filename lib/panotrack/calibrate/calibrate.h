@@ -1,0 +1,224 @@
+// Sensor calibration from chessboard images (`panocalib calibrate`).
+//
+// Pipeline (docs/calibration.md):
+//   1. DetectBoards: findChessboardCornersSB on each raw image (quick search,
+//      then exhaustive); images where the board is not found are listed (and
+//      retried in step 4).
+//   2. Initialise: a linear central-camera initialisation (after Scaramuzza:
+//      per board a 6x6 null vector gives the in-plane pose, then one linear
+//      least-squares gives a radial polynomial and the boards' heights), a
+//      multi-start fit of the mirror model to that polynomial, and the mirror
+//      scale from the boards' heights (known poses) or a few scale guesses
+//      (unknown poses). Every step checks its result and throws a pano::Error
+//      that says which step failed and why; nothing NaN goes further.
+//   3. FitCalibration: Ceres, reprojection error in pixels through the
+//      templated sensor model (autodiff through the reflection solve), each
+//      corner weighted by its precision (CornerWeights), Huber loss by
+//      default, covariance of the sensor parameters (poses marginalised).
+//   4. Images without a board are retried in views unwarped through the fitted
+//      model (virtual perspective views), corners mapped back and refined with
+//      cornerSubPix in the raw image; when any is found the fit is repeated.
+//   5. RefineCornersThroughModel: every corner located again on the board
+//      plane through the fitted model, then the final fit.
+#pragma once
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "panotrack/io/calibration.h"
+#include "panotrack/io/targets.h"
+#include "panotrack/sensor/sensor.h"
+
+namespace pano {
+
+struct CalibrateOptions {
+  MirrorModel model = MirrorModel::kSphere;
+  // Lens radial distortion terms fitted: -1 automatic (0 for sphere, 2 for
+  // conic), else 0, 1 (k1) or 2 (k1, k2).
+  int distortion_terms = -1;
+  bool fit_aspect = true;
+  // Fitted only when the board poses are known: with unknown poses a turn of
+  // the camera about its axis cannot be told from a turn of every board.
+  bool fit_azimuth_offset = true;
+  // Ignore rvec/tvec of the target file and estimate the poses.
+  bool ignore_known_poses = false;
+  // Huber loss on each corner's residual (pixels); <= 0: plain least squares.
+  double huber_px = 1.0;
+  // Retry images without a board in unwarped views through the fitted model.
+  bool unwarp_fallback = true;
+  // Passes of model-based corner refinement: each corner is located again in
+  // a patch of the image resampled on the board plane through the fitted
+  // model (where the squares are straight, so the detector's curvature bias
+  // goes), then the model is fitted again. 0: off.
+  int refine_passes = 1;
+  // Corner weighting (corner_weights.h): corners whose squares are squeezed
+  // below this many pixels (near a mirror's limb) count less in the fit, most
+  // of all along the bisector of an acute crossing, as their position is less
+  // certain there. <= 0: every corner counts the same in pixels.
+  double full_weight_px = 10.0;
+  int max_iterations = 200;
+  // A fit whose RMS reprojection error exceeds this is a failure (pixels).
+  double max_rms_px = 5.0;
+  // Relative standard deviation of the mirror's size above which the user is
+  // warned that only the mirror's shape (ratios) is determined.
+  double scale_warning_rel_std = 0.05;
+  // Threads for Ceres and for the parallel loops over images, starts and
+  // corners; 0: every core. Set here rather than through OpenMP's global
+  // default, so that calibrations running at once do not disturb each other.
+  int num_threads = 0;
+  // Step timings on stderr and Ceres' per-iteration progress on stdout (and
+  // its warnings about rejected steps through glog); quiet otherwise. The
+  // library never changes glog's settings: programs set them up once.
+  bool verbose = false;
+
+  int DistortionTerms() const {
+    return distortion_terms >= 0 ? distortion_terms : (model == MirrorModel::kConic ? 2 : 0);
+  }
+  // num_threads with 0 resolved to the number of cores.
+  int Threads() const;
+  // Throws pano::Error naming the bad option.
+  void Check() const;
+};
+
+// One image's board: corners in board order (index j * cols + i is the board
+// point (i * square, j * square, 0)).
+struct BoardView {
+  int image_index = -1;  // index in the target file's image list
+  std::string file;
+  std::vector<Eigen::Vector2d> corners;
+  std::string method = "given";  // "raw", "unwarped" or "given" (tests)
+  bool has_pose = false;         // known pose (X_sensor = R(rvec) X_board + tvec)
+  Eigen::Vector3d rvec = Eigen::Vector3d::Zero();
+  Eigen::Vector3d tvec = Eigen::Vector3d::Zero();
+};
+
+struct DetectionResult {
+  int image_width = 0;
+  int image_height = 0;
+  std::vector<BoardView> views;          // images where the board was found
+  std::vector<int> not_found;            // indices of images without a board
+  std::vector<std::string> not_found_files;
+  // Searches that failed with an error rather than finding no board (file
+  // and reason); those images are in not_found too.
+  std::vector<std::string> warnings;
+  double seconds = 0.0;
+};
+
+// One fitted parameter as reported: value and standard deviation
+// (NaN: not determined by the data; 0 with fixed = true: held fixed).
+struct ParameterEstimate {
+  std::string name;
+  double value = 0.0;
+  double stddev = 0.0;
+  bool fixed = false;
+};
+
+struct CalibrationResult {
+  Calibration calib;  // sensor, units, extras (stddevs, RMS, per-image RMS)
+  bool poses_known = false;
+  std::vector<BoardView> views;  // boards used, with their fitted poses
+  std::vector<double> image_rms;  // per view, pixels
+  std::vector<std::vector<Eigen::Vector2d>> residuals;  // per view, per corner (projected - observed)
+  double rms_px = 0.0;            // Euclidean RMS over all corners
+  double fit_cost = 0.0;          // the fit's objective at the end (weighted, robust)
+  std::vector<ParameterEstimate> parameters;
+  std::vector<int> not_found;  // images without a board (target file indices)
+  std::vector<std::string> not_found_files;
+  // What the user should know: poorly determined parameters, outlying
+  // images, and steps that failed and were skipped (a refit, a search).
+  std::vector<std::string> warnings;
+  std::string init_summary;  // how the initialisation went
+  int iterations = 0;
+  double seconds_detect = 0.0;
+  double seconds_fit = 0.0;
+};
+
+// Board points (z = 0) in board order.
+std::vector<Eigen::Vector3d> BoardPoints(const TargetBoard& board);
+
+// Loads the images (grey) and checks that they exist and share one size.
+std::vector<cv::Mat> LoadTargetImages(const TargetSet& targets);
+
+// Step 1: raw-image detection (in parallel over images, options.Threads()).
+// Throws when an image cannot be read or the images differ in size.
+DetectionResult DetectBoards(const TargetSet& targets, const std::vector<cv::Mat>& images,
+                             const CalibrateOptions& options);
+
+// Detection in virtual perspective views unwarped through `sensor`, corners
+// mapped back to the raw image and refined there. `distance` is a typical
+// board distance (for the virtual view's depth). False when not found; then
+// `failure` (when given) gets the first error a view's search raised, if any.
+// num_threads: views searched at once (0: OpenMP's default).
+bool DetectBoardUnwarped(const cv::Mat& image, const TargetBoard& board, const Sensor& sensor,
+                         double distance, double height, std::vector<Eigen::Vector2d>* corners,
+                         int num_threads = 0, std::string* failure = nullptr);
+
+// Reorders the corners of views with known poses so that they match the board
+// frame (OpenCV may start at any of the board's corners): the order whose
+// image azimuths follow the bearings and whose image radii grow with elevation.
+void OrderCornersByKnownPose(const TargetBoard& board, double cx, double cy,
+                             std::vector<BoardView>* views);
+
+// Initial sensor and board poses (angle-axis + translation, 6 per view).
+struct InitialEstimate {
+  Sensor sensor;
+  std::vector<std::array<double, 6>> poses;
+  std::string summary;
+  // Other starts worth refining (the conic's hyperboloid basin); the better
+  // final fit is kept.
+  std::vector<InitialEstimate> alternatives;
+};
+// Throws pano::Error with the reason when the initialisation fails.
+InitialEstimate Initialize(const std::vector<BoardView>& views, const TargetBoard& board,
+                           int width, int height, bool poses_known, const CalibrateOptions& options);
+
+// Step 3: the Ceres fit from an initial estimate, with covariance. Throws on
+// failure (non-finite values, no convergence, RMS above options.max_rms_px).
+// threads: Ceres threads (0: options.Threads()).
+CalibrationResult FitCalibration(const std::vector<BoardView>& views, const TargetBoard& board,
+                                 const InitialEstimate& init, bool poses_known,
+                                 const CalibrateOptions& options, int threads = 0);
+
+// Steps 2-3 on detected (or synthetic) corners.
+CalibrationResult CalibrateViews(const std::vector<BoardView>& views, const TargetBoard& board,
+                                 int width, int height, const std::string& units,
+                                 const CalibrateOptions& options);
+
+// Step 5: locates every corner of every view again in a patch resampled on
+// the board plane through `sensor` and the view's fitted pose, where the
+// squares are straight (so the detector's curvature bias goes), and moves it
+// to the projection of the junction found there. Corners whose patch leaves
+// the image or the mirror keep their position. Returns the number refined.
+// num_threads: corners refined at once (0: OpenMP's default).
+int RefineCornersThroughModel(const std::vector<cv::Mat>& images, const TargetBoard& board,
+                              const Sensor& sensor, std::vector<BoardView>* views, int num_threads = 0);
+
+// The whole pipeline on a target file's images (steps 1-4).
+CalibrationResult Calibrate(const TargetSet& targets, const CalibrateOptions& options);
+// Same, with the images already loaded (one per target image).
+CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>& images,
+                            const CalibrateOptions& options);
+
+// Report image: residual vectors (magnified) over `image` (the worst view's
+// image when empty is given, grey canvas otherwise) and per-image RMS bars.
+cv::Mat DrawReport(const CalibrationResult& result, const cv::Mat& image, int view_index);
+// Text summary (parameters with standard deviations, RMS, per-image RMS,
+// warnings).
+std::string Summary(const CalibrationResult& result);
+
+// Output paths of `panocalib calibrate`; empty: not written.
+struct CalibrationOutputs {
+  std::string calibration;  // YAML (spec section 3)
+  std::string lut;          // E(D,Z) table, referenced from the YAML
+  std::string report;       // PNG
+};
+// Writes every output atomically; all are prepared (LUT built, PNG encoded)
+// before the first file is written, so a failure leaves no partial output.
+void WriteCalibrationOutputs(const CalibrationResult& result, const CalibrationOutputs& out,
+                             const cv::Mat& report_image);
+
+}  // namespace pano

@@ -1,0 +1,271 @@
+// Step 3: Ceres fit of the sensor (and board poses) to the corners, and the
+// covariance of the sensor parameters with the poses marginalised.
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "panotrack/calibrate/calibrate.h"
+#include "panotrack/calibrate/internal.h"
+#include "panotrack/core/error.h"
+
+namespace pano {
+
+using namespace calib_internal;
+
+namespace calib_internal {
+
+void SetRimForImage(Sensor* sensor) {
+  sensor->params.rim_radius =
+      RimForRadius(sensor->params, CapRadiusPx(sensor->image_width, sensor->image_height) / sensor->params.focal_px);
+}
+
+std::vector<int> FixedSensorIndices(bool poses_known, const CalibrateOptions& o) {
+  std::vector<int> fixed;
+  if (!o.fit_aspect) fixed.push_back(kAspect);
+  if (!poses_known || !o.fit_azimuth_offset) fixed.push_back(kAzimuth);
+  const int nd = o.DistortionTerms();
+  if (nd < 1) fixed.push_back(kK1);
+  if (nd < 2) fixed.push_back(kK2);
+  if (o.model == MirrorModel::kSphere) fixed.push_back(kConic);
+  std::sort(fixed.begin(), fixed.end());
+  return fixed;
+}
+
+
+}  // namespace calib_internal
+
+namespace {
+
+bool AllFinite(const double* v, int n) {
+  for (int i = 0; i < n; ++i)
+    if (!std::isfinite(v[i])) return false;
+  return true;
+}
+
+}  // namespace
+
+CalibrationResult FitCalibration(const std::vector<BoardView>& views, const TargetBoard& board,
+                                 const InitialEstimate& init, bool poses_known,
+                                 const CalibrateOptions& options, int threads) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (views.size() != init.poses.size()) throw Error("calibration fit: internal: poses/views mismatch");
+  const std::vector<Eigen::Vector3d> pts = BoardPoints(board);
+  const double cap = CapRadiusPx(init.sensor.image_width, init.sensor.image_height);
+  std::array<double, kNumSensor> s = BlockFromParams(init.sensor.params);
+  std::vector<std::array<double, 6>> poses = init.poses;
+  if (!AllFinite(s.data(), kNumSensor))
+    throw Error("calibration fit: the initial sensor has non-finite parameters");
+
+  ceres::Problem::Options popt;
+  ceres::Problem problem(popt);
+  problem.AddParameterBlock(s.data(), kNumSensor);
+  const std::vector<int> fixed = FixedSensorIndices(poses_known, options);
+  if (!fixed.empty()) problem.SetManifold(s.data(), new ceres::SubsetManifold(kNumSensor, fixed));
+  size_t n_obs = 0, n_invisible = 0;
+  for (size_t i = 0; i < views.size(); ++i) {
+    problem.AddParameterBlock(poses[i].data(), 6);
+    if (poses_known) problem.SetParameterBlockConstant(poses[i].data());
+    const BoardView& bv = views[i];
+    if (bv.corners.size() != pts.size())
+      throw Error(bv.file + ": internal: expected " + std::to_string(pts.size()) + " corners");
+    const std::vector<Eigen::Matrix2d> weights = CornerWeights(bv, board, options.full_weight_px);
+    for (size_t j = 0; j < pts.size(); ++j) {
+      CornerCost probe(pts[j], bv.corners[j], cap);
+      double r[2];
+      if (!probe(s.data(), poses[i].data(), r)) {
+        ++n_invisible;
+        continue;  // not visible through the initial model: left out of the fit
+      }
+      ceres::LossFunction* loss = options.huber_px > 0 ? new ceres::HuberLoss(options.huber_px) : nullptr;
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CornerCost, 2, kNumSensor, 6>(
+                                   new CornerCost(pts[j], bv.corners[j], cap, weights[j])),
+                               loss, s.data(), poses[i].data());
+      ++n_obs;
+    }
+  }
+  const size_t n_total = pts.size() * views.size();
+  if (n_obs < n_total * 9 / 10)
+    throw Error("calibration fit: the initial model cannot see " + std::to_string(n_invisible) + " of " +
+                std::to_string(n_total) + " corners (initialisation failed)");
+
+  ceres::Solver::Options so;
+  so.linear_solver_type = poses_known ? ceres::DENSE_QR : ceres::DENSE_SCHUR;
+  so.max_num_iterations = options.max_iterations;
+  so.num_threads = threads > 0 ? threads : options.Threads();
+  so.function_tolerance = 1e-12;
+  so.parameter_tolerance = 1e-12;
+  so.gradient_tolerance = 1e-12;
+  // Quiet unless asked: a corner leaving the mirror in a trial step is a
+  // rejected step, which Ceres would otherwise log as a warning.
+  so.minimizer_progress_to_stdout = options.verbose;
+  so.logging_type = options.verbose ? ceres::PER_MINIMIZER_ITERATION : ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  if (options.verbose) std::fprintf(stderr, "%s\n", summary.BriefReport().c_str());
+  if (summary.termination_type == ceres::FAILURE || !AllFinite(s.data(), kNumSensor))
+    throw Error("calibration fit: Ceres failed (" + summary.message + ")");
+
+  CalibrationResult res;
+  res.poses_known = poses_known;
+  res.iterations = static_cast<int>(summary.iterations.size());
+  res.fit_cost = summary.final_cost;
+  Sensor& sensor = res.calib.sensor;
+  sensor = init.sensor;
+  sensor.params = ParamsFromBlock(s.data());
+  if (!PlausibleParams(sensor.params))
+    throw Error("calibration fit: the fitted sensor is not physical");
+  SetRimForImage(&sensor);
+
+  // Residuals of every corner (visible or not).
+  double sum2 = 0.0;
+  size_t n_used = 0;
+  res.views = views;
+  for (size_t i = 0; i < views.size(); ++i) {
+    if (!AllFinite(poses[i].data(), 6)) throw Error("calibration fit: a board pose became non-finite");
+    BoardView& bv = res.views[i];
+    UnpackPose(poses[i], &bv);
+    std::vector<Eigen::Vector2d> rv;
+    double s2 = 0.0;
+    size_t n = 0;
+    for (size_t j = 0; j < pts.size(); ++j) {
+      CornerCost c(pts[j], bv.corners[j], cap);
+      double r[2];
+      if (!c(s.data(), poses[i].data(), r)) {
+        rv.push_back(Eigen::Vector2d(NAN, NAN));
+        continue;
+      }
+      rv.push_back({r[0], r[1]});
+      s2 += r[0] * r[0] + r[1] * r[1];
+      ++n;
+    }
+    if (n < pts.size() / 2)
+      throw Error(bv.file + ": the fitted model cannot see the board (fit diverged)");
+    res.image_rms.push_back(std::sqrt(s2 / n));
+    res.residuals.push_back(rv);
+    sum2 += s2;
+    n_used += n;
+  }
+  res.rms_px = std::sqrt(sum2 / n_used);
+  if (!std::isfinite(res.rms_px))
+    throw Error("calibration fit: the reprojection error is not finite (fit diverged)");
+  if (summary.termination_type == ceres::NO_CONVERGENCE && res.rms_px > 1.0)
+    throw Error("calibration fit: no convergence after " + std::to_string(options.max_iterations) +
+                " iterations (RMS " + std::to_string(res.rms_px) + " px)");
+
+  // Covariance: J of the weighted, non-robust residuals at the optimum, the
+  // sensor's free parameters first, then the poses; pseudo-inverse of J^T J
+  // scaled by the residual variance; a parameter with a component in the
+  // numerical null space is "not determined".
+  std::vector<double*> blocks = {s.data()};
+  if (!poses_known)
+    for (auto& p : poses) blocks.push_back(p.data());
+  ceres::Problem::EvaluateOptions eo;
+  eo.parameter_blocks = blocks;
+  eo.apply_loss_function = false;
+  eo.num_threads = so.num_threads;
+  ceres::CRSMatrix jac;
+  double cost = 0.0;
+  std::vector<int> free_idx;
+  for (int k = 0; k < kNumSensor; ++k)
+    if (!std::binary_search(fixed.begin(), fixed.end(), k)) free_idx.push_back(k);
+  Eigen::VectorXd sensor_std = Eigen::VectorXd::Constant(kNumSensor, 0.0);
+  Eigen::MatrixXd sensor_cov = Eigen::MatrixXd::Zero(kNumSensor, kNumSensor);
+  std::vector<bool> determined(kNumSensor, true);
+  if (problem.Evaluate(eo, &cost, nullptr, nullptr, &jac)) {
+    const int P = jac.num_cols, N = jac.num_rows;
+    Eigen::MatrixXd JtJ = Eigen::MatrixXd::Zero(P, P);
+    for (int r = 0; r < N; ++r) {
+      for (int a = jac.rows[r]; a < jac.rows[r + 1]; ++a)
+        for (int b = jac.rows[r]; b < jac.rows[r + 1]; ++b)
+          JtJ(jac.cols[a], jac.cols[b]) += jac.values[a] * jac.values[b];
+    }
+    Eigen::VectorXd d = JtJ.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
+    const Eigen::MatrixXd Jn = d.asDiagonal() * JtJ * d.asDiagonal();
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(Jn);
+    const Eigen::VectorXd& ev = es.eigenvalues();
+    const double ev_max = ev.maxCoeff();
+    Eigen::MatrixXd cov_n = Eigen::MatrixXd::Zero(P, P);
+    std::vector<double> null_weight(P, 0.0);
+    for (int k = 0; k < P; ++k) {
+      const Eigen::VectorXd vk = es.eigenvectors().col(k);
+      if (ev(k) > 1e-12 * ev_max) {
+        cov_n += vk * vk.transpose() / ev(k);
+      } else {
+        for (int q = 0; q < P; ++q) null_weight[q] += vk(q) * vk(q);
+      }
+    }
+    const double dof = std::max<double>(1.0, static_cast<double>(N - P));
+    const double sigma2 = 2.0 * cost / dof;
+    const Eigen::MatrixXd cov = sigma2 * d.asDiagonal() * cov_n * d.asDiagonal();
+    for (size_t a = 0; a < free_idx.size() && static_cast<int>(a) < P; ++a) {
+      for (size_t b = 0; b < free_idx.size() && static_cast<int>(b) < P; ++b)
+        sensor_cov(free_idx[a], free_idx[b]) = cov(a, b);
+      determined[free_idx[a]] = null_weight[a] < 1e-3;
+    }
+  } else {
+    for (int k : free_idx) determined[k] = false;
+  }
+  for (int k = 0; k < kNumSensor; ++k) sensor_std(k) = std::sqrt(std::max(0.0, sensor_cov(k, k)));
+
+  // Reported parameters.
+  auto add = [&](const std::string& name, double value, double var, bool is_fixed, bool det) {
+    ParameterEstimate e;
+    e.name = name;
+    e.value = value;
+    e.fixed = is_fixed;
+    e.stddev = is_fixed ? 0.0 : (det ? std::sqrt(std::max(0.0, var)) : NAN);
+    res.parameters.push_back(e);
+  };
+  auto is_fixed = [&](int k) { return std::binary_search(fixed.begin(), fixed.end(), k); };
+  const SensorParams<double>& p = sensor.params;
+  add("focal_px", p.focal_px, sensor_cov(kFocal, kFocal), is_fixed(kFocal), determined[kFocal]);
+  add("cx", p.cx, sensor_cov(kCx, kCx), false, determined[kCx]);
+  add("cy", p.cy, sensor_cov(kCy, kCy), false, determined[kCy]);
+  add("aspect", p.aspect, sensor_cov(kAspect, kAspect), is_fixed(kAspect), determined[kAspect]);
+  if (options.model == MirrorModel::kSphere) {
+    add("mirror_radius", p.curvature_radius, sensor_cov(kRadius, kRadius), false, determined[kRadius]);
+    const double var_d = sensor_cov(kRadius, kRadius) + sensor_cov(kVertex, kVertex) +
+                         2.0 * sensor_cov(kRadius, kVertex);
+    add("mirror_distance", p.vertex_distance + p.curvature_radius, var_d, false,
+        determined[kRadius] && determined[kVertex]);
+  } else {
+    add("curvature_radius", p.curvature_radius, sensor_cov(kRadius, kRadius), false, determined[kRadius]);
+    add("conic_constant", p.conic_constant, sensor_cov(kConic, kConic), false, determined[kConic]);
+    add("vertex_distance", p.vertex_distance, sensor_cov(kVertex, kVertex), false, determined[kVertex]);
+  }
+  add("azimuth_offset", p.azimuth_offset, sensor_cov(kAzimuth, kAzimuth), is_fixed(kAzimuth),
+      determined[kAzimuth]);
+  if (!is_fixed(kK1) || !is_fixed(kK2) || p.k1 != 0.0 || p.k2 != 0.0) {
+    add("k1", p.k1, sensor_cov(kK1, kK1), is_fixed(kK1), determined[kK1]);
+    add("k2", p.k2, sensor_cov(kK2, kK2), is_fixed(kK2), determined[kK2]);
+  }
+
+  // Mirror size against the world: with unknown poses only parallax fixes it.
+  {
+    const double var_r = sensor_cov(kRadius, kRadius), var_z = sensor_cov(kVertex, kVertex);
+    const double rel = std::max(std::sqrt(std::max(0.0, var_r)) / p.curvature_radius,
+                                std::sqrt(std::max(0.0, var_z)) / p.vertex_distance);
+    if (!determined[kRadius] || !determined[kVertex] || rel > options.scale_warning_rel_std) {
+      std::ostringstream w;
+      w << "the mirror's size and distance are poorly determined (relative standard deviation ";
+      if (determined[kRadius] && determined[kVertex]) w << rel * 100.0 << " %";
+      else w << "unbounded";
+      w << "): the boards show too little parallax (too far away, or a near single-viewpoint mirror); "
+           "only the mirror's shape (ratios) and the image mapping are reliable. Take images with "
+           "the board nearer the mirror, or give the board poses.";
+      res.warnings.push_back(w.str());
+    }
+  }
+
+  res.seconds_fit = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  res.init_summary = init.summary;
+  return res;
+}
+
+}  // namespace pano

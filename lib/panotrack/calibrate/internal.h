@@ -1,0 +1,162 @@
+// Internals of lib/panotrack/calibrate shared by its .cc files (not installed API).
+#pragma once
+
+#include <ceres/rotation.h>
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "panotrack/calibrate/calibrate.h"
+#include "panotrack/calibrate/corner_weights.h"
+#include "panotrack/calibrate/refit.h"
+#include "panotrack/sensor/catadioptric.h"
+#include "panotrack/sensor/sensor.h"
+
+namespace pano::calib_internal {
+
+// The sensor parameter block of the fit.
+enum SensorIndex {
+  kFocal = 0,
+  kCx,
+  kCy,
+  kAspect,
+  kAzimuth,
+  kK1,
+  kK2,
+  kRadius,   // curvature radius at the vertex
+  kConic,    // conic constant (0 for the sphere)
+  kVertex,   // vertex distance above the pinhole
+  kNumSensor
+};
+
+template <typename T>
+SensorParams<T> ParamsFromBlock(const T* s) {
+  SensorParams<T> p;
+  p.focal_px = s[kFocal];
+  p.cx = s[kCx];
+  p.cy = s[kCy];
+  p.aspect = s[kAspect];
+  p.azimuth_offset = s[kAzimuth];
+  p.k1 = s[kK1];
+  p.k2 = s[kK2];
+  p.curvature_radius = s[kRadius];
+  p.conic_constant = s[kConic];
+  p.vertex_distance = s[kVertex];
+  p.rim_radius = T(0);
+  return p;
+}
+
+inline std::array<double, kNumSensor> BlockFromParams(const SensorParams<double>& p) {
+  std::array<double, kNumSensor> s{};
+  s[kFocal] = p.focal_px;
+  s[kCx] = p.cx;
+  s[kCy] = p.cy;
+  s[kAspect] = p.aspect;
+  s[kAzimuth] = p.azimuth_offset;
+  s[kK1] = p.k1;
+  s[kK2] = p.k2;
+  s[kRadius] = p.curvature_radius;
+  s[kConic] = p.conic_constant;
+  s[kVertex] = p.vertex_distance;
+  return s;
+}
+
+// Physically meaningful parameter values (the fit rejects steps outside).
+template <typename T>
+bool PlausibleParams(const SensorParams<T>& p) {
+  return p.focal_px > T(0) && p.aspect > T(0.2) && p.aspect < T(5.0) &&
+         p.curvature_radius > T(0) && p.vertex_distance > T(0);
+}
+
+// A board pose as the fit's parameter block: angle-axis, then translation.
+inline std::array<double, 6> PackPose(const Eigen::Vector3d& rvec, const Eigen::Vector3d& tvec) {
+  return {rvec.x(), rvec.y(), rvec.z(), tvec.x(), tvec.y(), tvec.z()};
+}
+inline std::array<double, 6> PackPose(const BoardView& view) { return PackPose(view.rvec, view.tvec); }
+inline void UnpackPose(const std::array<double, 6>& pose, BoardView* view) {
+  view->rvec = Eigen::Vector3d(pose[0], pose[1], pose[2]);
+  view->tvec = Eigen::Vector3d(pose[3], pose[4], pose[5]);
+}
+
+// Target image i's board view (file, known pose) with these corners.
+inline BoardView ViewOfImage(const TargetSet& targets, int i, const std::vector<Eigen::Vector2d>& corners,
+                             const std::string& method) {
+  const TargetImage& ti = targets.images[static_cast<size_t>(i)];
+  BoardView v;
+  v.image_index = i;
+  v.file = ti.file;
+  v.corners = corners;
+  v.method = method;
+  v.has_pose = ti.has_pose;
+  v.rvec = Eigen::Vector3d(ti.rvec[0], ti.rvec[1], ti.rvec[2]);
+  v.tvec = Eigen::Vector3d(ti.tvec[0], ti.tvec[1], ti.tvec[2]);
+  return v;
+}
+
+// Rim that caps the visible mirror at normalised radius m_cap when the limb
+// lies beyond it (a hyperboloid has none: its rays would run off to infinity).
+inline double RimForRadius(SensorParams<double> p, double m_cap) {
+  p.rim_radius = 0.0;
+  const double m_limb = max_normalized_radius(p);
+  if (!(m_cap > 0.0) || (std::isfinite(m_limb) && m_limb <= m_cap)) return 0.0;
+  // Rays steeper than a hyperboloid's asymptote never meet it.
+  if (p.conic_constant < -1.0) m_cap = std::min(m_cap, 0.999 * std::sqrt(-(1.0 + p.conic_constant)));
+  double s, z;
+  for (int i = 0; i < 100; ++i, m_cap *= 0.95)
+    if (mirror_hit(p, m_cap, &s, &z)) return s;
+  return 0.0;
+}
+
+// Reprojection residual of one board corner (pixels): sensor block, pose
+// block (angle-axis, translation).
+struct CornerCost {
+  // cap_px: image radius (pixels) beyond which the mirror is taken to end.
+  // sqrt_info: the residual is sqrt_info * (projected - observed), a square
+  // root of the corner's information matrix (CornerWeights); identity: pixels.
+  CornerCost(const Eigen::Vector3d& board_point, const Eigen::Vector2d& pixel, double cap_px,
+             const Eigen::Matrix2d& sqrt_info = Eigen::Matrix2d::Identity())
+      : X(board_point), obs(pixel), cap(cap_px), L(sqrt_info) {}
+  template <typename T>
+  bool operator()(const T* sensor, const T* pose, T* residual) const {
+    SensorParams<T> p = ParamsFromBlock(sensor);
+    if (!PlausibleParams(p)) return false;
+    p.rim_radius = T(RimForRadius(p.template cast<double>(), cap / scalar_value(p.focal_px)));
+    const T Xb[3] = {T(X.x()), T(X.y()), T(X.z())};
+    T Xs[3];
+    ceres::AngleAxisRotatePoint(pose, Xb, Xs);
+    Xs[0] += pose[3];
+    Xs[1] += pose[4];
+    Xs[2] += pose[5];
+    T u, v;
+    if (!project(p, Xs, &u, &v)) return false;
+    const T du = u - T(obs.x()), dv = v - T(obs.y());
+    residual[0] = T(L(0, 0)) * du + T(L(0, 1)) * dv;
+    residual[1] = T(L(1, 0)) * du + T(L(1, 1)) * dv;
+    return true;
+  }
+  Eigen::Vector3d X;
+  Eigen::Vector2d obs;
+  double cap;
+  Eigen::Matrix2d L;
+};
+
+// The image radius that caps the mirror in the fit: 1.5 x the half-diagonal.
+inline double CapRadiusPx(int width, int height) { return 0.75 * std::hypot(width, height); }
+
+// Pose of one more board through an already fitted sensor (the linear
+// in-plane solve, then its height along the corners' rays). False on failure.
+bool InitialPoseFromSensor(const BoardView& view, const TargetBoard& board, const Sensor& sensor,
+                           std::array<double, 6>* pose);
+
+// Indices of the sensor block held fixed for this model and these options.
+std::vector<int> FixedSensorIndices(bool poses_known, const CalibrateOptions& o);
+
+// For a hyperboloid without a limb: the rim that keeps the whole image on the
+// mirror (so that Sensor::Check passes and back-projection works everywhere).
+void SetRimForImage(Sensor* sensor);
+
+}  // namespace pano::calib_internal

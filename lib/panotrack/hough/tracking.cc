@@ -1,0 +1,214 @@
+#include "panotrack/hough/tracking.h"
+
+#include <algorithm>
+#include <limits>
+#include <sstream>
+#include <string>
+
+#include "panotrack/core/angles.h"
+#include "panotrack/core/error.h"
+#include "panotrack/hough/peak_refine.h"
+
+namespace pano {
+
+namespace {
+
+void CheckWindow(const TrackingWindow& w) {
+  const std::string what = "TrackHorizontalLine: window";
+  const double vals[] = {w.r_main, w.theta_main, w.r_halfwidth, w.theta_halfwidth, w.r_bin,
+                         w.theta_bin, w.max_abs_dtheta, w.inlier_r_bins, w.min_score};
+  for (double v : vals)
+    if (!std::isfinite(v)) throw Error(what + ": a parameter is not a finite number (NaN or infinity)");
+  if (std::isnan(w.theta_min) || std::isnan(w.theta_max))
+    throw Error(what + ": theta_min/theta_max: NaN (use infinity for no bound)");
+  if (!(w.r_bin > 0.0) || !(w.theta_bin > 0.0))
+    throw Error(what + ": r_bin/theta_bin: expected positive bin sizes (zero-size accumulator)");
+  if (w.r_halfwidth < 0.0 || w.theta_halfwidth < 0.0)
+    throw Error(what + ": r_halfwidth/theta_halfwidth: expected non-negative half-widths");
+  if (!(w.theta_halfwidth < M_PI / 2))
+    throw Error(what + ": theta_halfwidth: expected less than pi/2");
+  const double nr = 2.0 * std::ceil(w.r_halfwidth / w.r_bin) + 1.0;
+  const double nt = 2.0 * std::ceil(w.theta_halfwidth / w.theta_bin) + 1.0;
+  if (nr * nt > 1e6) throw Error(what + ": more than 1e6 accumulator bins");
+}
+
+// Robust Gauss-Newton on e_k = PH(R_k, T - theta_k) - R (Eqns 7-8), Tukey
+// biweight of scale c. The derivative de/dT is the table's central difference.
+bool RefineRobust(const PhTable& table, const TrackingVote* pts, size_t n, double dt_cap,
+                  double r_lo, double r_hi, double t_lo, double t_hi, double c,
+                  int iterations, double tol_r, double* R, double* T, double* sig_r,
+                  double* sig_t) {
+  const double h = 0.5 * table.options().dtheta_step;
+  double r = *R, t = *T;
+  bool ok = false;
+  // Annealed scale: c, c/2, ... down to c_final = c/3 (one r_bin by default).
+  const double c_final = c / 3.0;
+  for (int it = 0; it < iterations; ++it) {
+    if (it > 0) c = std::max(c_final, 0.5 * c);
+    double a11 = 0, a12 = 0, a22 = 0, b1 = 0, b2 = 0, se = 0;
+    int used = 0;
+    for (size_t k = 0; k < n; ++k) {
+      const double dt = wrap_angle(t - pts[k].azimuth);
+      if (!(std::abs(dt) + h < dt_cap)) continue;
+      double pm, pp, p0;
+      if (!table.Main(pts[k].radius, dt, &p0) || !table.Main(pts[k].radius, dt - h, &pm) ||
+          !table.Main(pts[k].radius, dt + h, &pp))
+        continue;
+      const double e = p0 - r;
+      if (!(std::abs(e) < c)) continue;
+      const double u = e / c;
+      const double wk = pts[k].weight * (1 - u * u) * (1 - u * u);
+      const double g = (pp - pm) / (2 * h);  // de/dT; de/dR = -1
+      // J = [-1, g]: normal equations J^T W J d = -J^T W e.
+      a11 += wk;
+      a12 -= wk * g;
+      a22 += wk * g * g;
+      b1 += wk * e;
+      b2 -= wk * g * e;
+      se += wk * e * e;
+      ++used;
+    }
+    if (used < 3 || !(a11 > 0)) return ok;
+    const double det = a11 * a22 - a12 * a12;
+    {
+      // Covariance s^2 A^-1 at this iterate (kept from the last step).
+      const double s2 = se / std::max(a11 * (used - 2.0) / used, 1e-300);
+      const bool observable = det > 1e-12 * a11 * std::max(a22, 1e-300) && a22 > 0;
+      *sig_r = observable ? std::sqrt(s2 * a22 / det) : std::sqrt(s2 / a11);
+      *sig_t = observable ? std::sqrt(s2 * a11 / det) : std::numeric_limits<double>::infinity();
+    }
+    double dr, dtt;
+    if (det > 1e-12 * a11 * std::max(a22, 1e-300) && a22 > 0) {
+      dr = (a22 * b1 - a12 * b2) / det;
+      dtt = (a11 * b2 - a12 * b1) / det;
+    } else {
+      dr = b1 / a11;  // theta not observable: R only
+      dtt = 0;
+    }
+    // Projected onto the window (theta relative to the start value).
+    r = std::clamp(r + dr, r_lo, r_hi);
+    t = std::clamp(t + dtt, t_lo, t_hi);
+    ok = true;
+    if (c <= c_final && std::abs(dr) < tol_r && std::abs(dtt) < 1e-6) break;
+  }
+  *R = r;
+  *T = t;
+  return ok;
+}
+
+}  // namespace
+
+TrackingResult TrackHorizontalLine(const PhTable& table, const TrackingWindow& w,
+                                   const TrackingVote* points, size_t n_points) {
+  if (table.empty()) throw Error("TrackHorizontalLine: empty Panoramic Hough table");
+  CheckWindow(w);
+  if (n_points > 0 && points == nullptr) throw Error("TrackHorizontalLine: null point array");
+  for (size_t i = 0; i < n_points; ++i) {
+    const TrackingVote& p = points[i];
+    if (!std::isfinite(p.radius) || !std::isfinite(p.azimuth) || !std::isfinite(p.weight) ||
+        p.weight < 0.0)
+      throw Error("TrackHorizontalLine: point " + std::to_string(i) +
+                  ": expected finite radius/azimuth and a finite non-negative weight");
+  }
+  const int hr = static_cast<int>(std::ceil(w.r_halfwidth / w.r_bin));
+  const int ht = static_cast<int>(std::ceil(w.theta_halfwidth / w.theta_bin));
+  const int nr = 2 * hr + 1, nt = 2 * ht + 1;
+  const double r_lo = w.r_main - hr * w.r_bin;          // centre of R bin 0
+  const double t_lo = w.theta_main - ht * w.theta_bin;  // centre of theta bin 0
+  const double inv_r_bin = 1.0 / w.r_bin;
+  const double dt_cap = std::min(w.max_abs_dtheta, table.dtheta_max());
+
+  // Columns allowed by theta_min..theta_max (counter-clockwise arc).
+  thread_local std::vector<float> acc, smooth;
+  thread_local std::vector<unsigned char> col_ok;
+  col_ok.assign(nt, 1);
+  if (std::isfinite(w.theta_min) && std::isfinite(w.theta_max)) {
+    const double span = wrap_angle_positive(w.theta_max - w.theta_min);
+    for (int c = 0; c < nt; ++c) {
+      const double off = wrap_angle_positive(t_lo + c * w.theta_bin - w.theta_min);
+      col_ok[c] = off > 0.0 && off < span;
+    }
+  }
+  acc.assign(static_cast<size_t>(nt) * nr, 0.0f);  // [theta][R]
+
+  TrackingResult res;
+  double total_weight = 0.0;
+  for (size_t i = 0; i < n_points; ++i) {
+    const TrackingVote& p = points[i];
+    const float wt = static_cast<float>(p.weight);
+    const double dt0 = wrap_angle(t_lo - p.azimuth);  // dtheta of column 0 (Eqn 8)
+    bool voted = false;
+    for (int c = 0; c < nt; ++c) {
+      const double dt = dt0 + c * w.theta_bin;
+      if (!col_ok[c] || !(std::abs(dt) < dt_cap)) continue;
+      double rm;
+      if (!table.Main(p.radius, dt, &rm)) continue;  // Eqn 7
+      const double x = (rm - r_lo) * inv_r_bin;
+      if (!(x > -1.0) || !(x < nr)) continue;
+      const int i0 = static_cast<int>(std::floor(x));
+      const float f = static_cast<float>(x - i0);
+      float* row = &acc[static_cast<size_t>(c) * nr];
+      if (i0 >= 0) row[i0] += wt * (1.0f - f);
+      if (i0 + 1 < nr) row[i0 + 1] += wt * f;
+      voted = true;
+    }
+    if (voted) {
+      ++res.n_votes;
+      total_weight += p.weight;
+    }
+  }
+  if (res.n_votes == 0 || !(total_weight > 0.0)) return res;
+
+  const std::vector<float>* grid = &acc;
+  if (w.smooth) {
+    smooth.assign(acc.size(), 0.0f);
+    SmoothBinomial3x3(acc.data(), nt, nr, smooth.data());
+    grid = &smooth;
+  }
+  const PeakFit fit = FindAndRefinePeak(grid->data(), nt, nr);
+  if (!(fit.value > 0.0f)) return res;
+  res.peak = fit.value;
+  res.at_border = fit.at_border;
+  res.r_main = r_lo + fit.x * w.r_bin;
+  res.theta_main = wrap_angle(t_lo + fit.y * w.theta_bin);
+
+  if (w.refine_iterations > 0) {
+    double R = res.r_main, T = res.theta_main;
+    double sr = 0, st = 0;
+    // theta unwrapped next to the window's prediction.
+    T = w.theta_main + wrap_angle(T - w.theta_main);
+    // Bounds: the window, and in theta the columns theta_min..theta_max allow.
+    int c_first = 0, c_last = nt - 1;
+    while (c_first < nt - 1 && !col_ok[c_first]) ++c_first;
+    while (c_last > 0 && !col_ok[c_last]) --c_last;
+    if (c_last < c_first) c_last = c_first;
+    if (RefineRobust(table, points, n_points, dt_cap, r_lo - 0.5 * w.r_bin,
+                     r_lo + (nr - 0.5) * w.r_bin, t_lo + (c_first - 0.5) * w.theta_bin,
+                     t_lo + (c_last + 0.5) * w.theta_bin, w.refine_scale_bins * w.r_bin,
+                     w.refine_iterations, 1e-3 * w.r_bin, &R, &T, &sr, &st)) {
+      res.r_main = R;
+      res.theta_main = wrap_angle(T);
+      res.r_sigma = sr;
+      res.theta_sigma = st;
+    }
+  }
+
+  // Score: inlier weight fraction at the refined peak.
+  double inlier_w = 0.0;
+  const double tol = w.inlier_r_bins * w.r_bin;
+  for (size_t i = 0; i < n_points; ++i) {
+    const TrackingVote& p = points[i];
+    const double dt = wrap_angle(res.theta_main - p.azimuth);
+    double rm;
+    if (!(std::abs(dt) < dt_cap) || !table.Main(p.radius, dt, &rm)) continue;
+    if (std::abs(rm - res.r_main) <= tol) {
+      inlier_w += p.weight;
+      ++res.n_inliers;
+    }
+  }
+  res.score = inlier_w / total_weight;
+  res.found = res.score >= w.min_score;
+  return res;
+}
+
+}  // namespace pano

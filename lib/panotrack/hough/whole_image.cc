@@ -1,0 +1,695 @@
+#include "panotrack/hough/whole_image.h"
+
+#include <omp.h>
+
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "panotrack/core/angles.h"
+#include "panotrack/core/error.h"
+#include "panotrack/core/parallel.h"
+#include "panotrack/hough/peak_refine.h"
+
+namespace pano {
+
+namespace {
+
+constexpr int32_t kInvalid = -1;
+constexpr int kPhiBins = 180;  // gradient angle to the radial, 1 degree bins over [-90, 90)
+
+std::string Num(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+}  // namespace
+
+void WholeImageOptions::Check(const std::string& what) const {
+  if (heights.empty()) throw Error(what + ": heights: expected at least one Z plane");
+  for (double z : heights)
+    if (!std::isfinite(z)) throw Error(what + ": heights: not a finite number (NaN or infinity)");
+  const double vals[] = {r_bin, theta_bin, dtheta_max, r_row_step, orientation_tolerance, r_min,
+                         r_max, vertical_tolerance, distance_min, distance_max, explain_tolerance};
+  for (double v : vals)
+    if (!std::isfinite(v)) throw Error(what + ": a parameter is not a finite number (NaN or infinity)");
+  if (!(r_bin > 0.0) || !(theta_bin > 0.0))
+    throw Error(what + ": r_bin/theta_bin: expected positive bin sizes (zero-size accumulator)");
+  if (theta_bin > M_PI) throw Error(what + ": theta_bin: expected at most pi");
+  if (!(dtheta_max > 0.0) || !(dtheta_max < 89.0 * M_PI / 180))
+    throw Error(what + ": dtheta_max: expected 0 < dtheta_max < 89 degrees, got " + Num(dtheta_max));
+  if (sub_steps < 1 || sub_steps > 64) throw Error(what + ": sub_steps: expected 1..64");
+  if (!(r_row_step > 0.0)) throw Error(what + ": r_row_step: expected a positive step in px");
+  if (r_min < 0.0 || r_max < 0.0 || (r_max > 0.0 && r_max <= r_min))
+    throw Error(what + ": r_min/r_max: expected 0 <= r_min < r_max (r_max 0: the limb)");
+  if (!(orientation_tolerance > 0.0) || !(vertical_tolerance > 0.0))
+    throw Error(what + ": orientation tolerances: expected positive angles");
+  if (distance_min < 0.0 || distance_max < 0.0 || (distance_max > 0.0 && distance_max <= distance_min))
+    throw Error(what + ": distance_min/distance_max: expected 0 <= min < max (0: the table's range)");
+  if (!(explain_tolerance > 0.0)) throw Error(what + ": explain_tolerance: expected a positive value");
+  if (min_votes < 1 || vertical_min_votes < 1)
+    throw Error(what + ": min_votes: expected at least 1");
+  if (nms_r < 0 || nms_theta < 0 || vertical_nms < 0 || max_peaks < 0)
+    throw Error(what + ": nms/max_peaks: expected non-negative values");
+}
+
+void PhWholeImage::SetGeometry(const Sensor& sensor, const WholeImageOptions& options) {
+  const std::string what = "Panoramic Hough whole-image";
+  options_ = options;
+  cx_ = sensor.params.cx;
+  cy_ = sensor.params.cy;
+  aspect_ = sensor.params.aspect;
+  const double limb = sensor.limb_radius();
+  r_max_ = options.r_max > 0.0 ? std::min(options.r_max, limb) : limb - 3.0;
+  r_min_ = options.r_min;
+  if (!(r_max_ > r_min_)) throw Error(what + ": r_min: expected less than the limb radius");
+  n_theta_ = static_cast<int>(std::lround(2.0 * M_PI / options.theta_bin));
+  if (n_theta_ < 2 || n_theta_ > 20000)
+    throw Error(what + ": theta_bin: expected 2 to 20000 bins over the circle");
+  theta_bin_ = 2.0 * M_PI / n_theta_;
+  n_r_ = static_cast<int>(std::ceil(r_max_ / options.r_bin));
+  if (n_r_ < 1 || n_r_ > 20000) throw Error(what + ": r_bin: expected 1 to 20000 radius bins");
+  if (static_cast<double>(n_r_) * n_theta_ * options.heights.size() > 2e8)
+    throw Error(what + ": more than 2e8 accumulator bins");
+  sub_steps_ = options.sub_steps;
+  half_width_ = static_cast<int>(std::ceil(options.dtheta_max / theta_bin_));
+  width_ = 2 * half_width_ + 1;
+  n_rows_ = static_cast<int>(std::floor(r_max_ / options.r_row_step)) + 2;
+  // Runs that pass 2 pi wrap to row 0 (voters split them): no padding rows.
+  n_rows_padded_ = n_theta_;
+  if (width_ > n_theta_) throw Error(what + ": theta_bin: too coarse for dtheta_max");
+  int_plane_size_ = static_cast<size_t>(n_rows_) * sub_steps_ * width_;
+  if (int_plane_size_ * options.heights.size() > 1e8 ||
+      int_plane_size_ > static_cast<size_t>(std::numeric_limits<int32_t>::max()))
+    throw Error(what + ": integer table too large; use a larger r_row_step or theta_bin");
+}
+
+void PhWholeImage::FillIntegerPlane(const PhTable& ph, double d_min, double d_max, int32_t* tab,
+                                    std::vector<unsigned char>* valid, std::vector<float>* psi) const {
+  const int S = sub_steps_, W = width_, M = half_width_, NR = n_rows_;
+  const double q = options_.r_row_step, scale = 256.0 / options_.r_bin;
+  const double r_lim = n_r_ * options_.r_bin;
+  valid->assign(static_cast<size_t>(NR) * W, 0);
+  psi->assign(static_cast<size_t>(NR) * W, std::numeric_limits<float>::quiet_NaN());
+  // The rows only evaluate the PH table (nothing throws).
+#pragma omp parallel for schedule(static)
+  for (int i = 0; i < NR; ++i) {
+    const double R = i * q;
+    double D_row = 0.0;
+    const bool row_ok = ph.SliceDistance(R, &D_row) && D_row >= d_min && D_row <= d_max;
+    for (int m = -M; m <= M; ++m) {
+      bool all = row_ok;
+      for (int s = 0; s < S; ++s) {
+        const double dt = (m - double(s) / S) * theta_bin_;
+        double v;
+        int32_t iv = kInvalid;
+        if (row_ok && std::abs(dt) <= options_.dtheta_max + theta_bin_ && D_row * std::cos(dt) >= d_min &&
+            ph.Main(R, dt, &v) && v >= 0.0 && v < r_lim)
+          iv = static_cast<int32_t>(std::lround(v * scale));  // Eqn 7, 1/256 bin
+        else
+          all = false;
+        tab[(static_cast<size_t>(i) * S + s) * W + (m + M)] = iv;
+      }
+      (*valid)[static_cast<size_t>(i) * W + m + M] = all;
+      // Curve normal angle to the radial at (R, dtheta): psi = atan(PH_dt / (R PH_R)).
+      const double dt = m * theta_bin_, hr = 0.25, ht = 0.25 * M_PI / 180;
+      double a, b, c, d;
+      if (all && ph.Main(R + hr, dt, &a) && ph.Main(R - hr, dt, &b) && ph.Main(R, dt + ht, &c) &&
+          ph.Main(R, dt - ht, &d) && R > 0.0) {
+        const double ph_r = (a - b) / (2 * hr), ph_t = (c - d) / (2 * ht);
+        (*psi)[static_cast<size_t>(i) * W + m + M] = static_cast<float>(std::atan2(ph_t, R * ph_r));
+      }
+    }
+  }
+}
+
+void PhWholeImage::FillOrientationRanges(const std::vector<unsigned char>& valid,
+                                         const std::vector<float>& psi, Plane* plane) const {
+  const int W = width_, M = half_width_, NR = n_rows_;
+  // Ranges of m per (row pair r0, r0+1) and gradient angle bin.
+  plane->range_lo.assign(static_cast<size_t>(NR) * kPhiBins, 1);
+  plane->range_hi.assign(static_cast<size_t>(NR) * kPhiBins, 0);
+  const double tol = options_.orientation_tolerance + 0.5 * M_PI / 180;
+  // Arithmetic on the tables only (nothing throws).
+#pragma omp parallel for schedule(static)
+  for (int i = 0; i < NR - 1; ++i) {
+    auto ok = [&](int m) {
+      return valid[static_cast<size_t>(i) * W + m + M] && valid[static_cast<size_t>(i + 1) * W + m + M];
+    };
+    if (!ok(0)) continue;
+    int v_lo = 0, v_hi = 0;
+    while (v_lo - 1 >= -M && ok(v_lo - 1)) --v_lo;
+    while (v_hi + 1 <= M && ok(v_hi + 1)) ++v_hi;
+    const float* ps = &psi[static_cast<size_t>(i) * W + M];
+    for (int f = 0; f < kPhiBins; ++f) {
+      const double phi = (f + 0.5 - 90.0) * M_PI / 180;
+      int lo = 1, hi = 0;
+      for (int m = v_lo; m <= v_hi; ++m) {
+        const double d = std::remainder(ps[m] - phi, M_PI);  // NaN never matches
+        if (std::abs(d) <= tol) {
+          if (lo > hi) lo = m;
+          hi = m;
+        }
+      }
+      plane->range_lo[static_cast<size_t>(i) * kPhiBins + f] = static_cast<int16_t>(lo);
+      plane->range_hi[static_cast<size_t>(i) * kPhiBins + f] = static_cast<int16_t>(hi);
+    }
+  }
+}
+
+void PhWholeImage::FillCurveTable(Plane* plane) const {
+  const int S = sub_steps_, W = width_, M = half_width_, NR = n_rows_;
+  const double q = options_.r_row_step;
+  // PH^-1 table for the explain-away step.
+  plane->curve.assign(int_plane_size_, std::numeric_limits<float>::quiet_NaN());
+  const PhTable& ph = plane->table;
+  // The rows only evaluate the PH table (nothing throws).
+#pragma omp parallel for schedule(static)
+  for (int i = 0; i < NR; ++i)
+    for (int s2 = 0; s2 < S; ++s2)
+      for (int m = -M; m <= M; ++m) {
+        double r;
+        if (ph.Curve(i * q, (m - double(s2) / S) * theta_bin_, &r))
+          plane->curve[(static_cast<size_t>(i) * S + s2) * W + m + M] = static_cast<float>(r);
+      }
+}
+
+void PhWholeImage::BuildPolarMaps(const Sensor& sensor) {
+  polar_w_ = sensor.image_width;
+  polar_h_ = sensor.image_height;
+  const size_t npx = static_cast<size_t>(polar_w_) * polar_h_;
+  polar_r_.resize(npx);
+  polar_t_.resize(npx);
+  polar_c_.resize(npx);
+  polar_s_.resize(npx);
+  for (int v = 0; v < polar_h_; ++v)
+    for (int u = 0; u < polar_w_; ++u) {
+      const double du = u - cx_, dv = (v - cy_) / aspect_;
+      const double R = std::sqrt(du * du + dv * dv);
+      double t = std::atan2(dv, du);
+      if (t < 0.0) t += 2.0 * M_PI;
+      const size_t i = static_cast<size_t>(v) * polar_w_ + u;
+      polar_r_[i] = static_cast<float>(R);
+      polar_t_[i] = static_cast<float>(t);
+      polar_c_[i] = static_cast<float>(R > 0 ? du / R : 1.0);
+      polar_s_[i] = static_cast<float>(R > 0 ? dv / R : 0.0);
+    }
+}
+
+PhWholeImage PhWholeImage::Build(const RadiusTable& table, const WholeImageOptions& options) {
+  const std::string what = "Panoramic Hough whole-image";
+  options.Check(what);
+  if (table.empty()) throw Error(what + ": the E(D,Z) lookup table is empty");
+  PhWholeImage w;
+  w.SetGeometry(table.sensor(), options);
+  w.int_table_.assign(w.int_plane_size_ * options.heights.size(), kInvalid);
+  PhTableOptions po;
+  po.dtheta_max = std::min(89.0 * M_PI / 180, options.dtheta_max + 2.0 * w.theta_bin_);
+  const double d_min = options.distance_min > 0.0 ? options.distance_min : table.ranges().d_min;
+  const double d_max = options.distance_max > 0.0 ? options.distance_max : table.ranges().d_max;
+  std::vector<unsigned char> valid;  // [row][m + M]: every sub step defined
+  std::vector<float> psi;            // [row][m + M]: curve normal to the radial
+  for (size_t p = 0; p < options.heights.size(); ++p) {
+    Plane plane;
+    plane.table = PhTable::Build(table, options.heights[p], po);
+    w.FillIntegerPlane(plane.table, d_min, d_max, &w.int_table_[p * w.int_plane_size_], &valid, &psi);
+    w.FillOrientationRanges(valid, psi, &plane);
+    w.FillCurveTable(&plane);
+    w.planes_.push_back(std::move(plane));
+  }
+  w.BuildPolarMaps(table.sensor());
+  return w;
+}
+
+EdgeMap ComputeEdgeMap(const cv::Mat& image, const EdgeOptions& options) {
+  if (image.empty()) throw Error("ComputeEdgeMap: empty image");
+  if (image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3))
+    throw Error("ComputeEdgeMap: expected an 8-bit grey or BGR image");
+  if (!std::isfinite(options.low_threshold) || !std::isfinite(options.high_threshold) ||
+      options.low_threshold < 0 || options.high_threshold < options.low_threshold)
+    throw Error("ComputeEdgeMap: thresholds: expected 0 <= low <= high");
+  cv::Mat grey = image;
+  if (image.channels() == 3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  if (options.blur) cv::blur(grey, grey, cv::Size(3, 3));
+  EdgeMap e;
+  cv::Sobel(grey, e.dx, CV_16S, 1, 0, 3);
+  cv::Sobel(grey, e.dy, CV_16S, 0, 1, 3);
+  cv::Canny(e.dx, e.dy, e.mask, options.low_threshold, options.high_threshold, true);
+  return e;
+}
+
+void PhWholeImage::CheckEdgeMap(const EdgeMap& edges) const {
+  const std::string what = "Panoramic Hough whole-image";
+  if (empty()) throw Error(what + ": transform not built");
+  if (edges.mask.empty()) throw Error(what + ": empty edge map");
+  if (edges.mask.type() != CV_8UC1 || edges.dx.type() != CV_16SC1 || edges.dy.type() != CV_16SC1)
+    throw Error(what + ": edge map: expected mask CV_8UC1 and dx, dy CV_16SC1");
+  if (edges.dx.size() != edges.mask.size() || edges.dy.size() != edges.mask.size())
+    throw Error(what + ": edge map: mask, dx and dy differ in size");
+  if (edges.mask.rows > 32767 || edges.mask.cols > 32767) throw Error(what + ": edge map too large");
+}
+
+void PhWholeImage::ResetResult(WholeImageResult* res) const {
+  res->n_planes = static_cast<int>(planes_.size());
+  res->n_theta = n_theta_;
+  res->n_r = n_r_;
+  res->vertical_histogram.assign(n_theta_, 0);
+  res->vertical_peaks.clear();
+  res->peaks.clear();
+  res->n_edge_pixels = 0;
+  res->n_votes = 0;
+  res->voter_radius.clear();
+  res->voter_azimuth.clear();
+  res->vertical_r_min.assign(n_theta_, std::numeric_limits<float>::infinity());
+  res->vertical_r_max.assign(n_theta_, 0.0f);
+}
+
+// An edge pixel in image polar coordinates (aspect-corrected), its gradient
+// in (du, dv), and the per-run constants its votes need.
+struct PhWholeImage::EdgePixel {
+  double R, theta, cr, sr;  // radius, azimuth in [0, 2 pi), cos and sin of it
+  double gx, gy, gn;        // gradient and its norm
+};
+struct PhWholeImage::VoteScales {
+  double inv_q, inv_tb, cos_vert;  // 1 / r_row_step, 1 / theta_bin, vertical gradient limit
+};
+
+void PhWholeImage::AddVertical(const EdgePixel& e, double g_rad, const VoteScales& k,
+                               WholeImageResult* res) const {
+  if (std::abs(g_rad) > k.cos_vert * e.gn) return;  // not a tangential gradient: no radial (vertical) edge
+  int kb = static_cast<int>(e.theta * k.inv_tb);
+  if (kb >= n_theta_) kb = n_theta_ - 1;
+  ++res->vertical_histogram[kb];
+  res->vertical_r_min[kb] = std::min(res->vertical_r_min[kb], static_cast<float>(e.R));
+  res->vertical_r_max[kb] = std::max(res->vertical_r_max[kb], static_cast<float>(e.R));
+}
+
+bool PhWholeImage::AddRecords(const EdgePixel& e, double phi, const VoteScales& k,
+                              std::vector<PhVoteRecord>* records, WholeImageResult* res) const {
+  const int S = sub_steps_, W = width_, M = half_width_;
+  const double fr = e.R * k.inv_q;
+  int r0 = static_cast<int>(fr);
+  int t8 = static_cast<int>(std::lround((fr - r0) * 256.0));
+  if (t8 == 256) {
+    ++r0;
+    t8 = 0;
+  }
+  if (r0 + 1 >= n_rows_) return false;
+  int fb = static_cast<int>(std::floor((phi + M_PI / 2) * (180.0 / M_PI)));
+  fb = std::clamp(fb, 0, kPhiBins - 1);
+  const double x = e.theta * k.inv_tb - 0.5;
+  int fl = static_cast<int>(std::floor(x));
+  int s = static_cast<int>(std::lround((x - fl) * S));
+  if (s == S) {
+    ++fl;
+    s = 0;
+  }
+  bool voted = false;
+  for (size_t p = 0; p < planes_.size(); ++p) {
+    const size_t ri = static_cast<size_t>(r0) * kPhiBins + fb;
+    const int lo = planes_[p].range_lo[ri], hi = planes_[p].range_hi[ri];
+    if (lo > hi) continue;
+    PhVoteRecord rec;
+    rec.offset = static_cast<int32_t>((static_cast<size_t>(r0) * S + s) * W + (lo + M));
+    int kt = (fl + lo) % n_theta_;
+    if (kt < 0) kt += n_theta_;
+    rec.k_start = static_cast<int16_t>(kt);
+    rec.count = static_cast<int16_t>(hi - lo + 1);
+    rec.t = static_cast<uint16_t>(t8);
+    rec.plane = static_cast<uint16_t>(p);
+    records->push_back(rec);
+    res->n_votes += rec.count;
+    voted = true;
+  }
+  return voted;
+}
+
+void PhWholeImage::AddEdgePixel(const EdgePixel& e, const VoteScales& k, std::vector<PhVoteRecord>* records,
+                                WholeImageResult* res) const {
+  ++res->n_edge_pixels;
+  // Gradient angle to the radial, modulo pi, in [-pi/2, pi/2).
+  const double g_rad = e.gx * e.cr + e.gy * e.sr, g_tan = -e.gx * e.sr + e.gy * e.cr;
+  double phi = std::atan2(static_cast<float>(g_tan), static_cast<float>(g_rad));
+  if (phi >= M_PI / 2) phi -= M_PI;
+  if (phi < -M_PI / 2) phi += M_PI;
+  AddVertical(e, g_rad, k, res);
+  if (AddRecords(e, phi, k, records, res)) {
+    res->voter_radius.push_back(static_cast<float>(e.R));
+    res->voter_azimuth.push_back(static_cast<float>(e.theta));
+  }
+}
+
+void PhWholeImage::Prepare(const EdgeMap& edges, std::vector<PhVoteRecord>* records,
+                           WholeImageResult* result) const {
+  CheckEdgeMap(edges);
+  ResetResult(result);
+  records->clear();
+  const VoteScales k{1.0 / options_.r_row_step, 1.0 / theta_bin_,
+                     std::cos(M_PI / 2 - options_.vertical_tolerance)};
+  const bool use_maps = edges.mask.cols == polar_w_ && edges.mask.rows == polar_h_;
+  for (int v = 0; v < edges.mask.rows; ++v) {
+    const uint8_t* mrow = edges.mask.ptr<uint8_t>(v);
+    const int16_t* gxr = edges.dx.ptr<int16_t>(v);
+    const int16_t* gyr = edges.dy.ptr<int16_t>(v);
+    const double dv = (v - cy_) / aspect_;
+    const size_t prow = static_cast<size_t>(v) * polar_w_;
+    for (int u = 0; u < edges.mask.cols; ++u) {
+      if (!mrow[u]) continue;
+      EdgePixel e;
+      if (use_maps) {  // precomputed per-pixel polar coordinates
+        e.R = polar_r_[prow + u];
+        e.theta = polar_t_[prow + u];
+        e.cr = polar_c_[prow + u];
+        e.sr = polar_s_[prow + u];
+      } else {
+        const double du = u - cx_;
+        e.R = std::sqrt(du * du + dv * dv);
+        e.theta = std::atan2(dv, du);
+        if (e.theta < 0.0) e.theta += 2.0 * M_PI;
+        e.cr = e.R > 0 ? du / e.R : 1.0;
+        e.sr = e.R > 0 ? dv / e.R : 0.0;
+      }
+      if (e.R < r_min_ || e.R > r_max_) continue;
+      e.gx = gxr[u];
+      e.gy = gyr[u] * aspect_;
+      e.gn = std::sqrt(e.gx * e.gx + e.gy * e.gy);
+      if (!(e.gn > 0.0)) continue;
+      AddEdgePixel(e, k, records, result);
+    }
+  }
+}
+
+namespace {
+inline void VoteRecord(const PhVoteRecord& rec, const int32_t* table, size_t plane_size, int stride,
+                       int32_t* padded, size_t padded_plane, int n_r, int n_theta) {
+  const int32_t* a = table + rec.plane * plane_size + rec.offset;
+  const int32_t* b = a + stride;
+  const int w1 = rec.t, w0 = 256 - w1;
+  const int cols = n_r + 1;
+  int32_t* plane_acc = padded + rec.plane * padded_plane;
+  int32_t* acc = plane_acc + static_cast<size_t>(rec.k_start) * cols;
+  const int n = rec.count;
+  const int n1 = std::min(n, n_theta - rec.k_start);  // bins before theta_main wraps at 2 pi
+  for (int j = 0; j < n1; ++j) {
+    int v = (a[j] * w0 + b[j] * w1) >> 16;  // R_main bin (Eqn 7), integer-exact
+    v = v < n_r ? v : n_r;                   // column n_r collects out-of-range votes
+    acc[j * cols + v] += 1;
+  }
+  acc = plane_acc - static_cast<size_t>(n1) * cols;
+  for (int j = n1; j < n; ++j) {
+    int v = (a[j] * w0 + b[j] * w1) >> 16;
+    v = v < n_r ? v : n_r;
+    acc[j * cols + v] += 1;
+  }
+}
+}  // namespace
+
+void PhWholeImage::VoteCpu(const std::vector<PhVoteRecord>& records, int32_t* padded) const {
+  const size_t total = PaddedSize();
+  const int stride = row_stride();
+  int64_t votes = 0;
+  for (const PhVoteRecord& r : records) votes += r.count;
+  const int n_threads = votes < options_.parallel_min_votes ? 1 : omp_get_max_threads();
+  if (n_threads <= 1) {
+    for (const PhVoteRecord& r : records)
+      VoteRecord(r, int_table_.data(), int_plane_size_, stride, padded, PaddedPlaneSize(), n_r_, n_theta_);
+    return;
+  }
+  // Per-thread integer accumulators (thread 0 writes the output), summed
+  // afterwards: integer addition makes the result independent of the split.
+  // Allocated before the region: nothing in it throws, and a team smaller
+  // than asked for leaves its unused accumulators zero rather than empty.
+  std::vector<std::vector<int32_t>> local(n_threads - 1, std::vector<int32_t>(total, 0));
+#pragma omp parallel num_threads(n_threads)
+  {
+    const int tid = omp_get_thread_num();
+    int32_t* acc = tid > 0 ? local[tid - 1].data() : padded;
+#pragma omp for schedule(static)
+    for (long i = 0; i < static_cast<long>(records.size()); ++i)
+      VoteRecord(records[i], int_table_.data(), int_plane_size_, stride, acc, PaddedPlaneSize(), n_r_,
+                 n_theta_);
+#pragma omp for schedule(static)
+    for (long i = 0; i < static_cast<long>(total); ++i) {
+      int32_t s = 0;
+      for (int t = 0; t + 1 < n_threads; ++t) s += local[t][i];
+      padded[i] += s;
+    }
+  }
+}
+
+void PhWholeImage::CopyAccumulator(const int32_t* padded, WholeImageResult* res) const {
+  const int P = static_cast<int>(planes_.size()), NT = n_theta_, NR = n_r_, cols = NR + 1;
+  if (!options_.keep_accumulator) {
+    res->accumulator.clear();
+    return;
+  }
+  res->accumulator.resize(static_cast<size_t>(P) * NT * NR);
+  for (int p = 0; p < P; ++p)
+    for (int k = 0; k < NT; ++k)
+      std::copy_n(padded + p * PaddedPlaneSize() + static_cast<size_t>(k) * cols, NR,
+                  &res->accumulator[(static_cast<size_t>(p) * NT + k) * NR]);
+}
+
+// True if bin (k, j) of plane g (value v) is the maximum of its +-nms_theta
+// (circular) x +-nms_r neighbourhood, the first in index order on ties.
+bool PhWholeImage::IsPeak(const int32_t* g, int k, int j, int32_t v) const {
+  const int NT = n_theta_, NR = n_r_, cols = NR + 1;
+  const int a = options_.nms_theta, b = options_.nms_r;
+  for (int dk = -a; dk <= a; ++dk) {
+    const int kk = ((k + dk) % NT + NT) % NT;
+    const int32_t* orow = g + static_cast<size_t>(kk) * cols;
+    for (int dj = -b; dj <= b; ++dj) {
+      const int jj = j + dj;
+      if (jj < 0 || jj >= NR || (dk == 0 && dj == 0)) continue;
+      const int32_t o = orow[jj];
+      const bool before = kk < k || (kk == k && jj < j);
+      if (o > v || (o == v && before)) return false;
+    }
+  }
+  return true;
+}
+
+HorizontalPeak PhWholeImage::RefinedPeak(const int32_t* g, int p, int k, int j, int32_t v) const {
+  const int NT = n_theta_, NR = n_r_, cols = NR + 1;
+  double f[3][3], ox = 0, oy = 0;
+  for (int dk = -1; dk <= 1; ++dk) {
+    const int32_t* orow = g + static_cast<size_t>(((k + dk) % NT + NT) % NT) * cols;
+    for (int dj = -1; dj <= 1; ++dj) {
+      const int jj = j + dj;
+      f[dk + 1][dj + 1] = (jj >= 0 && jj < NR) ? orow[jj] : v;
+    }
+  }
+  RefineOffset(f, &ox, &oy);
+  HorizontalPeak pk;
+  pk.plane = p;
+  pk.height = options_.heights[p];
+  pk.r_main = (j + 0.5 + ox) * options_.r_bin;
+  pk.theta_main = wrap_angle((k + 0.5 + oy) * theta_bin_);
+  pk.votes = v;
+  return pk;
+}
+
+std::vector<HorizontalPeak> PhWholeImage::PlanePeaks(const int32_t* padded, int p) const {
+  const int NT = n_theta_, NR = n_r_, cols = NR + 1;
+  const int32_t thr = options_.min_votes;
+  constexpr int kChunk = 16;
+  std::vector<HorizontalPeak> peaks;
+  const int32_t* g = padded + p * PaddedPlaneSize();  // rows of cols ints
+  for (int k = 0; k < NT; ++k) {
+    const int32_t* row = g + static_cast<size_t>(k) * cols;
+    for (int j0 = 0; j0 < NR; j0 += kChunk) {
+      const int j1 = std::min(NR, j0 + kChunk);
+      int32_t mx = 0;
+      for (int j = j0; j < j1; ++j) mx = std::max(mx, row[j]);  // vectorised skip
+      if (mx < thr) continue;
+      for (int j = j0; j < j1; ++j)
+        if (row[j] >= thr && IsPeak(g, k, j, row[j])) peaks.push_back(RefinedPeak(g, p, k, j, row[j]));
+    }
+  }
+  return peaks;
+}
+
+void PhWholeImage::FindHorizontalPeaks(const int32_t* padded, WholeImageResult* res) const {
+  // Local maxima with at least min_votes. Planes are independent: searched
+  // in parallel, their peaks joined in plane order afterwards, so the result
+  // is the sequential one for any thread count.
+  const int P = static_cast<int>(planes_.size());
+  std::vector<std::vector<HorizontalPeak>> plane_peaks(P);
+  ParallelFor(P, [&](int p) { plane_peaks[p] = PlanePeaks(padded, p); });
+  res->peaks.clear();
+  for (const std::vector<HorizontalPeak>& pp : plane_peaks)
+    res->peaks.insert(res->peaks.end(), pp.begin(), pp.end());
+  std::stable_sort(res->peaks.begin(), res->peaks.end(),
+                   [](const HorizontalPeak& x, const HorizontalPeak& y) { return x.votes > y.votes; });
+  if (options_.explain_away) ExplainAway(res);
+  if (static_cast<int>(res->peaks.size()) > options_.max_peaks) res->peaks.resize(options_.max_peaks);
+}
+
+void PhWholeImage::FindVerticalPeaks(WholeImageResult* res) const {
+  // Peaks on the circular theta histogram smoothed by [1 2 1] (a radial line
+  // near a bin border splits its pixels between two bins).
+  const int NT = n_theta_;
+  res->vertical_peaks.clear();
+  const std::vector<int32_t>& h = res->vertical_histogram;
+  std::vector<int32_t> sm(NT);
+  for (int k = 0; k < NT; ++k) sm[k] = h[(k + NT - 1) % NT] + 2 * h[k] + h[(k + 1) % NT];
+  const int c = options_.vertical_nms;
+  for (int k = 0; k < NT; ++k) {
+    const int32_t v = sm[k];
+    if (v < 2 * options_.vertical_min_votes) continue;
+    bool is_max = true;
+    for (int dk = -c; dk <= c && is_max; ++dk) {
+      if (dk == 0) continue;
+      const int kk = ((k + dk) % NT + NT) % NT;
+      if (sm[kk] > v || (sm[kk] == v && kk < k)) is_max = false;
+    }
+    if (is_max) res->vertical_peaks.push_back(VerticalPeakAt(*res, sm, k));
+  }
+  std::stable_sort(res->vertical_peaks.begin(), res->vertical_peaks.end(),
+                   [](const VerticalPeak& x, const VerticalPeak& y) { return x.votes > y.votes; });
+}
+
+VerticalPeak PhWholeImage::VerticalPeakAt(const WholeImageResult& res, const std::vector<int32_t>& sm,
+                                          int k) const {
+  const int NT = n_theta_;
+  const std::vector<int32_t>& h = res.vertical_histogram;
+  const double m = sm[(k + NT - 1) % NT], z = sm[k], pl = sm[(k + 1) % NT];
+  const double den = m - 2 * z + pl;
+  const double off = den < 0 ? std::clamp(0.5 * (m - pl) / den, -0.5, 0.5) : 0.0;
+  VerticalPeak vp;
+  vp.theta = wrap_angle((k + 0.5 + off) * theta_bin_);
+  vp.votes = h[(k + NT - 1) % NT] + h[k] + h[(k + 1) % NT];
+  vp.r_min = std::numeric_limits<double>::infinity();
+  vp.r_max = 0.0;
+  for (int dk = -1; dk <= 1; ++dk) {
+    const int kk = (k + dk + NT) % NT;
+    if (h[kk] == 0 || res.vertical_r_min.empty()) continue;
+    vp.r_min = std::min<double>(vp.r_min, res.vertical_r_min[kk]);
+    vp.r_max = std::max<double>(vp.r_max, res.vertical_r_max[kk]);
+  }
+  return vp;
+}
+
+void PhWholeImage::Finish(int32_t* padded, WholeImageResult* result) const {
+  CopyAccumulator(padded, result);
+  FindHorizontalPeaks(padded, result);
+  FindVerticalPeaks(result);
+}
+
+// The voters bucketed by theta bin, each bucket sorted by radius (stable,
+// so deterministic): bucket k is order[start[k] .. start[k + 1]).
+struct PhWholeImage::VoterIndex {
+  std::vector<int> start, order;
+};
+
+PhWholeImage::VoterIndex PhWholeImage::BucketVoters(const WholeImageResult& res) const {
+  const int NT = n_theta_;
+  const size_t n = res.voter_radius.size();
+  VoterIndex index;
+  index.start.assign(NT + 1, 0);
+  index.order.resize(n);
+  std::vector<int> bin(n);
+  for (size_t i = 0; i < n; ++i) {
+    int k = static_cast<int>(res.voter_azimuth[i] / theta_bin_);
+    bin[i] = std::clamp(k, 0, NT - 1);
+    ++index.start[bin[i] + 1];
+  }
+  for (int k = 0; k < NT; ++k) index.start[k + 1] += index.start[k];
+  std::vector<int> fill(index.start.begin(), index.start.end() - 1);
+  for (size_t i = 0; i < n; ++i) index.order[fill[bin[i]]++] = static_cast<int>(i);
+  for (int k = 0; k < NT; ++k)
+    std::stable_sort(index.order.begin() + index.start[k], index.order.begin() + index.start[k + 1],
+                     [&](int a, int b) { return res.voter_radius[a] < res.voter_radius[b]; });
+  return index;
+}
+
+void PhWholeImage::PeakSupport(const HorizontalPeak& pk, const WholeImageResult& res, const VoterIndex& index,
+                               const std::vector<unsigned char>& claimed, std::vector<int>* support) const {
+  const int NT = n_theta_, M = half_width_, S = sub_steps_, W = width_;
+  const double tol = options_.explain_tolerance;
+  support->clear();
+  double t0 = pk.theta_main;
+  if (t0 < 0) t0 += 2.0 * M_PI;
+  // Bin edges (kc + d) theta_bin - theta_main = (d - frac) theta_bin.
+  const double x = t0 / theta_bin_;
+  int kc = static_cast<int>(std::floor(x));
+  int sub = static_cast<int>(std::lround((x - kc) * S));
+  if (sub == S) {
+    ++kc;
+    sub = 0;
+  }
+  const double fr = pk.r_main / options_.r_row_step;
+  const int r0 = static_cast<int>(fr);
+  if (r0 < 0 || r0 + 1 >= n_rows_) return;
+  const float tr = static_cast<float>(fr - r0);
+  const float* c0 = &planes_[pk.plane].curve[(static_cast<size_t>(r0) * S + sub) * W + M];
+  const float* c1 = c0 + static_cast<size_t>(S) * W;
+  // Curve radius (Eqn 6) at the edges of each theta bin kc-M..kc+M.
+  double r_prev = 0.0;
+  bool ok_prev = false;
+  for (int d = -M; d <= M; ++d) {
+    const double r = (1.0f - tr) * c0[d] + tr * c1[d];
+    const bool ok = !std::isnan(r);
+    if (ok && ok_prev) {
+      const int k = ((kc + d - 1) % NT + NT) % NT;
+      const double lo = std::min(r, r_prev) - tol, hi = std::max(r, r_prev) + tol;
+      const auto end = index.order.begin() + index.start[k + 1];
+      auto first = std::lower_bound(index.order.begin() + index.start[k], end, lo,
+                                    [&](int a, double v) { return res.voter_radius[a] < v; });
+      for (auto it = first; it != end && res.voter_radius[*it] <= hi; ++it)
+        if (!claimed[*it]) support->push_back(*it);
+    }
+    r_prev = r;
+    ok_prev = ok;
+  }
+}
+
+void PhWholeImage::ExplainAway(WholeImageResult* result) const {
+  WholeImageResult& res = *result;
+  const VoterIndex index = BucketVoters(res);
+  std::vector<unsigned char> claimed(res.voter_radius.size(), 0);
+  std::vector<int> support;
+  std::vector<HorizontalPeak> kept;
+  for (const HorizontalPeak& pk : res.peaks) {
+    PeakSupport(pk, res, index, claimed, &support);
+    if (static_cast<int>(support.size()) < options_.min_votes) continue;
+    for (int i : support) claimed[i] = 1;
+    kept.push_back(pk);
+  }
+  res.peaks = std::move(kept);
+}
+
+WholeImageResult PhWholeImage::Run(const EdgeMap& edges) const {
+  WholeImageResult res;
+  thread_local std::vector<PhVoteRecord> records;
+  Prepare(edges, &records, &res);
+  thread_local std::vector<int32_t> padded;
+  padded.assign(PaddedSize(), 0);
+  VoteCpu(records, padded.data());
+  Finish(padded.data(), &res);
+  return res;
+}
+
+double NominalHeightError(const Sensor& sensor, const PhTable& nominal, double true_z, double d_lo,
+                          double d_hi, double dtheta_lim) {
+  double worst = 0.0;
+  for (int i = 0; i <= 40; ++i) {
+    const double d_main = d_lo * std::pow(d_hi / d_lo, i / 40.0);
+    double r_main;
+    if (!sensor.image_radius(d_main, true_z, &r_main)) continue;
+    for (int j = 0; j <= 60; ++j) {
+      const double dt = dtheta_lim * j / 60.0;
+      double r_i, r_nom;
+      if (!sensor.image_radius(d_main / std::cos(dt), true_z, &r_i)) continue;
+      if (!nominal.Main(r_i, dt, &r_nom)) continue;
+      worst = std::max(worst, std::abs(r_nom - r_main));
+    }
+  }
+  return worst;
+}
+
+}  // namespace pano

@@ -1,0 +1,151 @@
+#include "panotrack/io/calibration.h"
+
+#include <cmath>
+
+#include "panotrack/core/atomic_file.h"
+#include "panotrack/core/error.h"
+#include "panotrack/io/yaml_util.h"
+
+namespace pano {
+
+namespace {
+
+const char* const kKnownKeys[] = {"model", "units", "image_width", "image_height", "focal_px", "cx",
+                                  "cy", "aspect", "azimuth_offset", "k1", "k2", "rim_radius",
+                                  "mirror_radius", "mirror_distance", "curvature_radius",
+                                  "conic_constant", "vertex_distance", "lut"};
+
+bool IsKnownKey(const std::string& key) {
+  for (const char* k : kKnownKeys)
+    if (key == k) return true;
+  return false;
+}
+
+Calibration ParseCalibration(const std::string& path, const YAML::Node& n) {
+  YamlReader r(path, n);
+  Calibration c;
+  const std::string model = r.String(n, "model", "model");
+  Sensor& s = c.sensor;
+  if (model == "sphere") {
+    s.model = MirrorModel::kSphere;
+  } else if (model == "conic") {
+    s.model = MirrorModel::kConic;
+  } else {
+    r.Fail("model", "unknown model '" + model + "' (expected sphere or conic)");
+  }
+  c.units = r.String(n, "units", "units", "cm");
+  s.image_width = r.Int(n, "image_width", "image_width", 1, kMaxImageSide);
+  s.image_height = r.Int(n, "image_height", "image_height", 1, kMaxImageSide);
+  if (static_cast<long long>(s.image_width) * s.image_height > kMaxImagePixels)
+    r.Fail("image_width/image_height",
+           "image of " + std::to_string(s.image_width) + " x " + std::to_string(s.image_height) +
+               " pixels: more than the limit of " + std::to_string(kMaxImagePixels) + " pixels");
+  SensorParams<double>& p = s.params;
+  p.focal_px = r.Double(n, "focal_px", "focal_px");
+  p.cx = r.Double(n, "cx", "cx");
+  p.cy = r.Double(n, "cy", "cy");
+  p.aspect = r.Double(n, "aspect", "aspect", 1.0);
+  p.azimuth_offset = r.Double(n, "azimuth_offset", "azimuth_offset", 0.0);
+  p.k1 = r.Double(n, "k1", "k1", 0.0);
+  p.k2 = r.Double(n, "k2", "k2", 0.0);
+  p.rim_radius = r.Double(n, "rim_radius", "rim_radius", 0.0);
+  if (s.model == MirrorModel::kSphere) {
+    const double radius = r.Double(n, "mirror_radius", "mirror_radius");
+    const double distance = r.Double(n, "mirror_distance", "mirror_distance");
+    if (!(radius > 0.0)) r.Fail("mirror_radius", "expected a positive radius");
+    if (!(distance > radius))
+      r.Fail("mirror_distance", "expected mirror_distance > mirror_radius (got " +
+                                    YamlDouble(distance) + " <= " + YamlDouble(radius) + ")");
+    set_sphere_mirror(&p, radius, distance);
+  } else {
+    p.curvature_radius = r.Double(n, "curvature_radius", "curvature_radius");
+    p.conic_constant = r.Double(n, "conic_constant", "conic_constant");
+    p.vertex_distance = r.Double(n, "vertex_distance", "vertex_distance");
+  }
+  s.Check(path);
+  if (r.Has(n, "lut")) {
+    c.lut = r.String(n, "lut", "lut");
+    c.lut_resolved = JoinPath(DirName(path), c.lut);
+  }
+  // Keys of later versions and panocalib's statistics: numbers are kept, the rest ignored.
+  for (const auto& kv : n) {
+    const std::string key = kv.first.Scalar();
+    double d;
+    if (!IsKnownKey(key) && kv.second.IsScalar() && YAML::convert<double>::decode(kv.second, d))
+      c.extras[key] = d;
+  }
+  return c;
+}
+
+// The mirror_distance written for a sphere: the double nearest
+// vertex_distance + radius that reads back (mirror_distance - mirror_radius)
+// as the same vertex_distance, so that a calibration round-trips exactly.
+double SphereDistanceToWrite(const SensorParams<double>& p) {
+  const double radius = p.curvature_radius, vertex = p.vertex_distance;
+  const double sum = vertex + radius;
+  if (sum - radius == vertex) return sum;
+  double up = sum, down = sum;
+  for (int step = 0; step < 4; ++step) {
+    up = std::nextafter(up, HUGE_VAL);
+    down = std::nextafter(down, -HUGE_VAL);
+    if (up - radius == vertex) return up;
+    if (down - radius == vertex) return down;
+  }
+  return sum;
+}
+
+void CheckExtras(const Calibration& c, const std::string& what) {
+  for (const auto& kv : c.extras)
+    if (IsKnownKey(kv.first))
+      throw Error(what + ": extra key '" + kv.first + "' would repeat a calibration key");
+}
+
+}  // namespace
+
+Calibration ReadCalibration(const std::string& path) {
+  const YAML::Node root = YamlReader::LoadFile(path);
+  return GuardYaml(path, [&] { return ParseCalibration(path, root); });
+}
+
+std::string CalibrationToYaml(const Calibration& c) {
+  CheckExtras(c, "calibration");
+  const Sensor& s = c.sensor;
+  const SensorParams<double>& p = s.params;
+  YamlWriter w;
+  if (!c.comment.empty()) w.Comment(c.comment);
+  w.BeginMap();
+  w.Key("model").String(mirror_model_name(s.model));
+  w.Key("units").String(c.units);
+  w.Key("image_width").Int(s.image_width);
+  w.Key("image_height").Int(s.image_height);
+  w.Key("focal_px").Double(p.focal_px);
+  w.Key("cx").Double(p.cx);
+  w.Key("cy").Double(p.cy);
+  w.Key("aspect").Double(p.aspect);
+  if (s.model == MirrorModel::kSphere) {
+    w.Key("mirror_radius").Double(s.mirror_radius());
+    w.Key("mirror_distance").Double(SphereDistanceToWrite(p));
+  } else {
+    w.Key("curvature_radius").Double(p.curvature_radius);
+    w.Key("conic_constant").Double(p.conic_constant);
+    w.Key("vertex_distance").Double(p.vertex_distance);
+  }
+  w.Key("azimuth_offset").Double(p.azimuth_offset);
+  if (p.k1 != 0.0 || p.k2 != 0.0) {
+    w.Key("k1").Double(p.k1);
+    w.Key("k2").Double(p.k2);
+  }
+  if (p.rim_radius > 0.0) w.Key("rim_radius").Double(p.rim_radius);
+  if (!c.lut.empty()) w.Key("lut").String(c.lut);
+  for (const auto& kv : c.extras) w.Key(kv.first).Double(kv.second);
+  w.EndMap();
+  return w.Text();
+}
+
+void WriteCalibration(const std::string& path, const Calibration& c) {
+  c.sensor.Check(path);
+  CheckExtras(c, path);
+  WriteFileAtomic(path, CalibrationToYaml(c));
+}
+
+}  // namespace pano

@@ -1,0 +1,268 @@
+#include "panotrack/pipeline/localize_video.h"
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <deque>
+#include <opencv2/core.hpp>
+#include <optional>
+
+#include "panotrack/core/error.h"
+#include "panotrack/io/pose_csv.h"
+#include "panotrack/io/tum.h"
+#include "panotrack/pipeline/debug_draw.h"
+#include "panotrack/pipeline/plot.h"
+#include "panotrack/video/frame_source.h"
+
+namespace pano {
+
+const char* video_end_name(VideoEnd end) {
+  switch (end) {
+    case VideoEnd::kDone: return "done";
+    case VideoEnd::kFailed: return "failed";
+    case VideoEnd::kIncomplete: return "incomplete";
+    case VideoEnd::kInterrupted: return "interrupted";
+    case VideoEnd::kNotTracked: return "not tracked";
+  }
+  return "?";
+}
+
+
+OdometryOptions OdometryOptionsForMap(const Map& map, double map_units_per_odometry_unit) {
+  const double scale = map.UnitsPerMetre();
+  OdometryOptions o;
+  o.map_units_per_odometry_unit = map_units_per_odometry_unit;
+  // Variance per distance: length^2 / length for positions, 1 / length for headings.
+  o.position_variance_per_distance *= scale;
+  o.heading_variance_per_distance /= scale;
+  return o;
+}
+
+namespace {
+
+std::string SizeText(int width, int height) { return std::to_string(width) + "x" + std::to_string(height); }
+
+bool TooFewTracked(int frames, int n_ok) {
+  if (frames == 0) return false;
+  return n_ok == 0 || (frames >= kMinFramesJudged && n_ok < kMinTrackedFraction * frames);
+}
+
+std::string NotTrackedHint(const std::string& input, int frames, int n_ok) {
+  char buf[160];
+  std::snprintf(buf, sizeof buf, ": only %d of %d frames tracked (under %.0f %%); ", n_ok, frames,
+                100 * kMinTrackedFraction);
+  return input + buf +
+         "likely causes: a wrong calibration or image size (--calib), a wrong initial pose (--init or "
+         "case.yaml), map shades inverted (dark for light), wrong map units";
+}
+
+// The frame's time: the override rate, else the input's timestamp, else its
+// frame rate (10 when it has none).
+double FrameTime(int frame, double timestamp, double override_fps, double input_fps) {
+  if (override_fps > 0) return frame / override_fps;
+  if (std::isfinite(timestamp)) return timestamp;
+  return frame / (input_fps > 0 ? input_fps : 10.0);
+}
+
+// The smoothed pose CSV: the main rows held back until the smoother has
+// their frame's state (`lag` frames later), then written in frame order.
+class SmoothedCsv {
+ public:
+  SmoothedCsv(const std::string& path, const FixedLagSmootherOptions& options)
+      : csv_(path, {"std_x", "std_y", "std_theta", "quality"}, PoseCsvStaging::kPartial), smoother_(options) {}
+
+  void Add(const FrameResult& fr) {
+    pending_.push_back({fr.row, fr.has_motion_step});
+    if (fr.has_motion_step) Apply(smoother_.Push(fr.motion_step));
+    WriteReady();
+  }
+  // Writes the frames still held back and closes the file (renaming it into place).
+  void Finish() {
+    Apply(smoother_.Flush());
+    WriteReady();
+    csv_.Close();
+  }
+  const std::vector<PoseRow>& rows() const { return rows_; }
+
+ private:
+  struct Pending {
+    PoseRow row;
+    bool awaits_state;  // its frame's step is in the smoother
+  };
+  // The smoother returns its frames' states oldest first: they belong to the
+  // oldest rows awaiting one.
+  void Apply(const std::vector<SmoothedState>& states) {
+    auto it = pending_.begin();
+    for (const SmoothedState& s : states) {
+      while (it != pending_.end() && !it->awaits_state) ++it;
+      if (it == pending_.end()) throw Error("smoother: more smoothed states than frames");
+      // Only a measured pose is reported as such; lost and init rows stay empty.
+      if (it->row.status == PoseStatus::kOk) {
+        it->row.pose = s.state.pose();
+        const Eigen::Matrix3d cov = s.state.pose_covariance();
+        it->row.extra.resize(4, std::nan(""));
+        for (int k = 0; k < 3; ++k) it->row.extra[k] = std::sqrt(std::max(0.0, cov(k, k)));
+      }
+      it->awaits_state = false;
+    }
+  }
+  void WriteReady() {
+    while (!pending_.empty() && !pending_.front().awaits_state) {
+      csv_.Write(pending_.front().row);
+      rows_.push_back(pending_.front().row);
+      pending_.pop_front();
+    }
+  }
+
+  PoseCsvWriter csv_;
+  FixedLagSmoother smoother_;
+  std::deque<Pending> pending_;
+  std::vector<PoseRow> rows_;
+};
+
+// Frame times this close outside the odometry's times count as its ends:
+// the two clocks are written with finitely many decimals (299 * 0.1 s is
+// not 29.9 s in binary).
+constexpr double kOdometryTimeSlack_s = 1e-3;
+
+// The odometry increment from the previous frame's time to this one's; none
+// outside the log's times.
+std::optional<OdometryIncrement> OdometryBetween(const std::vector<OdometrySample>& samples, double t0,
+                                                 double t1, const OdometryOptions& options) {
+  if (samples.empty() || !(t1 >= t0)) return std::nullopt;
+  const double first = samples.front().time_s, last = samples.back().time_s;
+  if (!(t0 >= first - kOdometryTimeSlack_s) || !(t1 <= last + kOdometryTimeSlack_s)) return std::nullopt;
+  return Between(samples, std::clamp(t0, first, last), std::clamp(t1, first, last), options);
+}
+
+// The per-frame loop; fills the counts of `sum` and returns its rows (the
+// smoothed CSV's in `smoothed_rows`, when the job asks for one). A
+// decode error or a frame of another size ends the input as incomplete.
+std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res, const VideoRunOptions& opt,
+                                 FrameSource* source, VideoSummary* sum, std::vector<PoseRow>* smoothed_rows) {
+  const Sensor& s = res.calib.sensor;
+  Localizer loc(res.calib, res.map, res.table, opt.localizer, res.ph_tables);
+  if (job.init)
+    loc.Reset(*job.init, /*hint=*/true);
+  else
+    loc.ResetUnknown();
+  std::optional<DebugVideo> dbg;
+  if (!job.debug_video.empty())
+    dbg.emplace(job.debug_video, cv::Size(s.image_width, s.image_height), source->fps() > 0 ? source->fps() : 10.0);
+  PoseCsvWriter csv(job.output, {"std_x", "std_y", "std_theta", "quality"}, PoseCsvStaging::kPartial);
+  std::optional<SmoothedCsv> smoothed;
+  if (!job.smoothed_output.empty()) smoothed.emplace(job.smoothed_output, opt.smoother);
+  std::optional<TumWriter> tum;
+  if (!job.tum.empty()) tum.emplace(job.tum, opt.tum, PoseCsvStaging::kPartial);
+  std::vector<PoseRow> rows;
+  double previous_time = 0.0;
+  cv::Mat grey;
+  sum->end = VideoEnd::kDone;
+  for (int frame = 0;; ++frame) {
+    if (opt.cancel && opt.cancel->load()) {
+      sum->end = VideoEnd::kInterrupted;
+      break;
+    }
+    double timestamp = std::nan("");
+    try {
+      if (!source->Read(&grey, &timestamp)) break;
+    } catch (const Error& e) {
+      sum->end = VideoEnd::kIncomplete;
+      sum->error = "decode error at frame " + std::to_string(frame) + ": " + e.what();
+      break;
+    }
+    if (grey.cols != s.image_width || grey.rows != s.image_height) {
+      sum->end = VideoEnd::kIncomplete;
+      sum->error = "frame " + std::to_string(frame) + " is " + SizeText(grey.cols, grey.rows) +
+                   ", the frames before it " + SizeText(s.image_width, s.image_height);
+      break;
+    }
+    const double time_s = FrameTime(frame, timestamp, opt.fps, source->fps());
+    std::optional<OdometryIncrement> odometry;
+    if (job.odometry && frame > 0) {
+      odometry = OdometryBetween(*job.odometry, previous_time, time_s, opt.odometry);
+      sum->frames_without_odometry += !odometry;
+    }
+    previous_time = time_s;
+    const FrameResult fr = loc.Process(grey, frame, time_s, odometry ? &*odometry : nullptr);
+    csv.Write(fr.row);
+    if (smoothed) smoothed->Add(fr);
+    if (tum) tum->Write(fr.row);
+    rows.push_back(fr.row);
+    ++sum->frames;
+    sum->n_ok += fr.row.status == PoseStatus::kOk;
+    sum->n_lost += fr.row.status == PoseStatus::kLost;
+    if (dbg) dbg->Write(grey, s, fr);
+    if (opt.frames_done) ++*opt.frames_done;
+  }
+  // The rows written are intact however the loop ended: the outputs are
+  // finished with them.
+  csv.Close();
+  if (tum) tum->Close();
+  if (smoothed) {
+    smoothed->Finish();
+    *smoothed_rows = smoothed->rows();
+  }
+  if (dbg) dbg->Commit();
+  if (sum->frames_without_odometry > 0 && !opt.quiet)
+    std::fprintf(stderr,
+                 "panoloc: note: %s: %d of %d frames lie outside the odometry's times [%.3f, %.3f] s: "
+                 "predicted without it\n",
+                 job.input.c_str(), sum->frames_without_odometry, std::max(0, sum->frames - 1),
+                 job.odometry->front().time_s, job.odometry->back().time_s);
+  return rows;
+}
+
+void LocalizeInto(const VideoJob& job, const SharedResources& res, const VideoRunOptions& opt,
+                  VideoSummary* sum) {
+  std::vector<PoseRow> gt;
+  if (!job.gt.empty()) gt = ReadPoseCsv(job.gt);
+  FrameSource source(job.input);
+  const Sensor& s = res.calib.sensor;
+  if (source.width() != s.image_width || source.height() != s.image_height)
+    throw Error(job.input + ": frame size " + SizeText(source.width(), source.height()) +
+                " does not match the calibration's " + SizeText(s.image_width, s.image_height) + " (" +
+                res.calib_path + ")");
+  std::vector<PoseRow> smoothed;
+  const std::vector<PoseRow> rows = TrackFrames(job, res, opt, &source, sum, &smoothed);
+  if (!job.plot.empty()) WritePlot(job.plot, res.map, rows, gt);
+  if (!gt.empty()) {
+    sum->has_accuracy = true;
+    sum->accuracy = CompareToGroundTruth(rows, gt, TypicalRange(res.map, gt));
+    if (!job.smoothed_output.empty()) {
+      sum->has_smoothed_accuracy = true;
+      sum->smoothed_accuracy = CompareToGroundTruth(smoothed, gt, TypicalRange(res.map, gt));
+    }
+  }
+  if (sum->end == VideoEnd::kDone && TooFewTracked(sum->frames, sum->n_ok)) {
+    sum->end = VideoEnd::kNotTracked;
+    sum->error = NotTrackedHint(job.input, sum->frames, sum->n_ok);
+  }
+}
+
+}  // namespace
+
+VideoSummary LocalizeVideo(const VideoJob& job, const SharedResources& shared, const VideoRunOptions& options) {
+  VideoSummary sum;
+  sum.input = job.input;
+  sum.output = job.output;
+  sum.smoothed_output = job.smoothed_output;
+  sum.tum_output = job.tum;
+  const auto t0 = std::chrono::steady_clock::now();
+  try {
+    LocalizeInto(job, shared, options, &sum);
+  } catch (const Error& e) {
+    sum.end = VideoEnd::kFailed;
+    sum.error = e.what();
+  } catch (const std::exception& e) {  // OpenCV, the file system: name the input
+    sum.end = VideoEnd::kFailed;
+    sum.error = job.input + ": " + e.what();
+  }
+  sum.ok = sum.end == VideoEnd::kDone;
+  sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return sum;
+}
+
+}  // namespace pano

@@ -1,0 +1,14 @@
+#include "panotrack/pose/pose_row.h"
+
+namespace pano {
+
+const char* pose_status_name(PoseStatus s) {
+  switch (s) {
+    case PoseStatus::kOk: return "ok";
+    case PoseStatus::kLost: return "lost";
+    case PoseStatus::kInit: return "init";
+  }
+  return "?";
+}
+
+}  // namespace pano

@@ -1,0 +1,81 @@
+#include "panotrack/scene/map.h"
+
+#include <algorithm>
+#include <set>
+
+#include "panotrack/core/error.h"
+
+namespace pano {
+
+bool Map::IsFree(double x, double y) const {
+  if (room.present &&
+      (x <= room.min.x() || y <= room.min.y() || x >= room.max.x() || y >= room.max.y()))
+    return false;
+  for (const MapBox& b : boxes)
+    if (x > b.min.x() && x < b.max.x() && y > b.min.y() && y < b.max.y() &&
+        b.min.z() <= sensor_height && b.max.z() >= 0.0)
+      return false;
+  return true;
+}
+
+void Map::Extent(Eigen::Vector2d* lo, Eigen::Vector2d* hi, double* top) const {
+  *lo = Eigen::Vector2d(1e300, 1e300);
+  *hi = Eigen::Vector2d(-1e300, -1e300);
+  *top = 0.0;
+  auto add = [&](const Eigen::Vector2d& p, double z) {
+    *lo = lo->cwiseMin(p);
+    *hi = hi->cwiseMax(p);
+    *top = std::max(*top, z);
+  };
+  if (room.present) add(room.min, room.height), add(room.max, room.height);
+  for (const MapRectangle& r : rectangles) add(r.from, r.z1), add(r.to, r.z1);
+  for (const MapRectangle& r : distractors) add(r.from, r.z1), add(r.to, r.z1);
+  for (const MapBox& b : boxes) add(b.min.head<2>(), b.max.z()), add(b.max.head<2>(), b.max.z());
+}
+
+void CheckMap(const Map& m, const std::string& what) {
+  auto fail = [&](const std::string& key, const std::string& problem) {
+    throw Error(what + ": " + key + ": " + problem);
+  };
+  if (!(m.sensor_height > 0.0)) fail("sensor_height", "expected a positive height of the pinhole");
+  if (m.room.present) {
+    if (!(m.room.max.x() > m.room.min.x()) || !(m.room.max.y() > m.room.min.y()))
+      fail("room", "expected max > min on both axes");
+    if (!(m.room.height > m.sensor_height))
+      fail("room.height", "expected a ceiling above the sensor (sensor_height " +
+                              std::to_string(m.sensor_height) + ")");
+  }
+  std::set<std::string> ids;
+  auto check_rects = [&](const std::vector<MapRectangle>& rects, const std::string& key) {
+    for (size_t i = 0; i < rects.size(); ++i) {
+      const MapRectangle& r = rects[i];
+      const std::string path = key + "[" + std::to_string(i) + "]";
+      if ((r.to - r.from).norm() <= 0.0) fail(path, "'from' and 'to' are the same point");
+      if (!(r.z1 > r.z0)) fail(path + ".z", "expected [bottom, top] with top > bottom");
+      if (!ids.insert(r.id).second) fail(path + ".id", "duplicate id '" + r.id + "'");
+    }
+  };
+  check_rects(m.rectangles, "rectangles");
+  check_rects(m.distractors, "distractors");
+  for (size_t i = 0; i < m.boxes.size(); ++i) {
+    const MapBox& b = m.boxes[i];
+    const std::string path = "boxes[" + std::to_string(i) + "]";
+    if (!(b.max.array() > b.min.array()).all()) fail(path, "expected max > min on every axis");
+    if (!ids.insert(b.id).second) fail(path + ".id", "duplicate id '" + b.id + "'");
+  }
+}
+
+double Map::UnitsPerMetre() const {
+  const std::string& u = units;
+  if (u == "m" || u == "metre" || u == "metres" || u == "meter" || u == "meters") return 1.0;
+  if (u == "cm") return 100.0;
+  if (u == "mm") return 1000.0;
+  if (u == "in" || u == "inch" || u == "inches") return 39.37;
+  if (u == "ft" || u == "feet") return 3.281;
+  Eigen::Vector2d lo, hi;
+  double top;
+  Extent(&lo, &hi, &top);
+  return std::max(1e-6, (hi - lo).maxCoeff() / 5.0);
+}
+
+}  // namespace pano

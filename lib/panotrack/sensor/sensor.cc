@@ -1,0 +1,112 @@
+#include "panotrack/sensor/sensor.h"
+
+#include <cmath>
+#include <sstream>
+
+#include "panotrack/core/error.h"
+
+namespace pano {
+
+Eigen::Vector3d sensor_from_world(const Pose2& pose, double sensor_height,
+                                  const Eigen::Vector3d& pw) {
+  const double c = std::cos(pose.theta), s = std::sin(pose.theta);
+  const double dx = pw.x() - pose.x, dy = pw.y() - pose.y;
+  return {c * dx + s * dy, -s * dx + c * dy, pw.z() - sensor_height};
+}
+
+Eigen::Vector3d world_from_sensor(const Pose2& pose, double sensor_height,
+                                  const Eigen::Vector3d& ps) {
+  const double c = std::cos(pose.theta), s = std::sin(pose.theta);
+  return {pose.x + c * ps.x() - s * ps.y(), pose.y + s * ps.x() + c * ps.y(),
+          ps.z() + sensor_height};
+}
+
+Eigen::Vector3d world_direction(const Pose2& pose, const Eigen::Vector3d& d) {
+  const double c = std::cos(pose.theta), s = std::sin(pose.theta);
+  return {c * d.x() - s * d.y(), s * d.x() + c * d.y(), d.z()};
+}
+
+const char* mirror_model_name(MirrorModel m) {
+  return m == MirrorModel::kSphere ? "sphere" : "conic";
+}
+
+void Sensor::Check(const std::string& what) const {
+  auto fail = [&](const std::string& key, const std::string& problem) {
+    throw Error(what + ": " + key + ": " + problem);
+  };
+  const SensorParams<double>& p = params;
+  const double vals[] = {p.focal_px, p.cx, p.cy, p.aspect, p.azimuth_offset, p.k1, p.k2,
+                         p.curvature_radius, p.conic_constant, p.vertex_distance, p.rim_radius};
+  for (double v : vals)
+    if (!std::isfinite(v)) fail("parameters", "not a finite number (NaN or infinity)");
+  if (image_width <= 0 || image_height <= 0)
+    fail("image_width/image_height", "expected positive integers");
+  if (!(p.focal_px > 0.0)) fail("focal_px", "expected a positive focal length in pixels");
+  if (!(p.aspect > 0.0)) fail("aspect", "expected a positive aspect ratio");
+  if (!(p.curvature_radius > 0.0))
+    fail(model == MirrorModel::kSphere ? "mirror_radius" : "curvature_radius",
+         "expected a positive mirror radius");
+  if (!(p.vertex_distance > 0.0))
+    fail(model == MirrorModel::kSphere ? "mirror_distance" : "vertex_distance",
+         model == MirrorModel::kSphere
+             ? "expected mirror_distance > mirror_radius (the mirror must not reach the pinhole)"
+             : "expected the mirror's vertex above the pinhole");
+  if (p.rim_radius < 0.0) fail("rim_radius", "expected a non-negative rim radius");
+  const double m_max = max_normalized_radius(p);
+  if (!std::isfinite(m_max) || !(m_max > 0.0))
+    fail("rim_radius", "the mirror has no limb; give its rim_radius");
+}
+
+bool Sensor::project(const Eigen::Vector3d& ps, Eigen::Vector2d* pixel) const {
+  double u, v;
+  if (!pano::project(params, ps.data(), &u, &v)) return false;
+  *pixel = {u, v};
+  return true;
+}
+
+bool Sensor::backproject(const Eigen::Vector2d& pixel, Eigen::Vector3d* origin,
+                         Eigen::Vector3d* direction) const {
+  return pano::backproject(params, pixel.x(), pixel.y(), origin->data(), direction->data());
+}
+
+bool Sensor::image_radius(double D, double Z, double* radius) const {
+  return pano::image_radius(params, D, Z, radius);
+}
+
+bool Sensor::inverse_image_radius(double radius, double Z, double* D) const {
+  return pano::inverse_image_radius(params, radius, Z, D);
+}
+
+void Sensor::to_polar(double u, double v, double* radius, double* azimuth) const {
+  const double du = u - params.cx, dv = (v - params.cy) / params.aspect;
+  *radius = std::sqrt(du * du + dv * dv);
+  *azimuth = std::atan2(dv, du);
+}
+
+Eigen::Vector2d Sensor::from_polar(double radius, double azimuth) const {
+  return {params.cx + radius * std::cos(azimuth),
+          params.cy + params.aspect * radius * std::sin(azimuth)};
+}
+
+bool Sensor::inside_image(const Eigen::Vector2d& px, double margin) const {
+  return px.x() >= -0.5 + margin && px.y() >= -0.5 + margin &&
+         px.x() <= image_width - 0.5 - margin && px.y() <= image_height - 0.5 - margin;
+}
+
+Sensor make_sphere_sensor(int width, int height, double focal_px, double cx, double cy,
+                          double aspect, double mirror_radius, double mirror_distance,
+                          double azimuth_offset) {
+  Sensor s;
+  s.model = MirrorModel::kSphere;
+  s.image_width = width;
+  s.image_height = height;
+  s.params.focal_px = focal_px;
+  s.params.cx = cx;
+  s.params.cy = cy;
+  s.params.aspect = aspect;
+  s.params.azimuth_offset = azimuth_offset;
+  set_sphere_mirror(&s.params, mirror_radius, mirror_distance);
+  return s;
+}
+
+}  // namespace pano

@@ -1,0 +1,68 @@
+// Double-precision sensor: the templated model of catadioptric.h plus the
+// image size, the model's name and Eigen-typed conveniences.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+
+#include "panotrack/core/angles.h"
+#include "panotrack/sensor/catadioptric.h"
+
+namespace pano {
+
+// Robot pose on the floor: the pinhole's world (x, y) and the angle from world
+// +x to sensor +x, counter-clockwise (spec section 1).
+struct Pose2 {
+  double x = 0.0;
+  double y = 0.0;
+  double theta = 0.0;
+};
+
+// sensor_from_world for a robot at `pose` whose pinhole is `sensor_height`
+// above the floor.
+Eigen::Vector3d sensor_from_world(const Pose2& pose, double sensor_height,
+                                  const Eigen::Vector3d& point_world);
+Eigen::Vector3d world_from_sensor(const Pose2& pose, double sensor_height,
+                                  const Eigen::Vector3d& point_sensor);
+// Rotates a sensor-frame direction into the world frame.
+Eigen::Vector3d world_direction(const Pose2& pose, const Eigen::Vector3d& dir_sensor);
+
+enum class MirrorModel { kSphere, kConic };
+const char* mirror_model_name(MirrorModel m);
+
+struct Sensor {
+  MirrorModel model = MirrorModel::kSphere;
+  int image_width = 0;
+  int image_height = 0;
+  SensorParams<double> params;
+
+  // The sphere's own parameters (spec section 2), valid for kSphere.
+  double mirror_radius() const { return params.curvature_radius; }
+  double mirror_distance() const { return params.vertex_distance + params.curvature_radius; }
+
+  // Throws pano::Error naming `what` when the parameters are impossible
+  // (non-positive focal length, mirror reaching the pinhole, NaN...).
+  void Check(const std::string& what) const;
+
+  bool project(const Eigen::Vector3d& point_sensor, Eigen::Vector2d* pixel) const;
+  bool backproject(const Eigen::Vector2d& pixel, Eigen::Vector3d* origin,
+                   Eigen::Vector3d* direction) const;
+  bool image_radius(double horizontal_distance, double height, double* radius) const;
+  bool inverse_image_radius(double radius, double height, double* horizontal_distance) const;
+  // Image radius (pixels) of the mirror's visible edge.
+  double limb_radius() const { return limb_radius_px(params); }
+  // Image azimuth of a sensor-frame bearing, and back.
+  double image_azimuth(double bearing) const { return wrap_angle(bearing + params.azimuth_offset); }
+  double bearing_of_azimuth(double azimuth) const { return wrap_angle(azimuth - params.azimuth_offset); }
+  // Polar image coordinates (radius with aspect removed, azimuth) of a pixel and back.
+  void to_polar(double u, double v, double* radius, double* azimuth) const;
+  Eigen::Vector2d from_polar(double radius, double azimuth) const;
+  bool inside_image(const Eigen::Vector2d& pixel, double margin = 0.0) const;
+};
+
+// The sphere model of the spec from its named parameters.
+Sensor make_sphere_sensor(int width, int height, double focal_px, double cx, double cy,
+                          double aspect, double mirror_radius, double mirror_distance,
+                          double azimuth_offset = 0.0);
+
+}  // namespace pano

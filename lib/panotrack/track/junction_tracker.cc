@@ -1,0 +1,297 @@
+#include "panotrack/track/junction_tracker.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "panotrack/core/error.h"
+#include "panotrack/hough/tracking.h"
+#include "panotrack/track/edge_profile.h"
+
+namespace pano {
+
+void JunctionOptions::Check() const {
+  if (!(sample_spacing_px > 0) || !(sample_step_px > 0) || !(corner_gap_px >= 0) || max_samples < 3 ||
+      max_horizontal_samples < 3)
+    throw Error("junction tracker: sample spacing, step, gap and count must be positive");
+  if (!(min_step > 0)) throw Error("junction tracker: min_step: expected > 0 grey levels");
+  if (!(truncation_px > 0) || !(junction_tolerance_px > 0))
+    throw Error("junction tracker: truncation_px and junction_tolerance_px must be positive");
+  if (min_vertical_points < 2 || min_horizontal_points < 2)
+    throw Error("junction tracker: at least 2 points per edge");
+}
+
+JunctionTracker::JunctionTracker(const Sensor& sensor, std::shared_ptr<PhTableCache> ph_tables,
+                                 const JunctionOptions& options)
+    : sensor_(sensor), ph_tables_(std::move(ph_tables)), opt_(options) {
+  opt_.Check();
+}
+
+namespace {
+
+// Ramps narrower than the step detector's 2 px baseline need no allowance:
+// allowing for them only lets marginal edges through.
+double RampAllowance(double ramp_px) { return ramp_px < 2.0 ? 0.0 : ramp_px; }
+
+struct Step {
+  double radius, azimuth, strength, width_px;
+  Eigen::Vector2d px;
+};
+
+// A linear sample through (radius, azimuth) along the tangential (`radial`
+// false) or radial direction, searched for a step of `polarity` along
+// increasing azimuth / radius within `half` px of the centre; the step may be
+// a ramp up to `ramp_px` wide (motion blur). The sample reaches beyond `half`
+// by the ramp and the plateaus the step detector needs either side.
+bool LinearStep(const cv::Mat& grey, const Sensor& s, const JunctionOptions& o, double radius,
+                double azimuth, double half, int polarity, bool radial, Step* out,
+                double ramp_px = 0.0) {
+  const double reach = half + 0.5 * ramp_px + 3.5;
+  const int n = 2 * static_cast<int>(std::ceil(reach / o.sample_step_px)) + 1;
+  if (n > 512) return false;
+  const double c = std::cos(azimuth), sn = std::sin(azimuth), a = s.params.aspect;
+  // Direction in pixels of one unit of (aspect-free) image length.
+  const Eigen::Vector2d dir = radial ? Eigen::Vector2d(c, a * sn) : Eigen::Vector2d(-sn, a * c);
+  const Eigen::Vector2d centre(s.params.cx + radius * c, s.params.cy + a * radius * sn);  // from_polar
+  const double half_n = (n - 1) / 2;
+  const Eigen::Vector2d start = centre - half_n * o.sample_step_px * dir;
+  float profile[512];
+  if (!SampleLine(grey, start, o.sample_step_px * dir, n, profile)) return false;
+  StepEdge e;
+  const int baseline = std::max(2, static_cast<int>(std::lround(2.0 / o.sample_step_px)));
+  if (!FindStep(profile, n, polarity, baseline, o.min_step, &e, ramp_px / o.sample_step_px)) return false;
+  if (std::abs(e.location - half_n) * o.sample_step_px > half + 0.5 * ramp_px) return false;
+  out->px = start + e.location * o.sample_step_px * dir;
+  s.to_polar(out->px.x(), out->px.y(), &out->radius, &out->azimuth);
+  out->strength = e.strength;
+  out->width_px = e.width * o.sample_step_px;
+  return true;
+}
+
+}  // namespace
+
+struct JunctionTracker::VerticalEdge {
+  double azimuth = 0.0;         // truncated-median azimuth of the edge
+  double nearest_radius = 0.0;  // radius of its found step nearest the junction
+  int direction = 1;            // +1: the edge runs outwards from the junction
+  int polarity = 1;             // step polarity along increasing azimuth
+  double ramp_px = 0.0;         // widest motion blur across it at the corner (px)
+};
+
+struct JunctionTracker::HorizontalEdge {
+  TrackingResult fit;            // (R_main, theta_main) of the PH peak
+  double nearest_azimuth = 0.0;  // azimuth of its sample nearest the junction
+  int side = 1;                  // the edge runs towards +side azimuth from the junction
+  int polarity = 1;              // step polarity along increasing radius
+  double ramp_px = 0.0;          // widest motion blur across it (px)
+  double along_blur_px = 0.0;    // ... and along it: its ends smear this far
+};
+
+bool JunctionTracker::FindVerticalEdge(const PredictedLandmark& p, double half, VerticalEdge* edge,
+                                       LandmarkMeasurement* m) const {
+  const JunctionOptions& o = opt_;
+  // Tangential samples along the radial segment.
+  edge->direction = p.v_radius > p.corner_radius ? 1 : -1;
+  edge->polarity = p.v_polarity * p.inside_azimuth_sign;
+  edge->ramp_px = RampAllowance(p.tangential_motion_px);
+  const double v_len = std::abs(p.v_radius - p.corner_radius);
+  const double v_spacing = std::max(o.sample_spacing_px, (v_len - 2 * o.corner_gap_px) / o.max_samples);
+  std::vector<Step> v_steps;
+  for (double d = o.corner_gap_px; d < v_len - o.corner_gap_px && static_cast<int>(v_steps.size()) < o.max_samples;
+       d += v_spacing) {
+    Step st;
+    const double r = p.corner_radius + edge->direction * d;
+    // Tangential motion grows with the radius under rotation.
+    const double ramp = edge->ramp_px * r / p.corner_radius;
+    if (LinearStep(grey_, sensor_, o, r, p.azimuth, half, edge->polarity, false, &st, ramp))
+      v_steps.push_back(st);
+  }
+  if (static_cast<int>(v_steps.size()) < o.min_vertical_points) {
+    m->why = "vertical edge not found";
+    return false;
+  }
+  // Truncated median: the contiguous steps near the median azimuth.
+  std::vector<double> offsets;  // tangential offsets from the prediction, px
+  for (const Step& st : v_steps) offsets.push_back(wrap_angle(st.azimuth - p.azimuth) * st.radius);
+  std::vector<double> sorted = offsets;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  const double median = sorted[sorted.size() / 2];
+  double sum_dtheta = 0.0;
+  int n_in = 0;
+  // A blurred edge is located less precisely: widen the truncation with it.
+  const double truncation = o.truncation_px + 0.1 * edge->ramp_px;
+  for (size_t k = 0; k < v_steps.size(); ++k) {
+    if (std::abs(offsets[k] - median) > truncation) continue;
+    sum_dtheta += wrap_angle(v_steps[k].azimuth - p.azimuth);
+    if (n_in++ == 0) edge->nearest_radius = v_steps[k].radius;
+    m->edge_points.push_back(v_steps[k].px);
+  }
+  if (n_in < o.min_vertical_points) {
+    m->why = "vertical edge not contiguous";
+    return false;
+  }
+  edge->azimuth = wrap_angle(p.azimuth + sum_dtheta / n_in);
+  std::vector<double> widths;
+  for (const Step& st : v_steps) widths.push_back(st.width_px);
+  std::nth_element(widths.begin(), widths.begin() + widths.size() / 2, widths.end());
+  m->edge_width_px = widths[widths.size() / 2];
+  return true;
+}
+
+namespace {
+
+// |dr / ds| of the predicted PH curve at `theta`, s the arc length (px).
+double RadialSlope(const PhTable& ph, const PredictedLandmark& p, double theta) {
+  const double dt = 0.25 / p.corner_radius;
+  double ra, rb;
+  if (!ph.Curve(p.r_main, wrap_angle(theta - dt - p.theta_main), &ra) ||
+      !ph.Curve(p.r_main, wrap_angle(theta + dt - p.theta_main), &rb))
+    return 0.0;
+  return std::abs(rb - ra) / (2.0 * dt * p.corner_radius);
+}
+
+}  // namespace
+
+bool JunctionTracker::FindHorizontalEdge(const PredictedLandmark& p, double half, const PhTable& ph,
+                                         HorizontalEdge* edge, LandmarkMeasurement* m) const {
+  const JunctionOptions& o = opt_;
+  // Radial samples along the predicted PH curve, voting in the PH
+  // transform's tracking mode.
+  edge->side = p.inside_azimuth_sign;
+  edge->polarity = p.h_polarity * p.inside_radius_sign;
+  edge->along_blur_px = RampAllowance(p.tangential_motion_px);
+  const double arc = std::abs(wrap_angle(p.h_end_azimuth - p.azimuth));
+  const double gap = o.corner_gap_px / p.corner_radius;
+  const double h_spacing =
+      std::max(o.sample_spacing_px / p.corner_radius, (arc - 2 * gap) / o.max_horizontal_samples);
+  std::vector<TrackingVote> votes;
+  std::vector<Step> h_steps;
+  for (double dt = gap; dt < arc - gap && static_cast<int>(votes.size()) < o.max_horizontal_samples;
+       dt += h_spacing) {
+    const double theta = wrap_angle(p.azimuth + edge->side * dt);
+    double r_pred;
+    if (!ph.Curve(p.r_main, wrap_angle(theta - p.theta_main), &r_pred)) continue;
+    // A tangential smear moves a curved edge radially by its slope.
+    const double ramp = RampAllowance(p.radial_motion_px + RadialSlope(ph, p, theta) * edge->along_blur_px);
+    edge->ramp_px = std::max(edge->ramp_px, ramp);
+    Step st;
+    if (!LinearStep(grey_, sensor_, o, r_pred, theta, half, edge->polarity, true, &st, ramp)) continue;
+    votes.push_back({st.radius, theta, 1.0});
+    h_steps.push_back(st);
+  }
+  if (static_cast<int>(votes.size()) < o.min_horizontal_points) {
+    m->why = "horizontal edge not found";
+    return false;
+  }
+  edge->fit = TrackHorizontalLine(ph, HorizontalWindow(p, half), votes);
+  if (!edge->fit.found || edge->fit.score < o.min_ph_score || edge->fit.n_inliers < o.min_horizontal_points) {
+    m->why = "no PH peak for the horizontal edge";
+    return false;
+  }
+  m->r_main = edge->fit.r_main;
+  m->theta_main = edge->fit.theta_main;
+  for (const Step& st : h_steps) m->edge_points.push_back(st.px);
+  edge->nearest_azimuth = h_steps.front().azimuth;
+  return true;
+}
+
+TrackingWindow JunctionTracker::HorizontalWindow(const PredictedLandmark& p, double half) {
+  TrackingWindow w;
+  w.r_main = p.r_main;
+  w.theta_main = p.theta_main;
+  w.r_halfwidth = half + 1.0;
+  w.r_bin = 0.5;
+  // theta_main moves with the robot's turn (predicted by the compass) and,
+  // for a near line, with its translation: about as far as the edge itself.
+  w.theta_bin = std::max(1.0 / p.r_main, 0.05 * M_PI / 180);
+  w.theta_halfwidth = std::min(60.0 * M_PI / 180, (half + 1.0) / p.r_main);
+  // The horizontal edge validates the junction; a few robust steps suffice.
+  w.refine_iterations = 3;
+  return w;
+}
+
+// End points by bisection between the last sample that found a step and one
+// beyond the junction that must not: first along the vertical edge (radius),
+bool JunctionTracker::VerticalEnd(const VerticalEdge& v, double r_junction, double* r_end,
+                                  LandmarkMeasurement* m) const {
+  auto has_step = [&](double r) {
+    Step st;
+    return LinearStep(grey_, sensor_, opt_, r, v.azimuth, kProbeHalfPx, v.polarity, false, &st,
+                      v.ramp_px * r / r_junction);
+  };
+  double r_in = v.nearest_radius, r_out = r_junction - v.direction * (opt_.corner_gap_px + 1.5);
+  if (has_step(r_out)) {
+    m->why = "vertical edge runs past the junction";
+    return false;
+  }
+  for (int k = 0; k < opt_.bisection_steps; ++k) {
+    const double mid = 0.5 * (r_in + r_out);
+    (has_step(mid) ? r_in : r_out) = mid;
+  }
+  *r_end = 0.5 * (r_in + r_out);
+  return true;
+}
+
+// then along the horizontal edge (azimuth, on its PH curve).
+bool JunctionTracker::HorizontalEnd(const PhTable& ph, const HorizontalEdge& h, double theta_v,
+                                    double r_junction, double* t_end, LandmarkMeasurement* m) const {
+  auto has_step = [&](double theta) {
+    double r;
+    Step st;
+    return ph.Curve(h.fit.r_main, wrap_angle(theta - h.fit.theta_main), &r) &&
+           LinearStep(grey_, sensor_, opt_, r, theta, kProbeHalfPx, h.polarity, true, &st, h.ramp_px);
+  };
+  // Motion blur smears the edge's end past the junction by up to half the
+  // tangential motion.
+  double t_in = h.nearest_azimuth;
+  double t_out =
+      wrap_angle(theta_v - h.side * (opt_.corner_gap_px + 1.5 + 0.5 * h.along_blur_px) / r_junction);
+  if (has_step(t_out)) {
+    m->why = "horizontal edge runs past the junction";
+    return false;
+  }
+  for (int k = 0; k < opt_.bisection_steps; ++k) {
+    const double mid = wrap_angle(t_in + 0.5 * wrap_angle(t_out - t_in));
+    (has_step(mid) ? t_in : t_out) = mid;
+  }
+  *t_end = wrap_angle(t_in + 0.5 * wrap_angle(t_out - t_in));
+  return true;
+}
+
+bool JunctionTracker::LocateJunction(const PhTable& ph, const VerticalEdge& v, const HorizontalEdge& h,
+                                     LandmarkMeasurement* m) const {
+  // The junction: the horizontal curve at the vertical edge's azimuth.
+  double r_junction;
+  if (!ph.Curve(h.fit.r_main, wrap_angle(v.azimuth - h.fit.theta_main), &r_junction)) {
+    m->why = "junction off the PH table";
+    return false;
+  }
+  double r_vertical_end, t_horizontal_end;
+  if (!VerticalEnd(v, r_junction, &r_vertical_end, m) ||
+      !HorizontalEnd(ph, h, v.azimuth, r_junction, &t_horizontal_end, m))
+    return false;
+  if (std::abs(r_vertical_end - r_junction) > opt_.junction_tolerance_px + 0.5 * h.ramp_px ||
+      std::abs(wrap_angle(t_horizontal_end - v.azimuth)) * r_junction >
+          opt_.junction_tolerance_px + 0.5 * h.along_blur_px) {
+    m->why = "edges do not meet";
+    return false;
+  }
+  m->azimuth = v.azimuth;
+  m->radius = r_junction;
+  return true;
+}
+
+LandmarkMeasurement JunctionTracker::Measure(const PredictedLandmark& p, double search_px) const {
+  LandmarkMeasurement m;
+  const double half = std::max(search_px, 2.0);
+  VerticalEdge vertical;
+  if (!FindVerticalEdge(p, half, &vertical, &m)) return m;
+  const std::shared_ptr<const PhTable> ph = ph_tables_->Get(p.h_height);
+  HorizontalEdge horizontal;
+  if (!FindHorizontalEdge(p, half, *ph, &horizontal, &m)) return m;
+  if (!LocateJunction(*ph, vertical, horizontal, &m)) return m;
+  m.found = true;
+  m.weight = 1.0;
+  return m;
+}
+
+}  // namespace pano

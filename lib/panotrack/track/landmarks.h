@@ -1,0 +1,104 @@
+// Landmarks of a map and their predicted projections (paper section 4.2).
+//
+// A landmark is a corner of a rectangle or a box: the junction of a
+// horizontal and a vertical edge. Ids: "<map id>/<end>-<bottom|top>" for a
+// rectangle, where end is "from" or "to" (the rectangle's bottom-edge end
+// points in the map file); "<box id>/<x0|x1><y0|y1>-<bottom|top>-<x|y>" for a
+// box, the last letter naming the axis of its horizontal edge. A box corner
+// is usable only where its vertical edge is a silhouette and the face that
+// holds its horizontal edge faces the camera.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "panotrack/scene/map.h"
+#include "panotrack/lut/radius_table.h"
+#include "panotrack/scene/scene.h"
+#include "panotrack/sensor/sensor.h"
+
+namespace pano {
+
+struct Landmark {
+  std::string id;
+  Eigen::Vector3d corner{0, 0, 0};  // world
+  Eigen::Vector3d h_end{0, 0, 0};   // other end of the horizontal edge
+  Eigen::Vector3d v_end{0, 0, 0};   // other end of the vertical edge
+  double shade = 0.5;               // reflectance of the landmark's own face
+  bool box = false;
+  // For box corners: the face holding both edges faces the camera when
+  // (camera - corner) . face_normal > 0; the other face at the vertical edge
+  // must face away (silhouette).
+  Eigen::Vector2d face_normal{0, 0};
+  Eigen::Vector2d other_face_normal{0, 0};
+};
+
+std::vector<Landmark> LandmarksFromMap(const Map& map);
+
+// Everything the trackers need about one landmark in one frame.
+struct PredictedLandmark {
+  int index = -1;              // into the landmark list
+  const Landmark* landmark = nullptr;
+  Eigen::Vector2d corner_px{0, 0};
+  double corner_radius = 0.0;  // image polar coordinates of the corner
+  double azimuth = 0.0;        // image azimuth of the vertical edge
+  double distance = 0.0;       // horizontal distance to the corner
+  // Vertical edge: a radial segment at `azimuth` from the corner's radius to
+  // v_radius.
+  double v_radius = 0.0;
+  // Horizontal edge at height `h_height` (sensor frame): PH parameters
+  // (R_main = E(D_main, Z), theta_main) and the far end's azimuth.
+  double h_height = 0.0;
+  double r_main = 0.0;
+  double theta_main = 0.0;
+  double h_end_azimuth = 0.0;
+  // +1 when the landmark's face lies towards increasing azimuth from the
+  // vertical edge, -1 otherwise; +1 when it lies towards increasing radius
+  // from the horizontal edge.
+  int inside_azimuth_sign = 1;
+  int inside_radius_sign = 1;
+  // Expected sign of the intensity step going into the face (+1 brighter
+  // inside) across the vertical and the horizontal edge; 0 when the map
+  // predicts no contrast.
+  int v_polarity = 0;
+  int h_polarity = 0;
+  // The corner's predicted image motion over one frame interval (px), across
+  // the vertical edge (tangential) and across the horizontal one (radial):
+  // the widest motion blur its edges can show. The localiser sets them from
+  // its motion model; 0: a still camera.
+  double tangential_motion_px = 0.0;
+  double radial_motion_px = 0.0;
+  double full_tangential_motion_px = 0.0;  // before scaling by the exposure
+};
+
+struct PredictionOptions {
+  double min_radius_fraction = 0.25;  // of the limb: nearer the centre is the robot itself
+  double max_radius_margin = 2.0;     // px inside the limb
+  double image_margin = 4.0;          // px inside the image
+  double min_contrast = 0.04;         // reflectance difference for a usable edge
+  double min_edge_px = 6.0;           // shortest usable edge projection (px)
+  void Check() const;
+};
+
+// Predicts the landmarks in view from `pose`: inside the image and the
+// mirror's annulus, not hidden by map surfaces, with contrast on both edges.
+// Image radii come from the E(D,Z) table (within 0.002 px of the model).
+std::vector<PredictedLandmark> PredictLandmarks(const std::vector<Landmark>& landmarks,
+                                                const Map& map, const Scene& scene,
+                                                const Sensor& sensor, const RadiusTable& table,
+                                                const Pose2& pose, const PredictionOptions& opt);
+
+// Sets each predicted landmark's image motion (tangential_motion_px,
+// radial_motion_px) for a camera that moved from `previous` to the pose the
+// landmarks were predicted from, scaled by `fraction` (the part of that
+// motion the exposure spans).
+void SetImageMotion(const Map& map, const Sensor& sensor, const RadiusTable& table,
+                    const Pose2& previous, double fraction, std::vector<PredictedLandmark>* predicted);
+
+// The predicted landmarks reordered so that the first `max_count` (0: all)
+// are spread in azimuth: the nearest in each of max_count equal sectors, then
+// the nearest of the rest; the others follow, nearest first.
+std::vector<PredictedLandmark> SelectSpread(std::vector<PredictedLandmark> all, int max_count);
+
+}  // namespace pano

@@ -1,0 +1,610 @@
+#include "panotrack/track/localizer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <exception>
+
+#include "panotrack/core/error.h"
+#include "panotrack/core/parallel.h"
+
+namespace pano {
+
+const char* tracking_method_name(TrackingMethod m) {
+  return m == TrackingMethod::kJunction ? "junction" : "vertex";
+}
+
+void LocalizerOptions::Check() const {
+  prediction.Check();
+  junction.Check();
+  vertex.Check();
+  triangulation.Check();
+  if (!(search_px > 0) || !(refine_search_px > 0) || !(max_search_px >= search_px))
+    throw Error("localiser: search widths must be positive (and max_search_px >= search_px)");
+  if (max_landmarks != 0 && max_landmarks < 3) throw Error("localiser: max_landmarks: expected 0 or >= 3");
+  if (refine_passes < 0 || refine_passes > 5) throw Error("localiser: refine_passes: expected 0..5");
+  if (!(refine_threshold_px >= 0.0)) throw Error("localiser: refine_threshold_px: expected >= 0");
+  if (!(exposure_fraction >= 0.0 && exposure_fraction <= 1.0))
+    throw Error("localiser: exposure_fraction: expected 0..1");
+  if (!(unknown_turn_per_frame >= 0.0 && unknown_turn_per_frame < M_PI))
+    throw Error("localiser: unknown_turn_per_frame: expected 0..pi radians");
+  if (!(lost_search_growth >= 1.0)) throw Error("localiser: lost_search_growth: expected >= 1");
+  if (relocalize_after < 0 || relocalize_min_landmarks < 3)
+    throw Error("localiser: relocalize_after >= 0 and relocalize_min_landmarks >= 3 expected");
+  if (num_threads < 0) throw Error("localiser: num_threads: expected 0 (all cores) or more");
+  if (relocalize_max_interval < 1) throw Error("localiser: relocalize_max_interval: expected >= 1");
+  if (!(gate_chi2 > 0) || !(gate_heading_sigma > 0) || !(gate_position_fraction > 0))
+    throw Error("localiser: gate_chi2, gate_heading_sigma and gate_position_fraction: expected > 0");
+  if (!(min_quality >= 0.0 && min_quality < 1.0)) throw Error("localiser: min_quality: expected 0..1");
+  if (!(protection_sigmas > 0.0) || !(alert_fraction >= 0.0))
+    throw Error("localiser: protection_sigmas: expected > 0, alert_fraction: expected >= 0");
+  if (!(integrity_confidence > 0.5 && integrity_confidence < 1.0))
+    throw Error("localiser: integrity_confidence: expected 0.5..1");
+  if (!(min_bearing_sigma > 0) || !(initial_bearing_sigma > 0) || !(max_bearing_sigma >= min_bearing_sigma))
+    throw Error("localiser: min_bearing_sigma and initial_bearing_sigma: expected > 0");
+  if (!(relocalize_confirmed_fraction >= 0))
+    throw Error("localiser: relocalize_confirmed_fraction: expected >= 0 (above 1: every pose confirmed first)");
+  if (!(relocalize_min_fraction >= 0 && relocalize_min_fraction <= 1) || relocalize_margin < 0 ||
+      !(relocalize_distinct > 0))
+    throw Error("localiser: relocalize_min_fraction 0..1, relocalize_margin >= 0, relocalize_distinct > 0 expected");
+  relocalize.Check();
+  robust.Check();
+  motion.Check();
+}
+
+
+std::shared_ptr<PhTableCache> MakeTrackingPhTables(std::shared_ptr<const RadiusTable> table,
+                                                   int num_threads) {
+  // 0.5 px x 0.5 degree nodes: within 0.006 px of the exact PH, and quick
+  // to build (under a millisecond per edge height) for short clips.
+  PhTableOptions o;
+  o.r_step = 0.5;
+  o.dtheta_step = 0.5 * M_PI / 180;
+  o.num_threads = num_threads;
+  return std::make_shared<PhTableCache>(std::move(table), o);
+}
+
+std::unique_ptr<LandmarkTracker> MakeTracker(TrackingMethod method, const Sensor& sensor,
+                                             std::shared_ptr<const RadiusTable> table,
+                                             const LocalizerOptions& options,
+                                             std::shared_ptr<PhTableCache> ph_tables) {
+  if (method == TrackingMethod::kVertex) return std::make_unique<VertexTracker>(sensor, options.vertex);
+  if (!ph_tables) ph_tables = MakeTrackingPhTables(table, options.num_threads);
+  return std::make_unique<JunctionTracker>(sensor, ph_tables, options.junction);
+}
+
+Localizer::Localizer(const Calibration& calib, const Map& map,
+                     std::shared_ptr<const RadiusTable> table, const LocalizerOptions& options,
+                     std::shared_ptr<PhTableCache> ph_tables)
+    : calib_(calib), map_(map), scene_(Scene::FromMap(map, /*with_distractors=*/false)),
+      table_(std::move(table)), opt_(options), landmarks_(LandmarksFromMap(map)),
+      compass_(calib.sensor) {
+  opt_.Check();
+  if (!table_ || table_->empty()) throw Error("localiser: no E(D,Z) lookup table");
+  motion_options_ = opt_.motion.Scaled(map_.UnitsPerMetre());
+  motion_ = MotionModel(motion_options_);
+  tracker_ = MakeTracker(opt_.method, calib_.sensor, table_, opt_, std::move(ph_tables));
+}
+
+void Localizer::Reset(const Pose2& initial, bool hint) {
+  initial_ = last_ = initial;
+  frame_motion_ = Pose2{0, 0, 0};
+  blur_fraction_ = opt_.exposure_fraction;
+  n_good_ = 0;
+  n_lost_ = 0;
+  started_ = true;
+  known_start_ = true;
+  start_is_hint_ = hint;
+  ever_tracked_ = false;
+  motion_ = MotionModel(motion_options_);
+  last_dt_ = 0.0;
+  next_relocalize_frame_ = 0;
+  relocalize_failures_ = 0;
+  held_ = false;
+  bearing_sigma_ = 0.0;
+  motion_updates_ = 0;
+  frame_pose_ = initial;
+  last_signature_.clear();
+}
+
+void Localizer::ResetUnknown() {
+  Reset(Pose2{0, 0, 0}, true);
+  known_start_ = false;
+}
+
+void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, const Pose2* solved_motion) const {
+  std::vector<PredictedLandmark> ordered = SelectSpread(
+      PredictLandmarks(landmarks_, map_, scene_, calib_.sensor, *table_, pose, opt_.prediction),
+      opt_.max_landmarks);
+  // The motion over the last frame interval; unknown: the fastest turn.
+  const bool known = motion_updates_ >= 2 || solved_motion;
+  const Pose2 motion = solved_motion ? *solved_motion : known ? frame_motion_ : Pose2{0, 0, opt_.unknown_turn_per_frame};
+  const Pose2 before{pose.x - motion.x, pose.y - motion.y, pose.theta - motion.theta};
+  // Edges may be blurred a little more than the estimate says.
+  const double fraction = known ? std::min(opt_.exposure_fraction, 1.3 * blur_fraction_ + 0.05)
+                                : opt_.exposure_fraction;
+  SetImageMotion(map_, calib_.sensor, *table_, before, fraction, &ordered);
+  const int n_all = static_cast<int>(ordered.size());
+  const int n_first = opt_.max_landmarks > 0 ? std::min(n_all, opt_.max_landmarks) : n_all;
+  std::vector<LandmarkMeasurement> meas(n_all);
+  const int threads = ThreadCount(opt_.num_threads);
+  auto measure = [&](int begin, int end) {
+    // Landmarks are independent: track them in parallel.
+    std::vector<std::exception_ptr> errors(static_cast<size_t>(end - begin));
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) if (end - begin > 4)
+    for (int i = begin; i < end; ++i) {
+      try {
+        meas[i] = tracker_->Measure(ordered[i], search_px);
+      } catch (...) {
+        errors[static_cast<size_t>(i - begin)] = std::current_exception();
+      }
+    }
+    RethrowFirst(errors);
+  };
+  measure(0, n_first);
+  int found = 0;
+  for (int i = 0; i < n_first; ++i) found += meas[i].found;
+  // Too few of the chosen ones (occluded, off their edges): track the rest.
+  int used = n_first;
+  if (found < std::max(opt_.triangulation.min_landmarks + 3, n_first / 2) && n_first < n_all) {
+    measure(n_first, n_all);
+    used = n_all;
+  }
+  ordered.resize(used);
+  meas.resize(used);
+  out->predicted = std::move(ordered);
+  out->measurements = std::move(meas);
+}
+
+std::vector<BearingObservation> Localizer::Observations(const FrameResult& fr) const {
+  std::vector<BearingObservation> obs;
+  for (size_t i = 0; i < fr.predicted.size(); ++i) {
+    const LandmarkMeasurement& m = fr.measurements[i];
+    if (!m.found) continue;
+    BearingObservation o;
+    o.landmark = fr.predicted[i].landmark->corner.head<2>();
+    o.bearing = calib_.sensor.bearing_of_azimuth(m.azimuth);
+    o.weight = m.weight;
+    o.id = static_cast<int>(i);
+    obs.push_back(o);
+  }
+  // The top and bottom corners of one edge measure one bearing: they share
+  // its weight, and count once as evidence.
+  for (size_t i = 0; i < obs.size(); ++i) {
+    if (obs[i].group >= 0) continue;
+    std::vector<size_t> same{i};
+    for (size_t j = i + 1; j < obs.size(); ++j)
+      if ((obs[j].landmark - obs[i].landmark).squaredNorm() < 1e-12) same.push_back(j);
+    if (same.size() < 2) continue;
+    for (size_t j : same) {
+      obs[j].group = static_cast<int>(i);
+      obs[j].weight /= static_cast<double>(same.size());
+    }
+  }
+  return obs;
+}
+
+TriangulationResult Localizer::Solve(const FrameResult& fr, const Pose2& prior) const {
+  const std::vector<BearingObservation> obs = Observations(fr);
+  TriangulationResult plain = Triangulate(obs, prior, opt_.triangulation);
+  if (!opt_.robust_pose || obs.size() < 4) return plain;
+  // Inliers within five times the recent noise: an edge half hidden by
+  // someone walking past is off by less than the fixed threshold, but far
+  // more than the noise.
+  RobustPoseOptions robust = opt_.robust;
+  if (bearing_sigma_ > 0)
+    robust.inlier_threshold = std::clamp(3.0 * bearing_sigma_, opt_.min_inlier_threshold, opt_.robust.inlier_threshold);
+  // Every bearing agreeing with the least-squares pose: nothing to reject
+  // (most frames; the consensus costs milliseconds).
+  if (plain.ok && plain.inliers.size() == obs.size() &&
+      std::all_of(plain.bearing_residuals.begin(), plain.bearing_residuals.end(),
+                  [&](double r) { return std::abs(r) <= robust.inlier_threshold; }))
+    return plain;
+  return RobustTriangulate(obs, prior, robust, opt_.triangulation);
+}
+
+bool Localizer::TrackFrom(const Pose2& pose, double search_px, FrameResult* fr,
+                          TriangulationResult* tri) const {
+  Measure(pose, search_px, fr);
+  *tri = Solve(*fr, pose);
+  for (int pass = 0; pass < 1 + opt_.refine_passes && Acceptable(*fr, *tri); ++pass) {
+    FrameResult again;
+    Measure(tri->pose, opt_.refine_search_px, &again);
+    TriangulationResult tri2 = Solve(again, tri->pose);
+    if (!Acceptable(again, tri2)) break;
+    fr->predicted = std::move(again.predicted);
+    fr->measurements = std::move(again.measurements);
+    *tri = tri2;
+  }
+  return Acceptable(*fr, *tri);
+}
+
+bool Localizer::Relocalize(const cv::Mat& grey, FrameResult* fr, TriangulationResult* tri) const {
+  if (!relocalization_index_)
+    relocalization_index_ = std::make_unique<const RelocalizationIndex>(
+        calib_.sensor, *table_, map_, scene_, landmarks_, opt_.prediction, opt_.relocalize, opt_.num_threads);
+  const std::vector<PoseHypothesis> hyps = relocalization_index_->Hypotheses(grey, opt_.num_threads);
+  Eigen::Vector2d lo, hi;
+  double top;
+  map_.Extent(&lo, &hi, &top);
+  const double distinct = opt_.relocalize_distinct * (hi - lo).maxCoeff();
+  struct Verified {
+    FrameResult fr;
+    TriangulationResult tri;
+  };
+  std::vector<Verified> verified;
+  for (const PoseHypothesis& h : hyps) {
+    Verified v;
+    // The normal search first: a wide one invites wrong edges.
+    if (!TrackFrom(h.pose, opt_.search_px, &v.fr, &v.tri) && !TrackFrom(h.pose, opt_.max_search_px, &v.fr, &v.tri))
+      continue;
+    if (!EnoughForRelocalized(v.fr, v.tri)) continue;
+    verified.push_back(std::move(v));
+  }
+  if (verified.empty()) return false;
+  auto count = [](const Verified& v) { return static_cast<int>(v.tri.inliers.size()); };
+  const auto best = std::max_element(verified.begin(), verified.end(),
+                                     [&](const Verified& a, const Verified& b) { return count(a) < count(b); });
+  for (const Verified& v : verified) {
+    const double apart = std::hypot(v.tri.pose.x - best->tri.pose.x, v.tri.pose.y - best->tri.pose.y);
+    if (&v != &*best && apart > distinct && count(v) > count(*best) - opt_.relocalize_margin) return false;
+  }
+  // The best-supported pose, unambiguous, must also pass the integrity test
+  // (a pose with fewer inliers that passes it is no better: few bearings
+  // fit a wrong pose easily).
+  if (!Consistent(&best->fr, best->tri)) return false;
+  *fr = std::move(best->fr);
+  *tri = best->tri;
+  return true;
+}
+
+bool Localizer::Acceptable(const FrameResult& fr, const TriangulationResult& tri) const {
+  if (!tri.ok) return false;
+  const double n_pred = static_cast<double>(fr.predicted.size());
+  return tri.rms_bearing <= opt_.max_rms_bearing &&
+         (n_pred < 8 || tri.inliers.size() >= opt_.min_inlier_fraction * n_pred);
+}
+
+namespace {
+
+// A triangulated pose as a measurement for the motion model: its covariance
+// with floors (it is estimated from a few residuals), the position's from
+// the mean distance of the landmarks used.
+PoseMeasurement MeasurementOf(const TriangulationResult& tri, const std::vector<BearingObservation>& obs,
+                              double position_fraction, double heading_sigma) {
+  double distance = 0.0;
+  for (int i : tri.inliers) distance += (obs[static_cast<size_t>(i)].landmark - Eigen::Vector2d(tri.pose.x, tri.pose.y)).norm();
+  distance /= std::max<size_t>(1, tri.inliers.size());
+  PoseMeasurement m;
+  m.pose = tri.pose;
+  m.covariance = tri.covariance;
+  const double sp = position_fraction * distance;
+  m.covariance(0, 0) += sp * sp;
+  m.covariance(1, 1) += sp * sp;
+  m.covariance(2, 2) += heading_sigma * heading_sigma;
+  return m;
+}
+
+}  // namespace
+
+bool Localizer::Consistent(FrameResult* fr, const TriangulationResult& tri) const {
+  IntegrityOptions io;
+  // Twice the recent noise: the residuals' spread varies from frame to
+  // frame with blur and geometry; a wrong junction is off by far more.
+  io.sigma_bearing = std::clamp(bearing_sigma_ > 0 ? 3.0 * bearing_sigma_ : opt_.initial_bearing_sigma,
+                                opt_.min_bearing_sigma, opt_.max_bearing_sigma);
+  io.confidence = opt_.integrity_confidence;
+  io.protection_sigmas = opt_.protection_sigmas;
+  io.alert_fraction = opt_.alert_fraction;
+  const std::vector<BearingObservation> obs = Observations(*fr);
+  fr->integrity = IntegrityCheck(tri, obs, io);
+  // Three bearings always fit a pose: without a spare one nothing is checked.
+  return fr->integrity.testable && fr->integrity.consistent && fr->integrity.quality >= opt_.min_quality &&
+         fr->integrity.within_alert_limit;
+}
+
+bool Localizer::AgreesWithMotion(FrameResult* fr, const TriangulationResult& tri) const {
+  if (!motion_.initialized()) return true;
+  const PoseMeasurement m =
+      MeasurementOf(tri, Observations(*fr), opt_.gate_position_fraction, opt_.gate_heading_sigma);
+  fr->innovation = motion_.Innovation(m);
+  return fr->innovation <= opt_.gate_chi2;
+}
+
+void Localizer::CheckFrame(const cv::Mat& grey, int frame) const {
+  if (!started_) throw Error("localiser: Process() before Reset()");
+  if (grey.type() != CV_8UC1 || grey.cols != calib_.sensor.image_width ||
+      grey.rows != calib_.sensor.image_height)
+    throw Error("frame " + std::to_string(frame) + ": expected an 8-bit grey image of " +
+                std::to_string(calib_.sensor.image_width) + "x" +
+                std::to_string(calib_.sensor.image_height));
+}
+
+Pose2 Localizer::PredictMotion(double time_s, const OdometryIncrement* odometry) {
+  if (!motion_.initialized()) return last_;  // the start pose, or the last one before a loss
+  const double t = std::isfinite(time_s) ? std::max(time_s, motion_.time()) : motion_.time() + last_dt_;
+  const double dt = t - motion_.time();
+  // The frame interval: the shortest recent step (a dropped frame is longer).
+  if (dt > 0) last_dt_ = last_dt_ > 0 && dt > last_dt_ ? 0.95 * last_dt_ + 0.05 * dt : dt;
+  if (odometry)
+    motion_.PredictWithOdometry(t, *odometry);
+  else
+    motion_.Predict(t);
+  motion_stepped_ = true;
+  const Eigen::Vector2d v = motion_.PredictedVelocity();
+  frame_motion_ = Pose2{v.x() * last_dt_, v.y() * last_dt_, motion_.PredictedHeadingRate() * last_dt_};
+  // The velocity is known after two poses, and stays so over short losses.
+  return (opt_.constant_velocity && motion_updates_ >= 2) || odometry ? motion_.pose() : last_;
+}
+
+std::optional<Pose2> Localizer::CompassPose(const Pose2& pred, const std::vector<float>& signature) const {
+  if (!opt_.compass || last_signature_.empty() || !ever_tracked_) return std::nullopt;
+  double score;
+  const double turn = compass_.Rotation(last_signature_, signature, opt_.compass_max_rotation, &score);
+  Pose2 by_compass = pred;
+  by_compass.theta = wrap_angle(frame_pose_.theta + turn);
+  if (score < opt_.compass_min_score || std::abs(wrap_angle(by_compass.theta - pred.theta)) <= 0.5 * M_PI / 180)
+    return std::nullopt;
+  return by_compass;
+}
+
+void Localizer::TrackPredictions(const Pose2& pred, const std::vector<float>& signature, FrameResult* fr,
+                                 TriangulationResult* tri) const {
+  const double search =
+      std::min(opt_.max_search_px, opt_.search_px * std::pow(opt_.lost_search_growth, std::min(n_lost_, 8)));
+  // The visual compass measures the turn since the last frame from the
+  // images. Translation biases it by a few degrees in a small room, so the
+  // motion model's prediction goes first and the compass's heading is
+  // tried (and computed) only when that fails: it keeps sudden turns in view.
+  std::vector<Pose2> predictions{pred};
+  Measure(pred, search, fr);
+  *tri = Solve(*fr, pred);
+  if (Acceptable(*fr, *tri)) {
+    fr->predicted_pose = pred;
+    return;
+  }
+  if (const std::optional<Pose2> by_compass = CompassPose(pred, signature)) {
+    predictions.push_back(*by_compass);
+    Measure(*by_compass, search, fr);
+    *tri = Solve(*fr, *by_compass);
+    if (Acceptable(*fr, *tri)) {
+      fr->predicted_pose = *by_compass;
+      return;
+    }
+  }
+  // A sudden lurch moves the edges beyond the search: widen it within the
+  // same frame before declaring the frame lost.
+  for (double wider = 2.0 * search; !Acceptable(*fr, *tri) && wider <= 2.0 * opt_.max_search_px;
+       wider *= 2.0) {
+    for (const Pose2& p : predictions) {
+      Measure(p, wider, fr);
+      *tri = Solve(*fr, p);
+      if (Acceptable(*fr, *tri)) break;
+    }
+  }
+}
+
+std::optional<Pose2> Localizer::SolvedMotion(const Pose2& pose) const {
+  if (!ever_tracked_ || n_lost_ > 0) return std::nullopt;
+  return Pose2{pose.x - frame_pose_.x, pose.y - frame_pose_.y, wrap_angle(pose.theta - frame_pose_.theta)};
+}
+
+void Localizer::RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) const {
+  // How far the found landmarks lie from their predictions (px).
+  double max_shift = 0.0, max_radius = 0.0;
+  for (size_t i = 0; i < fr->predicted.size(); ++i) {
+    max_radius = std::max(max_radius, fr->predicted[i].corner_radius);
+    if (fr->measurements[i].found)
+      max_shift =
+          std::max(max_shift, std::abs(wrap_angle(fr->measurements[i].azimuth - fr->predicted[i].azimuth)) *
+                                  fr->predicted[i].corner_radius);
+  }
+  // A turn faster or slower than predicted blurs the edges more or less
+  // than the search allowed for: measure again with the solved motion.
+  std::optional<Pose2> solved = SolvedMotion(tri->pose);
+  const double turn_error = solved ? std::abs(wrap_angle(solved->theta - frame_motion_.theta)) : 0.0;
+  const bool blur_mispredicted = turn_error * max_radius * blur_fraction_ > opt_.refine_threshold_px;
+  for (int pass = 0; pass < opt_.refine_passes && (max_shift > opt_.refine_threshold_px || blur_mispredicted) &&
+                     Acceptable(*fr, *tri);
+       ++pass) {
+    FrameResult again;
+    solved = SolvedMotion(tri->pose);
+    Measure(tri->pose, opt_.refine_search_px, &again, solved ? &*solved : nullptr);
+    TriangulationResult tri2 = Solve(again, tri->pose);
+    if (!Acceptable(again, tri2)) break;
+    fr->predicted = std::move(again.predicted);
+    fr->measurements = std::move(again.measurements);
+    *tri = tri2;
+  }
+}
+
+bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, FrameResult* fr, TriangulationResult* tri) {
+  // Before the first pose (no start, or a start the frames did not confirm)
+  // at once; later after relocalize_after lost frames, then less and less
+  // often while it keeps failing.
+  const bool due = ever_tracked_ ? opt_.relocalize_after > 0 && n_lost_ + 1 >= opt_.relocalize_after
+                                 : opt_.relocalize_after > 0 || !known_start_ || start_is_hint_;
+  if (!due || frame < next_relocalize_frame_) return false;
+  FrameResult found;
+  TriangulationResult t;
+  if (!Relocalize(grey, &found, &t)) {
+    ++relocalize_failures_;
+    next_relocalize_frame_ = BackedOffRelocalizeFrame(frame);
+    return false;
+  }
+  fr->predicted = std::move(found.predicted);
+  fr->measurements = std::move(found.measurements);
+  fr->integrity = found.integrity;
+  fr->innovation = -1.0;
+  fr->relocalized = true;
+  *tri = t;
+  n_good_ = 0;  // no velocity across the jump
+  return true;
+}
+
+double Localizer::ChosenLandmarks(const FrameResult& fr) const {
+  // More are tracked when few of the chosen ones are found.
+  return static_cast<double>(opt_.max_landmarks > 0 ? std::min<size_t>(fr.predicted.size(), opt_.max_landmarks)
+                                                     : fr.predicted.size());
+}
+
+int Localizer::BackedOffRelocalizeFrame(int frame) const {
+  return frame + std::min(opt_.relocalize_max_interval, 1 << std::clamp(relocalize_failures_ - 2, 0, 16));
+}
+
+bool Localizer::EnoughForRelocalized(const FrameResult& fr, const TriangulationResult& tri) const {
+  const int inliers = static_cast<int>(tri.inliers.size());
+  return inliers >= opt_.relocalize_min_landmarks && inliers >= opt_.relocalize_min_fraction * ChosenLandmarks(fr);
+}
+
+bool Localizer::Corroborated(const FrameResult& fr, const TriangulationResult& tri) const {
+  // The motion model cannot vouch for it: after a loss its prediction is
+  // too wide to tell a right pose from a wrong one nearby.
+  return static_cast<double>(tri.inliers.size()) >= opt_.relocalize_confirmed_fraction * ChosenLandmarks(fr);
+}
+
+void Localizer::HoldForConfirmation(const Pose2& pose, int frame) {
+  // As from a start pose given as a hint: no velocity, any turn, and a new
+  // room-wide search at once if the next frame does not track.
+  last_ = frame_pose_ = pose;
+  frame_motion_ = Pose2{0, 0, 0};
+  known_start_ = start_is_hint_ = true;
+  ever_tracked_ = false;
+  motion_ = MotionModel(motion_options_);
+  motion_updates_ = 0;
+  n_good_ = 0;
+  n_lost_ = 0;  // the confirming frame searches as narrowly as a tracked one
+  last_signature_.clear();
+  held_ = true;
+  // Held poses that keep failing to confirm back off like failed searches.
+  next_relocalize_frame_ = relocalize_failures_ >= 3 ? BackedOffRelocalizeFrame(frame) : 0;
+}
+
+void Localizer::UpdateBlurEstimate(const FrameResult& fr) {
+  // A box ramp of width W seen through optics of width w0 measures about
+  // sqrt((0.7 W)^2 + w0^2) between its 15 % and 85 % levels.
+  std::vector<double> fractions, still;
+  for (size_t i = 0; i < fr.measurements.size(); ++i) {
+    const LandmarkMeasurement& m = fr.measurements[i];
+    const double motion = fr.predicted[i].full_tangential_motion_px;
+    if (!m.found || m.edge_width_px < 0) continue;
+    if (motion < 1.0) still.push_back(m.edge_width_px);
+    if (motion < 4.0) continue;
+    const double w2 = m.edge_width_px * m.edge_width_px - still_edge_width_px_ * still_edge_width_px_;
+    fractions.push_back(std::sqrt(std::max(0.0, w2)) / (0.7 * motion));
+  }
+  auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  if (still.size() >= 3) still_edge_width_px_ = 0.8 * still_edge_width_px_ + 0.2 * median(still);
+  if (fractions.size() >= 3)
+    blur_fraction_ = std::clamp(0.5 * blur_fraction_ + 0.5 * median(fractions), 0.0, opt_.exposure_fraction);
+}
+
+void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, bool accepted, int n_found) {
+  PoseRow* row = &fr->row;
+  if (accepted) {
+    row->status = PoseStatus::kOk;
+    row->pose = tri.pose;
+    row->n_landmarks = static_cast<int>(tri.inliers.size());
+    row->residual = tri.residual;
+    row->extra.clear();
+    for (int k = 0; k < 3; ++k) row->extra.push_back(std::sqrt(std::max(0.0, tri.covariance(k, k))));
+    row->extra.push_back(fr->integrity.quality);
+    const PoseMeasurement m =
+        MeasurementOf(tri, Observations(*fr), opt_.gate_position_fraction, opt_.gate_heading_sigma);
+    if (!motion_.initialized()) {
+      motion_.Reset(row->time_s, tri.pose, m.covariance, motion_options_.max_speed, motion_options_.max_turn_rate);
+      motion_updates_ = 1;
+    } else if (fr->relocalized || fr->innovation > opt_.gate_chi2) {
+      motion_.Reinitialize(std::max(row->time_s, motion_.time()), tri.pose, m.covariance);
+      motion_updates_ = 1;
+      n_good_ = 0;  // no velocity across the jump
+    } else {
+      motion_.Update(m);
+      ++motion_updates_;
+    }
+    frame_pose_ = tri.pose;
+    motion_stepped_ = true;
+    // The noise from all the bearings (a robust scale, the median absolute
+    // residual): the inliers' own RMS is trimmed by the threshold it sets.
+    std::vector<double> abs_residuals;
+    for (double r : tri.bearing_residuals) abs_residuals.push_back(std::abs(r));
+    if (!abs_residuals.empty()) {
+      std::nth_element(abs_residuals.begin(), abs_residuals.begin() + abs_residuals.size() / 2, abs_residuals.end());
+      const double scale = 1.4826 * abs_residuals[abs_residuals.size() / 2];
+      bearing_sigma_ = bearing_sigma_ > 0 ? 0.9 * bearing_sigma_ + 0.1 * scale : scale;
+    }
+    last_ = tri.pose;
+    UpdateBlurEstimate(*fr);
+    ever_tracked_ = true;
+    ++n_good_;
+    n_lost_ = 0;
+    return;
+  }
+  if (!ever_tracked_ && known_start_ && row->frame == 0) {
+    // No measurement yet: report the user's initial pose as such.
+    row->status = PoseStatus::kInit;
+    row->pose = initial_;
+  } else {
+    // Lost: tracking goes on from the motion model's prediction.
+    row->status = PoseStatus::kLost;
+  }
+  row->n_landmarks = n_found;
+  row->extra.assign(4, std::nan(""));
+  frame_pose_ = fr->predicted_pose;
+  n_good_ = 0;
+  ++n_lost_;
+}
+
+FrameResult Localizer::Process(const cv::Mat& grey, int frame, double time_s,
+                               const OdometryIncrement* odometry) {
+  CheckFrame(grey, frame);
+  motion_stepped_ = false;
+  FrameResult fr;
+  fr.row.frame = frame;
+  fr.row.time_s = time_s;
+  tracker_->BeginFrame(grey);
+  TriangulationResult tri;
+  bool accepted = false;
+  std::vector<float> signature;  // the compass's, of this frame (for the next one too)
+  if (opt_.compass) signature = compass_.Signature(grey);
+  if (known_start_ || ever_tracked_) {
+    // Prediction from the motion model, then the visual compass's heading.
+    fr.predicted_pose = PredictMotion(time_s, odometry);
+    TrackPredictions(fr.predicted_pose, signature, &fr, &tri);
+    RefineAroundSolution(&fr, &tri);
+    // A pose is reported only when its residuals are consistent and it
+    // agrees with the motion so far; one the motion model did not expect (a
+    // sudden stop or turn) only on strong evidence, as a relocalised one.
+    accepted = Acceptable(fr, tri) && Consistent(&fr, tri) && (AgreesWithMotion(&fr, tri) || Corroborated(fr, tri));
+    // A held relocalised pose is confirmed only on as much evidence as a
+    // relocalised pose needs (the frame is nearly the same image).
+    if (held_) {
+      accepted = accepted && EnoughForRelocalized(fr, tri);
+      if (!accepted) ++relocalize_failures_;
+    }
+  }
+  held_ = false;
+  int n_found = 0;  // before any relocalisation: what tracking from the prediction found
+  for (const auto& m : fr.measurements) n_found += m.found;
+  // Lost for a while (the robot may have been carried), or never found: search the room.
+  if (!accepted && RelocalizeIfLost(grey, frame, &fr, &tri)) {
+    accepted = Corroborated(fr, tri);
+    fr.unconfirmed = !accepted;
+  }
+  fr.triangulation = tri;
+  if (opt_.compass) last_signature_ = std::move(signature);
+  RecordOutcome(&fr, tri, accepted, n_found);
+  if (accepted) {
+    relocalize_failures_ = 0;
+    next_relocalize_frame_ = 0;
+  }
+  // The step of the model that tracked up to this frame (a hold starts a new one).
+  fr.has_motion_step = motion_stepped_;
+  if (fr.has_motion_step) fr.motion_step = motion_.step();
+  if (fr.unconfirmed) HoldForConfirmation(tri.pose, frame);
+  return fr;
+}
+
+}  // namespace pano

@@ -1,0 +1,268 @@
+// The per-frame localiser: predict the landmarks in view from the current
+// pose estimate and the map, track each one in the frame, and triangulate
+// the pose from their azimuths (paper sections 2-4). A second pass re-predicts
+// from the solved pose with a narrow search, which centres the linear samples
+// and the PH window on the edges.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "panotrack/sensor/calibration.h"
+#include "panotrack/scene/map.h"
+#include "panotrack/pose/pose_row.h"
+#include "panotrack/pose/robust_pose.h"
+#include "panotrack/lut/radius_table.h"
+#include "panotrack/pose/triangulate.h"
+#include "panotrack/scene/scene.h"
+#include "panotrack/track/compass.h"
+#include "panotrack/track/junction_tracker.h"
+#include "panotrack/track/landmarks.h"
+#include "panotrack/track/relocalize.h"
+#include "panotrack/track/motion_model.h"
+#include "panotrack/track/tracker.h"
+#include "panotrack/track/vertex_tracker.h"
+
+namespace pano {
+
+enum class TrackingMethod { kJunction, kVertex };
+const char* tracking_method_name(TrackingMethod m);
+
+struct LocalizerOptions {
+  TrackingMethod method = TrackingMethod::kJunction;
+  PredictionOptions prediction;
+  JunctionOptions junction;
+  VertexOptions vertex;
+  TriangulationOptions triangulation;
+  // The pose from the bearings through a consensus over minimal solutions
+  // (3 bearings) before the least-squares refinement: one wrong junction
+  // cannot bias the start.
+  bool robust_pose = true;
+  RobustPoseOptions robust;  // its inlier_threshold is the largest used
+  double min_inlier_threshold = 0.15 * M_PI / 180;
+  // The motion model (lengths in metres: scaled to the map's units). A pose
+  // whose innovation against its prediction exceeds gate_chi2 (squared
+  // Mahalanobis distance, 3 dof; 21.1 is the 99.99 % quantile) is not
+  // reported: a wrong pose is worse than a lost frame.
+  MotionModelOptions motion;
+  double gate_chi2 = 21.1;
+  // Floors on a triangulated pose's standard deviations for the gate (its
+  // covariance comes from a few residuals): heading (radians) and position
+  // as a fraction of the mean landmark distance.
+  double gate_heading_sigma = 0.1 * M_PI / 180;
+  double gate_position_fraction = 0.002;
+  // Integrity: the bearing residuals must be consistent (chi-square at
+  // integrity_confidence) with the bearing noise seen on recent frames,
+  // never taken below min_bearing_sigma (radians).
+  double integrity_confidence = 0.9999;
+  // ... and its quality figure (IntegrityReport::quality: inliers, spare
+  // bearings, consistency, geometry) at least this: below it the evidence is
+  // too thin to act on (few inliers of many, a weak geometry).
+  double min_quality = 0.15;
+  // ... and its error bound (protection_sigmas x its largest position std)
+  // within alert_fraction of the distance to its landmarks (0: no bound).
+  double protection_sigmas = 5.0;
+  double alert_fraction = 0.01;
+  // The noise assumed is four times the recent RMS residual (blur and
+  // geometry vary from frame to frame; a frame a little worse than the
+  // last is still right), within [min_bearing_sigma, max_bearing_sigma]:
+  // the cap keeps a drift into biased bearings from widening the test.
+  double min_bearing_sigma = 0.05 * M_PI / 180;
+  double max_bearing_sigma = 0.3 * M_PI / 180;
+  double initial_bearing_sigma = 0.2 * M_PI / 180;  // until good frames have been seen
+  double search_px = 8.0;         // half-width of the first pass's linear samples
+  // Landmarks tracked per frame: at most this many, spread in azimuth (one
+  // per sector, the nearest first). 0: all in view.
+  int max_landmarks = 12;
+  double refine_search_px = 3.0;  // second pass, around the solved pose
+  int refine_passes = 1;
+  // The second pass runs only when some landmark was found further than
+  // this from its prediction (px): otherwise the windows were centred.
+  double refine_threshold_px = 1.0;
+  bool constant_velocity = true;  // predict with the last frame-to-frame motion
+  bool compass = true;            // predict the heading with the visual compass
+  double compass_max_rotation = 60.0 * M_PI / 180;  // per frame
+  double compass_min_score = 0.5;
+  // A solution is accepted only with a bearing RMS below this (radians) and
+  // at least this fraction of the predicted landmarks as inliers (when at
+  // least 8 were predicted): a few wrong junctions can triangulate exactly.
+  double max_rms_bearing = 0.5 * M_PI / 180;
+  double min_inlier_fraction = 0.5;
+  // After this many consecutive lost frames, search the whole room for the
+  // pose (0: never). Relocalisation accepts a pose only with at least
+  // relocalize_min_landmarks inliers.
+  int relocalize_after = 2;
+  // After three failed relocalisations in a row the next waits 2, 4 ...
+  // frames (at most this many): a long loss costs a bounded share of the
+  // frames, a short one is searched on every frame.
+  int relocalize_max_interval = 8;
+  int relocalize_min_landmarks = 6;
+  // A relocalised pose also needs this fraction of its predicted landmarks
+  // as inliers, and must beat every hypothesis elsewhere in the room
+  // (further than relocalize_distinct, as a fraction of the room's size) by
+  // relocalize_margin inliers: symmetric rooms offer near-copies of a view.
+  double relocalize_min_fraction = 0.5;
+  int relocalize_margin = 2;
+  double relocalize_distinct = 0.05;
+  // A relocalised pose (the first pose, after a kidnap or a loss) is
+  // reported at once only with this fraction of its chosen landmarks as
+  // inliers; with fewer (a wrong pose fits a few bearings easily) the next
+  // frame must track from it first (above 1: every one).
+  double relocalize_confirmed_fraction = 2.0 / 3.0;
+  RelocalizeOptions relocalize;
+  // The longest exposure expected, as a fraction of the frame interval:
+  // motion blur spans at most this fraction of a landmark's image motion
+  // between frames, and the edge detectors allow ramps that wide. 1: any.
+  double exposure_fraction = 1.0;
+  // Until the motion is known (the first frames, after a lost one), edges
+  // may be blurred by a turn this fast (radians per frame).
+  double unknown_turn_per_frame = 12.0 * M_PI / 180;
+  double lost_search_growth = 1.5;  // search widens by this after a lost frame
+  double max_search_px = 20.0;
+  // Threads of the per-frame parallel loops (landmarks, relocalisation
+  // hypotheses, the PH tables of its own cache); 0: OpenMP's default (all
+  // cores unless OMP_NUM_THREADS says otherwise). Set per localiser, never
+  // process-wide; the results do not depend on it.
+  int num_threads = 0;
+  void Check() const;
+};
+
+struct FrameResult {
+  PoseRow row;
+  Pose2 predicted_pose;
+  bool relocalized = false;     // the pose came from the room-wide search
+  bool unconfirmed = false;     // ... found, but held back for the next frame to confirm
+  double innovation = -1.0;     // squared Mahalanobis distance from the prediction (-1: none)
+  IntegrityReport integrity;    // of the reported pose
+  // The motion model's step at this frame, for a smoother (FixedLagSmoother);
+  // absent before the first pose.
+  bool has_motion_step = false;
+  MotionStep motion_step;
+  std::vector<PredictedLandmark> predicted;
+  std::vector<LandmarkMeasurement> measurements;  // one per predicted landmark
+  TriangulationResult triangulation;
+};
+
+// The PH tables the junction tracker uses, built per edge height on first use
+// with `num_threads` threads (0: OpenMP's default).
+std::shared_ptr<PhTableCache> MakeTrackingPhTables(std::shared_ptr<const RadiusTable> table,
+                                                   int num_threads = 0);
+
+// Builds the tracker of `method` (the vertex tracker lives in track/vertex_tracker.h).
+// `ph_tables` (built on first use, per edge height) may be shared by every
+// localiser of one calibration and map; null: a cache of its own, built with
+// options.num_threads threads.
+std::unique_ptr<LandmarkTracker> MakeTracker(TrackingMethod method, const Sensor& sensor,
+                                             std::shared_ptr<const RadiusTable> table,
+                                             const LocalizerOptions& options,
+                                             std::shared_ptr<PhTableCache> ph_tables = nullptr);
+
+class Localizer {
+ public:
+  Localizer(const Calibration& calib, const Map& map, std::shared_ptr<const RadiusTable> table,
+            const LocalizerOptions& options, std::shared_ptr<PhTableCache> ph_tables = nullptr);
+  // Starts a sequence at a known pose. With `hint` false the pose is a
+  // guess only: tracking starts from it, and the room-wide search takes
+  // over at once if the first frame does not confirm it.
+  void Reset(const Pose2& initial, bool hint = false);
+  // Starts a sequence with no idea of the pose: the first frame is
+  // localised by the room-wide search.
+  void ResetUnknown();
+  // Processes one grey frame (CV_8UC1 of the calibration's size) taken at
+  // time_s. `odometry`, when given, is the robot's own measure of its motion
+  // since the previous frame (wheel odometry): the prediction uses it
+  // instead of the constant-velocity model.
+  FrameResult Process(const cv::Mat& grey, int frame, double time_s,
+                      const OdometryIncrement* odometry = nullptr);
+
+  const Map& map() const { return map_; }
+  const Sensor& sensor() const { return calib_.sensor; }
+  const std::vector<Landmark>& landmarks() const { return landmarks_; }
+
+ private:
+  // `motion`: this frame's motion when better known than the prediction
+  // (after a first solve); it sets the expected blur of each edge.
+  void Measure(const Pose2& pose, double search_px, FrameResult* out, const Pose2* motion = nullptr) const;
+  // The motion from the previous frame's pose to `pose`, when that pose was measured.
+  std::optional<Pose2> SolvedMotion(const Pose2& pose) const;
+  TriangulationResult Solve(const FrameResult& fr, const Pose2& prior) const;
+  bool Acceptable(const FrameResult& fr, const TriangulationResult& tri) const;
+  std::vector<BearingObservation> Observations(const FrameResult& fr) const;
+  // The integrity test of an acceptable solution (fills fr->integrity).
+  bool Consistent(FrameResult* fr, const TriangulationResult& tri) const;
+  // The innovation gate against the motion model (fills fr->innovation).
+  bool AgreesWithMotion(FrameResult* fr, const TriangulationResult& tri) const;
+  // Tracks from `pose` (first a wide, then a narrow search); true if accepted.
+  bool TrackFrom(const Pose2& pose, double search_px, FrameResult* fr, TriangulationResult* tri) const;
+  bool Relocalize(const cv::Mat& grey, FrameResult* fr, TriangulationResult* tri) const;
+  // The steps of Process:
+  void CheckFrame(const cv::Mat& grey, int frame) const;
+  // the motion model's prediction for time t (started at the first frame);
+  Pose2 PredictMotion(double time_s, const OdometryIncrement* odometry);
+  // tracking from that prediction, then from the visual compass's heading
+  // (CompassPose, from this frame's azimuthal `signature`), then with wider
+  // searches until accepted;
+  void TrackPredictions(const Pose2& pred, const std::vector<float>& signature, FrameResult* fr,
+                        TriangulationResult* tri) const;
+  std::optional<Pose2> CompassPose(const Pose2& pred, const std::vector<float>& signature) const;
+  // narrow passes around the solved pose when landmarks were off-centre;
+  void RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) const;
+  // the room-wide search after relocalize_after lost frames;
+  bool RelocalizeIfLost(const cv::Mat& grey, int frame, FrameResult* fr, TriangulationResult* tri);
+  // whether a relocalised pose stands on its own evidence;
+  bool Corroborated(const FrameResult& fr, const TriangulationResult& tri) const;
+  // the landmarks chosen to track at this frame (max_landmarks of those predicted);
+  double ChosenLandmarks(const FrameResult& fr) const;
+  // the frame before which no room-wide search runs after the recent failures;
+  int BackedOffRelocalizeFrame(int frame) const;
+  // whether a relocalised pose has the inliers a room-wide search requires;
+  bool EnoughForRelocalized(const FrameResult& fr, const TriangulationResult& tri) const;
+  // tracking restarts from a relocalised pose that the next frame must confirm;
+  void HoldForConfirmation(const Pose2& pose, int frame);
+  // the output row and the motion model's state.
+  void RecordOutcome(FrameResult* fr, const TriangulationResult& tri, bool accepted, int n_found);
+
+  Calibration calib_;
+  Map map_;
+  Scene scene_;
+  std::shared_ptr<const RadiusTable> table_;
+  LocalizerOptions opt_;
+  std::vector<Landmark> landmarks_;
+  std::unique_ptr<LandmarkTracker> tracker_;
+  // Built on the first room-wide search (a tracked run never needs it).
+  mutable std::unique_ptr<const RelocalizationIndex> relocalization_index_;
+  AzimuthCompass compass_;
+  std::vector<float> last_signature_;
+  Pose2 initial_;
+  Pose2 last_;  // the last good pose
+  // The camera's motion over the last frame interval (world frame), for the
+  // landmarks' expected motion blur; kept while lost.
+  Pose2 frame_motion_;
+  // The exposure as a fraction of the frame interval, estimated from the
+  // widths of the tracked edges against their image motion; and the width
+  // of an edge the camera does not move across (the optics' blur, px).
+  double blur_fraction_ = 1.0;
+  double still_edge_width_px_ = 1.5;
+  void UpdateBlurEstimate(const FrameResult& fr);
+  int n_good_ = 0;   // consecutive good frames (for the velocity model)
+  int n_lost_ = 0;   // consecutive lost frames
+  bool started_ = false;
+  bool known_start_ = true;   // initial_ is a pose to track from (not unknown)
+  bool start_is_hint_ = false;  // ... but only a guess
+  bool ever_tracked_ = false;
+  bool held_ = false;  // this frame must confirm a relocalised pose (HoldForConfirmation)
+  MotionModel motion_;
+  MotionModelOptions motion_options_;  // in map units
+  double last_dt_ = 0.0;               // seconds between the last two frames
+  int motion_updates_ = 0;             // poses fused since the model (re)started
+  bool motion_stepped_ = false;        // the model took a step at this frame
+  Pose2 frame_pose_;                   // the estimate at the previous frame (for the compass)
+  int next_relocalize_frame_ = 0;
+  int relocalize_failures_ = 0;
+  // The bearing noise of recent good frames (radians), for the integrity test.
+  double bearing_sigma_ = 0.0;
+};
+
+}  // namespace pano

@@ -1,0 +1,194 @@
+#include "panotrack/track/relocalize.h"
+
+#include <algorithm>
+#include <cmath>
+#include <exception>
+#include <limits>
+#include <opencv2/imgproc.hpp>
+
+#include "panotrack/core/error.h"
+#include "panotrack/core/parallel.h"
+
+namespace pano {
+
+void RelocalizeOptions::Check() const {
+  if (grid_step < 0 || wall_margin < 0 || heading_bins < 36 || hypotheses < 1 || !(support_cap >= 0 && support_cap <= 1))
+    throw Error("relocalisation: grid_step, wall_margin >= 0, heading_bins >= 36, hypotheses >= 1, support_cap 0..1");
+}
+
+namespace {
+
+// The distinct vertical edges seen from a position (a rectangle's two
+// corners share one), as azimuth bins at heading 0.
+std::vector<int> EdgeBinsAt(const Eigen::Vector2d& position, int bins, const Sensor& sensor,
+                            const RadiusTable& table, const Map& map, const Scene& scene,
+                            const std::vector<Landmark>& landmarks, const PredictionOptions& prediction) {
+  const std::vector<PredictedLandmark> pred =
+      PredictLandmarks(landmarks, map, scene, sensor, table, Pose2{position.x(), position.y(), 0.0}, prediction);
+  std::vector<int> edge_bins;
+  for (const PredictedLandmark& p : pred) {
+    int b = static_cast<int>(std::floor((p.azimuth + M_PI) / (2 * M_PI) * bins));
+    b = (b % bins + bins) % bins;
+    if (std::find(edge_bins.begin(), edge_bins.end(), b) == edge_bins.end()) edge_bins.push_back(b);
+  }
+  return edge_bins;
+}
+
+}  // namespace
+
+HeadingSearch::HeadingSearch(const std::vector<float>& hist, int block)
+    : bins_(static_cast<int>(hist.size())), block_(block), hist2_(2 * hist.size()), block_max2_(2 * hist.size()) {
+  if (bins_ < 1 || block_ < 1) throw Error("heading search: expected a histogram and a block of >= 1 bins");
+  for (int i = 0; i < 2 * bins_; ++i) {
+    hist2_[static_cast<size_t>(i)] = hist[static_cast<size_t>(i % bins_)];
+    float m = hist2_[static_cast<size_t>(i)];
+    for (int j = 1; j < block_; ++j) m = std::max(m, hist[static_cast<size_t>(((i - j) % bins_ + bins_) % bins_)]);
+    block_max2_[static_cast<size_t>(i)] = m;
+  }
+}
+
+double HeadingSearch::Score(const std::vector<int>& edge_bins, const float* values, int t) const {
+  double sum = 0;
+  for (int b : edge_bins) sum += values[b - t + bins_];  // azimuths at heading t: those at 0 minus t
+  return sum - 0.15 * edge_bins.size();
+}
+
+int HeadingSearch::Best(const std::vector<int>& edge_bins, double* best_score) const {
+  *best_score = 0.0;
+  const int n_blocks = (bins_ + block_ - 1) / block_;
+  std::vector<double> bounds(static_cast<size_t>(n_blocks));
+  for (int k = 0; k < n_blocks; ++k) bounds[static_cast<size_t>(k)] = Score(edge_bins, block_max2_.data(), k * block_);
+  int best_t = -1;
+  for (;;) {
+    // The unsearched block with the highest bound (the lowest among equals).
+    const int k = static_cast<int>(std::max_element(bounds.begin(), bounds.end()) - bounds.begin());
+    const double bound = bounds[static_cast<size_t>(k)];
+    if (bound < *best_score || bound <= 0.0) break;
+    bounds[static_cast<size_t>(k)] = -std::numeric_limits<double>::infinity();
+    for (int t = k * block_; t < std::min(bins_, (k + 1) * block_); ++t) {
+      const double score = Score(edge_bins, hist2_.data(), t);
+      if (score > *best_score || (best_t >= 0 && score == *best_score && t < best_t)) {
+        *best_score = score;
+        best_t = t;
+      }
+    }
+  }
+  return best_t;
+}
+
+namespace {
+
+// The best heading at one position.
+PoseHypothesis BestHeadingAt(const Eigen::Vector2d& position, const std::vector<int>& edge_bins,
+                             const HeadingSearch& search, int bins) {
+  PoseHypothesis best{Pose2{position.x(), position.y(), 0.0}, 0.0};
+  if (edge_bins.size() < 3) return best;
+  const int t = search.Best(edge_bins, &best.score);
+  if (t >= 0) best.pose.theta = wrap_angle((t + 0.5) * 2 * M_PI / bins);
+  return best;
+}
+
+}  // namespace
+
+RelocalizationIndex::RelocalizationIndex(const Sensor& sensor, const RadiusTable& table, const Map& map,
+                                         const Scene& scene, const std::vector<Landmark>& landmarks,
+                                         const PredictionOptions& prediction, const RelocalizeOptions& options,
+                                         int num_threads)
+    : opt_(options), cols_(sensor.image_width), rows_(sensor.image_height), aspect_(sensor.params.aspect) {
+  opt_.Check();
+  const int bins = opt_.heading_bins;
+  const double limb = sensor.limb_radius();
+  for (int v = 1; v < rows_ - 1; ++v)
+    for (int u = 1; u < cols_ - 1; ++u) {
+      double r, az;
+      sensor.to_polar(u, v, &r, &az);
+      if (r < 0.3 * limb || r > 0.97 * limb) continue;
+      const int b = static_cast<int>(std::floor((az + M_PI) / (2 * M_PI) * bins));
+      pixels_.push_back({v * cols_ + u, (b % bins + bins) % bins, static_cast<float>(std::cos(az)),
+                         static_cast<float>(std::sin(az))});
+    }
+  Eigen::Vector2d lo, hi;
+  double top;
+  map.Extent(&lo, &hi, &top);
+  step_ = opt_.grid_step > 0 ? opt_.grid_step : std::max(hi.x() - lo.x(), hi.y() - lo.y()) / 40.0;
+  const double margin = opt_.wall_margin > 0 ? opt_.wall_margin : step_;
+  for (double x = lo.x() + margin; x <= hi.x() - margin; x += step_)
+    for (double y = lo.y() + margin; y <= hi.y() - margin; y += step_)
+      if (map.IsFree(x, y) && map.IsFree(x + margin, y) && map.IsFree(x - margin, y) &&
+          map.IsFree(x, y + margin) && map.IsFree(x, y - margin))
+        positions_.emplace_back(x, y);
+  edge_bins_.resize(positions_.size());
+  std::vector<std::exception_ptr> errors(positions_.size());
+#pragma omp parallel for schedule(dynamic, 4) num_threads(ThreadCount(num_threads))
+  for (int i = 0; i < static_cast<int>(positions_.size()); ++i) {
+    try {
+      edge_bins_[i] = EdgeBinsAt(positions_[i], bins, sensor, table, map, scene, landmarks, prediction);
+    } catch (...) {
+      errors[static_cast<size_t>(i)] = std::current_exception();
+    }
+  }
+  RethrowFirst(errors);
+}
+
+std::vector<float> RelocalizationIndex::RadialEdgeHistogram(const cv::Mat& grey) const {
+  if (grey.type() != CV_8UC1 || grey.cols != cols_ || grey.rows != rows_ || !grey.isContinuous())
+    throw Error("relocalisation: expected a continuous 8-bit grey image of the sensor's size");
+  const int bins = opt_.heading_bins;
+  const uint8_t* img = grey.ptr<uint8_t>(0);
+  const int w = cols_;
+  std::vector<double> h(bins, 0.0);
+  for (const Pixel& p : pixels_) {
+    // 3x3 Sobel, as cv::Sobel computes it inside the image.
+    const uint8_t* c = img + p.offset;
+    const float gx = static_cast<float>((c[-w + 1] + 2 * c[1] + c[w + 1]) - (c[-w - 1] + 2 * c[-1] + c[w - 1]));
+    const float gy = static_cast<float>((c[w - 1] + 2 * c[w] + c[w + 1]) - (c[-w - 1] + 2 * c[-w] + c[-w + 1]));
+    const double g_tan = -p.sin_az * gx + p.cos_az * gy / aspect_;
+    const double g_rad = p.cos_az * gx + p.sin_az * gy / aspect_;
+    if (std::abs(g_tan) < 2.0 * std::abs(g_rad) || std::abs(g_tan) < 8.0) continue;
+    h[p.bin] += std::abs(g_tan);
+  }
+  // Smooth with a triangle of half-width 2 degrees (a candidate position a
+  // grid step off shifts near bearings by that much) and normalise to a
+  // maximum of 1.
+  const int half = std::max(1, static_cast<int>(std::lround(2.0 / 360.0 * bins)));
+  std::vector<float> out(bins);
+  double mx = 0;
+  for (int b = 0; b < bins; ++b) {
+    double v = 0;
+    for (int k = -half; k <= half; ++k) v += (half + 1 - std::abs(k)) * h[((b + k) % bins + bins) % bins];
+    out[b] = static_cast<float>(v);
+    mx = std::max(mx, v);
+  }
+  if (mx > 0)
+    for (float& v : out) v = static_cast<float>(v / mx);
+  return out;
+}
+
+std::vector<PoseHypothesis> RelocalizationIndex::Hypotheses(const cv::Mat& grey, int num_threads) const {
+  std::vector<float> hist = RadialEdgeHistogram(grey);
+  if (opt_.support_cap > 0)
+    for (float& h : hist) h = static_cast<float>(std::min<double>(h, opt_.support_cap) / opt_.support_cap);
+  const int bins = static_cast<int>(hist.size());
+  const HeadingSearch search(hist, 8);
+  std::vector<PoseHypothesis> scored(positions_.size());
+#pragma omp parallel for schedule(dynamic, 16) num_threads(ThreadCount(num_threads))
+  for (int i = 0; i < static_cast<int>(positions_.size()); ++i)
+    scored[i] = BestHeadingAt(positions_[i], edge_bins_[i], search, bins);
+  std::stable_sort(scored.begin(), scored.end(),
+                   [](const PoseHypothesis& a, const PoseHypothesis& b) { return a.score > b.score; });
+  // Distinct hypotheses: at least two grid steps or 20 degrees apart.
+  std::vector<PoseHypothesis> out;
+  for (const PoseHypothesis& h : scored) {
+    if (h.score <= 0) break;
+    bool distinct = true;
+    for (const PoseHypothesis& o : out)
+      if (std::hypot(h.pose.x - o.pose.x, h.pose.y - o.pose.y) < 2 * step_ &&
+          std::abs(wrap_angle(h.pose.theta - o.pose.theta)) < 20 * M_PI / 180)
+        distinct = false;
+    if (distinct) out.push_back(h);
+    if (static_cast<int>(out.size()) >= opt_.hypotheses) break;
+  }
+  return out;
+}
+
+}  // namespace pano

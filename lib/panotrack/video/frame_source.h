@@ -1,0 +1,103 @@
+// Frames from a video file, a folder of images (sorted by name), a printf
+// pattern ("frames/frame_%04d.png"), standard input ("-"), a camera
+// (/dev/video0) or a stream URL (rtsp://, udp://, http://...), converted to
+// 8-bit grey, decoded ahead on a thread of their own so that decoding
+// overlaps tracking. Videos and streams are decoded to their luma plane
+// directly where FFmpeg allows (LumaDecoder), else through cv::VideoCapture;
+// cameras through cv::VideoCapture's V4L2 backend.
+//
+// An input that ends early or holds damaged data is an error, not a short
+// success: Read() hands out every frame decoded before the problem, then
+// throws pano::Error "<input>: decode error at frame N: <why>" (N counts from
+// 0: the frames before it were handed out; the reasons are listed in
+// luma_decoder.h, plus "truncated or damaged file (container lists 62
+// frames)" on the cv::VideoCapture path and "camera stopped delivering
+// frames" for cameras).
+#pragma once
+
+#include <condition_variable>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <opencv2/core.hpp>
+#include <opencv2/videoio.hpp>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "panotrack/video/luma_decoder.h"
+
+namespace pano {
+
+class FrameSource {
+ public:
+  // Opens the input and reads its first frame; throws pano::Error naming the
+  // input when it cannot be opened or holds no frame. Decoding runs ahead by
+  // up to `prefetch_bytes` of frames (at least 8), so that it goes on while
+  // the tracker starts up. A stream (IsLive) that delivers no data for
+  // `live_timeout_s` fails with "no data for ... s", at opening or later.
+  explicit FrameSource(const std::string& path, size_t prefetch_bytes = size_t(64) << 20,
+                       double live_timeout_s = 10.0);
+  ~FrameSource();
+  FrameSource(const FrameSource&) = delete;
+  FrameSource& operator=(const FrameSource&) = delete;
+
+  // True for inputs that are read as they arrive and have no known length:
+  // "-" (standard input), camera devices (/dev/video0), stream URLs
+  // (rtsp://, udp://...).
+  static bool IsLive(const std::string& path);
+
+  // Number of frames of an input as its container lists it, without
+  // decoding; -1 when unknown or unreadable (for a progress display). Live
+  // inputs are not opened: -1.
+  static int FrameCount(const std::string& path);
+
+  // Next frame; false at the clean end. Throws pano::Error for a frame that
+  // cannot be decoded or an input that ends before its container says.
+  bool Read(cv::Mat* grey);
+  // The same, with the frame's presentation time in seconds from the first
+  // frame's, from the video's timestamps (variable frame rates included);
+  // NaN for image folders and patterns.
+  bool Read(cv::Mat* grey, double* time_s);
+  int width() const { return width_; }
+  int height() const { return height_; }
+  double fps() const { return fps_; }         // 0 when unknown (image folders)
+  int frame_count() const { return count_; }  // -1 when unknown (and for live inputs)
+
+ private:
+  struct Frame {
+    cv::Mat image;  // as decoded
+    double time_s;
+  };
+  void OpenVideo(double live_timeout_s);
+  void OpenCamera();
+  bool ReadDirect(Frame* frame);  // the next frame as decoded
+  bool ReadCapture(Frame* frame);
+  void Decode();
+  std::string path_, name_;            // name_: how errors name the input
+  std::unique_ptr<LumaDecoder> luma_;  // videos and streams with a luma plane
+  cv::VideoCapture capture_;           // other videos, and cameras
+  bool camera_ = false;
+  long captured_ = 0;           // frames read through capture_
+  long capture_expected_ = -1;  // frames capture_ must deliver; -1 unknown
+  double first_capture_ms_ = 0.0;
+  std::vector<std::string> files_;  // folder or pattern input
+  size_t next_file_ = 0;
+  int width_ = 0, height_ = 0, count_ = -1;
+  double fps_ = 0.0;
+  Frame first_;  // read by the constructor, already grey
+  bool have_first_ = false;
+  // Prefetch queue.
+  int capacity_;
+  std::thread worker_;
+  std::mutex mu_;
+  std::condition_variable cv_;
+  std::deque<Frame> queue_;  // decoded frames, converted to grey by Read()
+  // Buffers handed back by Read() for the decoder to fill again: a fresh
+  // frame-sized allocation per frame costs page faults on every frame.
+  std::vector<cv::Mat> free_;
+  bool done_ = false, stop_ = false;
+  std::string error_;
+};
+
+}  // namespace pano

@@ -1,0 +1,371 @@
+#include "panotrack/video/luma_decoder.h"
+
+#include "panotrack/core/error.h"
+#include "panotrack/config.h"
+#include "panotrack/video/logging.h"
+
+#if PANO_WITH_FFMPEG
+extern "C" {
+#include <libavcodec/avcodec.h>
+#include <libavformat/avformat.h>
+#include <libavutil/pixdesc.h>
+#include <libavutil/time.h>
+}
+#include <poll.h>
+#include <unistd.h>
+#endif
+
+#include <atomic>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <mutex>
+
+namespace pano {
+
+std::string InputName(const std::string& path) { return path == "-" ? "standard input" : path; }
+
+#if PANO_WITH_FFMPEG
+
+namespace {
+
+// A truncated file whose container states its duration but no frame count
+// (Matroska) is caught when its packets end this much short of the duration.
+constexpr double kDurationSlackS = 0.5;
+
+std::string AvError(int code) {
+  char text[AV_ERROR_MAX_STRING_SIZE] = {0};
+  av_strerror(code, text, sizeof(text));
+  return text;
+}
+
+std::string Format(const char* fmt, double value) {
+  char text[64];
+  std::snprintf(text, sizeof(text), fmt, value);
+  return text;
+}
+
+// Formats whose first plane is 8-bit luma at full resolution.
+bool HasLumaPlane(int format) {
+  const AVPixFmtDescriptor* desc = av_pix_fmt_desc_get(static_cast<AVPixelFormat>(format));
+  return desc && !(desc->flags & (AV_PIX_FMT_FLAG_RGB | AV_PIX_FMT_FLAG_PAL | AV_PIX_FMT_FLAG_HWACCEL)) &&
+         desc->comp[0].plane == 0 && desc->comp[0].depth == 8 && desc->comp[0].step == 1;
+}
+
+std::string NoLumaPlane(int format) {
+  const char* name = av_get_pix_fmt_name(static_cast<AVPixelFormat>(format));
+  return std::string("pixel format ") + (name ? name : "unknown") + " has no 8-bit luma plane";
+}
+
+}  // namespace
+
+struct LumaDecoder::Impl {
+  AVFormatContext* format = nullptr;
+  AVCodecContext* codec = nullptr;
+  AVPacket* packet = nullptr;
+  AVFrame* frame = nullptr;
+  int stream = -1;
+  std::string name;  // the input as errors name it
+  bool flushing = false, done = false;
+  // A problem found by the demuxer ahead of the decoder's output: reported
+  // once the frames decoded before it are handed out.
+  std::string pending;
+  long frames_out = 0, packets_in = 0, listed_frames = -1;
+  int checked_format = AV_PIX_FMT_NONE;
+  AVRational time_base{0, 1};
+  double fps = 0.0;
+  int64_t first_timestamp = AV_NOPTS_VALUE;
+  int64_t data_end = AV_NOPTS_VALUE;  // latest end of a packet of any stream, AV_TIME_BASE units
+  // Blocked input gives up at the deadline (streams) or on Abort().
+  int64_t timeout_us = 0;
+  std::atomic<int64_t> deadline_us{0};  // 0: none
+  std::atomic<bool> aborted{false}, timed_out{false};
+  AVIOContext* stdin_io = nullptr;  // standard input, read by ReadStdin
+
+  ~Impl() {
+    if (frame) av_frame_free(&frame);
+    if (packet) av_packet_free(&packet);
+    if (codec) avcodec_free_context(&codec);
+    if (format) avformat_close_input(&format);
+    if (stdin_io) {
+      av_freep(&stdin_io->buffer);
+      avio_context_free(&stdin_io);
+    }
+  }
+
+  // FFmpeg's pipe protocol blocks in read() regardless of the interrupt
+  // callback: standard input is read here instead, waiting with poll() in
+  // short steps so that a deadline or Abort() ends the wait.
+  static int ReadStdin(void* opaque, uint8_t* buf, int size) {
+    for (;;) {
+      if (Interrupt(opaque)) return AVERROR_EXIT;
+      pollfd in{0, POLLIN, 0};
+      const int ready = poll(&in, 1, 100);
+      if (ready < 0 && errno != EINTR) return AVERROR(errno);
+      if (ready <= 0) continue;
+      const ssize_t n = read(0, buf, static_cast<size_t>(size));
+      if (n > 0) return static_cast<int>(n);
+      if (n == 0) return AVERROR_EOF;
+      if (errno != EINTR && errno != EAGAIN) return AVERROR(errno);
+    }
+  }
+  bool UseStdin() {
+    constexpr int kBufferBytes = 1 << 16;
+    auto* buffer = static_cast<unsigned char*>(av_malloc(kBufferBytes));
+    if (buffer) stdin_io = avio_alloc_context(buffer, kBufferBytes, 0, this, &ReadStdin, nullptr, nullptr);
+    if (!stdin_io) {
+      av_free(buffer);
+      return false;
+    }
+    format->pb = stdin_io;
+    return true;
+  }
+
+  static int Interrupt(void* opaque) {
+    Impl& d = *static_cast<Impl*>(opaque);
+    if (d.aborted) return 1;
+    const int64_t deadline = d.deadline_us;
+    if (deadline != 0 && av_gettime_relative() > deadline) {
+      d.timed_out = true;
+      return 1;
+    }
+    return 0;
+  }
+  void ArmTimeout() {
+    if (timeout_us > 0) deadline_us = av_gettime_relative() + timeout_us;
+  }
+  std::string NoData() const { return Format("no data for %g s", timeout_us / 1e6); }
+
+  [[noreturn]] void Fail(const std::string& why) {
+    done = true;
+    throw Error(name + ": decode error at frame " + std::to_string(frames_out) + ": " +
+                (pending.empty() ? why : pending));
+  }
+
+  std::string Truncated() const {
+    if (listed_frames > 0)
+      return "truncated file (container lists " + std::to_string(listed_frames) + " frames)";
+    return "truncated file (its last packet is cut short)";
+  }
+
+  void NoteDataEnd(const AVPacket& p) {
+    int64_t t = p.pts != AV_NOPTS_VALUE ? p.pts : p.dts;
+    if (t == AV_NOPTS_VALUE) return;
+    t += std::max<int64_t>(p.duration, 0);
+    const AVRational microseconds{1, AV_TIME_BASE};  // AV_TIME_BASE_Q is a C compound literal
+    const int64_t end = av_rescale_q(t, format->streams[p.stream_index]->time_base, microseconds);
+    if (data_end == AV_NOPTS_VALUE || end > data_end) data_end = end;
+  }
+
+  void StartFlush() {
+    avcodec_send_packet(codec, nullptr);
+    flushing = true;
+  }
+
+  // Sends the next packet of the video stream to the decoder, or starts
+  // flushing it at the end of the input or at a damaged packet.
+  void Feed() {
+    int rd;
+    ArmTimeout();
+    while ((rd = av_read_frame(format, packet)) >= 0) {
+      NoteDataEnd(*packet);
+      if (packet->stream_index == stream) break;
+      av_packet_unref(packet);
+      ArmTimeout();
+    }
+    deadline_us = 0;
+    if (aborted) {
+      if (rd >= 0) av_packet_unref(packet);
+      done = true;
+      return;
+    }
+    if (rd >= 0 && (timed_out || (format->pb && format->pb->error < 0))) {
+      // The demuxer hands out what it had buffered when the input stalled or
+      // failed (a stream's partial last packet): its frame would be damaged.
+      av_packet_unref(packet);
+      pending = timed_out ? NoData() : "read failed (" + AvError(format->pb->error) + ")";
+      StartFlush();
+      return;
+    }
+    if (rd >= 0 && (packet->flags & AV_PKT_FLAG_CORRUPT)) {
+      av_packet_unref(packet);
+      pending = format->pb && avio_feof(format->pb) ? Truncated() : "damaged packet in the container";
+      StartFlush();
+      return;
+    }
+    if (rd < 0) {
+      // Input errors may surface as an early end of file.
+      const int io_error = format->pb ? format->pb->error : 0;
+      if (timed_out) pending = NoData();
+      else if (rd != AVERROR_EOF) pending = "read failed (" + AvError(rd) + ")";
+      else if (io_error < 0) pending = "read failed (" + AvError(io_error) + ")";
+      StartFlush();
+      return;
+    }
+    ++packets_in;
+    const int sent = avcodec_send_packet(codec, packet);
+    av_packet_unref(packet);
+    // With frame threads the error belongs to the oldest packet in the
+    // decoder, the one whose frame is due next: the frames after it are not
+    // to be handed out in its place.
+    if (sent < 0) Fail("corrupt data (" + AvError(sent) + ")");
+  }
+
+  // At the decoder's end: the demuxer's pending problem, or fewer packets
+  // or seconds than the container lists.
+  void CheckComplete() {
+    if (!pending.empty()) Fail(pending);
+    if (listed_frames > 0 && packets_in < listed_frames) Fail(Truncated());
+    if (listed_frames <= 0 && format->duration > 0 &&
+        format->duration_estimation_method != AVFMT_DURATION_FROM_BITRATE && data_end != AV_NOPTS_VALUE) {
+      const int64_t start = format->start_time != AV_NOPTS_VALUE ? format->start_time : 0;
+      const double listed_s = format->duration / 1e6, reached_s = (data_end - start) / 1e6;
+      if (reached_s < listed_s - kDurationSlackS)
+        Fail(Format("truncated or damaged file (container lists %.2f s, ", listed_s) +
+             Format("data ends at %.2f s)", reached_s));
+    }
+  }
+
+  double FrameTime() {
+    const int64_t ts = frame->best_effort_timestamp;
+    if (ts == AV_NOPTS_VALUE) return fps > 0.0 ? frames_out / fps : std::nan("");
+    if (first_timestamp == AV_NOPTS_VALUE) first_timestamp = ts;
+    return static_cast<double>(ts - first_timestamp) * av_q2d(time_base);
+  }
+
+  // Copies the decoded frame's luma plane out (the decoder reuses its buffers).
+  void Deliver(cv::Mat* grey, double* time_s) {
+    const bool damaged = (frame->flags & AV_FRAME_FLAG_CORRUPT) || frame->decode_error_flags != 0;
+    const int pixel_format = frame->format;
+    if (damaged || (pixel_format != checked_format && !HasLumaPlane(pixel_format))) {
+      av_frame_unref(frame);
+      Fail(damaged ? "damaged frame (the decoder concealed errors in it)" : NoLumaPlane(pixel_format));
+    }
+    checked_format = pixel_format;
+    grey->create(frame->height, frame->width, CV_8UC1);
+    for (int y = 0; y < frame->height; ++y)
+      std::memcpy(grey->ptr<uchar>(y), frame->data[0] + static_cast<ptrdiff_t>(y) * frame->linesize[0],
+                  frame->width);
+    if (time_s) *time_s = FrameTime();
+    av_frame_unref(frame);
+    ++frames_out;
+  }
+};
+
+bool LumaDecoderAvailable() { return true; }
+
+LumaDecoder::LumaDecoder() = default;
+LumaDecoder::~LumaDecoder() = default;
+
+bool LumaDecoder::Open(const std::string& path, std::string* reason, double io_timeout_s) {
+  UseDefaultDecoderLogging();
+  static std::once_flag network_once;
+  std::call_once(network_once, [] { avformat_network_init(); });
+  impl_ = std::make_unique<Impl>();
+  Impl& d = *impl_;
+  d.name = InputName(path);
+  d.timeout_us = io_timeout_s > 0.0 ? static_cast<int64_t>(io_timeout_s * 1e6) : 0;
+  d.format = avformat_alloc_context();
+  if (!d.format) {
+    *reason = "out of memory";
+    return false;
+  }
+  d.format->interrupt_callback.callback = &Impl::Interrupt;
+  d.format->interrupt_callback.opaque = &d;
+  if (path == "-" && !d.UseStdin()) {
+    *reason = "out of memory";
+    return false;
+  }
+  {
+    DecoderErrorCapture ffmpeg_said;
+    d.ArmTimeout();
+    int r = avformat_open_input(&d.format, path == "-" ? "pipe:0" : path.c_str(), nullptr, nullptr);
+    if (r >= 0) r = avformat_find_stream_info(d.format, nullptr);
+    d.deadline_us = 0;
+    if (r < 0) {
+      *reason = d.timed_out ? d.NoData() : !ffmpeg_said.last().empty() ? ffmpeg_said.last() : AvError(r);
+      return false;
+    }
+  }
+  container_opened_ = true;
+  const AVCodec* decoder = nullptr;
+  d.stream = av_find_best_stream(d.format, AVMEDIA_TYPE_VIDEO, -1, -1, &decoder, 0);
+  if (d.stream < 0) {
+    *reason = "no video stream";
+    return false;
+  }
+  AVStream* st = d.format->streams[d.stream];
+  const AVRational r = st->avg_frame_rate.num ? st->avg_frame_rate : st->r_frame_rate;
+  fps_ = d.fps = r.den ? av_q2d(r) : 0.0;
+  frame_count_ = d.listed_frames = st->nb_frames > 0 ? static_cast<long>(st->nb_frames) : -1;
+  d.time_base = st->time_base;
+  if (!decoder) {
+    *reason = std::string("no decoder for ") + avcodec_get_name(st->codecpar->codec_id);
+    return false;
+  }
+  d.codec = avcodec_alloc_context3(decoder);
+  if (!d.codec || avcodec_parameters_to_context(d.codec, st->codecpar) < 0) {
+    *reason = "cannot set up the decoder";
+    return false;
+  }
+  d.codec->thread_count = 0;  // FFmpeg's choice, as OpenCV's capture does
+  if (avcodec_open2(d.codec, decoder, nullptr) < 0) {
+    *reason = "cannot open the decoder";
+    return false;
+  }
+  // A stream may state its pixel format only with its first frame: Read()
+  // checks every frame's.
+  if (d.codec->pix_fmt != AV_PIX_FMT_NONE && !HasLumaPlane(d.codec->pix_fmt)) {
+    *reason = NoLumaPlane(d.codec->pix_fmt);
+    return false;
+  }
+  d.packet = av_packet_alloc();
+  d.frame = av_frame_alloc();
+  if (!d.packet || !d.frame) {
+    *reason = "out of memory";
+    return false;
+  }
+  return true;
+}
+
+bool LumaDecoder::Read(cv::Mat* grey, double* time_s) {
+  Impl& d = *impl_;
+  while (!d.done) {
+    const int got = avcodec_receive_frame(d.codec, d.frame);
+    if (got == 0) {
+      d.Deliver(grey, time_s);
+      return true;
+    }
+    if (got == AVERROR(EAGAIN) && !d.flushing) {
+      d.Feed();
+      continue;
+    }
+    if (d.aborted) break;
+    if (got != AVERROR_EOF && got != AVERROR(EAGAIN)) d.Fail("corrupt data (" + AvError(got) + ")");
+    d.done = true;
+    d.CheckComplete();
+  }
+  return false;
+}
+
+void LumaDecoder::Abort() {
+  if (impl_) impl_->aborted = true;
+}
+
+#else  // !PANO_WITH_FFMPEG
+
+struct LumaDecoder::Impl {};
+bool LumaDecoderAvailable() { return false; }
+LumaDecoder::LumaDecoder() = default;
+LumaDecoder::~LumaDecoder() = default;
+bool LumaDecoder::Open(const std::string&, std::string* reason, double) {
+  *reason = "built without FFmpeg";
+  return false;
+}
+bool LumaDecoder::Read(cv::Mat*, double*) { return false; }
+void LumaDecoder::Abort() {}
+
+#endif
+
+}  // namespace pano
