@@ -12,7 +12,7 @@
 
 namespace pano::app {
 
-void AddCalibrateCommand(CLI::App& app) {
+void AddCalibrateCommand(CLI::App& app, const std::string& command_line) {
   struct Opts {
     std::string targets, out, lut, report, model = "sphere", distortion = "auto";
     double huber = 1.0, max_rms = 5.0, full_weight = CalibrateOptions().full_weight_px;
@@ -52,7 +52,7 @@ void AddCalibrateCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("-v,--verbose", o->verbose,
                 "Print step timings, the solver's progress and the libraries' warnings (quiet otherwise)");
-  cmd->callback([o]() {
+  cmd->callback([o, command_line]() {
     CalibrateOptions opt;
     if (o->model == "sphere") opt.model = MirrorModel::kSphere;
     else if (o->model == "conic") opt.model = MirrorModel::kConic;
@@ -72,7 +72,8 @@ void AddCalibrateCommand(CLI::App& app) {
     opt.Check();
     const TargetSet targets = ReadTargets(o->targets);
     const std::vector<cv::Mat> images = LoadTargetImages(targets);
-    const CalibrationResult r = Calibrate(targets, images, opt);
+    CalibrationResult r = Calibrate(targets, images, opt);
+    r.calib.command_line = command_line;
     cv::Mat report;
     if (!o->report.empty()) {
       // The worst image shows the residuals best.

@@ -4,13 +4,18 @@
 
 #include <CLI/CLI.hpp>
 
+#include <string>
+
 namespace pano::app {
 
 // project / backproject: check a calibration by hand.
 void AddProjectCommands(CLI::App& app);
 // lut: build the E(D,Z) lookup table of a calibration.
 void AddLutCommand(CLI::App& app);
-// calibrate: fit the sensor to chessboard images (lib/panotrack/calibrate).
-void AddCalibrateCommand(CLI::App& app);
+// calibrate: fit the sensor to chessboard images (lib/panotrack/calibrate);
+// `command_line` is recorded in the calibration file.
+void AddCalibrateCommand(CLI::App& app, const std::string& command_line);
+// export: the calibration in OpenCV's terms (camera matrix, cv::omnidir model).
+void AddExportCommand(CLI::App& app);
 
 }  // namespace pano::app

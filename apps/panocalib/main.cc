@@ -9,6 +9,7 @@
 #include <string>
 
 #include "commands.h"
+#include "panotrack/core/command_line.h"
 #include "panotrack/core/error.h"
 #include "panotrack/config.h"
 
@@ -53,7 +54,8 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", PANO_VERSION);
   pano::app::AddProjectCommands(app);
   pano::app::AddLutCommand(app);
-  pano::app::AddCalibrateCommand(app);
+  pano::app::AddCalibrateCommand(app, pano::ShellCommandLine(argc, argv));
+  pano::app::AddExportCommand(app);
   // Runs after the arguments are parsed and before the subcommand's callback.
   app.parse_complete_callback([&app, argv]() { SetUpLogging(argv[0], VerboseRequested(app)); });
   try {

@@ -10,6 +10,7 @@
 #include <fstream>
 
 #include "panotrack/calibrate/calibrate.h"
+#include "panotrack/config.h"
 #include "panotrack/core/error.h"
 #include "panotrack/io/calibration.h"
 #include "panotrack/io/targets.h"
@@ -155,7 +156,19 @@ TEST_CASE("outputs: calibration YAML with standard deviations, LUT, report", "[o
   CHECK(c.extras.count("mirror_radius_std") == 1);
   CHECK(c.extras.count("mirror_distance_std") == 1);
   CHECK(c.extras.at("rms_px") == Approx(r.rms_px));
-  CHECK(c.extras.count("rms_image_0") == 1);
+  // Per-image results keyed by file name, with the fitted board poses; counts as integers.
+  REQUIRE(c.images.size() == r.views.size());
+  for (size_t i = 0; i < r.views.size(); ++i) {
+    CHECK(c.images[i].file == r.views[i].file);
+    CHECK(c.images[i].rms_px == r.image_rms[i]);
+    CHECK(c.images[i].corners == static_cast<int>(r.views[i].corners.size()));
+    CHECK((c.images[i].rvec - r.views[i].rvec).norm() == 0.0);
+    CHECK((c.images[i].tvec - r.views[i].tvec).norm() == 0.0);
+  }
+  CHECK(c.software == std::string("panotrack ") + PANO_VERSION);
+  CHECK(c.extras.count("images_used") == 0);
+  const std::string yaml = CalibrationToYaml(r.calib);
+  CHECK(yaml.find("images_used: " + std::to_string(r.views.size()) + "\n") != std::string::npos);
   const RadiusTable t = RadiusTable::Load(c.lut_resolved, &c.sensor);
   CHECK_FALSE(t.empty());
   CHECK_FALSE(cv::imread(out.report).empty());

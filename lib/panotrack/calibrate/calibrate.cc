@@ -1,5 +1,6 @@
 // The calibration pipeline: options, orchestration, outputs and summary.
 #include "panotrack/calibrate/calibrate.h"
+#include "panotrack/config.h"
 
 #include <ceres/rotation.h>
 
@@ -94,11 +95,21 @@ void Describe(CalibrationResult* result, bool poses_known, const std::string& un
   for (const ParameterEstimate& p : res.parameters)
     if (!p.fixed && std::isfinite(p.stddev)) c.extras[p.name + "_std"] = p.stddev;
   c.extras["rms_px"] = res.rms_px;
-  c.extras["images_used"] = static_cast<double>(res.views.size());
-  for (size_t i = 0; i < res.views.size(); ++i)
-    c.extras["rms_image_" + std::to_string(res.views[i].image_index >= 0 ? res.views[i].image_index
-                                                                           : static_cast<int>(i))] =
-        res.image_rms[i];
+  c.images.clear();
+  for (size_t i = 0; i < res.views.size(); ++i) {
+    const BoardView& v = res.views[i];
+    CalibrationImage im;
+    im.file = v.file.empty() ? "image_" + std::to_string(v.image_index >= 0 ? v.image_index : static_cast<int>(i))
+                             : v.file;
+    im.method = v.method;
+    im.corners = static_cast<int>(v.corners.size());
+    im.rms_px = res.image_rms[i];
+    im.rvec = v.rvec;
+    im.tvec = v.tvec;
+    c.images.push_back(im);
+  }
+  c.images_not_found = res.not_found_files;
+  c.software = std::string("panotrack ") + PANO_VERSION;
   std::ostringstream cm;
   cm << "panocalib calibrate: " << mirror_model_name(options.model) << " model, " << res.views.size()
      << " boards, " << (poses_known ? "known" : "unknown (estimated)") << " board poses, RMS "
@@ -397,7 +408,7 @@ CalibrationResult Complete(Pipeline* p, const StepClock& clock) {
   Describe(&res, p->poses_known, p->targets.units, p->options);
   res.seconds_detect = p->det.seconds;
   res.seconds_fit = clock.Seconds() - p->det.seconds;
-  res.calib.extras["images_total"] = static_cast<double>(p->images.size());
+  res.calib.images_total = static_cast<int>(p->images.size());
   if (!res.not_found_files.empty()) {
     std::string list;
     for (const std::string& f : res.not_found_files) list += " " + f;

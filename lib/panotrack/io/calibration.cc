@@ -1,6 +1,8 @@
 #include "panotrack/io/calibration.h"
 
+#include <array>
 #include <cmath>
+#include <set>
 
 #include "panotrack/core/atomic_file.h"
 #include "panotrack/core/error.h"
@@ -13,12 +15,69 @@ namespace {
 const char* const kKnownKeys[] = {"model", "units", "image_width", "image_height", "focal_px", "cx",
                                   "cy", "aspect", "azimuth_offset", "k1", "k2", "rim_radius",
                                   "mirror_radius", "mirror_distance", "curvature_radius",
-                                  "conic_constant", "vertex_distance", "lut"};
+                                  "conic_constant", "vertex_distance", "lut",
+                                  "images", "images_not_found", "images_used", "images_total",
+                                  "software", "command_line"};
 
 bool IsKnownKey(const std::string& key) {
   for (const char* k : kKnownKeys)
     if (key == k) return true;
   return false;
+}
+
+// panocalib's record of the images: per-image results keyed by file name,
+// the images without a board, and the software and command line.
+void ReadImageResults(const YamlReader& r, const YAML::Node& n, Calibration* c) {
+  if (r.Has(n, "images")) {
+    const YAML::Node images = n["images"];
+    if (!images.IsMap()) r.Fail("images", "expected a mapping from file name to that image's results");
+    for (const auto& kv : images) {
+      CalibrationImage im;
+      im.file = kv.first.Scalar();
+      const std::string at = "images." + im.file;
+      im.method = r.String(kv.second, "method", at + ".method", "raw");
+      im.corners = r.Int(kv.second, "corners", at + ".corners", 0);
+      im.rms_px = r.Double(kv.second, "rms_px", at + ".rms_px");
+      const std::array<double, 3> rv = r.Vector<3>(kv.second, "rvec", at + ".rvec");
+      const std::array<double, 3> tv = r.Vector<3>(kv.second, "tvec", at + ".tvec");
+      im.rvec = Eigen::Vector3d(rv[0], rv[1], rv[2]);
+      im.tvec = Eigen::Vector3d(tv[0], tv[1], tv[2]);
+      c->images.push_back(im);
+    }
+  }
+  if (r.Has(n, "images_not_found")) {
+    const YAML::Node missing = n["images_not_found"];
+    if (!missing.IsSequence()) r.Fail("images_not_found", "expected a list of file names");
+    for (const auto& f : missing) c->images_not_found.push_back(f.Scalar());
+  }
+  if (r.Has(n, "images_total")) c->images_total = r.Int(n, "images_total", "images_total", 0);
+  if (r.Has(n, "software")) c->software = r.String(n, "software", "software");
+  if (r.Has(n, "command_line")) c->command_line = r.String(n, "command_line", "command_line");
+}
+
+void WriteImageResults(const Calibration& c, YamlWriter* w) {
+  if (!c.images.empty()) {
+    w->Key("images_used").Int(static_cast<long long>(c.images.size()));
+    if (c.images_total > 0) w->Key("images_total").Int(c.images_total);
+    w->Key("images").BeginMap();
+    for (const CalibrationImage& im : c.images) {
+      w->Key(im.file).BeginMap();
+      w->Key("method").String(im.method);
+      w->Key("corners").Int(im.corners);
+      w->Key("rms_px").Double(im.rms_px);
+      w->Key("rvec").Numbers({im.rvec.x(), im.rvec.y(), im.rvec.z()});
+      w->Key("tvec").Numbers({im.tvec.x(), im.tvec.y(), im.tvec.z()});
+      w->EndMap();
+    }
+    w->EndMap();
+  }
+  if (!c.images_not_found.empty()) {
+    w->Key("images_not_found").BeginList();
+    for (const std::string& f : c.images_not_found) w->String(f);
+    w->EndList();
+  }
+  if (!c.software.empty()) w->Key("software").String(c.software);
+  if (!c.command_line.empty()) w->Key("command_line").String(c.command_line);
 }
 
 Calibration ParseCalibration(const std::string& path, const YAML::Node& n) {
@@ -67,6 +126,7 @@ Calibration ParseCalibration(const std::string& path, const YAML::Node& n) {
     c.lut = r.String(n, "lut", "lut");
     c.lut_resolved = JoinPath(DirName(path), c.lut);
   }
+  ReadImageResults(r, n, &c);
   // Keys of later versions and panocalib's statistics: numbers are kept, the rest ignored.
   for (const auto& kv : n) {
     const std::string key = kv.first.Scalar();
@@ -98,6 +158,10 @@ void CheckExtras(const Calibration& c, const std::string& what) {
   for (const auto& kv : c.extras)
     if (IsKnownKey(kv.first))
       throw Error(what + ": extra key '" + kv.first + "' would repeat a calibration key");
+  std::set<std::string> files;
+  for (const CalibrationImage& im : c.images)
+    if (!files.insert(im.file).second)
+      throw Error(what + ": image '" + im.file + "' is listed twice (the per-image results are keyed by file name)");
 }
 
 }  // namespace
@@ -138,6 +202,7 @@ std::string CalibrationToYaml(const Calibration& c) {
   if (p.rim_radius > 0.0) w.Key("rim_radius").Double(p.rim_radius);
   if (!c.lut.empty()) w.Key("lut").String(c.lut);
   for (const auto& kv : c.extras) w.Key(kv.first).Double(kv.second);
+  WriteImageResults(c, &w);
   w.EndMap();
   return w.Text();
 }
