@@ -22,7 +22,8 @@ install(FILES README.md LICENSE CHANGELOG.md DESTINATION ${CMAKE_INSTALL_DOCDIR}
 # (the install tests).
 get_property(pano_programs GLOBAL PROPERTY PANO_PROGRAMS)
 get_property(pano_man_targets GLOBAL PROPERTY PANO_MAN_TARGETS)
-add_custom_target(pano_installable DEPENDS ${pano_libraries} ${pano_programs} ${pano_man_targets})
+add_custom_target(pano_installable)
+add_dependencies(pano_installable ${pano_libraries} ${pano_programs} ${pano_man_targets})
 
 # The CMake package.
 set(PANO_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/panotrack)
