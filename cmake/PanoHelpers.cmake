@@ -30,24 +30,115 @@ function(pano_set_warnings target)
   endif()
 endfunction()
 
-# pano_add_library(NAME pano_sensor SRCS a.cc DEPS ...)
+# pano_add_library(NAME pano_sensor SRCS a.cc DEPS ... [INTERNAL_HEADERS x.h ...])
+# One static library per concept folder, installed and exported as
+# panotrack::<concept> with the folder's headers under include/panotrack/<concept>.
+# INTERNAL_HEADERS (included only by the folder's own .cc files) stay out of
+# the installed tree.
 function(pano_add_library)
-  cmake_parse_arguments(ARG "" "NAME" "SRCS;DEPS;PRIVATE_DEPS" ${ARGN})
+  cmake_parse_arguments(ARG "" "NAME" "SRCS;DEPS;PRIVATE_DEPS;INTERNAL_HEADERS" ${ARGN})
   add_library(${ARG_NAME} STATIC ${ARG_SRCS})
   target_include_directories(${ARG_NAME} PUBLIC
     $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/lib>
-    $<BUILD_INTERFACE:${PROJECT_BINARY_DIR}/include>)
+    $<BUILD_INTERFACE:${PROJECT_BINARY_DIR}/include>
+    $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
+  target_compile_features(${ARG_NAME} PUBLIC cxx_std_17)  # the headers need it too
   target_link_libraries(${ARG_NAME} PUBLIC ${ARG_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
   pano_set_warnings(${ARG_NAME})
+  pano_install_library(${ARG_NAME})
+  # Link order for the pkg-config file: the folder's own libraries it uses.
+  set(pano_deps)
+  foreach(dep IN LISTS ARG_DEPS ARG_PRIVATE_DEPS)
+    if(dep MATCHES "^pano_")
+      list(APPEND pano_deps ${dep})
+    endif()
+  endforeach()
+  set_property(TARGET ${ARG_NAME} PROPERTY PANO_LIBRARY_DEPS ${pano_deps})
+  set_property(GLOBAL APPEND PROPERTY PANO_LIBRARIES ${ARG_NAME})
+
+  get_filename_component(concept ${CMAKE_CURRENT_SOURCE_DIR} NAME)
+  file(GLOB headers CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/*.h)
+  foreach(internal IN LISTS ARG_INTERNAL_HEADERS)
+    if(NOT EXISTS ${CMAKE_CURRENT_SOURCE_DIR}/${internal})
+      message(FATAL_ERROR "${ARG_NAME}: INTERNAL_HEADERS names ${internal}, which does not exist")
+    endif()
+    list(REMOVE_ITEM headers ${CMAKE_CURRENT_SOURCE_DIR}/${internal})
+  endforeach()
+  install(FILES ${headers} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/panotrack/${concept} COMPONENT development)
 endfunction()
 
-# pano_add_executable(NAME panoloc SRCS main.cc DEPS ...)
+# Installs a static library of the toolkit and adds it to the exported set as
+# panotrack::<name without pano_>; the same alias serves in the build tree.
+function(pano_install_library target)
+  string(REGEX REPLACE "^pano_" "" export_name ${target})
+  set_target_properties(${target} PROPERTIES EXPORT_NAME ${export_name})
+  add_library(panotrack::${export_name} ALIAS ${target})
+  install(TARGETS ${target} EXPORT panotrackTargets
+    ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT development)
+endfunction()
+
+# pano_add_executable(NAME panoloc SRCS main.cc DEPS ... [SUMMARY "one line"])
+# A program of the toolkit: installed to bin/, with a man page made from its
+# --help by help2man (SUMMARY is the page's NAME line) when help2man is found.
 function(pano_add_executable)
-  cmake_parse_arguments(ARG "" "NAME" "SRCS;DEPS" ${ARGN})
+  cmake_parse_arguments(ARG "" "NAME;SUMMARY" "SRCS;DEPS" ${ARGN})
   add_executable(${ARG_NAME} ${ARG_SRCS})
   target_link_libraries(${ARG_NAME} PRIVATE ${ARG_DEPS})
   pano_set_warnings(${ARG_NAME})
   set_target_properties(${ARG_NAME} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${PROJECT_BINARY_DIR}/bin)
+  install(TARGETS ${ARG_NAME} RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT runtime)
+  set_property(GLOBAL APPEND PROPERTY PANO_PROGRAMS ${ARG_NAME})
+  pano_add_man_page(${ARG_NAME} "${ARG_SUMMARY}")
+endfunction()
+
+# man1/<program>.1 from the built program's --help (help2man runs it at build
+# time; the version is the project's, since not every program has --version).
+function(pano_add_man_page program summary)
+  if(NOT PANO_HELP2MAN)
+    return()
+  endif()
+  set(page ${PROJECT_BINARY_DIR}/man/man1/${program}.1)
+  if(NOT summary)
+    set(summary "${program} of panotrack")
+  endif()
+  add_custom_command(OUTPUT ${page}
+    COMMAND ${CMAKE_COMMAND} -E make_directory ${PROJECT_BINARY_DIR}/man/man1
+    COMMAND ${PANO_HELP2MAN} --no-info --no-discard-stderr --version-string=${PROJECT_VERSION}
+            --name=${summary} --output=${page} $<TARGET_FILE:${program}>
+    DEPENDS ${program}
+    COMMENT "Generating the man page of ${program}"
+    VERBATIM)
+  add_custom_target(${program}_man ALL DEPENDS ${page})
+  install(FILES ${page} DESTINATION ${CMAKE_INSTALL_MANDIR}/man1 COMPONENT runtime)
+  set_property(GLOBAL APPEND PROPERTY PANO_MAN_TARGETS ${program}_man)
+endfunction()
+
+# The toolkit's libraries ordered for a static link line: every library
+# before the libraries it uses (a depth-first post-order, reversed).
+function(pano_library_link_order out_var)
+  get_property(libraries GLOBAL PROPERTY PANO_LIBRARIES)
+  set(order)
+  set(visited)
+  foreach(lib IN LISTS libraries)
+    _pano_visit_library(${lib})
+  endforeach()
+  list(REVERSE order)
+  set(${out_var} ${order} PARENT_SCOPE)
+endfunction()
+
+# Appends `lib` to `order` after everything it uses (the caller's `order` and `visited`).
+function(_pano_visit_library lib)
+  if("${lib}" IN_LIST visited)
+    return()
+  endif()
+  list(APPEND visited ${lib})
+  get_property(deps TARGET ${lib} PROPERTY PANO_LIBRARY_DEPS)
+  foreach(dep IN LISTS deps)
+    _pano_visit_library(${dep})
+  endforeach()
+  list(APPEND order ${lib})
+  set(visited ${visited} PARENT_SCOPE)
+  set(order ${order} PARENT_SCOPE)
 endfunction()
 
 # pano_add_test(FOLDER sensor NAME round_trip SRCS round_trip_test.cc DEPS ...)

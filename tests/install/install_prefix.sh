@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# Fixture of the install tests: builds what the install step copies, installs
+# the build tree into a fresh prefix and checks what is (and is not) there.
+# Usage: install_prefix.sh BUILD_DIR PREFIX WITH_MAN_PAGES(0|1)
+set -euo pipefail
+build=$1 prefix=$2 with_man=$3
+cmake --build "$build" --target pano_installable -j"$(nproc 2>/dev/null || echo 2)" > "$prefix.build.log" 2>&1 ||
+  { tail -40 "$prefix.build.log"; exit 1; }
+rm -rf "$prefix"
+cmake --install "$build" --prefix "$prefix" > "$prefix.install.log"
+cd "$prefix"
+libdir=$(dirname "$(find . -name libpano_core.a)")
+expected=(bin/panoloc bin/panocalib bin/panosim
+          "$libdir/libpano_core.a" "$libdir/libpano_sensor.a" "$libdir/libpano_pipeline.a"
+          "$libdir/cmake/panotrack/panotrackConfig.cmake" "$libdir/cmake/panotrack/panotrackConfigVersion.cmake"
+          "$libdir/cmake/panotrack/panotrackTargets.cmake" "$libdir/pkgconfig/panotrack.pc"
+          include/panotrack/config.h include/panotrack/sensor/sensor.h include/panotrack/io/calibration.h
+          share/panotrack/calib/paper-real.yaml share/panotrack/calib/paper-synthetic.yaml
+          share/doc/panotrack/README.md share/doc/panotrack/LICENSE share/doc/panotrack/CHANGELOG.md
+          share/doc/panotrack/docs/panoloc.md)
+[ "$with_man" = 1 ] && expected+=(share/man/man1/panoloc.1 share/man/man1/panocalib.1 share/man/man1/panosim.1)
+internal=(include/panotrack/calibrate/internal.h include/panotrack/calibrate/refit.h
+          include/panotrack/calibrate/omnidir_peer.h include/panotrack/hough/peak_refine.h)
+status=0
+for f in "${expected[@]}"; do
+  [ -f "$f" ] || { echo "install: missing $f"; status=1; }
+done
+for f in "${internal[@]}"; do
+  [ ! -e "$f" ] || { echo "install: internal header installed: $f"; status=1; }
+done
+echo "installed $(find . -type f | wc -l) files under $prefix ($(find include -name '*.h' | wc -l) headers)"
+exit $status
