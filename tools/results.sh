@@ -29,7 +29,7 @@ for p in $presets; do
   units=$(sed -n 's/^units: //p' "$work/$p/map.yaml")
   for m in $methods; do
     summary=$("$bin/panoloc" "$work/$p/video.mp4" --calib "$work/$p/calib.yaml" --map "$work/$p/map.yaml" \
-      --method "$m" -o "$work/$p/$m.csv" --gt "$work/$p/gt.csv")
+      --method "$m" -o "$work/$p/$m.csv" --gt "$work/$p/gt.csv" --force)
     python3 - "$p" "$m" "$units" "${paper_std[$p/$m]:-}" "${paper_out[$p/$m]:-}" "$summary" <<'PY'
 import re, sys
 preset, method, units, pstd, pout, summary = sys.argv[1:7]

@@ -4,6 +4,9 @@
 
 #include <CLI/CLI.hpp>
 
+#include <string>
+#include <vector>
+
 namespace pano::app {
 
 // project / backproject: check a calibration by hand.
@@ -12,5 +15,8 @@ void AddProjectCommands(CLI::App& app);
 void AddLutCommand(CLI::App& app);
 // calibrate: fit the sensor to chessboard images (lib/panotrack/calibrate).
 void AddCalibrateCommand(CLI::App& app);
+
+// The program's arguments (set by main), recorded in --summary-json files.
+std::vector<std::string>& CommandLine();
 
 }  // namespace pano::app
