@@ -12,7 +12,7 @@ namespace pano {
 
 std::string CalibrationSummaryJson(const CalibrationResult& r, const CalibrationOutputs& outputs,
                                    const std::vector<std::string>& command_line) {
-  using nlohmann::json;
+  using json = nlohmann::ordered_json;  // keys in the order written, for people reading the file
   const Sensor& s = r.calib.sensor;
   json image_rms = json::object(), detection = json::object();
   for (size_t i = 0; i < r.views.size() && i < r.image_rms.size(); ++i) {

@@ -11,7 +11,8 @@ namespace pano {
 
 namespace {
 
-using nlohmann::json;
+// Keys in the order written, for people reading the file.
+using json = nlohmann::ordered_json;
 
 json AccuracyJson(const AccuracySummary& a) {
   return {{"frames", a.frames},
