@@ -442,10 +442,10 @@ int ParseCommandLine(CLI::App* app, int argc, char** argv) {
 
 int main(int argc, char** argv) {
   CLI::App app{
-      "panosim: ray tracer for a catadioptric panoramic sensor (pinhole camera looking up at a\n"
-      "mirror of revolution). Renders stills, test sequences with ground truth, and chessboard\n"
-      "calibration images. Lengths are in the map's units; angles in radians. Existing outputs\n"
-      "are kept unless --force is given.",
+      "panosim: render what a catadioptric panoramic sensor sees, with exact ground truth.\n"
+      "A ray tracer for a pinhole camera looking up at a mirror of revolution: stills, test\n"
+      "sequences with ground truth, and chessboard calibration images. Lengths are in the map's\n"
+      "units; angles in radians. Existing outputs are kept unless --force is given.",
       "panosim"};
   const std::string exit_codes =
       "Exit status: 0 success; 1 bad options or files, an existing output without --force, or\n"
