@@ -27,10 +27,10 @@ echo "== 2/4 panosim: 14 chessboard images through the same sensor (noise sigma 
 
 echo "== 3/4 panocalib: calibrate from the images, board poses unknown"
 "$bin/panocalib" calibrate "$demo/targets/targets_unknown.yaml" -o "$demo/calib.yaml" \
-  --lut "$demo/sensor.lut" --report "$demo/calibration.png"
+  --lut "$demo/sensor.lut" --report "$demo/calibration.png" --force
 
 echo "== 4/4 panoloc: localise through the video with that calibration"
 "$bin/panoloc" "$demo/sequence/video.mp4" --calib "$demo/calib.yaml" --map "$demo/sequence/map.yaml" \
   -o "$demo/poses.csv" --gt "$demo/sequence/gt.csv" --plot "$demo/trajectory.png" \
-  --debug-video "$demo/debug.mp4"
+  --debug-video "$demo/debug.mp4" --force
 echo "   poses: $demo/poses.csv; trajectory plot: $demo/trajectory.png; annotated video: $demo/debug.mp4"

@@ -34,7 +34,7 @@ for c in $clips; do
   dec=$(seconds ffmpeg -loglevel error -threads 2 -i "$work/$c/video.mp4" -f null -)
   for m in junction vertex; do
     loc=$(seconds "$bin/panoloc" "$work/$c/video.mp4" --calib "$work/$c/calib.yaml" --map "$work/$c/map.yaml" \
-          --method "$m" -q -o "$work/$c/$m.csv")
+          --method "$m" -q --force -o "$work/$c/$m.csv")
     fps=$(echo "$n / $loc" | bc -l)
     [ "$c" = paper-synthetic-1320 ] && easy[$m]=$fps
     rel=$( [ -n "${easy[$m]:-}" ] && echo "$fps / ${easy[$m]}" | bc -l || echo 0)

@@ -28,20 +28,19 @@ for p in $presets; do
   "$bin/panosim" sequence --preset "$p" -o "$work/$p" --force --quiet
   units=$(sed -n 's/^units: //p' "$work/$p/map.yaml")
   for m in $methods; do
-    summary=$("$bin/panoloc" "$work/$p/video.mp4" --calib "$work/$p/calib.yaml" --map "$work/$p/map.yaml" \
-      --method "$m" -o "$work/$p/$m.csv" --gt "$work/$p/gt.csv")
-    python3 - "$p" "$m" "$units" "${paper_std[$p/$m]:-}" "${paper_out[$p/$m]:-}" "$summary" <<'PY'
-import re, sys
-preset, method, units, pstd, pout, summary = sys.argv[1:7]
+    "$bin/panoloc" "$work/$p/video.mp4" --calib "$work/$p/calib.yaml" --map "$work/$p/map.yaml" \
+      --method "$m" -o "$work/$p/$m.csv" --gt "$work/$p/gt.csv" --force -q --summary-json "$work/$p/$m.json"
+    python3 - "$p" "$m" "$units" "${paper_std[$p/$m]:-}" "${paper_out[$p/$m]:-}" "$work/$p/$m.json" <<'PY'
+import json, sys
+preset, method, units, pstd, pout, path = sys.argv[1:7]
 # panoloc's own accuracy summary (the one definition of std, RMS, outliers).
-num = r"([-0-9.]+)"
-m = re.search(r"RMS " + num + r", std " + num + r", mean " + num + r", max " + num + r" \S+; heading error: RMS "
-              + num + r", max " + num + r" deg; outliers (\d+) \(" + num + r" %\); frames tracked (\d+)/(\d+)", summary)
-if not m:
-    sys.exit("results.sh: no accuracy summary from panoloc:\n" + summary)
-rms, std, mean, mx, hrms, hmax, outl, outp, ok, total = m.groups()
-print(f"| {preset} | {method} | {ok}/{total} | {float(std):.3f} {units} | {float(rms):.3f} | {float(mx):.3f} | "
-      f"{float(hrms):.3f} | {outl} ({float(outp):.0f} %) | {pstd + ' ' + units if pstd else '-'} | {pout or '-'} |")
+run = json.load(open(path))["inputs"][0]
+if "accuracy" not in run:
+    sys.exit(f"results.sh: no accuracy in {path}: {run.get('error')}")
+a = run["accuracy"]
+print(f"| {preset} | {method} | {a['tracked']}/{a['frames']} | {a['std']:.3f} {units} | {a['rms']:.3f} | "
+      f"{a['max']:.3f} | {a['heading_rms_deg']:.3f} | {a['outliers']} ({a['outlier_percent']:.0f} %) | "
+      f"{pstd + ' ' + units if pstd else '-'} | {pout or '-'} |")
 PY
   done
 done

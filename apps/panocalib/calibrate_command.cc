@@ -6,13 +6,16 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "panotrack/calibrate/calibrate.h"
+#include "panotrack/calibrate/summary_json.h"
+#include "panotrack/core/output_check.h"
 #include "commands.h"
+#include "panotrack/core/command_line.h"
 #include "panotrack/core/error.h"
 #include "panotrack/io/targets.h"
 
 namespace pano::app {
 
-void AddCalibrateCommand(CLI::App& app, const std::string& command_line) {
+void AddCalibrateCommand(CLI::App& app) {
   struct Opts {
     std::string targets, out, lut, report, model = "sphere", distortion = "auto";
     double huber = 1.0, max_rms = 5.0, full_weight = CalibrateOptions().full_weight_px;
@@ -48,11 +51,26 @@ void AddCalibrateCommand(CLI::App& app, const std::string& command_line) {
   cmd->add_flag("--fix-aspect", o->no_aspect, "Hold the pixel aspect ratio at 1");
   cmd->add_flag("--ignore-poses", o->ignore_poses, "Estimate the board poses even when the target file gives them");
   cmd->add_flag("--no-unwarp", o->no_unwarp, "Do not retry images without a board in unwarped views");
-  cmd->add_option("--threads", o->threads, "Threads for the fit and the image searches (0: every core)")
+  cmd->add_option("-j,--jobs,--threads", o->threads, "Threads for the fit and the image searches (0: every core)")
       ->capture_default_str();
   cmd->add_flag("-v,--verbose", o->verbose,
                 "Print step timings, the solver's progress and the libraries' warnings (quiet otherwise)");
-  cmd->callback([o, command_line]() {
+  // The programs' shared conventions: existing outputs kept unless --force,
+  // -q, and the summary as JSON.
+  struct RunOpts {
+    bool force = false, quiet = false;
+    std::string summary_json;
+  };
+  auto run = std::make_shared<RunOpts>();
+  cmd->add_flag("--force", run->force, "Replace existing output files (otherwise nothing is done)");
+  cmd->add_option("--summary-json", run->summary_json,
+                  "Also write the summary (RMS, per-image RMS, parameters with standard deviations, images "
+                  "without a board, warnings, timings) as JSON; - writes it to standard output");
+  cmd->add_flag("-q,--quiet", run->quiet, "No summary or warnings (errors still on stderr)");
+  cmd->parse_complete_callback([o, run]() {
+    RefuseToReplace({o->out, o->lut, o->report, run->summary_json}, run->force);
+  });
+  cmd->callback([o, run]() {
     CalibrateOptions opt;
     if (o->model == "sphere") opt.model = MirrorModel::kSphere;
     else if (o->model == "conic") opt.model = MirrorModel::kConic;
@@ -73,7 +91,7 @@ void AddCalibrateCommand(CLI::App& app, const std::string& command_line) {
     const TargetSet targets = ReadTargets(o->targets);
     const std::vector<cv::Mat> images = LoadTargetImages(targets);
     CalibrationResult r = Calibrate(targets, images, opt);
-    r.calib.command_line = command_line;
+    r.calib.command_line = ShellCommandLine(CommandLine());
     cv::Mat report;
     if (!o->report.empty()) {
       // The worst image shows the residuals best.
@@ -88,9 +106,13 @@ void AddCalibrateCommand(CLI::App& app, const std::string& command_line) {
     out.lut = o->lut;
     out.report = o->report;
     WriteCalibrationOutputs(r, out, report);
-    std::printf("%s", Summary(r).c_str());
-    std::printf("wrote %s%s%s%s%s\n", o->out.c_str(), o->lut.empty() ? "" : ", ", o->lut.c_str(),
-                o->report.empty() ? "" : ", ", o->report.c_str());
+    if (!run->summary_json.empty()) WriteCalibrationSummaryJson(run->summary_json, r, out, CommandLine());
+    if (run->quiet) return;
+    // With the JSON on standard output, the text goes to stderr.
+    std::FILE* text = run->summary_json == "-" ? stderr : stdout;
+    std::fprintf(text, "%s", Summary(r).c_str());
+    std::fprintf(text, "wrote %s%s%s%s%s\n", o->out.c_str(), o->lut.empty() ? "" : ", ", o->lut.c_str(),
+                 o->report.empty() ? "" : ", ", o->report.c_str());
     for (const std::string& w : r.warnings) std::fprintf(stderr, "panocalib: warning: %s\n", w.c_str());
   });
 }

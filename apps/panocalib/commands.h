@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 
 #include <string>
+#include <vector>
 
 namespace pano::app {
 
@@ -12,10 +13,12 @@ namespace pano::app {
 void AddProjectCommands(CLI::App& app);
 // lut: build the E(D,Z) lookup table of a calibration.
 void AddLutCommand(CLI::App& app);
-// calibrate: fit the sensor to chessboard images (lib/panotrack/calibrate);
-// `command_line` is recorded in the calibration file.
-void AddCalibrateCommand(CLI::App& app, const std::string& command_line);
+// calibrate: fit the sensor to chessboard images (lib/panotrack/calibrate).
+void AddCalibrateCommand(CLI::App& app);
 // export: the calibration in OpenCV's terms (camera matrix, cv::omnidir model).
 void AddExportCommand(CLI::App& app);
+
+// The program's arguments (set by main), recorded in --summary-json files.
+std::vector<std::string>& CommandLine();
 
 }  // namespace pano::app

@@ -1,12 +1,12 @@
 // panocalib export: a calibration in another tool's format.
 #include <cstdio>
-#include <filesystem>
 #include <memory>
 #include <string>
 
 #include "commands.h"
 #include "panotrack/calibrate/export_opencv.h"
 #include "panotrack/core/error.h"
+#include "panotrack/core/output_check.h"
 #include "panotrack/io/calibration.h"
 
 namespace pano::app {
@@ -31,11 +31,10 @@ void AddExportCommand(CLI::App& app) {
                   "Horizontal distance (calibration units) at which the omnidir model is fitted; "
                   "0: the far field (1000 mirror distances)")
       ->capture_default_str();
-  cmd->add_flag("--force", o->force, "Replace an existing output file");
+  cmd->add_flag("--force", o->force, "Replace an existing output file (otherwise nothing is done)");
   cmd->add_flag("-q,--quiet", o->quiet, "Print nothing but errors");
   cmd->callback([o]() {
-    if (!o->force && std::filesystem::exists(o->out))
-      throw Error(o->out + " exists (use --force to replace it)");
+    RefuseToReplace({o->out}, o->force);
     const Calibration c = ReadCalibration(o->calib);
     const OmnidirApproximation om = FitOmnidirApproximation(c.sensor, o->omnidir);
     WriteOpenCvCalibration(o->out, c, om);

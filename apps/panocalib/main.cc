@@ -6,14 +6,42 @@
 
 #include <cstdio>
 #include <exception>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include "commands.h"
-#include "panotrack/core/command_line.h"
 #include "panotrack/core/error.h"
 #include "panotrack/config.h"
 
 namespace {
+
+// `text` broken into lines of at most `width` characters at spaces.
+std::string Wrapped(const std::string& text, size_t width = 96) {
+  std::string out, line;
+  std::istringstream words(text);
+  for (std::string w; words >> w;) {
+    if (!line.empty() && line.size() + 1 + w.size() > width) out += line + "\n", line.clear();
+    line += (line.empty() ? "" : " ") + w;
+  }
+  return out + line;
+}
+
+// Each subcommand's description becomes its first sentence (the one line the
+// subcommand list shows); the rest goes to the foot of its help, above the
+// exit codes.
+void SplitDescriptions(CLI::App& app, const std::string& exit_codes) {
+  for (CLI::App* sub : app.get_subcommands({})) {
+    const std::string d = sub->get_description();
+    const size_t end = d.find(". ");
+    if (end == std::string::npos) {
+      sub->footer(exit_codes);
+      continue;
+    }
+    sub->description(d.substr(0, end + 1));
+    sub->footer(Wrapped(d.substr(end + 2)) + "\n\n" + exit_codes);
+  }
+}
 
 // Whether the subcommand being run was given --verbose.
 bool VerboseRequested(const CLI::App& app) {
@@ -45,17 +73,34 @@ std::string OneLine(const char* what) {
 
 }  // namespace
 
+namespace pano::app {
+std::vector<std::string>& CommandLine() {
+  static std::vector<std::string> args;
+  return args;
+}
+}  // namespace pano::app
+
 int main(int argc, char** argv) {
+  pano::app::CommandLine().assign(argv, argv + argc);
   CLI::App app{
-      "panocalib " PANO_VERSION
-      ": fit a catadioptric sensor (camera + mirror) and check calibrations.\n"
-      "Subcommands: see 'panocalib SUBCOMMAND --help'."};
+      "panocalib: fit a catadioptric sensor (camera + mirror) and check calibrations.\n"
+      "Subcommands: see 'panocalib SUBCOMMAND --help'. Existing output files are kept unless\n"
+      "--force is given.",
+      "panocalib"};
+  const std::string exit_codes =
+      "Exit status: 0 success; 1 bad options or files, an existing output without --force, or\n"
+      "the calibration failed; 2 unexpected internal error.";
+  app.footer(exit_codes);
   app.require_subcommand(1);
-  app.set_version_flag("--version", PANO_VERSION);
+  app.set_version_flag("--version", "panocalib " PANO_VERSION, "Print the version and exit");
+  app.set_help_flag("-h,--help", "Print this help and exit");
+  // Subcommands made from here on show every option's default.
+  app.option_defaults()->always_capture_default();
   pano::app::AddProjectCommands(app);
   pano::app::AddLutCommand(app);
-  pano::app::AddCalibrateCommand(app, pano::ShellCommandLine(argc, argv));
+  pano::app::AddCalibrateCommand(app);
   pano::app::AddExportCommand(app);
+  SplitDescriptions(app, exit_codes);
   // Runs after the arguments are parsed and before the subcommand's callback.
   app.parse_complete_callback([&app, argv]() { SetUpLogging(argv[0], VerboseRequested(app)); });
   try {

@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <chrono>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -12,6 +13,7 @@
 #include "panotrack/core/error.h"
 #include "panotrack/config.h"
 #include "panotrack/pipeline/panoloc.h"
+#include "panotrack/pipeline/summary_json.h"
 #include "panotrack/video/logging.h"
 
 namespace {
@@ -86,78 +88,107 @@ bool Report(const pano::VideoSummary& s, bool quiet, std::FILE* out) {
 
 int main(int argc, char** argv) {
   CLI::App app{
-      "panoloc " PANO_VERSION
-      ": localise a robot through videos of a catadioptric panoramic camera.\n"
+      "panoloc: localise a robot through videos of a catadioptric panoramic camera.\n"
       "Tracks map landmarks (corners of rectangles and boxes) frame by frame with the Panoramic\n"
       "Hough Transform (line junctions) and triangulates the pose (x, y, heading) from their\n"
       "azimuths. Writes one pose CSV per input (frame,time_s,x,y,theta_rad,status,n_landmarks,\n"
       "residual,std_x,std_y,std_theta), row by row, as OUT.csv.partial until the input ends.\n"
-      "Exit status: 0 every input done; 1 an input failed, broke off or was hardly tracked;\n"
-      "130/143 stopped by SIGINT/SIGTERM (the rows so far are kept)."};
+      "Existing output files are kept unless --force is given.",
+      "panoloc"};
+  app.footer(
+      "Exit status: 0 success (every input done); 1 bad options or files, an existing output\n"
+      "without --force, or an input failed, broke off or was hardly tracked; 2 unexpected internal\n"
+      "error; 130/143 stopped by SIGINT/SIGTERM (the rows so far are kept).");
+  app.option_defaults()->always_capture_default();
   pano::PanolocOptions o;
   std::vector<double> init;
   std::string method = "junction";
   bool verbose = false;
+  const char* io = "Inputs and outputs";
+  const char* tracking = "Tracking";
+  const char* run = "Run";
   app.add_option("inputs", o.inputs,
                  "Video files (H.264 mp4...), image folders, printf patterns (frames/f_%04d.png), or live "
                  "inputs: - (standard input), /dev/video0, rtsp://..., udp://...")
-      ->required();
-  app.add_option("--calib", o.calib_path, "Calibration YAML (panocalib's output)")->required();
-  app.add_option("--map", o.map_path, "Map YAML of the room's landmarks")->required();
+      ->required()
+      ->default_str("")  // no default to show
+      ->group(io);
+  app.add_option("--calib", o.calib_path, "Calibration YAML (panocalib's output)")->required()->group(io);
+  app.add_option("--map", o.map_path, "Map YAML of the room's landmarks")->required()->group(io);
+  app.add_option("-o,--output", o.output, "Output pose CSV (one input); - writes it to standard output")
+      ->group(io);
+  app.add_option("--out-dir", o.out_dir, "Output folder: one <input>.csv per input")->group(io);
+  app.add_flag("--force", o.overwrite, "Replace existing output files (otherwise the run refuses to start)")
+      ->group(io);
+  app.add_option("--gt", o.gt,
+                 "Ground-truth pose CSV: print the accuracy summary. 'auto': gt.csv beside each input")
+      ->group(io);
+  app.add_option("--summary-json", o.summary_json,
+                 "Also write the summary (per input: outputs, frames, ok, lost, frames/s, end, error, "
+                 "accuracy) as JSON; - writes it to standard output")
+      ->group(io);
+  app.add_option("--debug-video", o.debug_video,
+                 "Annotated video: predicted edges, found edge points, junctions, landmark ids")
+      ->group(io);
+  app.add_option("--plot", o.plot, "PNG of the map from above with the trajectory (and ground truth)")
+      ->group(io);
+  app.add_option("--tum", o.tum,
+                 "Also write the ok frames as a TUM trajectory (t x y z qx qy qz qw, metres; one input), "
+                 "for evo: evo_ape tum gt.tum OUT.tum")
+      ->group(io);
+  app.add_option("--tum-scale", o.tum_scale, "Metres per map unit in the TUM file (0: from the map's units)")
+      ->group(io);
+  app.add_flag("--smooth", o.smooth,
+               "Also write <output stem>.smoothed.csv: the poses smoothed over the following frames "
+               "(fixed-lag Rauch-Tung-Striebel); needs a file output")
+      ->group(io);
+  auto* smooth_lag = app.add_option("--smooth-lag", o.smooth_lag,
+                                    "Frames of the future that smooth each pose (implies --smooth)")
+                         ->group(io);
   app.add_option("--init", init,
                  "A guess of the initial pose x,y,theta (map units, radians) to start tracking from; "
                  "default: initial_pose of the case.yaml beside the input; without either, the first "
                  "frame is localised by searching the whole room")
       ->delimiter(',')
-      ->expected(3);
-  app.add_option("-o,--output", o.output, "Output pose CSV (one input); - writes it to standard output");
-  app.add_option("--out-dir", o.out_dir, "Output folder: one <input>.csv per input");
-  app.add_option("-j,--jobs", o.jobs, "Inputs processed in parallel (default: as many as --threads allows)");
-  app.add_option("--threads", o.num_threads, "Threads of the whole run (default 0: all cores)");
+      ->expected(3)
+      ->default_str("")
+      ->group(tracking);
   app.add_option("--fps", o.fps,
-                 "Frame rate for time_s, overriding the input's timestamps (default: the timestamps; "
-                 "image folders: 10)");
-  app.add_option("--gt", o.gt,
-                 "Ground-truth pose CSV: print the accuracy summary. 'auto': gt.csv beside each input");
-  app.add_option("--debug-video", o.debug_video,
-                 "Annotated video: predicted edges, found edge points, junctions, landmark ids");
-  app.add_option("--plot", o.plot, "PNG of the map from above with the trajectory (and ground truth)");
-  app.add_flag("--smooth", o.smooth,
-               "Also write <output stem>.smoothed.csv: the poses smoothed over the following frames "
-               "(fixed-lag Rauch-Tung-Striebel); needs a file output");
-  auto* smooth_lag = app.add_option("--smooth-lag", o.smooth_lag,
-                                    "Frames of the future that smooth each pose (implies --smooth)")
-                         ->capture_default_str();
+                 "Frame rate for time_s, overriding the input's timestamps (0: the timestamps; "
+                 "image folders: 10)")
+      ->group(tracking);
   app.add_option("--odometry", o.odometry,
                  "Wheel odometry CSV (time,x,y,theta on the video's clock; one input): the motion "
-                 "between frames that the prediction uses instead of constant velocity");
+                 "between frames that the prediction uses instead of constant velocity")
+      ->group(tracking);
   app.add_option("--odometry-scale", o.odometry_scale, "Map units per unit of the odometry's positions")
-      ->capture_default_str();
-  app.add_option("--tum", o.tum,
-                 "Also write the ok frames as a TUM trajectory (t x y z qx qy qz qw, metres; one input), "
-                 "for evo: evo_ape tum gt.tum OUT.tum");
-  app.add_option("--tum-scale", o.tum_scale,
-                 "Metres per map unit in the TUM file (default 0: from the map's units)")
-      ->capture_default_str();
+      ->group(tracking);
   app.add_option("--method", method,
                  "Tracking method: junction (PH line junctions) or vertex (corner templates in the "
                  "quasi-cylindrical view)")
       ->check(CLI::IsMember({"junction", "vertex"}))
-      ->capture_default_str();
+      ->group(tracking);
   app.add_option("--search-px", o.localizer.search_px,
                  "Half-width of the linear samples: the largest expected image motion per frame (px)")
-      ->capture_default_str();
+      ->group(tracking);
   app.add_option("--min-step", o.localizer.junction.min_step,
                  "Smallest intensity step that counts as an edge (grey levels)")
-      ->capture_default_str();
+      ->group(tracking);
   app.add_option("--alert-fraction", o.localizer.alert_fraction,
                  "A frame is ok only when its error bound (5 sigma of its position covariance) is within "
                  "this fraction of the distance to its landmarks; 0: no bound")
       ->check(CLI::Range(0.0, 1.0))
-      ->capture_default_str();
-  app.add_flag("-q,--quiet", o.quiet, "No progress line, notes or summary");
-  app.add_flag("--verbose", verbose, "Let the decoding libraries (FFmpeg, OpenCV) print their messages");
-  app.set_version_flag("--version", PANO_VERSION);
+      ->group(tracking);
+  app.add_option("-j,--jobs", o.jobs, "Inputs processed in parallel (0: as many as --threads allows)")
+      ->group(run);
+  app.add_option("--threads", o.num_threads, "Threads of the whole run (0: all cores)")->group(run);
+  app.add_flag("-q,--quiet", o.quiet, "No progress line, notes or summary (errors still on stderr)")
+      ->group(run);
+  app.add_flag("-v,--verbose", verbose,
+               "The decoding libraries' (FFmpeg, OpenCV) messages and the run's timing")
+      ->group(run);
+  app.set_version_flag("--version", "panoloc " PANO_VERSION, "Print the version and exit")->group(run);
+  app.set_help_flag("-h,--help", "Print this help and exit")->group(run);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -165,6 +196,7 @@ int main(int argc, char** argv) {
   }
   pano::SetDecoderLogging(verbose);
   try {
+    const auto t0 = std::chrono::steady_clock::now();
     if (smooth_lag->count() > 0) o.smooth = true;
     if (!init.empty()) o.init = pano::Pose2{init[0], init[1], init[2]};
     o.localizer.method = method == "vertex" ? pano::TrackingMethod::kVertex : pano::TrackingMethod::kJunction;
@@ -174,10 +206,14 @@ int main(int argc, char** argv) {
     InstallStopHandlers();
     const std::vector<pano::VideoSummary> results = pano::RunPanoloc(o);
     if (show_progress) ClearProgress();
-    // With the CSV on standard output, everything else goes to stderr.
-    std::FILE* out = o.output == "-" ? stderr : stdout;
+    // With the CSV or the JSON on standard output, everything else goes to stderr.
+    std::FILE* out = o.output == "-" || o.summary_json == "-" ? stderr : stdout;
     bool all_done = true;
     for (const pano::VideoSummary& s : results) all_done = Report(s, o.quiet, out) && all_done;
+    pano::WritePanolocSummaryJson(o, results, std::vector<std::string>(argv, argv + argc));
+    if (verbose && !o.quiet)
+      std::fprintf(out, "panoloc: %zu input%s in %.2f s\n", results.size(), results.size() == 1 ? "" : "s",
+                   std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     if (g_signal) return 128 + g_signal;
     return all_done ? 0 : 1;
   } catch (const pano::Error& e) {

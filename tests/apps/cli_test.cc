@@ -2,11 +2,14 @@
 // their one-line errors.
 #include <catch2/catch.hpp>
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+
+#include <nlohmann/json.hpp>
 
 #include "panotrack/io/calibration.h"
 #include "run_command.h"
@@ -83,7 +86,29 @@ TEST_CASE("panoloc: exit codes and errors of the command", "[panoloc_cli]") {
            "/seq/map.yaml -o " + dir + "/est.csv --gt " + dir + "/seq/gt.csv");
   CHECK(r.code == 0);
   CHECK(r.out.find("66 frames, 66 ok") != std::string::npos);
-  CHECK(r.out.find("position error: RMS") != std::string::npos);
+  const size_t at = r.out.find("position error: RMS");
+  REQUIRE(at != std::string::npos);
+  const double printed_rms = std::stod(r.out.substr(at + 20));
+  // Again: the CSV exists, so nothing is done without --force.
+  const std::string again = "panoloc " + dir + "/seq/video.mp4 --calib " + dir + "/seq/calib.yaml --map " + dir +
+                            "/seq/map.yaml -o " + dir + "/est.csv --gt " + dir + "/seq/gt.csv";
+  r = Exec(again);
+  CHECK(r.code == 1);
+  CHECK(r.out == "panoloc: " + dir + "/est.csv exists (use --force to replace it)\n");
+  // With --force; the summary as JSON on standard output, the same figures as printed.
+  r = Exec(again + " --force -q --summary-json -");
+  INFO(r.out);
+  CHECK(r.code == 0);
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  REQUIRE(j.at("inputs").size() == 1);
+  const nlohmann::json& in = j.at("inputs")[0];
+  CHECK(in.at("frames") == 66);
+  CHECK(in.at("ok") == 66);
+  CHECK(in.at("lost") == 0);
+  CHECK(in.at("end") == "done");
+  CHECK(in.at("outputs").at("poses") == dir + "/est.csv");
+  CHECK(std::abs(in.at("accuracy").at("rms").get<double>() - printed_rms) <= 0.0005);
+  CHECK(j.at("command_line").back() == "-");
   // One input missing: the other is done, the exit code says not all succeeded.
   r = Exec("panoloc " + dir + "/seq/video.mp4 " + dir + "/none.mp4 --calib " + dir +
            "/seq/calib.yaml --map " + dir + "/seq/map.yaml --out-dir " + dir + "/out -q");

@@ -1,5 +1,6 @@
 // panocalib calibrate as users run it: its thread count, the libraries' logs
-// (quiet unless --verbose), and one-line errors.
+// (quiet unless --verbose), one-line errors, existing outputs kept unless
+// --force, and the summary JSON.
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -7,6 +8,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+
+#include <nlohmann/json.hpp>
 
 #include "panotrack/io/calibration.h"
 #include "run_command.h"
@@ -21,7 +24,7 @@ int Lines(const std::string& s) { return test::CountLines(s); }
 
 bool Contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
 
-TEST_CASE("panocalib calibrate: --threads, quiet libraries unless --verbose, one-line errors",
+TEST_CASE("panocalib calibrate: -j/--threads, quiet libraries unless --verbose, one-line errors, --summary-json",
           "[panocalib_calibrate]") {
   namespace fs = std::filesystem;
   const std::string dir = test::ScratchDir("panocalib_calibrate");
@@ -31,12 +34,40 @@ TEST_CASE("panocalib calibrate: --threads, quiet libraries unless --verbose, one
   REQUIRE(r.code == 0);
   const std::string targets = dir + "/t/targets.yaml";
 
-  // Quiet: the summary, no step timings.
-  r = Exec("panocalib calibrate " + targets + " -o " + dir + "/two.yaml --threads 2");
+  // Quiet: the summary, no step timings. -j is --threads.
+  r = Exec("panocalib calibrate " + targets + " -o " + dir + "/two.yaml -j 2 --summary-json " + dir + "/two.json");
   INFO(r.out);
   CHECK(r.code == 0);
-  CHECK(Contains(r.out, "RMS reprojection error"));
+  const size_t at = r.out.find("RMS reprojection error ");
+  REQUIRE(at != std::string::npos);
+  const double printed_rms = std::stod(r.out.substr(at + 23));
   CHECK_FALSE(Contains(r.out, "[raw detection:"));
+  // The summary JSON: the printed figures and the calibration file's.
+  std::ifstream json_file(dir + "/two.json");
+  const nlohmann::json j = nlohmann::json::parse(json_file);
+  const Calibration written = ReadCalibration(dir + "/two.yaml");
+  CHECK(std::abs(j.at("rms_px").get<double>() - printed_rms) <= 0.00005);
+  CHECK(j.at("rms_px").get<double>() == Approx(written.extras.at("rms_px")).epsilon(1e-6));
+  CHECK(j.at("boards_used") == 6);
+  CHECK(j.at("image_rms_px").size() == 6);
+  CHECK(j.at("image_rms_px").contains("cal_000.png"));
+  CHECK(j.at("parameters").at("focal_px").at("value").get<double>() ==
+        Approx(written.sensor.params.focal_px).epsilon(1e-9));
+  CHECK(j.at("parameters").at("focal_px").at("stddev").get<double>() ==
+        Approx(written.extras.at("focal_px_std")).epsilon(1e-6));
+  CHECK(j.at("images_not_found").empty());
+  CHECK(j.at("iterations").get<int>() > 0);
+  CHECK(j.at("outputs").at("calibration") == dir + "/two.yaml");
+  // Again: the outputs exist, so nothing is done without --force; -q prints nothing else.
+  const auto yaml_time = fs::last_write_time(dir + "/two.yaml");
+  r = Exec("panocalib calibrate " + targets + " -o " + dir + "/two.yaml -q");
+  CHECK(r.code == 1);
+  CHECK(r.out == "panocalib: " + dir + "/two.yaml exists (use --force to replace it)\n");
+  CHECK(fs::last_write_time(dir + "/two.yaml") == yaml_time);
+  r = Exec("panocalib calibrate " + targets + " -o " + dir + "/other.yaml --summary-json " + dir + "/two.json");
+  CHECK(r.code == 1);
+  CHECK(r.out == "panocalib: " + dir + "/two.json exists (use --force to replace it)\n");
+  CHECK_FALSE(fs::exists(dir + "/other.yaml"));
   // Verbose: step timings and the solver's progress; the same calibration on one thread.
   r = Exec("panocalib calibrate " + targets + " -o " + dir + "/one.yaml --threads 1 --verbose");
   INFO(r.out);

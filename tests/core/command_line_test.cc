@@ -12,8 +12,8 @@ TEST_CASE("plain arguments stay as they are, others are single-quoted", "[comman
   CHECK(ShellQuote("my board.png") == "'my board.png'");
   CHECK(ShellQuote("it's") == "'it'\\''s'");
   CHECK(ShellQuote("$HOME") == "'$HOME'");
-  const char* argv[] = {"panocalib", "calibrate", "a b.yaml", "-o", "c.yaml"};
-  CHECK(ShellCommandLine(5, argv) == "panocalib calibrate 'a b.yaml' -o c.yaml");
+  CHECK(ShellCommandLine({"panocalib", "calibrate", "a b.yaml", "-o", "c.yaml"}) ==
+        "panocalib calibrate 'a b.yaml' -o c.yaml");
 }
 
 }  // namespace

@@ -212,6 +212,7 @@ TEST_CASE("time_s: the video's timestamps; --fps overrides them", "[timestamps]"
   for (size_t i = 0; i < rows.size(); ++i) CHECK(rows[i].time_s == Approx(expected[i]).margin(1e-6));
   PanolocOptions o = OneInput(dir + "/vfr.mp4", dir + "/est.csv");
   o.fps = 4;
+  o.overwrite = true;  // the run above wrote est.csv
   REQUIRE(RunPanoloc(o)[0].ok);
   const std::vector<PoseRow> fixed = ReadPoseCsv(dir + "/est.csv");
   for (size_t i = 0; i < fixed.size(); ++i) CHECK(fixed[i].time_s == Approx(i / 4.0).margin(1e-9));

@@ -57,6 +57,7 @@ TEST_CASE("panoloc rejects bad inputs with clear messages", "[bad_input]") {
   WriteCalibration(dir + "/small.yaml", small);
   o.inputs = {dir + "/seq/video.mp4"};
   o.calib_path = dir + "/small.yaml";
+  o.overwrite = true;  // the CSV of the first run is there
   s = RunPanoloc(o);
   REQUIRE(s.size() == 1);
   CHECK_FALSE(s[0].ok);

@@ -3,7 +3,10 @@
 // each subcommand's options, one runs it.
 #include <CLI/CLI.hpp>
 
+#include <omp.h>
+
 #include <cctype>
+#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
@@ -12,7 +15,9 @@
 #include <string>
 #include <vector>
 
+#include "panotrack/config.h"
 #include "panotrack/core/error.h"
+#include "panotrack/core/output_check.h"
 #include "panotrack/io/calibration.h"
 #include "panotrack/io/map.h"
 #include "panotrack/render/presets.h"
@@ -43,7 +48,12 @@ CLI::Option* AddNumberList(CLI::App* app, const std::string& name, std::vector<d
       "");
   std::string upper = form.substr(0, form.find(' '));
   for (char& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-  return app->add_option(name, *values, help)->delimiter(',')->expected(n)->type_name(upper)->check(finite);
+  return app->add_option(name, *values, help)
+      ->delimiter(',')
+      ->expected(n)
+      ->type_name(upper)
+      ->check(finite)
+      ->default_str("");  // no default to show
 }
 
 // Render options given on the command line; each overrides a preset's value
@@ -65,10 +75,18 @@ struct RenderFlags {
   CLI::Option *o_texture = nullptr, *o_exposure = nullptr, *o_blur_samples = nullptr, *o_auto_exposure = nullptr,
               *o_people = nullptr, *o_covered = nullptr, *o_dropped = nullptr;
   std::vector<CLI::Option*> opts;
-  CLI::Option *o_ss, *o_noise, *o_blur, *o_grad, *o_grad_angle, *o_nodis, *o_cam, *o_seed;
+  CLI::Option *o_ss = nullptr, *o_noise = nullptr, *o_blur = nullptr, *o_grad = nullptr, *o_grad_angle = nullptr,
+              *o_nodis = nullptr, *o_cam = nullptr, *o_seed = nullptr;
 
   // scene: options of rendering a room; sequence: the per-frame factors too.
+  // Listed under their own heading in the help.
   void Add(CLI::App* app, bool scene, bool sequence = false) {
+    AddOptions(app, scene, sequence);
+    for (CLI::Option* o : {o_ss, o_noise, o_seed, o_blur, o_grad, o_grad_angle, o_nodis, o_cam, o_texture, o_exposure,
+                           o_blur_samples, o_auto_exposure, o_people, o_covered, o_dropped})
+      if (o) o->group("Rendering");
+  }
+  void AddOptions(CLI::App* app, bool scene, bool sequence) {
     o_ss = app->add_option("--supersample", supersample, "Rays per pixel side: s x s subsamples per pixel (1..8)")
                ->default_val(3);
     o_noise = app->add_option("--noise", noise, "Gaussian noise sigma in grey levels (0..255 scale)")->default_val(0);
@@ -139,11 +157,31 @@ struct RenderFlags {
   }
 };
 
+// Options not yet under a heading (but help) go under "Input".
+void GroupInputs(CLI::App* app) {
+  for (CLI::Option* o : app->get_options({}))
+    if (o->get_group() == "Options" && o != app->get_help_ptr()) o->group("Input");
+}
+
+// The options every rendering subcommand shares with panoloc and panocalib.
+struct CommonFlags {
+  bool quiet = false, verbose = false, force = false;
+  int jobs = 0;
+
+  void Add(CLI::App* app, const std::string& force_help) {
+    app->add_flag("--force", force, force_help)->group("Output");
+    app->add_option("-j,--jobs", jobs, "Rendering threads (0: every core)")->group("Run");
+    app->add_flag("-q,--quiet", quiet, "No progress or notes on stderr (errors still)")->group("Run");
+    app->add_flag("-v,--verbose", verbose, "Also the rendering time")->group("Run");
+  }
+};
+
 struct StillArgs {
   std::string map_path, calib_path, out, preset;
   std::vector<double> pose;
   int frame_index = 0;
   RenderFlags flags;
+  CommonFlags common;
 };
 
 CLI::App* AddStill(CLI::App* app, StillArgs* a) {
@@ -155,7 +193,9 @@ CLI::App* AddStill(CLI::App* app, StillArgs* a) {
   still->add_option("--preset", a->preset, "Take map, sensor, options and pose from a preset instead");
   still->add_option("--frame", a->frame_index, "With --preset: the frame whose pose to render")
       ->default_val(0);
-  still->add_option("-o,--output", a->out, "Output PNG")->required();
+  still->add_option("-o,--output", a->out, "Output PNG")->required()->group("Output");
+  GroupInputs(still);
+  a->common.Add(still, "Replace an existing output file");
   a->flags.Add(still, true);
   return still;
 }
@@ -190,6 +230,7 @@ void RunStill(const StillArgs& a) {
   pano::Map map;
   pano::Pose2 pose;
   pano::RenderOptions ro;
+  pano::RefuseToReplace({a.out}, a.common.force);
   StillScene(a, &sensor, &map, &pose, &ro);
   a.flags.Apply(&ro, true);
   ro.Check("options");
@@ -199,16 +240,19 @@ void RunStill(const StillArgs& a) {
 struct SequenceArgs {
   std::string traj_path, out, preset, map_path, calib_path;
   double fps = 10.0;
-  bool frames = false, no_video = false, quiet = false, force = false;
+  bool frames = false, no_video = false;
   CLI::Option* o_fps = nullptr;
   RenderFlags flags;
+  CommonFlags common;
 };
 
 CLI::App* AddSequence(CLI::App* app, SequenceArgs* a) {
   CLI::App* seq = app->add_subcommand(
       "sequence",
-      "Render a sequence: DIR/video.mp4 (H.264), DIR/gt.csv (ground truth, spec section 5), "
-      "DIR/gt.tum (the same for evo: metres, the video's clock), DIR/map.yaml (no distractors), DIR/calib.yaml, DIR/case.yaml, and DIR/frames/ with --frames");
+      "Render a test sequence with its ground truth into a folder. Writes DIR/video.mp4 (H.264), "
+      "DIR/gt.csv (ground truth, spec section 5), DIR/gt.tum (the same for evo: metres, the video's "
+      "clock), DIR/map.yaml (no distractors), DIR/calib.yaml, DIR/case.yaml, and DIR/frames/ with "
+      "--frames.");
   seq->add_option("--preset", a->preset,
                   "Built-in case (panosim presets lists them): paper-synthetic, paper-real, cluttered, kidnap, "
                   "fast-turns, motion-blur, real-conditions, long-run, long-run-blur; the options below apply on top");
@@ -219,11 +263,12 @@ CLI::App* AddSequence(CLI::App* app, SequenceArgs* a) {
       "Poses, one per frame: CSV with header x,y,theta (radians), or a pose CSV (spec section 5)");
   a->o_fps = seq->add_option("--fps", a->fps, "Frame rate of the video and of gt.csv times")->default_val(10);
   seq->add_option("-o,--output", a->out, "Output folder (created; must not exist unless --force)")
-      ->required();
-  seq->add_flag("--frames", a->frames, "Also write lossless DIR/frames/frame_%04d.png");
-  seq->add_flag("--no-video", a->no_video, "Do not write video.mp4 (needs --frames)");
-  seq->add_flag("-q,--quiet", a->quiet, "No progress on stderr");
-  seq->add_flag("--force", a->force, "Replace an existing output folder");
+      ->required()
+      ->group("Output");
+  seq->add_flag("--frames", a->frames, "Also write lossless DIR/frames/frame_%04d.png")->group("Output");
+  seq->add_flag("--no-video", a->no_video, "Do not write video.mp4 (needs --frames)")->group("Output");
+  GroupInputs(seq);
+  a->common.Add(seq, "Replace an existing output folder");
   a->flags.Add(seq, true, true);
   return seq;
 }
@@ -249,10 +294,10 @@ void RunSequence(const SequenceArgs& a) {
   pano::SequenceWriteOptions wo;
   wo.frames = a.frames;
   wo.video = !a.no_video;
-  wo.quiet = a.quiet;
-  wo.overwrite = a.force;
+  wo.quiet = a.common.quiet;
+  wo.overwrite = a.common.force;
   const pano::SequenceWriteResult r = pano::WriteSequence(c, a.out, wo);
-  if (!a.quiet)
+  if (!a.common.quiet)
     std::cerr << "panosim: wrote " << r.frames << " frames to " << a.out
               << (r.codec.empty() ? "" : " (video codec " + r.codec + ")") << "\n";
 }
@@ -261,16 +306,17 @@ struct TargetsArgs {
   std::string calib_path, poses_path, out;
   std::vector<double> board;
   int auto_n = 0;
-  bool quiet = false, force = false;
   CLI::Option *o_poses = nullptr, *o_auto = nullptr;
   RenderFlags flags;
+  CommonFlags common;
 };
 
 CLI::App* AddTargets(CLI::App* app, TargetsArgs* a) {
   CLI::App* tg = app->add_subcommand(
       "targets",
-      "Render chessboard calibration images: DIR/cal_NNN.png, DIR/targets.yaml (known poses, spec "
-      "section 6), DIR/targets_unknown.yaml (no poses), DIR/truth.yaml (the calibration used)");
+      "Render chessboard calibration images into a folder. Writes DIR/cal_NNN.png, DIR/targets.yaml "
+      "(known poses, spec section 6), DIR/targets_unknown.yaml (no poses), DIR/truth.yaml (the "
+      "calibration used).");
   tg->add_option("--calib", a->calib_path, "Calibration file of the sensor to render (YAML, spec section 3)")
       ->required();
   AddNumberList(tg, "--board", &a->board, 3, "cols,rows,square",
@@ -284,9 +330,11 @@ CLI::App* AddTargets(CLI::App* app, TargetsArgs* a) {
                              "below to 60 above it, corners out to the limb (the placement that calibrates "
                              "best with unknown poses)");
   a->o_poses->excludes(a->o_auto);
-  tg->add_option("-o,--output", a->out, "Output folder (created; must not exist unless --force)")->required();
-  tg->add_flag("-q,--quiet", a->quiet, "No progress on stderr");
-  tg->add_flag("--force", a->force, "Replace an existing output folder");
+  tg->add_option("-o,--output", a->out, "Output folder (created; must not exist unless --force)")
+      ->required()
+      ->group("Output");
+  GroupInputs(tg);
+  a->common.Add(tg, "Replace an existing output folder");
   a->flags.Add(tg, false);
   return tg;
 }
@@ -313,7 +361,7 @@ std::vector<pano::BoardPose> BoardPosesOf(const TargetsArgs& a, const pano::Sens
   if (a.o_poses->count()) {
     std::vector<pano::BoardPose> poses = pano::ReadBoardPoses(a.poses_path);
     for (size_t i = 0; i < poses.size(); ++i)
-      if (!pano::BoardFullyVisible(sensor, board, poses[i], 0.0, 1.0))
+      if (!a.common.quiet && !pano::BoardFullyVisible(sensor, board, poses[i], 0.0, 1.0))
         std::cerr << "panosim: warning: " << a.poses_path << ": line " << i + 2
                   << ": not every inner corner of the board is in view\n";
     return poses;
@@ -330,8 +378,8 @@ void RunTargets(const TargetsArgs& a) {
   ro.Check("options");
   const std::vector<pano::BoardPose> poses = BoardPosesOf(a, calib.sensor, board, ro.seed);
   pano::TargetsWriteOptions wo;
-  wo.overwrite = a.force;
-  wo.quiet = a.quiet;
+  wo.overwrite = a.common.force;
+  wo.quiet = a.common.quiet;
   pano::WriteTargetImages(a.out, calib, board, poses, ro, wo);
 }
 
@@ -340,6 +388,33 @@ void ListPresets() {
     const pano::SequenceCase c = pano::MakePreset(n);
     std::cout << n << ": " << c.poses.size() << " frames, " << c.calib.sensor.image_width << "x"
               << c.calib.sensor.image_height << ", " << c.description << "\n";
+  }
+}
+
+// `text` broken into lines of at most `width` characters at spaces.
+std::string Wrapped(const std::string& text, size_t width = 96) {
+  std::string out, line;
+  std::istringstream words(text);
+  for (std::string w; words >> w;) {
+    if (!line.empty() && line.size() + 1 + w.size() > width) out += line + "\n", line.clear();
+    line += (line.empty() ? "" : " ") + w;
+  }
+  return out + line;
+}
+
+// Each subcommand's description becomes its first sentence (the one line the
+// subcommand list shows); the rest goes to the foot of its help, above the
+// exit codes.
+void SplitDescriptions(CLI::App& app, const std::string& exit_codes) {
+  for (CLI::App* sub : app.get_subcommands({})) {
+    const std::string d = sub->get_description();
+    const size_t end = d.find(". ");
+    if (end == std::string::npos) {
+      sub->footer(exit_codes);
+      continue;
+    }
+    sub->description(d.substr(0, end + 1));
+    sub->footer(Wrapped(d.substr(end + 2)) + "\n\n" + exit_codes);
   }
 }
 
@@ -367,10 +442,19 @@ int ParseCommandLine(CLI::App* app, int argc, char** argv) {
 
 int main(int argc, char** argv) {
   CLI::App app{
-      "panosim: ray tracer for a catadioptric panoramic sensor (pinhole camera looking up at a "
-      "mirror of revolution). Renders stills, test sequences with ground truth, and chessboard "
-      "calibration images. Lengths are in the map's units; angles in radians."};
+      "panosim: render what a catadioptric panoramic sensor sees, with exact ground truth.\n"
+      "A ray tracer for a pinhole camera looking up at a mirror of revolution: stills, test\n"
+      "sequences with ground truth, and chessboard calibration images. Lengths are in the map's\n"
+      "units; angles in radians. Existing outputs are kept unless --force is given.",
+      "panosim"};
+  const std::string exit_codes =
+      "Exit status: 0 success; 1 bad options or files, an existing output without --force, or\n"
+      "the rendering failed; 2 unexpected internal error.";
+  app.footer(exit_codes);
   app.require_subcommand(1);
+  app.set_version_flag("--version", "panosim " PANO_VERSION, "Print the version and exit");
+  app.set_help_flag("-h,--help", "Print this help and exit");
+  app.option_defaults()->always_capture_default();
   StillArgs still_args;
   SequenceArgs seq_args;
   TargetsArgs tg_args;
@@ -378,18 +462,30 @@ int main(int argc, char** argv) {
   const CLI::App* seq = AddSequence(&app, &seq_args);
   const CLI::App* tg = AddTargets(&app, &tg_args);
   const CLI::App* list = app.add_subcommand("presets", "List the built-in presets");
+  SplitDescriptions(app, exit_codes);
   const int parsed = ParseCommandLine(&app, argc, argv);
   if (parsed >= 0) return parsed;
   try {
+    const CommonFlags* common = *still ? &still_args.common
+                                : *seq ? &seq_args.common
+                                : *tg  ? &tg_args.common
+                                       : nullptr;
+    // The renderer's loops take OpenMP's default team size.
+    if (common && common->jobs < 0) throw pano::Error("-j/--jobs: expected 0 (every core) or more");
+    if (common && common->jobs > 0) omp_set_num_threads(common->jobs);
+    const auto t0 = std::chrono::steady_clock::now();
     if (*still) RunStill(still_args);
     if (*seq) RunSequence(seq_args);
     if (*tg) RunTargets(tg_args);
     if (*list) ListPresets();
+    if (common && common->verbose && !common->quiet)
+      std::cerr << "panosim: rendered in "
+                << std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() << " s\n";
   } catch (const pano::Error& e) {
     std::cerr << "panosim: " << e.what() << "\n";
     return 1;
   } catch (const std::exception& e) {
-    std::cerr << "panosim: internal error: " << e.what() << "\n";
+    std::cerr << "panosim: unexpected error: " << e.what() << "\n";
     return 2;
   }
   return 0;

@@ -25,11 +25,11 @@ std::string ShellQuote(const std::string& arg) {
   return out + "'";
 }
 
-std::string ShellCommandLine(int argc, const char* const* argv) {
+std::string ShellCommandLine(const std::vector<std::string>& args) {
   std::string line;
-  for (int i = 0; i < argc; ++i) {
-    if (i > 0) line += ' ';
-    line += ShellQuote(argv[i]);
+  for (const std::string& arg : args) {
+    if (!line.empty()) line += ' ';
+    line += ShellQuote(arg);
   }
   return line;
 }

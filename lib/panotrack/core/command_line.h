@@ -4,12 +4,13 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 namespace pano {
 
 // Each argument as is when it is made only of characters no shell treats
 // specially, otherwise in single quotes (a quote inside becomes '\'').
 std::string ShellQuote(const std::string& arg);
-std::string ShellCommandLine(int argc, const char* const* argv);
+std::string ShellCommandLine(const std::vector<std::string>& args);
 
 }  // namespace pano

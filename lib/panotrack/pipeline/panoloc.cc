@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "panotrack/core/error.h"
+#include "panotrack/core/output_check.h"
 #include "panotrack/io/calibration.h"
 #include "panotrack/io/case_file.h"
 #include "panotrack/io/map.h"
@@ -47,6 +48,8 @@ void PanolocOptions::Check() const {
     throw Error("--odometry-scale (odometry_scale): expected a positive number");
   if (!tum.empty() && inputs.size() > 1)
     throw Error("--tum (tum): takes one input");
+  if (summary_json == "-" && output == "-")
+    throw Error("--summary-json (summary_json): standard output already carries the pose CSV (-o -)");
   if (tum == "-")
     throw Error("--tum (tum): expected a file name (the TUM file cannot go to standard output)");
   if (!(tum_scale >= 0) || !std::isfinite(tum_scale))
@@ -139,7 +142,8 @@ std::vector<PlannedJob> PlanJobs(const PanolocOptions& opt, const Map& map) {
   return jobs;
 }
 
-// No output may overwrite a file the run reads, or another output.
+// No output may overwrite a file the run reads, or another output; none
+// replaces an existing file unless the options allow it.
 void CheckOutputs(const PanolocOptions& opt, const std::vector<PlannedJob>& jobs) {
   NamedPaths reads = {{"--calib", opt.calib_path}, {"--map", opt.map_path}, {"--odometry", opt.odometry}};
   NamedPaths writes;
@@ -153,7 +157,11 @@ void CheckOutputs(const PanolocOptions& opt, const std::vector<PlannedJob>& jobs
     writes.push_back({"--smooth", p.job.smoothed_output});
     writes.push_back({"--tum", p.job.tum});
   }
+  writes.push_back({"--summary-json", opt.summary_json});
   CheckOutputsDistinct(reads, writes);
+  std::vector<std::string> paths;
+  for (const auto& named : writes) paths.push_back(named.second);
+  RefuseToReplace(paths, opt.overwrite);
 }
 
 // Calls the progress callback about four times a second on a thread of its

@@ -40,6 +40,13 @@ struct PanolocOptions {
   int jobs = 0;                      // inputs processed at once; 0: as many as the threads allow
   int num_threads = 0;               // threads of the whole run; 0: all cores
   bool quiet = false;                // no notes on stderr
+  // Replace existing output files. Otherwise RunPanoloc refuses, before any
+  // work, to start when a planned output (pose CSVs, smoothed CSVs, TUM file,
+  // debug video, plot, summary JSON) is an existing file (--force).
+  bool overwrite = false;
+  // Where the caller will write the run's summary as JSON (summary_json.h;
+  // "-": standard output): checked with the other outputs. Empty: none.
+  std::string summary_json;
   std::string gt;                    // ground truth CSV (one input), or "auto": DIR/gt.csv beside each input
   std::string debug_video;           // one input only
   std::string plot;                  // one input only

@@ -1,0 +1,63 @@
+#include "panotrack/calibrate/summary_json.h"
+
+#include <cmath>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+
+#include "panotrack/config.h"
+#include "panotrack/core/atomic_file.h"
+#include "panotrack/core/error.h"
+
+namespace pano {
+
+std::string CalibrationSummaryJson(const CalibrationResult& r, const CalibrationOutputs& outputs,
+                                   const std::vector<std::string>& command_line) {
+  using json = nlohmann::ordered_json;  // keys in the order written, for people reading the file
+  const Sensor& s = r.calib.sensor;
+  json image_rms = json::object(), detection = json::object();
+  for (size_t i = 0; i < r.views.size() && i < r.image_rms.size(); ++i) {
+    image_rms[r.views[i].file] = r.image_rms[i];
+    detection[r.views[i].file] = r.views[i].method;
+  }
+  json parameters = json::object();
+  for (const ParameterEstimate& p : r.parameters)
+    parameters[p.name] = {{"value", p.value},
+                          {"stddev", std::isfinite(p.stddev) ? json(p.stddev) : json(nullptr)},
+                          {"fixed", p.fixed}};
+  json written = json::object();
+  if (!outputs.calibration.empty()) written["calibration"] = outputs.calibration;
+  if (!outputs.lut.empty()) written["lut"] = outputs.lut;
+  if (!outputs.report.empty()) written["report"] = outputs.report;
+  const json j = {{"tool", "panocalib calibrate"},
+                  {"version", PANO_VERSION},
+                  {"command_line", command_line},
+                  {"model", mirror_model_name(s.model)},
+                  {"image_width", s.image_width},
+                  {"image_height", s.image_height},
+                  {"poses_known", r.poses_known},
+                  {"boards_used", r.views.size()},
+                  {"rms_px", r.rms_px},
+                  {"image_rms_px", image_rms},
+                  {"detection", detection},
+                  {"parameters", parameters},
+                  {"images_not_found", r.not_found_files},
+                  {"warnings", r.warnings},
+                  {"iterations", r.iterations},
+                  {"seconds", {{"detection", r.seconds_detect}, {"fit", r.seconds_fit}}},
+                  {"outputs", written}};
+  // Invalid UTF-8 in a file name becomes U+FFFD rather than an exception.
+  return j.dump(2, ' ', false, json::error_handler_t::replace) + "\n";
+}
+
+void WriteCalibrationSummaryJson(const std::string& path, const CalibrationResult& result,
+                                 const CalibrationOutputs& outputs, const std::vector<std::string>& command_line) {
+  const std::string text = CalibrationSummaryJson(result, outputs, command_line);
+  if (path == "-") {
+    if (std::fwrite(text.data(), 1, text.size(), stdout) != text.size() || std::fflush(stdout) != 0)
+      throw Error("--summary-json: cannot write to standard output");
+    return;
+  }
+  WriteFileAtomic(path, text);
+}
+
+}  // namespace pano
