@@ -117,7 +117,7 @@ cv::Mat DrawReport(const CalibrationResult& r, const cv::Mat& image, int view_in
 
   // Heights: the right column grows with the number of images.
   const int row_h = 20;
-  const int bars_h = 30 + std::max(1, n) * row_h + 40;
+  const int bars_h = 42 + std::max(1, n) * row_h + 40;
   const int params_h = 30 + static_cast<int>(r.parameters.size()) * 19 + 10;
   const int right_h = bars_h + 24 + params_h;
   const int mid_h = 30 + 400 + 24 + 30 + 250;
@@ -275,11 +275,15 @@ cv::Mat DrawReport(const CalibrationResult& r, const cv::Mat& image, int view_in
     }
     axes.DrawFrame();
     const cv::Rect a = axes.area();
-    std::string note = Printf("projected - detected; dashed: RMS %.3f px", r.rms_px);
-    if (outside > 0) note += Printf(", %.0f beyond the axes", outside);
-    const cv::Rect tb = TextBox(note, {a.x + 6.0, a.y + 6.0}, Anchor::kTopLeft, kSmall);
-    cv::rectangle(canvas, cv::Rect(tb.x - 3, tb.y - 2, tb.width + 6, tb.height + 4), kWhite, cv::FILLED);
-    DrawText(&canvas, note, tb.tl(), Anchor::kTopLeft, kSmall);
+    std::vector<std::string> notes = {"projected - detected", Printf("dashed: RMS %.3f px", r.rms_px)};
+    if (outside > 0) notes.push_back(Printf("%.0f beyond the axes", outside));
+    double ty = a.y + 6.0;
+    for (const std::string& note : notes) {
+      const cv::Rect tb = TextBox(note, {a.x + 6.0, ty}, Anchor::kTopLeft, kSmall);
+      cv::rectangle(canvas, cv::Rect(tb.x - 3, tb.y - 2, tb.width + 6, tb.height + 4), kWhite, cv::FILLED);
+      DrawText(&canvas, note, tb.tl(), Anchor::kTopLeft, kSmall);
+      ty = tb.br().y + 4;
+    }
     y += 400 + 24;
   }
 
@@ -332,7 +336,7 @@ cv::Mat DrawReport(const CalibrationResult& r, const cv::Mat& image, int view_in
   // ---- RMS per image.
   y = title_h;
   DrawText(&canvas, "RMS per image (px)", {double(x_right), double(y)}, Anchor::kTopLeft, kHeader);
-  y += 30;
+  y += 42;
   {
     double vmax = r.rms_px;
     for (double v : r.image_rms) vmax = std::max(vmax, v);
@@ -348,6 +352,15 @@ cv::Mat DrawReport(const CalibrationResult& r, const cv::Mat& image, int view_in
       DrawText(&canvas, FormatTick(v, t.decimals), {X(v), by1 + 8.0}, Anchor::kTop, kSmall);
     }
     DrawLine(&canvas, {double(bx0), double(by0)}, {double(bx0), double(by1)}, cv::Scalar(90, 90, 90));
+    // The overall RMS under the bars and their values.
+    const double xr = X(r.rms_px);
+    DrawDashedLine(&canvas, {xr, by0 - 6.0}, {xr, double(by1)}, kRms, 1);
+    TextStyle red = kSmall;
+    red.colour = kRms;
+    DrawText(&canvas, Printf("all %.3f", r.rms_px), {xr, by0 - 8.0}, Anchor::kBottom, red);
+    TextStyle value = kSmall;
+    value.halo = 2;
+    value.halo_colour = kWhite;
     DrawLine(&canvas, {double(bx0), double(by1)}, {double(bx1), double(by1)}, cv::Scalar(90, 90, 90));
     for (int i = 0; i < n; ++i) {
       const double yc = by0 + (i + 0.5) * row_h;
@@ -359,18 +372,13 @@ cv::Mat DrawReport(const CalibrationResult& r, const cv::Mat& image, int view_in
                name);
       cv::rectangle(canvas, cv::Point(bx0 + 1, int(yc) - 6), cv::Point(int(std::lround(X(v))), int(yc) + 6),
                     ImageColour(i, n), cv::FILLED);
-      const cv::Rect vb = DrawText(&canvas, Printf("%.3f", v), {X(v) + 5, yc}, Anchor::kLeft, kSmall);
+      const cv::Rect vb = DrawText(&canvas, Printf("%.3f", v), {X(v) + 3, yc}, Anchor::kLeft, value);
       if (unwarped) {
         TextStyle u = kSmall;
         u.colour = kUnwarped;
         DrawText(&canvas, "unwarped", {vb.br().x + 6.0, yc}, Anchor::kLeft, u);
       }
     }
-    const double xr = X(r.rms_px);
-    DrawDashedLine(&canvas, {xr, by0 - 6.0}, {xr, double(by1)}, kRms, 1);
-    TextStyle red = kSmall;
-    red.colour = kRms;
-    DrawText(&canvas, Printf("all %.3f", r.rms_px), {xr, by0 - 8.0}, Anchor::kBottom, red);
     y = by1 + 40;
   }
 

@@ -64,7 +64,8 @@ void ReservePath(LabelPlacer* placer, const std::vector<cv::Point2d>& pts, int r
 
 void EncodeAndWrite(const std::string& path, const cv::Mat& image) {
   std::vector<uchar> png;
-  if (!cv::imencode(".png", image, png)) throw Error(path + ": cannot encode the plot");
+  if (!cv::imencode(".png", image, png, {cv::IMWRITE_PNG_COMPRESSION, 9}))
+    throw Error(path + ": cannot encode the plot");
   AtomicFile f(path);
   {
     std::ofstream out(f.temp_path(), std::ios::binary);
