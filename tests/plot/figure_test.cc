@@ -12,12 +12,12 @@ namespace {
 
 TEST_CASE("ticks: 1-2-5 steps, values on the step, decimals, labels", "[ticks]") {
   CHECK(NiceStep(10, 5) == 2);
-  CHECK(NiceStep(7, 5) == 2);        // 1.4 -> 2
-  CHECK(NiceStep(12, 5) == 5);       // 2.4 -> 5
-  CHECK(NiceStep(30, 5) == 10);      // 6 -> 10
+  CHECK(NiceStep(7, 5) == 2);    // 1.4 -> 2
+  CHECK(NiceStep(12, 5) == 5);   // 2.4 -> 5
+  CHECK(NiceStep(30, 5) == 10);  // 6 -> 10
   CHECK(NiceStep(1, 5) == 0.2);
   CHECK(NiceStep(0.03, 6) == 0.005);
-  CHECK(NiceStep(100, 4) == 50);     // 25 -> 50
+  CHECK(NiceStep(100, 4) == 50);  // 25 -> 50
   CHECK(NiceStep(0, 5) == 1);
   CHECK(NiceStep(std::nan(""), 5) == 1);
 

@@ -255,8 +255,10 @@ CalibrationResult HandResult(int views) {
     r.image_rms.push_back(0.04 + 0.01 * v);
   }
   r.rms_px = 0.05;
-  r.parameters = {{"focal_px", 588.7, 1.9, false}, {"cx", 319.5, 0.007, false},
-                  {"k1", 0.0, std::nan(""), false}, {"azimuth_offset", 0, 0, true}};
+  r.parameters = {{"focal_px", 588.7, 1.9, false},
+                  {"cx", 319.5, 0.007, false},
+                  {"k1", 0.0, std::nan(""), false},
+                  {"azimuth_offset", 0, 0, true}};
   r.not_found_files = {"cal_099.png"};
   r.warnings = {"the mirror's size is poorly determined"};
   return r;

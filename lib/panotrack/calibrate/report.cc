@@ -67,7 +67,8 @@ std::vector<std::string> Wrap(const std::string& text, int width, const TextStyl
 
 // Draws lines from `y` down; returns the y below them.
 int DrawLines(cv::Mat* canvas, const std::vector<std::string>& lines, int x, int y, const TextStyle& style) {
-  for (const std::string& l : lines) y = DrawText(canvas, l, {double(x), double(y)}, Anchor::kTopLeft, style).br().y + 4;
+  for (const std::string& l : lines)
+    y = DrawText(canvas, l, {double(x), double(y)}, Anchor::kTopLeft, style).br().y + 4;
   return y;
 }
 
@@ -106,8 +107,7 @@ cv::Mat DrawReport(const CalibrationResult& r, const cv::Mat& image, int view_in
   const cv::Size cov(static_cast<int>(std::lround(W * sc)), static_cast<int>(std::lround(H * sc)));
   const int mid_w = 400;
   int name_w = 0;
-  for (const BoardView& v : r.views)
-    name_w = std::max(name_w, TextBox(v.file, {0, 0}, Anchor::kTopLeft, kSmall).width);
+  for (const BoardView& v : r.views) name_w = std::max(name_w, TextBox(v.file, {0, 0}, Anchor::kTopLeft, kSmall).width);
   name_w = std::min(name_w, 320);
   const int index_w = TextBox(std::to_string(std::max(1, n)), {0, 0}, Anchor::kTopLeft, kSmall).width + 10;
   const int bar_w = 230;
@@ -137,8 +137,7 @@ cv::Mat DrawReport(const CalibrationResult& r, const cv::Mat& image, int view_in
 
   // ---- Coverage: every image's corners over the mirror.
   int y = title_h;
-  DrawText(&canvas, "Corners of all images over the mirror",
-           {double(x_left), double(y)}, Anchor::kTopLeft, kHeader);
+  DrawText(&canvas, "Corners of all images over the mirror", {double(x_left), double(y)}, Anchor::kTopLeft, kHeader);
   y += 24;
   const cv::Rect cov_rect(x_left, y, cov.width, cov.height);
   {
@@ -178,8 +177,8 @@ cv::Mat DrawReport(const CalibrationResult& r, const cv::Mat& image, int view_in
       ring(r_min, cv::Scalar(110, 110, 110), true);
       ring(r_max, cv::Scalar(110, 110, 110), true);
     }
-    cv::drawMarker(panel, P(Eigen::Vector2d(s.params.cx, s.params.cy)), cv::Scalar(150, 110, 60), cv::MARKER_CROSS,
-                   12, 1, cv::LINE_AA);
+    cv::drawMarker(panel, P(Eigen::Vector2d(s.params.cx, s.params.cy)), cv::Scalar(150, 110, 60), cv::MARKER_CROSS, 12,
+                   1, cv::LINE_AA);
     LabelPlacer placer(cv::Rect(0, 0, panel.cols, panel.rows));
     std::vector<cv::Point2d> centres(n);
     for (int i = 0; i < n; ++i) {
@@ -190,8 +189,8 @@ cv::Mat DrawReport(const CalibrationResult& r, const cv::Mat& image, int view_in
         const cv::Point2d p = P(c);
         centre += p;
         if (v.method == "unwarped")
-          cv::drawMarker(panel, cv::Point(int(std::lround(p.x)), int(std::lround(p.y))), col, cv::MARKER_TRIANGLE_UP,
-                         6, 1, cv::LINE_AA);
+          cv::drawMarker(panel, cv::Point(int(std::lround(p.x)), int(std::lround(p.y))), col, cv::MARKER_TRIANGLE_UP, 6,
+                         1, cv::LINE_AA);
         else
           DrawDisc(&panel, p, 1.8, col);
       }
@@ -213,7 +212,8 @@ cv::Mat DrawReport(const CalibrationResult& r, const cv::Mat& image, int view_in
     y = cov_rect.br().y + 10;
     // Key and notes under the picture.
     std::vector<LegendEntry> key = {{"corner (raw detection)", kInk, LegendEntry::Kind::kMarker, 1, -1}};
-    if (n_unwarped > 0) key.push_back({"corner (unwarped retry)", kInk, LegendEntry::Kind::kMarker, 1, cv::MARKER_TRIANGLE_UP});
+    if (n_unwarped > 0)
+      key.push_back({"corner (unwarped retry)", kInk, LegendEntry::Kind::kMarker, 1, cv::MARKER_TRIANGLE_UP});
     key.push_back({"mirror limb and centre", cv::Scalar(150, 110, 60), LegendEntry::Kind::kLine, 2});
     if (!image.empty() && view_index >= 0 && view_index < n)
       key.push_back({"background: " + r.views[view_index].file, cv::Scalar(200, 200, 200), LegendEntry::Kind::kPatch});
@@ -241,8 +241,8 @@ cv::Mat DrawReport(const CalibrationResult& r, const cv::Mat& image, int view_in
 
   // ---- Residual scatter of all corners.
   y = title_h;
-  DrawText(&canvas, Printf("Residuals of all %.0f corners", double(norms.size())),
-           {double(x_mid), double(y)}, Anchor::kTopLeft, kHeader);
+  DrawText(&canvas, Printf("Residuals of all %.0f corners", double(norms.size())), {double(x_mid), double(y)},
+           Anchor::kTopLeft, kHeader);
   y += 24;
   {
     double lim = std::max({quantile(components, 0.99) * 1.15, 3.0 * r.rms_px, 1e-3});
@@ -325,8 +325,10 @@ cv::Mat DrawReport(const CalibrationResult& r, const cv::Mat& image, int view_in
     TextStyle red = kSmall;
     red.colour = kRms;
     const cv::Rect nb = TextBox(note, {a.x + xr + 6, a.y + 6.0}, Anchor::kTopLeft, red);
-    DrawText(&canvas, note, nb.br().x < a.br().x ? cv::Point2d(a.x + xr + 6, a.y + 6.0) : cv::Point2d(a.x + xr - 6 - nb.width, a.y + 6.0),
-             Anchor::kTopLeft, red);
+    DrawText(
+        &canvas, note,
+        nb.br().x < a.br().x ? cv::Point2d(a.x + xr + 6, a.y + 6.0) : cv::Point2d(a.x + xr - 6 - nb.width, a.y + 6.0),
+        Anchor::kTopLeft, red);
     if (beyond > 0)
       DrawText(&canvas, Printf("%.0f longer, counted in the last bin", beyond), {a.x + a.width - 6.0, a.y + 26.0},
                Anchor::kTopRight, kSmall);

@@ -33,8 +33,8 @@ std::string FoundSummary(const FrameResult& fr) {
     if (!m.found && m.why && *m.why) ++why[m.why];
   }
   std::string s = Printf("found %d of %d", found, static_cast<int>(fr.measurements.size()));
-  const auto most = std::max_element(why.begin(), why.end(),
-                                     [](const auto& a, const auto& b) { return a.second < b.second; });
+  const auto most =
+      std::max_element(why.begin(), why.end(), [](const auto& a, const auto& b) { return a.second < b.second; });
   if (most != why.end()) s += "; missed: " + most->first + Printf(" (%d)", most->second);
   return s;
 }

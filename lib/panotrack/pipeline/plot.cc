@@ -23,9 +23,9 @@ const cv::Scalar kWhite(255, 255, 255);
 const cv::Scalar kInk(40, 40, 40);
 const cv::Scalar kWall(70, 70, 70);
 const cv::Scalar kTruth(205, 205, 205);
-const cv::Scalar kStart(44, 160, 44);  // green
-const cv::Scalar kEnd(40, 39, 214);    // red
-const cv::Scalar kLost(14, 127, 255);  // orange
+const cv::Scalar kStart(44, 160, 44);      // green
+const cv::Scalar kEnd(40, 39, 214);        // red
+const cv::Scalar kLost(14, 127, 255);      // orange
 const cv::Scalar kEstimate(180, 119, 31);  // blue
 const cv::Scalar kLostShade(226, 232, 252);
 
@@ -45,8 +45,7 @@ std::vector<double> PositionErrors(const std::vector<PoseRow>& est, const std::m
   for (size_t i = 0; i < est.size(); ++i) {
     if (est[i].status != PoseStatus::kOk) continue;
     const auto it = truth.find(est[i].frame);
-    if (it != truth.end())
-      e[i] = std::hypot(est[i].pose.x - it->second->pose.x, est[i].pose.y - it->second->pose.y);
+    if (it != truth.end()) e[i] = std::hypot(est[i].pose.x - it->second->pose.x, est[i].pose.y - it->second->pose.y);
   }
   return e;
 }
@@ -143,7 +142,8 @@ TrajectoryFigure DrawTrajectoryPlot(const Map& map, const std::vector<PoseRow>& 
     cv::rectangle(plot, p0, p1, kWall, 2);
     for (const cv::Point2d& c : {p0, p1, cv::Point2d(p0.x, p1.y), cv::Point2d(p1.x, p0.y)}) placer.ReservePoint(c, 3);
   }
-  for (const MapRectangle& r : map.distractors) DrawDashedLine(&plot, axes.Px(r.from), axes.Px(r.to), cv::Scalar(170, 170, 170), 2);
+  for (const MapRectangle& r : map.distractors)
+    DrawDashedLine(&plot, axes.Px(r.from), axes.Px(r.to), cv::Scalar(170, 170, 170), 2);
   for (const MapRectangle& r : map.rectangles) {
     DrawLine(&plot, axes.Px(r.from), axes.Px(r.to), kWall, 3);
     ReservePath(&placer, {axes.Px(r.from), axes.Px(r.to)}, 3);
@@ -168,15 +168,17 @@ TrajectoryFigure DrawTrajectoryPlot(const Map& map, const std::vector<PoseRow>& 
   flush(kTruth, 7);
 
   // The estimate: broken at lost frames, coloured by error with the truth.
-  const double colour_max = max_error > 0 ? NiceTicks(0, max_error, 4).step * std::ceil(max_error / NiceTicks(0, max_error, 4).step - 1e-9) : 1.0;
-  auto est_colour = [&](size_t i) {
-    return has_truth ? ColourMapValue(errors[i] / colour_max) : kEstimate;
-  };
+  const double colour_max =
+      max_error > 0 ? NiceTicks(0, max_error, 4).step * std::ceil(max_error / NiceTicks(0, max_error, 4).step - 1e-9)
+                    : 1.0;
+  auto est_colour = [&](size_t i) { return has_truth ? ColourMapValue(errors[i] / colour_max) : kEstimate; };
   std::vector<size_t> known;
   for (size_t i = 0; i < est.size(); ++i) {
     if (!Known(est[i])) continue;
     const bool joined = !known.empty() && known.back() + 1 == i;
-    if (joined) DrawLine(&plot, axes.Px(est[known.back()].pose.x, est[known.back()].pose.y), axes.Px(est[i].pose.x, est[i].pose.y), est_colour(i), 2);
+    if (joined)
+      DrawLine(&plot, axes.Px(est[known.back()].pose.x, est[known.back()].pose.y),
+               axes.Px(est[i].pose.x, est[i].pose.y), est_colour(i), 2);
     known.push_back(i);
   }
   const bool dots = known.size() <= 400;
@@ -199,7 +201,9 @@ TrajectoryFigure DrawTrajectoryPlot(const Map& map, const std::vector<PoseRow>& 
     const PoseRow& r = est[known[k]];
     const cv::Point2d p = axes.Px(r.pose.x, r.pose.y);
     const cv::Point2d q = p + cv::Point2d(std::cos(r.pose.theta), -std::sin(r.pose.theta)) * arrow_px;
-    DrawArrow(&plot, p, q, cv::Scalar(90, 60, 40), 1, 6);
+    // A white edge keeps the arrow visible over the path it points along.
+    DrawArrow(&plot, p, q + (q - p) * (2.0 / arrow_px), kWhite, 3, 9);
+    DrawArrow(&plot, p, q, cv::Scalar(30, 30, 30), 1, 7);
     ReservePath(&placer, {p, q}, 2);
   }
   // Lost frames: at the truth's pose, else at the last pose known.
@@ -213,7 +217,8 @@ TrajectoryFigure DrawTrajectoryPlot(const Map& map, const std::vector<PoseRow>& 
     const PoseRow* at = it != truth.end() ? it->second : last_known;
     if (!at) continue;
     const cv::Point2d p = axes.Px(at->pose.x, at->pose.y);
-    cv::drawMarker(plot, cv::Point(int(std::lround(p.x)), int(std::lround(p.y))), kLost, cv::MARKER_TILTED_CROSS, 11, 2, cv::LINE_AA);
+    cv::drawMarker(plot, cv::Point(int(std::lround(p.x)), int(std::lround(p.y))), kLost, cv::MARKER_TILTED_CROSS, 11, 2,
+                   cv::LINE_AA);
     placer.ReservePoint(p, 6);
   }
   // Start and end.
@@ -247,10 +252,12 @@ TrajectoryFigure DrawTrajectoryPlot(const Map& map, const std::vector<PoseRow>& 
   // Title.
   const TextStyle title{cv::FONT_HERSHEY_SIMPLEX, 0.55, 1, cv::Scalar(20, 20, 20)};
   char buf[256];
-  std::snprintf(buf, sizeof buf, "Trajectory: %d frames, %d tracked, %d lost", static_cast<int>(est.size()), n_ok, n_lost);
+  std::snprintf(buf, sizeof buf, "Trajectory: %d frames, %d tracked, %d lost", static_cast<int>(est.size()), n_ok,
+                n_lost);
   std::string heading = buf;
   if (n_errors > 0) {
-    std::snprintf(buf, sizeof buf, "; position error RMS %.3g, max %.3g %s", std::sqrt(sum2 / n_errors), max_error, units.c_str());
+    std::snprintf(buf, sizeof buf, "; position error RMS %.3g, max %.3g %s", std::sqrt(sum2 / n_errors), max_error,
+                  units.c_str());
     heading += buf;
   }
   DrawText(&img, heading, {double(area.x), 12.0}, Anchor::kTopLeft, title);
@@ -260,10 +267,11 @@ TrajectoryFigure DrawTrajectoryPlot(const Map& map, const std::vector<PoseRow>& 
   if (!map.rectangles.empty()) legend.push_back({"wall (landmarks)", kWall, LegendEntry::Kind::kLine, 3});
   if (!map.boxes.empty()) legend.push_back({"box", cv::Scalar(200, 200, 200), LegendEntry::Kind::kPatch});
   if (has_truth) legend.push_back({"ground truth", kTruth, LegendEntry::Kind::kLine, 7});
-  legend.push_back({has_truth ? "estimate (colour: error)" : "estimate", has_truth ? ColourMapValue(0.3) : kEstimate, LegendEntry::Kind::kLine, 2});
+  legend.push_back({has_truth ? "estimate (colour: error)" : "estimate", has_truth ? ColourMapValue(0.3) : kEstimate,
+                    LegendEntry::Kind::kLine, 2});
   if (!known.empty())
     legend.push_back({"heading (every " + std::to_string(arrow_every) + (arrow_every == 1 ? " frame)" : " frames)"),
-                      cv::Scalar(90, 60, 40), LegendEntry::Kind::kLine, 1});
+                      cv::Scalar(30, 30, 30), LegendEntry::Kind::kLine, 1});
   legend.push_back({"start", kStart, LegendEntry::Kind::kMarker, 1, -1});
   legend.push_back({"end", kEnd, LegendEntry::Kind::kMarker, 1, -2});
   if (n_lost > 0)
@@ -365,7 +373,8 @@ cv::Mat DrawErrorPlot(const std::vector<PoseRow>& est, const std::vector<PoseRow
     for (const PoseRow& r : est)
       if (r.status == PoseStatus::kLost) {
         const double x0 = axes.Px(when(r) - 0.5 * dt, 0).x, x1 = axes.Px(when(r) + 0.5 * dt, 0).x;
-        cv::rectangle(plot, cv::Point(int(std::floor(x0)), 0), cv::Point(int(std::ceil(x1)), plot.rows), kLostShade, cv::FILLED);
+        cv::rectangle(plot, cv::Point(int(std::floor(x0)), 0), cv::Point(int(std::ceil(x1)), plot.rows), kLostShade,
+                      cv::FILLED);
       }
     // The band, per run of samples with a standard deviation.
     std::vector<cv::Point> upper, lower;
@@ -397,7 +406,8 @@ cv::Mat DrawErrorPlot(const std::vector<PoseRow>& est, const std::vector<PoseRow
     previous_t = -1e300;
     for (size_t i = 0; i < samples.size(); ++i) {
       if (i > 0 && samples[i].t - previous_t <= 1.5 * dt)
-        DrawLine(&plot, axes.Px(samples[i - 1].t, samples[i - 1].e[k]), axes.Px(samples[i].t, samples[i].e[k]), line_colour, 1);
+        DrawLine(&plot, axes.Px(samples[i - 1].t, samples[i - 1].e[k]), axes.Px(samples[i].t, samples[i].e[k]),
+                 line_colour, 1);
       previous_t = samples[i].t;
       if (samples.size() <= 150) DrawDisc(&plot, axes.Px(samples[i].t, samples[i].e[k]), 1.8, line_colour);
     }
@@ -423,8 +433,10 @@ cv::Mat DrawErrorPlot(const std::vector<PoseRow>& est, const std::vector<PoseRow
   int n_lost = 0;
   for (const PoseRow& r : est) n_lost += r.status == PoseStatus::kLost;
   char buf[200];
-  std::snprintf(buf, sizeof buf, "Error against ground truth: %d frames compared, %d lost", static_cast<int>(samples.size()), n_lost);
-  DrawText(&img, buf, {10.0, 12.0}, Anchor::kTopLeft, TextStyle{cv::FONT_HERSHEY_SIMPLEX, 0.55, 1, cv::Scalar(20, 20, 20)});
+  std::snprintf(buf, sizeof buf, "Error against ground truth: %d frames compared, %d lost",
+                static_cast<int>(samples.size()), n_lost);
+  DrawText(&img, buf, {10.0, 12.0}, Anchor::kTopLeft,
+           TextStyle{cv::FONT_HERSHEY_SIMPLEX, 0.55, 1, cv::Scalar(20, 20, 20)});
   return img;
 }
 

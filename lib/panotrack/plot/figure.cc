@@ -142,14 +142,32 @@ cv::Rect TextBox(const std::string& text, const cv::Point2d& at, Anchor anchor, 
   const int w = sz.width, h = sz.height + baseline;
   double x = at.x, y = at.y;
   switch (anchor) {
-    case Anchor::kTop: case Anchor::kCentre: case Anchor::kBottom: x -= 0.5 * w; break;
-    case Anchor::kTopRight: case Anchor::kRight: case Anchor::kBottomRight: x -= w; break;
-    default: break;
+    case Anchor::kTop:
+    case Anchor::kCentre:
+    case Anchor::kBottom:
+      x -= 0.5 * w;
+      break;
+    case Anchor::kTopRight:
+    case Anchor::kRight:
+    case Anchor::kBottomRight:
+      x -= w;
+      break;
+    default:
+      break;
   }
   switch (anchor) {
-    case Anchor::kLeft: case Anchor::kCentre: case Anchor::kRight: y -= 0.5 * h; break;
-    case Anchor::kBottomLeft: case Anchor::kBottom: case Anchor::kBottomRight: y -= h; break;
-    default: break;
+    case Anchor::kLeft:
+    case Anchor::kCentre:
+    case Anchor::kRight:
+      y -= 0.5 * h;
+      break;
+    case Anchor::kBottomLeft:
+    case Anchor::kBottom:
+    case Anchor::kBottomRight:
+      y -= h;
+      break;
+    default:
+      break;
   }
   return cv::Rect(static_cast<int>(std::lround(x)), static_cast<int>(std::lround(y)), w, h);
 }
@@ -217,9 +235,9 @@ cv::Rect LabelPlacer::Find(const std::string& text, const cv::Point2d& p, const 
     Anchor anchor;
   };
   for (const double g : {static_cast<double>(gap), 2.5 * gap + 4}) {
-    const Try tries[] = {{g, 0, Anchor::kLeft},         {g, -g, Anchor::kBottomLeft}, {g, g, Anchor::kTopLeft},
-                         {-g, 0, Anchor::kRight},       {-g, -g, Anchor::kBottomRight},
-                         {-g, g, Anchor::kTopRight},    {0, -g, Anchor::kBottom},     {0, g, Anchor::kTop}};
+    const Try tries[] = {
+        {g, 0, Anchor::kLeft},          {g, -g, Anchor::kBottomLeft}, {g, g, Anchor::kTopLeft}, {-g, 0, Anchor::kRight},
+        {-g, -g, Anchor::kBottomRight}, {-g, g, Anchor::kTopRight},   {0, -g, Anchor::kBottom}, {0, g, Anchor::kTop}};
     for (const Try& t : tries) {
       const cv::Rect box = TextBox(text, p + cv::Point2d(t.dx, t.dy), t.anchor, style);
       if (Free(box)) return box;
@@ -253,9 +271,8 @@ cv::Scalar ColourMapValue(double t) {
 }
 
 cv::Scalar CategoricalColour(int i) {
-  static const cv::Scalar tab10[] = {{180, 119, 31}, {14, 127, 255}, {44, 160, 44},  {40, 39, 214},
-                                     {189, 103, 148}, {75, 86, 140}, {194, 119, 227}, {127, 127, 127},
-                                     {34, 189, 188}, {207, 190, 23}};
+  static const cv::Scalar tab10[] = {{180, 119, 31}, {14, 127, 255},  {44, 160, 44},   {40, 39, 214},  {189, 103, 148},
+                                     {75, 86, 140},  {194, 119, 227}, {127, 127, 127}, {34, 189, 188}, {207, 190, 23}};
   return tab10[((i % 10) + 10) % 10];
 }
 
@@ -274,8 +291,8 @@ Axes::Axes(cv::Mat* canvas, const cv::Rect& outer, double x_lo, double x_hi, dou
   const Ticks yt = NiceTicks(y_lo, y_hi, opt_.y_ticks);
   int label_w = 0;
   for (double v : yt.values)
-    label_w = std::max(label_w, TextBox(FormatTick(v, yt.decimals) + "0", {0, 0}, Anchor::kTopLeft,
-                                        opt_.tick_style).width);
+    label_w =
+        std::max(label_w, TextBox(FormatTick(v, yt.decimals) + "0", {0, 0}, Anchor::kTopLeft, opt_.tick_style).width);
   const int tick_h = TextBox("0", {0, 0}, Anchor::kTopLeft, opt_.tick_style).height;
   const int label_h = TextBox("Ag", {0, 0}, Anchor::kTopLeft, opt_.label_style).height;
   const int left = std::max(opt_.min_left_margin, label_w + 10 + (opt_.y_label.empty() ? 0 : label_h + 10));
@@ -290,8 +307,7 @@ Axes::Axes(cv::Mat* canvas, const cv::Rect& outer, double x_lo, double x_hi, dou
 
 cv::Rect Axes::area() const {
   const cv::Rect2d& a = transform_.area();
-  return cv::Rect(static_cast<int>(a.x), static_cast<int>(a.y), static_cast<int>(a.width),
-                  static_cast<int>(a.height));
+  return cv::Rect(static_cast<int>(a.x), static_cast<int>(a.y), static_cast<int>(a.width), static_cast<int>(a.height));
 }
 
 cv::Point2d Axes::Px(double x, double y) const {
@@ -323,8 +339,8 @@ void Axes::DrawBackground() {
   if (!opt_.y_label.empty()) {
     int label_w = 0;
     for (double v : yt_.values)
-      label_w = std::max(label_w, TextBox(FormatTick(v, yt_.decimals), {0, 0}, Anchor::kTopLeft,
-                                          opt_.tick_style).width);
+      label_w =
+          std::max(label_w, TextBox(FormatTick(v, yt_.decimals), {0, 0}, Anchor::kTopLeft, opt_.tick_style).width);
     const int label_h = TextBox("Ag", {0, 0}, Anchor::kTopLeft, opt_.label_style).height;
     DrawTextVertical(canvas_, opt_.y_label, {a.x - label_w - 14 - 0.5 * label_h, a.y + 0.5 * a.height},
                      opt_.label_style);
@@ -379,14 +395,32 @@ cv::Rect DrawLegend(cv::Mat* canvas, const std::vector<LegendEntry>& entries, co
   // The box placed like a text box of that size.
   cv::Rect box(at, sz);
   switch (anchor) {
-    case Anchor::kTop: case Anchor::kCentre: case Anchor::kBottom: box.x -= sz.width / 2; break;
-    case Anchor::kTopRight: case Anchor::kRight: case Anchor::kBottomRight: box.x -= sz.width; break;
-    default: break;
+    case Anchor::kTop:
+    case Anchor::kCentre:
+    case Anchor::kBottom:
+      box.x -= sz.width / 2;
+      break;
+    case Anchor::kTopRight:
+    case Anchor::kRight:
+    case Anchor::kBottomRight:
+      box.x -= sz.width;
+      break;
+    default:
+      break;
   }
   switch (anchor) {
-    case Anchor::kLeft: case Anchor::kCentre: case Anchor::kRight: box.y -= sz.height / 2; break;
-    case Anchor::kBottomLeft: case Anchor::kBottom: case Anchor::kBottomRight: box.y -= sz.height; break;
-    default: break;
+    case Anchor::kLeft:
+    case Anchor::kCentre:
+    case Anchor::kRight:
+      box.y -= sz.height / 2;
+      break;
+    case Anchor::kBottomLeft:
+    case Anchor::kBottom:
+    case Anchor::kBottomRight:
+      box.y -= sz.height;
+      break;
+    default:
+      break;
   }
   cv::rectangle(*canvas, box, cv::Scalar(255, 255, 255), cv::FILLED);
   cv::rectangle(*canvas, box, cv::Scalar(200, 200, 200), 1);
@@ -439,8 +473,7 @@ cv::Rect DrawScaleBar(cv::Mat* canvas, const cv::Point2d& left, double px_per_un
 
 // ---- Primitives
 
-void DrawLine(cv::Mat* canvas, const cv::Point2d& a, const cv::Point2d& b, const cv::Scalar& colour,
-              int thickness) {
+void DrawLine(cv::Mat* canvas, const cv::Point2d& a, const cv::Point2d& b, const cv::Scalar& colour, int thickness) {
   cv::line(*canvas, Fixed(a), Fixed(b), colour, thickness, cv::LINE_AA, 4);
 }
 
@@ -452,8 +485,8 @@ void DrawCircle(cv::Mat* canvas, const cv::Point2d& c, double radius, const cv::
   cv::circle(*canvas, Fixed(c), static_cast<int>(std::lround(radius * 16)), colour, thickness, cv::LINE_AA, 4);
 }
 
-void DrawArrow(cv::Mat* canvas, const cv::Point2d& from, const cv::Point2d& to, const cv::Scalar& colour,
-               int thickness, double tip_px) {
+void DrawArrow(cv::Mat* canvas, const cv::Point2d& from, const cv::Point2d& to, const cv::Scalar& colour, int thickness,
+               double tip_px) {
   const cv::Point2d d = to - from;
   const double len = std::hypot(d.x, d.y);
   if (!(len > 0)) return;
@@ -470,7 +503,8 @@ void DrawDashedLine(cv::Mat* canvas, const cv::Point2d& a, const cv::Point2d& b,
   const double len = std::hypot(d.x, d.y);
   if (!(len > 0)) return;
   const cv::Point2d u = d / len;
-  for (double s = 0; s < len; s += dash + gap) DrawLine(canvas, a + u * s, a + u * std::min(len, s + dash), colour, thickness);
+  for (double s = 0; s < len; s += dash + gap)
+    DrawLine(canvas, a + u * s, a + u * std::min(len, s + dash), colour, thickness);
 }
 
 }  // namespace pano

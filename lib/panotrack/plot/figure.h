@@ -106,8 +106,7 @@ class LabelPlacer {
   // rectangle when none is free. Does not draw or reserve.
   cv::Rect Find(const std::string& text, const cv::Point2d& point, const TextStyle& style, int gap = 4) const;
   // Find, then draw and reserve; false when skipped.
-  bool Place(cv::Mat* canvas, const std::string& text, const cv::Point2d& point, const TextStyle& style,
-             int gap = 4);
+  bool Place(cv::Mat* canvas, const std::string& text, const cv::Point2d& point, const TextStyle& style, int gap = 4);
 
  private:
   cv::Rect bounds_;
@@ -195,8 +194,7 @@ cv::Rect DrawScaleBar(cv::Mat* canvas, const cv::Point2d& left, double px_per_un
 
 // Drawing primitives with anti-aliasing (OpenCV's need integer points;
 // these keep 4 bits of sub-pixel precision).
-void DrawLine(cv::Mat* canvas, const cv::Point2d& a, const cv::Point2d& b, const cv::Scalar& colour,
-              int thickness = 1);
+void DrawLine(cv::Mat* canvas, const cv::Point2d& a, const cv::Point2d& b, const cv::Scalar& colour, int thickness = 1);
 void DrawDisc(cv::Mat* canvas, const cv::Point2d& c, double radius, const cv::Scalar& colour);
 void DrawCircle(cv::Mat* canvas, const cv::Point2d& c, double radius, const cv::Scalar& colour, int thickness = 1);
 void DrawArrow(cv::Mat* canvas, const cv::Point2d& from, const cv::Point2d& to, const cv::Scalar& colour,
