@@ -196,13 +196,14 @@ TrajectoryFigure DrawTrajectoryPlot(const Map& map, const std::vector<PoseRow>& 
   }
   const size_t arrow_every = std::max<size_t>(
       {1, (known.size() + 23) / 24, static_cast<size_t>(std::ceil(40.0 * known.size() / std::max(1.0, path_px)))});
-  const double arrow_px = 20.0;
+  const double arrow_px = 15.0;
   for (size_t k = 0; k < known.size(); k += arrow_every) {
     const PoseRow& r = est[known[k]];
     const cv::Point2d p = axes.Px(r.pose.x, r.pose.y);
     const cv::Point2d q = p + cv::Point2d(std::cos(r.pose.theta), -std::sin(r.pose.theta)) * arrow_px;
-    // A white edge keeps the arrow visible over the path it points along.
-    DrawArrow(&plot, p, q + (q - p) * (2.0 / arrow_px), kWhite, 3, 9);
+    // A white edge around the tip keeps it visible over the path it points along.
+    const cv::Point2d u = (q - p) * (1.0 / arrow_px);
+    DrawArrow(&plot, q - u * 0.5, q + u * 1.5, kWhite, 1, 9.5);
     DrawArrow(&plot, p, q, cv::Scalar(30, 30, 30), 1, 7);
     ReservePath(&placer, {p, q}, 2);
   }
@@ -270,10 +271,14 @@ TrajectoryFigure DrawTrajectoryPlot(const Map& map, const std::vector<PoseRow>& 
   legend.push_back({has_truth ? "estimate (colour: error)" : "estimate", has_truth ? ColourMapValue(0.3) : kEstimate,
                     LegendEntry::Kind::kLine, 2});
   if (!known.empty())
-    legend.push_back({"heading (every " + std::to_string(arrow_every) + (arrow_every == 1 ? " frame)" : " frames)"),
+    legend.push_back({known.size() > arrow_every ? "heading (every " + std::to_string(arrow_every) +
+                                                       (arrow_every == 1 ? " frame)" : " frames)")
+                                                 : std::string("heading"),
                       cv::Scalar(30, 30, 30), LegendEntry::Kind::kLine, 1});
-  legend.push_back({"start", kStart, LegendEntry::Kind::kMarker, 1, -1});
-  legend.push_back({"end", kEnd, LegendEntry::Kind::kMarker, 1, -2});
+  if (!known.empty()) {
+    legend.push_back({"start", kStart, LegendEntry::Kind::kMarker, 1, -1});
+    legend.push_back({"end", kEnd, LegendEntry::Kind::kMarker, 1, -2});
+  }
   if (n_lost > 0)
     legend.push_back({"lost frame" + std::string(has_truth ? " (at truth)" : " (at last pose)"), kLost,
                       LegendEntry::Kind::kMarker, 2, cv::MARKER_TILTED_CROSS});
@@ -414,7 +419,9 @@ cv::Mat DrawErrorPlot(const std::vector<PoseRow>& est, const std::vector<PoseRow
     axes.DrawFrame();
     // Per-panel figures at the upper right.
     char buf[160];
-    if (with_sigma[k] > 0)
+    if (samples.empty())
+      std::snprintf(buf, sizeof buf, "no frame to compare");
+    else if (with_sigma[k] > 0)
       std::snprintf(buf, sizeof buf, "RMS %.3g, within 3 sigma: %.0f %%", rms[k], 100.0 * within[k] / with_sigma[k]);
     else
       std::snprintf(buf, sizeof buf, "RMS %.3g", rms[k]);
