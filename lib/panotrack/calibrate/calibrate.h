@@ -203,8 +203,11 @@ CalibrationResult Calibrate(const TargetSet& targets, const CalibrateOptions& op
 CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>& images,
                             const CalibrateOptions& options);
 
-// Report image: residual vectors (magnified) over `image` (the worst view's
-// image when empty is given, grey canvas otherwise) and per-image RMS bars.
+// Report image: the corners of every view over `image` (faded; a grey canvas
+// when empty or of another size) with the mirror's limb and the annulus the
+// corners cover, the residuals of all corners (scatter, histogram), the RMS
+// per image with its file name (view_index, the worst view, in bold; views of
+// the unwarped retry marked) and the parameters with their standard deviations.
 cv::Mat DrawReport(const CalibrationResult& result, const cv::Mat& image, int view_index);
 // Text summary (parameters with standard deviations, RMS, per-image RMS,
 // warnings).

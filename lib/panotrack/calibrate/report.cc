@@ -1,4 +1,6 @@
-// Report image: residual vectors over one image, and per-image RMS bars.
+// Report image (panocalib calibrate --report): corner coverage of every image
+// over the mirror, the residuals of all corners (scatter and histogram), the
+// RMS per image with its file name, and the fitted parameters.
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -6,77 +8,414 @@
 #include <cstdio>
 
 #include "panotrack/calibrate/calibrate.h"
+#include "panotrack/plot/figure.h"
 
 namespace pano {
 
+namespace {
+
+const cv::Scalar kWhite(255, 255, 255);
+const cv::Scalar kInk(40, 40, 40);
+const cv::Scalar kUnwarped(14, 127, 255);  // orange
+const cv::Scalar kRms(40, 39, 214);        // red
+const TextStyle kSmall{cv::FONT_HERSHEY_SIMPLEX, 0.4, 1, kInk};
+const TextStyle kHeader{cv::FONT_HERSHEY_SIMPLEX, 0.5, 1, cv::Scalar(20, 20, 20)};
+
+// One colour per image: Tableau 10 up to ten images, evenly spaced hues beyond.
+cv::Scalar ImageColour(int i, int n) {
+  if (n <= 10) return CategoricalColour(i);
+  cv::Mat hsv(1, 1, CV_8UC3, cv::Scalar(180.0 * i / n, i % 2 ? 200 : 255, i % 2 ? 230 : 190)), bgr;
+  cv::cvtColor(hsv, bgr, cv::COLOR_HSV2BGR);
+  const cv::Vec3b c = bgr.at<cv::Vec3b>(0, 0);
+  return cv::Scalar(c[0], c[1], c[2]);
+}
+
+std::string Printf(const char* fmt, double a, double b = 0, double c = 0) {
+  char buf[256];
+  std::snprintf(buf, sizeof buf, fmt, a, b, c);
+  return buf;
+}
+
+// Words of `text` in lines of at most `width` px (a word longer than a line
+// is shortened from the left).
+std::vector<std::string> Wrap(const std::string& text, int width, const TextStyle& style) {
+  std::vector<std::string> lines;
+  std::string line, word;
+  auto fits = [&](const std::string& s) { return TextBox(s, {0, 0}, Anchor::kTopLeft, style).width <= width; };
+  auto add = [&](const std::string& w) {
+    if (w.empty()) return;
+    const std::string candidate = line.empty() ? w : line + " " + w;
+    if (fits(candidate)) {
+      line = candidate;
+      return;
+    }
+    if (!line.empty()) lines.push_back(line);
+    line = fits(w) ? w : ShortenLeft(w, width, style);
+  };
+  for (char ch : text) {
+    if (ch == ' ') {
+      add(word);
+      word.clear();
+    } else {
+      word += ch;
+    }
+  }
+  add(word);
+  if (!line.empty()) lines.push_back(line);
+  return lines;
+}
+
+// Draws lines from `y` down; returns the y below them.
+int DrawLines(cv::Mat* canvas, const std::vector<std::string>& lines, int x, int y, const TextStyle& style) {
+  for (const std::string& l : lines)
+    y = DrawText(canvas, l, {double(x), double(y)}, Anchor::kTopLeft, style).br().y + 4;
+  return y;
+}
+
+}  // namespace
+
 cv::Mat DrawReport(const CalibrationResult& r, const cv::Mat& image, int view_index) {
   const Sensor& s = r.calib.sensor;
-  const int W = s.image_width, H = std::max(s.image_height, 360);
-  const int panel = 420;
-  cv::Mat canvas(H + 40, W + panel, CV_8UC3, cv::Scalar(255, 255, 255));
-  cv::Mat left = canvas(cv::Rect(0, 40, W, s.image_height));
-  if (!image.empty() && image.cols == W && image.rows == s.image_height) {
-    cv::Mat grey = image;
-    if (grey.channels() == 3) cv::cvtColor(grey, grey, cv::COLOR_BGR2GRAY);
-    cv::Mat faded;
-    grey.convertTo(faded, CV_8U, 0.6, 60);
-    cv::cvtColor(faded, left, cv::COLOR_GRAY2BGR);
-  } else {
-    left.setTo(cv::Scalar(200, 200, 200));
+  const int n = static_cast<int>(r.views.size());
+  const int W = std::max(1, s.image_width), H = std::max(1, s.image_height);
+  const int margin = 18, gap = 28, title_h = 46;
+
+  // Residual statistics over all corners.
+  std::vector<double> norms;
+  std::vector<double> components;
+  int n_unwarped = 0;
+  for (int i = 0; i < n; ++i) {
+    n_unwarped += r.views[i].method == "unwarped";
+    if (i >= static_cast<int>(r.residuals.size())) continue;
+    for (const Eigen::Vector2d& e : r.residuals[i])
+      if (std::isfinite(e.x()) && std::isfinite(e.y())) {
+        norms.push_back(e.norm());
+        components.push_back(std::abs(e.x()));
+        components.push_back(std::abs(e.y()));
+      }
   }
-  // Mirror's visible disc and centre.
-  const double limb = s.limb_radius();
-  if (std::isfinite(limb) && limb < 4.0 * std::max(W, s.image_height))
-    cv::ellipse(left, cv::Point2d(s.params.cx, s.params.cy), cv::Size2d(limb, limb * s.params.aspect), 0, 0, 360,
-                cv::Scalar(255, 160, 0), 1, cv::LINE_AA);
-  cv::drawMarker(left, cv::Point2d(s.params.cx, s.params.cy), cv::Scalar(255, 160, 0), cv::MARKER_CROSS, 12);
-  const int vi = (view_index >= 0 && view_index < static_cast<int>(r.views.size())) ? view_index : 0;
-  double max_res = 0.0;
-  if (!r.views.empty())
-    for (const Eigen::Vector2d& e : r.residuals[vi])
-      if (std::isfinite(e.x())) max_res = std::max(max_res, e.norm());
-  const double gain = max_res > 0 ? std::min(200.0, 25.0 / max_res) : 1.0;
-  if (!r.views.empty()) {
-    const BoardView& v = r.views[vi];
-    for (size_t j = 0; j < v.corners.size(); ++j) {
-      const cv::Point2d p(v.corners[j].x(), v.corners[j].y());
-      cv::circle(left, p, 2, cv::Scalar(0, 160, 0), -1, cv::LINE_AA);
-      const Eigen::Vector2d& e = r.residuals[vi][j];
-      if (!std::isfinite(e.x())) continue;
-      cv::line(left, p, p + cv::Point2d(gain * e.x(), gain * e.y()), cv::Scalar(0, 0, 230), 1, cv::LINE_AA);
+  auto quantile = [](std::vector<double> v, double q) {
+    if (v.empty()) return 0.0;
+    const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * v.size()));
+    std::nth_element(v.begin(), v.begin() + k, v.end());
+    return v[k];
+  };
+
+  // Column widths: coverage, residual plots, bars and parameters.
+  const int left_w = 560;
+  const double sc = static_cast<double>(left_w) / std::max(W, H);
+  const cv::Size cov(static_cast<int>(std::lround(W * sc)), static_cast<int>(std::lround(H * sc)));
+  const int mid_w = 400;
+  int name_w = 0;
+  for (const BoardView& v : r.views) name_w = std::max(name_w, TextBox(v.file, {0, 0}, Anchor::kTopLeft, kSmall).width);
+  name_w = std::min(name_w, 320);
+  const int index_w = TextBox(std::to_string(std::max(1, n)), {0, 0}, Anchor::kTopLeft, kSmall).width + 10;
+  const int bar_w = 230;
+  const int right_w = std::max(index_w + name_w + 10 + bar_w + 110, 420);
+  const int width = margin + left_w + gap + mid_w + gap + right_w + margin;
+  const int x_left = margin, x_mid = margin + left_w + gap, x_right = x_mid + mid_w + gap;
+
+  // Heights: the right column grows with the number of images.
+  const int row_h = 20;
+  const int bars_h = 42 + std::max(1, n) * row_h + 40;
+  const int params_h = 30 + static_cast<int>(r.parameters.size()) * 19 + 10;
+  const int right_h = bars_h + 24 + params_h;
+  const int mid_h = 30 + 400 + 24 + 30 + 250;
+  const int left_h = 30 + cov.height + 200;
+  const int height = title_h + std::max({left_h, mid_h, right_h}) + margin;
+  cv::Mat canvas(height, width, CV_8UC3, kWhite);
+
+  // Title.
+  std::string title = "Calibration report: " + std::string(mirror_model_name(s.model)) + " mirror, " +
+                      std::to_string(W) + " x " + std::to_string(H) + " px, " + std::to_string(n) + " of " +
+                      std::to_string(n + static_cast<int>(r.not_found.size())) + " images used";
+  if (n_unwarped > 0) title += " (" + std::to_string(n_unwarped) + " by the unwarped retry)";
+  title += r.poses_known ? ", board poses known" : ", board poses estimated";
+  title += Printf(", RMS %.3f px", r.rms_px);
+  DrawText(&canvas, title, {double(margin), 14.0}, Anchor::kTopLeft,
+           TextStyle{cv::FONT_HERSHEY_SIMPLEX, 0.6, 1, cv::Scalar(20, 20, 20)});
+
+  // ---- Coverage: every image's corners over the mirror.
+  int y = title_h;
+  DrawText(&canvas, "Corners of all images over the mirror", {double(x_left), double(y)}, Anchor::kTopLeft, kHeader);
+  y += 24;
+  const cv::Rect cov_rect(x_left, y, cov.width, cov.height);
+  {
+    cv::Mat panel = canvas(cov_rect);
+    if (!image.empty() && image.cols == W && image.rows == H) {
+      cv::Mat grey = image;
+      if (grey.channels() == 3) cv::cvtColor(grey, grey, cv::COLOR_BGR2GRAY);
+      cv::Mat faded, scaled;
+      grey.convertTo(faded, CV_8U, 0.35, 165);
+      cv::resize(faded, scaled, cov, 0, 0, cv::INTER_AREA);
+      cv::cvtColor(scaled, panel, cv::COLOR_GRAY2BGR);
+    } else {
+      panel.setTo(cv::Scalar(238, 238, 238));
+    }
+    auto P = [&](const Eigen::Vector2d& p) { return cv::Point2d(p.x() * sc, p.y() * sc); };
+    // The mirror's limb, and the annulus the corners cover.
+    double r_min = 1e300, r_max = 0;
+    for (const BoardView& v : r.views)
+      for (const Eigen::Vector2d& c : v.corners) {
+        double rad, az;
+        s.to_polar(c.x(), c.y(), &rad, &az);
+        if (!std::isfinite(rad)) continue;
+        r_min = std::min(r_min, rad);
+        r_max = std::max(r_max, rad);
+      }
+    auto ring = [&](double radius, const cv::Scalar& colour, bool dashed) {
+      if (!(radius > 0) || !std::isfinite(radius) || radius > 4.0 * std::max(W, H)) return;
+      cv::Point2d previous;
+      for (int k = 0; k <= 180; ++k) {
+        const cv::Point2d p = P(s.from_polar(radius, 2 * M_PI * k / 180));
+        if (k > 0 && (!dashed || k % 2 == 0)) DrawLine(&panel, previous, p, colour, dashed ? 1 : 2);
+        previous = p;
+      }
+    };
+    ring(s.limb_radius(), cv::Scalar(150, 110, 60), false);
+    if (r_max > 0) {
+      ring(r_min, cv::Scalar(110, 110, 110), true);
+      ring(r_max, cv::Scalar(110, 110, 110), true);
+    }
+    cv::drawMarker(panel, P(Eigen::Vector2d(s.params.cx, s.params.cy)), cv::Scalar(150, 110, 60), cv::MARKER_CROSS, 12,
+                   1, cv::LINE_AA);
+    LabelPlacer placer(cv::Rect(0, 0, panel.cols, panel.rows));
+    std::vector<cv::Point2d> centres(n);
+    for (int i = 0; i < n; ++i) {
+      const BoardView& v = r.views[i];
+      const cv::Scalar col = ImageColour(i, n);
+      cv::Point2d centre(0, 0);
+      for (const Eigen::Vector2d& c : v.corners) {
+        const cv::Point2d p = P(c);
+        centre += p;
+        if (v.method == "unwarped")
+          cv::drawMarker(panel, cv::Point(int(std::lround(p.x)), int(std::lround(p.y))), col, cv::MARKER_TRIANGLE_UP, 6,
+                         1, cv::LINE_AA);
+        else
+          DrawDisc(&panel, p, 1.8, col);
+      }
+      if (!v.corners.empty()) centres[i] = centre / static_cast<double>(v.corners.size());
+    }
+    const TextStyle number{cv::FONT_HERSHEY_SIMPLEX, 0.42, 1, kInk, 2, kWhite};
+    for (int i = 0; i < n; ++i)
+      if (!r.views[i].corners.empty()) {
+        const cv::Rect box = TextBox(std::to_string(i + 1), centres[i], Anchor::kCentre, number);
+        if (placer.Free(box)) {
+          TextStyle st = number;
+          st.colour = ImageColour(i, n) * 0.7;
+          DrawText(&panel, std::to_string(i + 1), box.tl(), Anchor::kTopLeft, st);
+          placer.Reserve(box);
+        }
+      }
+    cv::rectangle(canvas, cv::Rect(cov_rect.x - 1, cov_rect.y - 1, cov_rect.width + 2, cov_rect.height + 2),
+                  cv::Scalar(90, 90, 90));
+    y = cov_rect.br().y + 10;
+    // Key and notes under the picture.
+    std::vector<LegendEntry> key = {{"corner (raw detection)", kInk, LegendEntry::Kind::kMarker, 1, -1}};
+    if (n_unwarped > 0)
+      key.push_back({"corner (unwarped retry)", kInk, LegendEntry::Kind::kMarker, 1, cv::MARKER_TRIANGLE_UP});
+    key.push_back({"mirror limb and centre", cv::Scalar(150, 110, 60), LegendEntry::Kind::kLine, 2});
+    if (!image.empty() && view_index >= 0 && view_index < n)
+      key.push_back({"background: " + r.views[view_index].file, cv::Scalar(200, 200, 200), LegendEntry::Kind::kPatch});
+    if (r_max > 0)
+      key.push_back({Printf("corner radii %.0f - %.0f px (limb %.0f px)", r_min, r_max, s.limb_radius()),
+                     cv::Scalar(110, 110, 110), LegendEntry::Kind::kLine, 1});
+    const cv::Rect kb = DrawLegend(&canvas, key, {x_left, y}, Anchor::kTopLeft, kSmall);
+    y = kb.br().y + 10;
+    std::vector<std::string> notes;
+    if (!r.not_found_files.empty()) {
+      std::string t = "No board found (not used):";
+      for (const std::string& f : r.not_found_files) t += " " + f;
+      notes.push_back(t);
+    }
+    for (const std::string& w : r.warnings) notes.push_back("Warning: " + w);
+    for (const std::string& note : notes) {
+      if (y > height - margin - 16) break;
+      for (const std::string& l : Wrap(note, left_w, kSmall)) {
+        if (y > height - margin - 16) break;
+        y = DrawLines(&canvas, {l}, x_left, y, kSmall);
+      }
+      y += 4;
     }
   }
-  char text[256];
-  std::snprintf(text, sizeof text, "%s: residuals x%.0f (red), corners (green)",
-                r.views.empty() ? "-" : r.views[vi].file.c_str(), gain);
-  cv::putText(canvas, text, cv::Point(8, 26), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
 
-  // Bars.
-  cv::Mat right = canvas(cv::Rect(W, 0, panel, H + 40));
-  std::snprintf(text, sizeof text, "per-image RMS (px), all %.3f", r.rms_px);
-  cv::putText(right, text, cv::Point(10, 26), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
-  const int n = static_cast<int>(r.views.size());
-  if (n > 0) {
+  // ---- Residual scatter of all corners.
+  y = title_h;
+  DrawText(&canvas, Printf("Residuals of all %.0f corners", double(norms.size())), {double(x_mid), double(y)},
+           Anchor::kTopLeft, kHeader);
+  y += 24;
+  {
+    double lim = std::max({quantile(components, 0.99) * 1.15, 3.0 * r.rms_px, 1e-3});
+    AxesOptions ao;
+    ao.x_label = "x residual (px)";
+    ao.y_label = "y residual (px)";
+    ao.equal_aspect = true;
+    ao.x_ticks = 4;
+    ao.y_ticks = 4;
+    Axes axes(&canvas, cv::Rect(x_mid, y, mid_w, 400), -lim, lim, -lim, lim, ao);
+    axes.DrawBackground();
+    cv::Mat plot = axes.plot();
+    DrawLine(&plot, axes.Px(-2 * lim, 0), axes.Px(2 * lim, 0), cv::Scalar(170, 170, 170));
+    DrawLine(&plot, axes.Px(0, -2 * lim), axes.Px(0, 2 * lim), cv::Scalar(170, 170, 170));
+    int outside = 0;
+    for (int i = 0; i < n && i < static_cast<int>(r.residuals.size()); ++i)
+      for (const Eigen::Vector2d& e : r.residuals[i]) {
+        if (!std::isfinite(e.x()) || !std::isfinite(e.y())) continue;
+        const double ax = axes.transform().x_hi(), ay = axes.transform().y_hi();
+        if (std::abs(e.x()) > ax || std::abs(e.y()) > ay) ++outside;
+        DrawDisc(&plot, axes.Px(e.x(), e.y()), 1.6, ImageColour(i, n));
+      }
+    // RMS circle.
+    cv::Point2d previous;
+    for (int k = 0; k <= 120; ++k) {
+      const double a = 2 * M_PI * k / 120;
+      const cv::Point2d p = axes.Px(r.rms_px * std::cos(a), r.rms_px * std::sin(a));
+      if (k > 0 && k % 2 == 0) DrawLine(&plot, previous, p, kRms, 1);
+      previous = p;
+    }
+    axes.DrawFrame();
+    const cv::Rect a = axes.area();
+    std::vector<std::string> notes = {"projected - detected", Printf("dashed: RMS %.3f px", r.rms_px)};
+    if (outside > 0) notes.push_back(Printf("%.0f beyond the axes", outside));
+    double ty = a.y + 6.0;
+    for (const std::string& note : notes) {
+      const cv::Rect tb = TextBox(note, {a.x + 6.0, ty}, Anchor::kTopLeft, kSmall);
+      cv::rectangle(canvas, cv::Rect(tb.x - 3, tb.y - 2, tb.width + 6, tb.height + 4), kWhite, cv::FILLED);
+      DrawText(&canvas, note, tb.tl(), Anchor::kTopLeft, kSmall);
+      ty = tb.br().y + 4;
+    }
+    y += 400 + 24;
+  }
+
+  // ---- Histogram of the residuals' lengths.
+  DrawText(&canvas, "Residual lengths", {double(x_mid), double(y)}, Anchor::kTopLeft, kHeader);
+  y += 30;
+  {
+    double hi = std::max(quantile(norms, 0.995) * 1.05, std::max(1e-3, 2 * r.rms_px));
+    double lo = 0;
+    NiceLimits(&lo, &hi, 5);
+    const int bins = 30;
+    std::vector<int> count(bins, 0);
+    int beyond = 0;
+    for (double v : norms) {
+      const int b = static_cast<int>(v / hi * bins);
+      if (b >= bins) ++beyond;
+      ++count[std::min(b, bins - 1)];
+    }
+    const int top = std::max(1, *std::max_element(count.begin(), count.end()));
+    AxesOptions ao;
+    ao.x_label = "residual length (px)";
+    ao.y_label = "corners";
+    ao.x_ticks = 5;
+    ao.y_ticks = 4;
+    Axes axes(&canvas, cv::Rect(x_mid, y, mid_w, 250), 0, hi, 0, top * 1.08, ao);
+    axes.DrawBackground();
+    cv::Mat plot = axes.plot();
+    for (int b = 0; b < bins; ++b) {
+      if (count[b] == 0) continue;
+      const cv::Point2d p0 = axes.Px(hi * b / bins, 0), p1 = axes.Px(hi * (b + 1) / bins, count[b]);
+      cv::rectangle(plot, cv::Point(int(std::lround(p0.x)) + 1, int(std::lround(p1.y))),
+                    cv::Point(int(std::lround(p1.x)) - 1, int(std::lround(p0.y))), cv::Scalar(200, 150, 90),
+                    cv::FILLED);
+    }
+    const double xr = axes.Px(r.rms_px, 0).x;
+    DrawDashedLine(&plot, {xr, 0.0}, {xr, double(plot.rows)}, kRms, 2);
+    const cv::Rect a = axes.area();
+    std::string note = Printf("RMS %.3f px", r.rms_px);
+    TextStyle red = kSmall;
+    red.colour = kRms;
+    const cv::Rect nb = TextBox(note, {a.x + xr + 6, a.y + 6.0}, Anchor::kTopLeft, red);
+    DrawText(
+        &canvas, note,
+        nb.br().x < a.br().x ? cv::Point2d(a.x + xr + 6, a.y + 6.0) : cv::Point2d(a.x + xr - 6 - nb.width, a.y + 6.0),
+        Anchor::kTopLeft, red);
+    if (beyond > 0)
+      DrawText(&canvas, Printf("%.0f longer, counted in the last bin", beyond), {a.x + a.width - 6.0, a.y + 26.0},
+               Anchor::kTopRight, kSmall);
+    axes.DrawFrame();
+  }
+
+  // ---- RMS per image.
+  y = title_h;
+  DrawText(&canvas, "RMS per image (px)", {double(x_right), double(y)}, Anchor::kTopLeft, kHeader);
+  y += 42;
+  {
     double vmax = r.rms_px;
     for (double v : r.image_rms) vmax = std::max(vmax, v);
-    vmax *= 1.15;
-    const int top = 50, bottom = H + 20, x0 = 150, x1 = panel - 20;
-    const double bh = static_cast<double>(bottom - top) / n;
-    for (int i = 0; i < n; ++i) {
-      const int y = static_cast<int>(top + i * bh);
-      const int len = static_cast<int>((x1 - x0) * r.image_rms[i] / vmax);
-      const cv::Scalar col = i == vi ? cv::Scalar(0, 0, 200) : cv::Scalar(180, 120, 40);
-      cv::rectangle(right, cv::Rect(x0, y + 2, std::max(1, len), std::max(2, static_cast<int>(bh) - 4)), col, -1);
-      std::snprintf(text, sizeof text, "%.16s", r.views[i].file.c_str());
-      const double fs = std::min(0.45, bh / 30.0);
-      cv::putText(right, text, cv::Point(8, static_cast<int>(y + bh * 0.7)), cv::FONT_HERSHEY_SIMPLEX, fs,
-                  cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
-      std::snprintf(text, sizeof text, "%.3f", r.image_rms[i]);
-      cv::putText(right, text, cv::Point(x0 + len + 3, static_cast<int>(y + bh * 0.7)), cv::FONT_HERSHEY_SIMPLEX,
-                  fs, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+    double lo = 0, hi = std::max(vmax * 1.05, 1e-3);
+    NiceLimits(&lo, &hi, 4);
+    const int bx0 = x_right + index_w + name_w + 10, bx1 = bx0 + bar_w;
+    const int by0 = y, by1 = y + std::max(1, n) * row_h;
+    auto X = [&](double v) { return bx0 + (bx1 - bx0) * v / hi; };
+    const Ticks t = NiceTicks(0, hi, 4);
+    for (double v : t.values) {
+      DrawLine(&canvas, {X(v), double(by0)}, {X(v), double(by1)}, cv::Scalar(232, 232, 232));
+      DrawLine(&canvas, {X(v), double(by1)}, {X(v), by1 + 5.0}, cv::Scalar(90, 90, 90));
+      DrawText(&canvas, FormatTick(v, t.decimals), {X(v), by1 + 8.0}, Anchor::kTop, kSmall);
     }
-    const int xr = x0 + static_cast<int>((x1 - x0) * r.rms_px / vmax);
-    cv::line(right, cv::Point(xr, top - 4), cv::Point(xr, bottom), cv::Scalar(0, 140, 0), 1);
+    DrawLine(&canvas, {double(bx0), double(by0)}, {double(bx0), double(by1)}, cv::Scalar(90, 90, 90));
+    // The overall RMS under the bars and their values.
+    const double xr = X(r.rms_px);
+    DrawDashedLine(&canvas, {xr, by0 - 6.0}, {xr, double(by1)}, kRms, 1);
+    TextStyle red = kSmall;
+    red.colour = kRms;
+    DrawText(&canvas, Printf("all %.3f", r.rms_px), {xr, by0 - 8.0}, Anchor::kBottom, red);
+    TextStyle value = kSmall;
+    value.halo = 2;
+    value.halo_colour = kWhite;
+    DrawLine(&canvas, {double(bx0), double(by1)}, {double(bx1), double(by1)}, cv::Scalar(90, 90, 90));
+    for (int i = 0; i < n; ++i) {
+      const double yc = by0 + (i + 0.5) * row_h;
+      const double v = i < static_cast<int>(r.image_rms.size()) ? r.image_rms[i] : 0.0;
+      const bool unwarped = r.views[i].method == "unwarped";
+      DrawText(&canvas, std::to_string(i + 1), {double(x_right + index_w - 8), yc}, Anchor::kRight, kSmall);
+      TextStyle name = kSmall;
+      DrawText(&canvas, ShortenLeft(r.views[i].file, name_w, name), {double(x_right + index_w), yc}, Anchor::kLeft,
+               name);
+      cv::rectangle(canvas, cv::Point(bx0 + 1, int(yc) - 6), cv::Point(int(std::lround(X(v))), int(yc) + 6),
+                    ImageColour(i, n), cv::FILLED);
+      const cv::Rect vb = DrawText(&canvas, Printf("%.3f", v), {X(v) + 3, yc}, Anchor::kLeft, value);
+      if (unwarped) {
+        TextStyle u = kSmall;
+        u.colour = kUnwarped;
+        DrawText(&canvas, "unwarped", {vb.br().x + 6.0, yc}, Anchor::kLeft, u);
+      }
+    }
+    y = by1 + 40;
+  }
+
+  // ---- Parameters.
+  y += 10;
+  DrawText(&canvas, "Parameters (value, 1 standard deviation)", {double(x_right), double(y)}, Anchor::kTopLeft,
+           kHeader);
+  y += 28;
+  {
+    int col1 = 0, col2 = 0;
+    std::vector<std::array<std::string, 3>> rows;
+    for (const ParameterEstimate& p : r.parameters) {
+      std::array<std::string, 3> row = {p.name, Printf("%.6g", p.value), ""};
+      if (p.fixed)
+        row[2] = "fixed";
+      else if (std::isfinite(p.stddev))
+        row[2] = Printf("+/- %.3g", p.stddev) +
+                 (p.value != 0 ? Printf("  (%.2g %%)", 100 * std::abs(p.stddev / p.value)) : std::string());
+      else
+        row[2] = "not determined";
+      col1 = std::max(col1, TextBox(row[0], {0, 0}, Anchor::kTopLeft, kSmall).width);
+      col2 = std::max(col2, TextBox(row[1], {0, 0}, Anchor::kTopLeft, kSmall).width);
+      rows.push_back(row);
+    }
+    for (size_t i = 0; i < rows.size(); ++i) {
+      const double yc = y + i * 19.0 + 9;
+      if (i % 2 == 0)
+        cv::rectangle(canvas, cv::Rect(x_right - 4, int(yc) - 9, right_w - 10, 19), cv::Scalar(246, 246, 246),
+                      cv::FILLED);
+      DrawText(&canvas, rows[i][0], {double(x_right), yc}, Anchor::kLeft, kSmall);
+      DrawText(&canvas, rows[i][1], {double(x_right + col1 + 20 + col2), yc}, Anchor::kRight, kSmall);
+      TextStyle st = kSmall;
+      if (rows[i][2] == "not determined" || rows[i][2] == "fixed") st.colour = cv::Scalar(130, 130, 130);
+      DrawText(&canvas, rows[i][2], {double(x_right + col1 + 20 + col2 + 14), yc}, Anchor::kLeft, st);
+    }
   }
   return canvas;
 }

@@ -3,57 +3,462 @@
 #include <Eigen/Core>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "panotrack/core/angles.h"
 #include "panotrack/core/atomic_file.h"
 #include "panotrack/core/error.h"
 
 namespace pano {
 
-void WritePlot(const std::string& path, const Map& map, const std::vector<PoseRow>& est,
-               const std::vector<PoseRow>& gt) {
+namespace {
+
+const cv::Scalar kWhite(255, 255, 255);
+const cv::Scalar kInk(40, 40, 40);
+const cv::Scalar kWall(70, 70, 70);
+const cv::Scalar kTruth(205, 205, 205);
+const cv::Scalar kStart(44, 160, 44);      // green
+const cv::Scalar kEnd(40, 39, 214);        // red
+const cv::Scalar kLost(14, 127, 255);      // orange
+const cv::Scalar kEstimate(180, 119, 31);  // blue
+const cv::Scalar kLostShade(226, 232, 252);
+
+bool Known(const PoseRow& r) { return r.status != PoseStatus::kLost; }
+
+// The truth by frame.
+std::map<int, const PoseRow*> ByFrame(const std::vector<PoseRow>& rows) {
+  std::map<int, const PoseRow*> m;
+  for (const PoseRow& r : rows)
+    if (Known(r)) m[r.frame] = &r;
+  return m;
+}
+
+// Position error of each estimated row against the truth (NaN where either is missing).
+std::vector<double> PositionErrors(const std::vector<PoseRow>& est, const std::map<int, const PoseRow*>& truth) {
+  std::vector<double> e(est.size(), std::nan(""));
+  for (size_t i = 0; i < est.size(); ++i) {
+    if (est[i].status != PoseStatus::kOk) continue;
+    const auto it = truth.find(est[i].frame);
+    if (it != truth.end()) e[i] = std::hypot(est[i].pose.x - it->second->pose.x, est[i].pose.y - it->second->pose.y);
+  }
+  return e;
+}
+
+// Marks every few pixels of a polyline as taken, so that labels keep off it.
+void ReservePath(LabelPlacer* placer, const std::vector<cv::Point2d>& pts, int radius) {
+  for (size_t i = 0; i < pts.size(); ++i) {
+    placer->ReservePoint(pts[i], radius);
+    if (i + 1 == pts.size()) break;
+    const cv::Point2d d = pts[i + 1] - pts[i];
+    const int steps = static_cast<int>(std::hypot(d.x, d.y) / 5.0);
+    for (int k = 1; k < steps; ++k) placer->ReservePoint(pts[i] + d * (static_cast<double>(k) / steps), radius);
+  }
+}
+
+void EncodeAndWrite(const std::string& path, const cv::Mat& image) {
+  std::vector<uchar> png;
+  if (!cv::imencode(".png", image, png, {cv::IMWRITE_PNG_COMPRESSION, 9}))
+    throw Error(path + ": cannot encode the plot");
+  AtomicFile f(path);
+  {
+    std::ofstream out(f.temp_path(), std::ios::binary);
+    out.write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
+    if (!out) throw Error(path + ": cannot write the plot");
+  }
+  f.Commit();
+}
+
+}  // namespace
+
+TrajectoryFigure DrawTrajectoryPlot(const Map& map, const std::vector<PoseRow>& est, const std::vector<PoseRow>& gt) {
+  const std::map<int, const PoseRow*> truth = ByFrame(gt);
+  const bool has_truth = !truth.empty();
+  const std::vector<double> errors = PositionErrors(est, truth);
+  double max_error = 0.0, sum2 = 0.0;
+  int n_errors = 0, n_ok = 0, n_lost = 0;
+  for (double e : errors)
+    if (std::isfinite(e)) {
+      max_error = std::max(max_error, e);
+      sum2 += e * e;
+      ++n_errors;
+    }
+  for (const PoseRow& r : est) {
+    n_ok += r.status == PoseStatus::kOk;
+    n_lost += r.status == PoseStatus::kLost;
+  }
+
+  // Extent: the map, the estimate and the truth, with a margin.
   Eigen::Vector2d lo, hi;
   double top;
   map.Extent(&lo, &hi, &top);
-  for (const auto& r : est)
-    if (r.status != PoseStatus::kLost) {
-      lo = lo.cwiseMin(Eigen::Vector2d(r.pose.x, r.pose.y));
-      hi = hi.cwiseMax(Eigen::Vector2d(r.pose.x, r.pose.y));
-    }
-  const int size = 800, margin = 40;
-  const double scale = (size - 2 * margin) / std::max(hi.x() - lo.x(), hi.y() - lo.y());
-  cv::Mat img(size, size, CV_8UC3, cv::Scalar(255, 255, 255));
-  auto P = [&](double x, double y) {
-    return cv::Point2d(margin + (x - lo.x()) * scale, size - margin - (y - lo.y()) * scale);
+  auto grow = [&](const PoseRow& r) {
+    if (!Known(r) || !std::isfinite(r.pose.x) || !std::isfinite(r.pose.y)) return;
+    lo = lo.cwiseMin(Eigen::Vector2d(r.pose.x, r.pose.y));
+    hi = hi.cwiseMax(Eigen::Vector2d(r.pose.x, r.pose.y));
   };
-  if (map.room.present)
-    cv::rectangle(img, P(map.room.min.x(), map.room.min.y()), P(map.room.max.x(), map.room.max.y()),
-                  cv::Scalar(120, 120, 120), 2);
-  for (const auto& r : map.rectangles)
-    cv::line(img, P(r.from.x(), r.from.y()), P(r.to.x(), r.to.y()), cv::Scalar(40, 40, 40), 3);
-  for (const auto& b : map.boxes)
-    cv::rectangle(img, P(b.min.x(), b.min.y()), P(b.max.x(), b.max.y()), cv::Scalar(60, 60, 160), 2);
-  auto draw = [&](const std::vector<PoseRow>& rows, const cv::Scalar& colour, int radius) {
-    cv::Point2d last(-1, -1);
-    for (const auto& r : rows) {
-      if (r.status == PoseStatus::kLost) {
-        last = cv::Point2d(-1, -1);
-        continue;
+  for (const PoseRow& r : est) grow(r);
+  for (const PoseRow& r : gt) grow(r);
+  if (!(hi.x() >= lo.x()) || !(hi.y() >= lo.y())) lo = hi = Eigen::Vector2d::Zero();
+  const double pad = 0.04 * std::max({hi.x() - lo.x(), hi.y() - lo.y(), 1e-9});
+  lo -= Eigen::Vector2d(pad, pad);
+  hi += Eigen::Vector2d(pad, pad);
+
+  // Canvas: title, the map (equal aspect) and a side panel for the legend
+  // and colour bar; the height follows the map's aspect.
+  const int width = 1000, side = 220, title_h = 36;
+  const double aspect = (hi.y() - lo.y()) / std::max(1e-9, hi.x() - lo.x());
+  const int plot_h = static_cast<int>(std::clamp(680.0 * aspect, 360.0, 820.0));
+  const int height = title_h + plot_h + 60;
+  cv::Mat img(height, width, CV_8UC3, kWhite);
+  const std::string units = map.units.empty() ? "units" : map.units;
+  AxesOptions ao;
+  ao.x_label = "x (" + units + ")";
+  ao.y_label = "y (" + units + ")";
+  ao.equal_aspect = true;
+  ao.nice_limits = false;
+  ao.x_ticks = 8;
+  ao.y_ticks = std::max(3, static_cast<int>(8 * aspect));
+  Axes axes(&img, cv::Rect(0, title_h, width - side, height - title_h), lo.x(), hi.x(), lo.y(), hi.y(), ao);
+  axes.DrawBackground();
+  const cv::Rect area = axes.area();
+  cv::Mat plot = axes.plot();
+  LabelPlacer placer(cv::Rect(0, 0, area.width, area.height));
+  const TextStyle label_style{cv::FONT_HERSHEY_SIMPLEX, 0.38, 1, cv::Scalar(30, 30, 30)};
+
+  // The room, boxes, distractors, walls (landmark rectangles).
+  if (map.room.present) {
+    cv::rectangle(plot, axes.Px(map.room.min), axes.Px(map.room.max), cv::Scalar(250, 248, 246), cv::FILLED);
+    cv::rectangle(plot, axes.Px(map.room.min), axes.Px(map.room.max), cv::Scalar(150, 150, 150), 2);
+  }
+  for (const MapBox& b : map.boxes) {
+    const cv::Point2d p0 = axes.Px(b.min.x(), b.min.y()), p1 = axes.Px(b.max.x(), b.max.y());
+    cv::rectangle(plot, p0, p1, cv::Scalar(222, 222, 222), cv::FILLED);
+    cv::rectangle(plot, p0, p1, kWall, 2);
+    for (const cv::Point2d& c : {p0, p1, cv::Point2d(p0.x, p1.y), cv::Point2d(p1.x, p0.y)}) placer.ReservePoint(c, 3);
+  }
+  for (const MapRectangle& r : map.distractors)
+    DrawDashedLine(&plot, axes.Px(r.from), axes.Px(r.to), cv::Scalar(170, 170, 170), 2);
+  for (const MapRectangle& r : map.rectangles) {
+    DrawLine(&plot, axes.Px(r.from), axes.Px(r.to), kWall, 3);
+    ReservePath(&placer, {axes.Px(r.from), axes.Px(r.to)}, 3);
+  }
+  for (const MapRectangle& r : map.rectangles)
+    for (const Eigen::Vector2d& c : {r.from, r.to}) DrawDisc(&plot, axes.Px(c), 3.5, kInk);
+
+  // Ground truth under the estimate.
+  std::vector<cv::Point2d> path;
+  auto flush = [&](const cv::Scalar& colour, int thickness) {
+    for (size_t i = 1; i < path.size(); ++i) DrawLine(&plot, path[i - 1], path[i], colour, thickness);
+    ReservePath(&placer, path, 3);
+    path.clear();
+  };
+  for (const PoseRow& r : gt) {
+    if (!Known(r)) {
+      flush(kTruth, 7);
+      continue;
+    }
+    path.push_back(axes.Px(r.pose.x, r.pose.y));
+  }
+  flush(kTruth, 7);
+
+  // The estimate: broken at lost frames, coloured by error with the truth.
+  const double colour_max =
+      max_error > 0 ? NiceTicks(0, max_error, 4).step * std::ceil(max_error / NiceTicks(0, max_error, 4).step - 1e-9)
+                    : 1.0;
+  auto est_colour = [&](size_t i) { return has_truth ? ColourMapValue(errors[i] / colour_max) : kEstimate; };
+  std::vector<size_t> known;
+  for (size_t i = 0; i < est.size(); ++i) {
+    if (!Known(est[i])) continue;
+    const bool joined = !known.empty() && known.back() + 1 == i;
+    if (joined)
+      DrawLine(&plot, axes.Px(est[known.back()].pose.x, est[known.back()].pose.y),
+               axes.Px(est[i].pose.x, est[i].pose.y), est_colour(i), 2);
+    known.push_back(i);
+  }
+  const bool dots = known.size() <= 400;
+  for (size_t i : known) {
+    const cv::Point2d p = axes.Px(est[i].pose.x, est[i].pose.y);
+    if (dots) DrawDisc(&plot, p, 2.2, est_colour(i));
+    placer.ReservePoint(p, 3);
+  }
+  // Heading arrows: at most about 24 along the run, some 40 px apart.
+  double path_px = 0.0;
+  for (size_t k = 1; k < known.size(); ++k) {
+    const cv::Point2d d = axes.Px(est[known[k]].pose.x, est[known[k]].pose.y) -
+                          axes.Px(est[known[k - 1]].pose.x, est[known[k - 1]].pose.y);
+    path_px += std::min(std::hypot(d.x, d.y), 60.0);  // a jump (kidnap) counts as one step
+  }
+  const size_t arrow_every = std::max<size_t>(
+      {1, (known.size() + 23) / 24, static_cast<size_t>(std::ceil(40.0 * known.size() / std::max(1.0, path_px)))});
+  const double arrow_px = 15.0;
+  for (size_t k = 0; k < known.size(); k += arrow_every) {
+    const PoseRow& r = est[known[k]];
+    const cv::Point2d p = axes.Px(r.pose.x, r.pose.y);
+    const cv::Point2d q = p + cv::Point2d(std::cos(r.pose.theta), -std::sin(r.pose.theta)) * arrow_px;
+    // A white edge around the tip keeps it visible over the path it points along.
+    const cv::Point2d u = (q - p) * (1.0 / arrow_px);
+    DrawArrow(&plot, q - u * 0.5, q + u * 1.5, kWhite, 1, 9.5);
+    DrawArrow(&plot, p, q, cv::Scalar(30, 30, 30), 1, 7);
+    ReservePath(&placer, {p, q}, 2);
+  }
+  // Lost frames: at the truth's pose, else at the last pose known.
+  const PoseRow* last_known = nullptr;
+  for (const PoseRow& r : est) {
+    if (Known(r)) {
+      last_known = &r;
+      continue;
+    }
+    const auto it = truth.find(r.frame);
+    const PoseRow* at = it != truth.end() ? it->second : last_known;
+    if (!at) continue;
+    const cv::Point2d p = axes.Px(at->pose.x, at->pose.y);
+    cv::drawMarker(plot, cv::Point(int(std::lround(p.x)), int(std::lround(p.y))), kLost, cv::MARKER_TILTED_CROSS, 11, 2,
+                   cv::LINE_AA);
+    placer.ReservePoint(p, 6);
+  }
+  // Start and end.
+  if (!known.empty()) {
+    const PoseRow& s = est[known.front()];
+    const PoseRow& e = est[known.back()];
+    const cv::Point2d ps = axes.Px(s.pose.x, s.pose.y), pe = axes.Px(e.pose.x, e.pose.y);
+    cv::rectangle(plot, cv::Rect(int(std::lround(pe.x)) - 6, int(std::lround(pe.y)) - 6, 13, 13), kWhite, cv::FILLED);
+    cv::rectangle(plot, cv::Rect(int(std::lround(pe.x)) - 5, int(std::lround(pe.y)) - 5, 11, 11), kEnd, cv::FILLED);
+    DrawDisc(&plot, ps, 7.5, kWhite);
+    DrawDisc(&plot, ps, 6, kStart);
+    placer.ReservePoint(ps, 8);
+    placer.ReservePoint(pe, 8);
+  }
+  // The labels wherever they fit.
+  const TextStyle small{cv::FONT_HERSHEY_SIMPLEX, 0.4, 1, kInk};
+  for (const MapRectangle& r : map.rectangles)
+    placer.Place(&plot, r.id, axes.Px(0.5 * (r.from + r.to)), label_style, 6);
+  for (const MapBox& b : map.boxes) {
+    const cv::Point2d c = axes.Px(0.5 * (b.min.x() + b.max.x()), 0.5 * (b.min.y() + b.max.y()));
+    const cv::Rect box = TextBox(b.id, c, Anchor::kCentre, label_style);
+    if (placer.Free(box)) {
+      DrawText(&plot, b.id, box.tl(), Anchor::kTopLeft, label_style);
+      placer.Reserve(box);
+    } else {
+      placer.Place(&plot, b.id, c, label_style, 8);
+    }
+  }
+  axes.DrawFrame();
+
+  // Title.
+  const TextStyle title{cv::FONT_HERSHEY_SIMPLEX, 0.55, 1, cv::Scalar(20, 20, 20)};
+  char buf[256];
+  std::snprintf(buf, sizeof buf, "Trajectory: %d frames, %d tracked, %d lost", static_cast<int>(est.size()), n_ok,
+                n_lost);
+  std::string heading = buf;
+  if (n_errors > 0) {
+    std::snprintf(buf, sizeof buf, "; position error RMS %.3g, max %.3g %s", std::sqrt(sum2 / n_errors), max_error,
+                  units.c_str());
+    heading += buf;
+  }
+  DrawText(&img, heading, {double(area.x), 12.0}, Anchor::kTopLeft, title);
+
+  // Side panel: legend, colour bar.
+  std::vector<LegendEntry> legend;
+  if (!map.rectangles.empty()) legend.push_back({"wall (landmarks)", kWall, LegendEntry::Kind::kLine, 3});
+  if (!map.boxes.empty()) legend.push_back({"box", cv::Scalar(200, 200, 200), LegendEntry::Kind::kPatch});
+  if (has_truth) legend.push_back({"ground truth", kTruth, LegendEntry::Kind::kLine, 7});
+  legend.push_back({has_truth ? "estimate (colour: error)" : "estimate", has_truth ? ColourMapValue(0.3) : kEstimate,
+                    LegendEntry::Kind::kLine, 2});
+  if (!known.empty())
+    legend.push_back({known.size() > arrow_every ? "heading (every " + std::to_string(arrow_every) +
+                                                       (arrow_every == 1 ? " frame)" : " frames)")
+                                                 : std::string("heading"),
+                      cv::Scalar(30, 30, 30), LegendEntry::Kind::kLine, 1});
+  if (!known.empty()) {
+    legend.push_back({"start", kStart, LegendEntry::Kind::kMarker, 1, -1});
+    legend.push_back({"end", kEnd, LegendEntry::Kind::kMarker, 1, -2});
+  }
+  if (n_lost > 0)
+    legend.push_back({"lost frame" + std::string(has_truth ? " (at truth)" : " (at last pose)"), kLost,
+                      LegendEntry::Kind::kMarker, 2, cv::MARKER_TILTED_CROSS});
+  const cv::Rect lb = DrawLegend(&img, legend, {width - side + 4, area.y}, Anchor::kTopLeft, small);
+  // The scale bar beside the map, where it hides nothing.
+  const cv::Rect sb = DrawScaleBar(&img, {width - side + 10.0, lb.br().y + 44.0}, axes.transform().px_per_unit_x(),
+                                   side - 50.0, units, small);
+  if (has_truth && n_errors > 0) {
+    const int bar_top = std::max(lb.br().y, sb.br().y) + 40;
+    const int bar_h = std::min(260, area.y + area.height - bar_top);
+    if (bar_h > 60)
+      DrawColourBar(&img, cv::Rect(width - side + 10, bar_top, 18, bar_h), 0.0, colour_max,
+                    "position error (" + units + ")", small);
+  }
+  if (known.empty())
+    DrawText(&img, "no frame tracked", {area.x + 0.5 * area.width, area.y + 0.5 * area.height}, Anchor::kCentre,
+             TextStyle{cv::FONT_HERSHEY_SIMPLEX, 0.7, 2, kEnd});
+  return {img, axes.transform()};
+}
+
+cv::Mat DrawErrorPlot(const std::vector<PoseRow>& est, const std::vector<PoseRow>& gt, const std::string& units_in) {
+  const std::string units = units_in.empty() ? "units" : units_in;
+  const std::map<int, const PoseRow*> truth = ByFrame(gt);
+  // Time axis: the rows' times when they increase, else frame numbers.
+  bool use_time = est.size() > 1;
+  for (size_t i = 1; i < est.size() && use_time; ++i)
+    use_time = std::isfinite(est[i].time_s) && std::isfinite(est[i - 1].time_s) && est[i].time_s > est[i - 1].time_s;
+  auto when = [&](const PoseRow& r) { return use_time ? r.time_s : static_cast<double>(r.frame); };
+  struct Sample {
+    double t, e[3], sigma[3];
+  };
+  std::vector<Sample> samples;
+  for (const PoseRow& r : est) {
+    if (r.status != PoseStatus::kOk) continue;
+    const auto it = truth.find(r.frame);
+    if (it == truth.end()) continue;
+    Sample s;
+    s.t = when(r);
+    s.e[0] = r.pose.x - it->second->pose.x;
+    s.e[1] = r.pose.y - it->second->pose.y;
+    s.e[2] = wrap_angle(r.pose.theta - it->second->pose.theta) * 180 / M_PI;
+    for (int k = 0; k < 3; ++k) {
+      const double sd = k < static_cast<int>(r.extra.size()) ? r.extra[k] : std::nan("");
+      s.sigma[k] = 3.0 * (k == 2 ? sd * 180 / M_PI : sd);
+    }
+    samples.push_back(s);
+  }
+  double t_lo = est.empty() ? 0 : when(est.front()), t_hi = est.empty() ? 1 : when(est.back());
+  const double dt = est.size() > 1 ? (t_hi - t_lo) / (est.size() - 1) : 1.0;
+
+  const int width = 960, panel_h = 210, title_h = 36;
+  const int height = title_h + 3 * panel_h + 44;
+  cv::Mat img(height, width, CV_8UC3, kWhite);
+  const TextStyle small{cv::FONT_HERSHEY_SIMPLEX, 0.4, 1, kInk};
+  const char* names[3] = {"x error", "y error", "heading error"};
+  const cv::Scalar line_colour = kEstimate, band_colour(240, 222, 200);
+  int within[3] = {0, 0, 0}, with_sigma[3] = {0, 0, 0};
+  double rms[3] = {0, 0, 0};
+  for (int k = 0; k < 3; ++k) {
+    // A symmetric range holding the errors and most of the band (a few
+    // frames' wide bands would flatten the rest).
+    std::vector<double> sig;
+    double emax = 0;
+    for (const Sample& s : samples) {
+      emax = std::max(emax, std::abs(s.e[k]));
+      rms[k] += s.e[k] * s.e[k];
+      if (std::isfinite(s.sigma[k])) {
+        sig.push_back(s.sigma[k]);
+        ++with_sigma[k];
+        within[k] += std::abs(s.e[k]) <= s.sigma[k];
       }
-      const cv::Point2d p = P(r.pose.x, r.pose.y);
-      if (last.x >= 0) cv::line(img, last, p, colour, 1, cv::LINE_AA);
-      cv::circle(img, p, radius, colour, cv::FILLED, cv::LINE_AA);
-      last = p;
     }
-  };
-  draw(gt, cv::Scalar(0, 160, 0), 3);
-  draw(est, cv::Scalar(200, 60, 0), 2);
-  cv::putText(img, "estimate (blue), ground truth (green), units: " + map.units, cv::Point(margin, 24),
-              cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
-  AtomicFile f(path);
-  if (!cv::imwrite(f.temp_path(), img)) throw Error(path + ": cannot write the plot");
-  f.Commit();
+    if (!samples.empty()) rms[k] = std::sqrt(rms[k] / samples.size());
+    double smax = 0;
+    if (!sig.empty()) {
+      std::sort(sig.begin(), sig.end());
+      smax = sig[std::min(sig.size() - 1, static_cast<size_t>(0.95 * sig.size()))];
+    }
+    double ylim = 1.1 * std::max(emax, smax);
+    if (!(ylim > 0)) ylim = 1.0;
+    AxesOptions ao;
+    ao.y_label = std::string(names[k]) + (k == 2 ? " (deg)" : " (" + units + ")");
+    ao.x_label = k == 2 ? (use_time ? "time (s)" : "frame") : "";
+    ao.x_ticks = 10;
+    ao.y_ticks = 4;
+    ao.nice_limits = false;  // the time axis spans the run exactly; y is made nice below
+    ao.x_tick_labels = k == 2;
+    ao.min_left_margin = 90;
+    double y_lo = -ylim, y_hi = ylim;
+    NiceLimits(&y_lo, &y_hi, ao.y_ticks);
+    // The same left margin on every panel, so the time axes line up.
+    Axes axes(&img, cv::Rect(0, title_h + k * panel_h, width, k == 2 ? panel_h + 40 : panel_h), t_lo - 0.5 * dt,
+              t_hi + 0.5 * dt, y_lo, y_hi, ao);
+    axes.DrawBackground();
+    cv::Mat plot = axes.plot();
+    // Lost frames.
+    for (const PoseRow& r : est)
+      if (r.status == PoseStatus::kLost) {
+        const double x0 = axes.Px(when(r) - 0.5 * dt, 0).x, x1 = axes.Px(when(r) + 0.5 * dt, 0).x;
+        cv::rectangle(plot, cv::Point(int(std::floor(x0)), 0), cv::Point(int(std::ceil(x1)), plot.rows), kLostShade,
+                      cv::FILLED);
+      }
+    // The band, per run of samples with a standard deviation.
+    std::vector<cv::Point> upper, lower;
+    auto flush_band = [&] {
+      if (upper.size() >= 1) {
+        std::vector<cv::Point> poly(upper);
+        poly.insert(poly.end(), lower.rbegin(), lower.rend());
+        if (upper.size() == 1) {
+          cv::line(plot, upper[0], lower[0], band_colour, 3);
+        } else {
+          cv::fillPoly(plot, std::vector<std::vector<cv::Point>>{poly}, band_colour, cv::LINE_AA);
+        }
+      }
+      upper.clear();
+      lower.clear();
+    };
+    double previous_t = -1e300;
+    for (const Sample& s : samples) {
+      if (!std::isfinite(s.sigma[k]) || s.t - previous_t > 1.5 * dt) flush_band();
+      previous_t = s.t;
+      if (!std::isfinite(s.sigma[k])) continue;
+      const double sg = std::min(s.sigma[k], 4 * ylim);
+      const cv::Point2d u = axes.Px(s.t, sg), l = axes.Px(s.t, -sg);
+      upper.emplace_back(int(std::lround(u.x)), int(std::lround(u.y)));
+      lower.emplace_back(int(std::lround(l.x)), int(std::lround(l.y)));
+    }
+    flush_band();
+    DrawLine(&plot, axes.Px(t_lo - dt, 0), axes.Px(t_hi + dt, 0), cv::Scalar(150, 150, 150));
+    previous_t = -1e300;
+    for (size_t i = 0; i < samples.size(); ++i) {
+      if (i > 0 && samples[i].t - previous_t <= 1.5 * dt)
+        DrawLine(&plot, axes.Px(samples[i - 1].t, samples[i - 1].e[k]), axes.Px(samples[i].t, samples[i].e[k]),
+                 line_colour, 1);
+      previous_t = samples[i].t;
+      if (samples.size() <= 150) DrawDisc(&plot, axes.Px(samples[i].t, samples[i].e[k]), 1.8, line_colour);
+    }
+    axes.DrawFrame();
+    // Per-panel figures at the upper right.
+    char buf[160];
+    if (samples.empty())
+      std::snprintf(buf, sizeof buf, "no frame to compare");
+    else if (with_sigma[k] > 0)
+      std::snprintf(buf, sizeof buf, "RMS %.3g, within 3 sigma: %.0f %%", rms[k], 100.0 * within[k] / with_sigma[k]);
+    else
+      std::snprintf(buf, sizeof buf, "RMS %.3g", rms[k]);
+    const cv::Rect a = axes.area();
+    const cv::Rect tb = TextBox(buf, {double(a.x + a.width - 8), double(a.y + 6)}, Anchor::kTopRight, small);
+    cv::rectangle(img, cv::Rect(tb.x - 4, tb.y - 3, tb.width + 8, tb.height + 6), kWhite, cv::FILLED);
+    DrawText(&img, buf, tb.tl(), Anchor::kTopLeft, small);
+    if (k == 0) {
+      std::vector<LegendEntry> legend = {{"estimate - truth", line_colour, LegendEntry::Kind::kLine, 1},
+                                         {"+/- 3 std (reported)", band_colour, LegendEntry::Kind::kPatch}};
+      if (std::any_of(est.begin(), est.end(), [](const PoseRow& r) { return r.status == PoseStatus::kLost; }))
+        legend.push_back({"lost frame", kLostShade, LegendEntry::Kind::kPatch});
+      DrawLegend(&img, legend, {a.x + 8, a.y + 6}, Anchor::kTopLeft, small);
+    }
+  }
+  int n_lost = 0;
+  for (const PoseRow& r : est) n_lost += r.status == PoseStatus::kLost;
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "Error against ground truth: %d frames compared, %d lost",
+                static_cast<int>(samples.size()), n_lost);
+  DrawText(&img, buf, {10.0, 12.0}, Anchor::kTopLeft,
+           TextStyle{cv::FONT_HERSHEY_SIMPLEX, 0.55, 1, cv::Scalar(20, 20, 20)});
+  return img;
+}
+
+std::string ErrorPlotPath(const std::string& plot_path) {
+  const std::filesystem::path p(plot_path);
+  return (p.parent_path() / (p.stem().string() + "_error.png")).string();
+}
+
+void WritePlot(const std::string& path, const Map& map, const std::vector<PoseRow>& estimate,
+               const std::vector<PoseRow>& truth) {
+  const TrajectoryFigure fig = DrawTrajectoryPlot(map, estimate, truth);
+  cv::Mat errors;
+  if (!truth.empty()) errors = DrawErrorPlot(estimate, truth, map.units);
+  EncodeAndWrite(path, fig.image);
+  if (!errors.empty()) EncodeAndWrite(ErrorPlotPath(path), errors);
 }
 
 }  // namespace pano
