@@ -15,6 +15,7 @@
 #include "panotrack/io/case_file.h"
 #include "panotrack/io/map.h"
 #include "panotrack/pipeline/output_names.h"
+#include "panotrack/pipeline/plot.h"
 #include "panotrack/video/frame_source.h"
 
 namespace pano {
@@ -154,6 +155,7 @@ void CheckOutputs(const PanolocOptions& opt, const std::vector<PlannedJob>& jobs
     writes.push_back({out_option, p.job.output});
     writes.push_back({"--debug-video", p.job.debug_video});
     writes.push_back({"--plot", p.job.plot});
+    if (!p.job.plot.empty() && !p.job.gt.empty()) writes.push_back({"--plot", ErrorPlotPath(p.job.plot)});
     writes.push_back({"--smooth", p.job.smoothed_output});
     writes.push_back({"--tum", p.job.tum});
   }
