@@ -264,6 +264,7 @@ std::vector<BoardView> FindUnwarpedBoards(Pipeline* p) {
   const std::vector<int>& missing = p->det.not_found;
   const int n_missing = static_cast<int>(missing.size()), threads = p->options.Threads();
   std::vector<std::vector<Eigen::Vector2d>> corners(n_missing);
+  std::vector<std::vector<int>> ids(n_missing);
   std::vector<std::string> failures(n_missing);
   std::vector<char> ok(n_missing, 0);
   ParallelFor(
@@ -271,13 +272,15 @@ std::vector<BoardView> FindUnwarpedBoards(Pipeline* p) {
       [&](int k) {
         ok[k] = DetectBoardUnwarped(p->images[missing[k]], p->targets.board, p->res.calib.sensor,
                                     place.distance, place.height, &corners[k], n_missing > 1 ? 1 : threads,
-                                    &failures[k]);
+                                    &failures[k], &ids[k]);
       },
       true, threads);
   std::vector<BoardView> found;
   for (int k = 0; k < n_missing; ++k) {
-    if (ok[k]) found.push_back(ViewOfImage(p->targets, missing[k], corners[k], "unwarped"));
-    else if (!failures[k].empty())
+    if (ok[k]) {
+      found.push_back(ViewOfImage(p->targets, missing[k], corners[k], "unwarped"));
+      found.back().ids = ids[k];
+    } else if (!failures[k].empty())
       p->carried.push_back(p->det.not_found_files[k] + ": the search in unwarped views failed (" +
                            failures[k] + ")");
   }
@@ -432,6 +435,7 @@ CalibrationResult CalibrateViews(const std::vector<BoardView>& views_in, const T
   options.Check();
   if (width <= 0 || height <= 0) throw Error("calibration: image size unknown");
   std::vector<BoardView> views = views_in;
+  for (const BoardView& v : views) CheckBoardView(v, board);
   const bool poses_known = PosesKnown(views, options);
   CheckViewCount(views.size(), views.size(), poses_known, options, {});
   if (poses_known) OrderCornersByKnownPose(board, 0.5 * (width - 1), 0.5 * (height - 1), &views);
