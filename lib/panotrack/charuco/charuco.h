@@ -15,8 +15,10 @@ namespace pano {
 
 // The board as printed: `pixels_per_square` pixels per square and a white
 // margin of `margin_px` (8-bit grey). The board point (x, y, 0) of the board
-// frame (origin at the first inner corner) lies at pixel
-// (margin_px + (x / square + 1) * pixels_per_square, margin_px + (y / square + 1) * pixels_per_square);
+// frame (origin at the first inner corner) lies at
+// (margin_px + (x / square + 1) * pixels_per_square, same for y) in the
+// image's continuous coordinates (pixel k spans [k, k + 1); subtract 0.5 for
+// OpenCV's pixel-centre coordinates);
 // the square at the origin's top left is black, like the chessboard's.
 // Throws pano::Error for a board that is not a ChArUco board.
 cv::Mat DrawCharucoBoard(const TargetBoard& board, int pixels_per_square, int margin_px = 0);

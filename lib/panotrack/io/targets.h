@@ -39,10 +39,10 @@ void CheckTargetBoard(const TargetBoard& board, const std::string& field = "boar
 struct TargetImage {
   std::string file;           // as written (a video's frame: "<video file name>#<frame index>")
   std::string resolved;       // relative to the target file's folder (a video's frame: the video)
-  int frame = -1;             // >= 0: this frame of the video `resolved`
   bool has_pose = false;
   std::array<double, 3> rvec{};  // X_sensor = R(rvec) X_board + tvec
   std::array<double, 3> tvec{};
+  int frame = -1;  // >= 0: this frame of the video `resolved`
 };
 
 struct TargetSet {
