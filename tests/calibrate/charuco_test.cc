@@ -113,11 +113,11 @@ TEST_CASE("partial views: corner ids through the weights and the fit", "[partial
 TEST_CASE("ChArUco boards past the mirror's limb calibrate from a folder of images", "[charuco]") {
   // 10 boards (9 x 6 inner corners, 3 cm squares, 2.2 cm markers) rendered
   // through the paper's sphere at 640 x 480 with 2 grey levels of noise,
-  // each with at least half its corners in view.
+  // each with at least 40 % of its corners in view.
   const Calibration truth = ReadCalibration(test::SourcePath("calib/paper-real.yaml"));
   const std::string dir = test::ScratchDir("calibrate_charuco") + "/t";
   const TargetBoard board = Charuco(9, 6, 3.0, 2.2);
-  const std::vector<BoardPose> poses = AutoBoardPoses(truth.sensor, board, 10, 1, 0.5);
+  const std::vector<BoardPose> poses = AutoBoardPoses(truth.sensor, board, 10, 1, 0.4);
   RenderOptions ro;
   ro.noise_sigma = 2.0;
   ro.seed = 1;
@@ -137,34 +137,49 @@ TEST_CASE("ChArUco boards past the mirror's limb calibrate from a folder of imag
   o.num_threads = 2;
   const CalibrationResult r = Calibrate(from_folder, o);
 
-  // The folder gives exactly what the target file gives.
-  const CalibrationResult from_yaml = Calibrate(ReadTargets(dir + "/targets_unknown.yaml"), o);
+  // The folder gives exactly the target file's input, and so its calibration
+  // (to the last digits the thread schedule leaves, as in [concurrent]).
+  const TargetSet from_file = ReadTargets(dir + "/targets_unknown.yaml");
+  REQUIRE(from_file.images.size() == from_folder.images.size());
+  for (size_t k = 0; k < from_file.images.size(); ++k) {
+    CHECK(from_folder.images[k].file == from_file.images[k].file);
+    CHECK(from_folder.images[k].resolved == from_file.images[k].resolved);
+  }
+  CHECK(TargetsToYaml(from_folder) == TargetsToYaml(from_file));
+  const CalibrationResult from_yaml = Calibrate(from_file, o);
   REQUIRE(from_yaml.parameters.size() == r.parameters.size());
-  for (size_t k = 0; k < r.parameters.size(); ++k) CHECK(from_yaml.parameters[k].value == r.parameters[k].value);
-  CHECK(from_yaml.rms_px == r.rms_px);
+  for (size_t k = 0; k < r.parameters.size(); ++k)
+    CHECK(from_yaml.parameters[k].value == Approx(r.parameters[k].value).epsilon(1e-9));
+  CHECK(from_yaml.rms_px == Approx(r.rms_px).epsilon(1e-9));
+  REQUIRE(from_yaml.views.size() == r.views.size());
 
-  int partial = 0, raw = 0;
+  // Boards partly outside the mirror: a chessboard is never found there.
+  int partial = 0, raw = 0, past_limb = 0;
   size_t fewest = 54;
   for (const BoardView& v : r.views) {
     partial += v.corners.size() < 54;
     raw += v.method == "raw";
+    past_limb += !BoardFullyVisible(truth.sensor, board, poses[static_cast<size_t>(v.image_index)], 0.0, 1.0);
     fewest = std::min(fewest, v.corners.size());
   }
   const Sensor& s = r.calib.sensor;
   WARN("ChArUco: " << r.views.size() << " of 10 boards used (" << raw << " raw, " << partial
-                   << " partial, fewest corners " << fewest << "; " << fully_visible
-                   << " fully in view), RMS " << r.rms_px << " px, focal " << s.params.focal_px << ", mirror "
+                   << " partial, fewest corners " << fewest << ", " << past_limb << " past the limb; "
+                   << fully_visible << " fully in view), RMS " << r.rms_px << " px, focal " << s.params.focal_px << ", mirror "
                    << s.params.curvature_radius << " at " << s.mirror_distance());
-  // Measured: 8 boards (4 raw), 7 partial, 7 fully in view; RMS 0.109 px;
-  // focal 607.3 (truth 590), mirror radius 4.68 (4.9) at 14.77 (15.1).
-  CHECK(static_cast<int>(r.views.size()) > fully_visible);
+  // Measured: 8 boards (4 raw, the rest in unwarped views), all partial
+  // (markers near the limb are too small to read), 1 past the limb; RMS
+  // 0.109 px; focal 607.3 (truth 590, +2.9 %), mirror radius 4.68 (4.9,
+  // -4.5 %) at 14.77 (15.1, -2.2 %).
+  CHECK(r.views.size() == 8);
   CHECK(partial >= 1);
-  CHECK(r.rms_px < 0.15);
-  CHECK(s.params.focal_px == Approx(truth.sensor.params.focal_px).epsilon(0.04));
-  CHECK(s.params.cx == Approx(truth.sensor.params.cx).margin(0.5));
-  CHECK(s.params.cy == Approx(truth.sensor.params.cy).margin(0.5));
-  CHECK(s.params.curvature_radius == Approx(truth.sensor.params.curvature_radius).epsilon(0.06));
-  CHECK(s.mirror_distance() == Approx(truth.sensor.mirror_distance()).epsilon(0.04));
+  CHECK(past_limb >= 1);
+  CHECK(r.rms_px < 0.12);
+  CHECK(s.params.focal_px == Approx(truth.sensor.params.focal_px).epsilon(0.035));
+  CHECK(s.params.cx == Approx(truth.sensor.params.cx).margin(0.3));
+  CHECK(s.params.cy == Approx(truth.sensor.params.cy).margin(0.3));
+  CHECK(s.params.curvature_radius == Approx(truth.sensor.params.curvature_radius).epsilon(0.055));
+  CHECK(s.mirror_distance() == Approx(truth.sensor.mirror_distance()).epsilon(0.027));
 }
 
 }  // namespace

@@ -50,11 +50,15 @@ namespace {
 int MinImages(bool poses_known) { return poses_known ? 2 : 3; }
 
 void CheckViewCount(size_t n_found, size_t n_total, bool poses_known, const CalibrateOptions& o,
-                    const std::vector<std::string>& not_found) {
+                    const std::vector<std::string>& not_found, bool charuco = false) {
   const size_t need = MinImages(poses_known);
   if (n_found == 0) {
     std::string list;
     for (const std::string& f : not_found) list += (list.empty() ? "" : ", ") + f;
+    if (charuco)
+      throw Error("no ChArUco board (" + std::to_string(kMinPartialCorners) +
+                  " corners or more) found in any of the " + std::to_string(n_total) + " images (" + list +
+                  "): check the board's size, marker and dictionary against the images");
     throw Error("no chessboard found in any of the " + std::to_string(n_total) +
                 " images (" + list + "): check board.cols/board.rows (inner corners) against the images");
   }
@@ -460,7 +464,8 @@ CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>
   p.det = DetectBoards(targets, images, options);
   clock.Done("raw detection");
   p.poses_known = targets.AllPosesKnown() && !options.ignore_known_poses;
-  CheckViewCount(p.det.views.size(), images.size(), p.poses_known, options, p.det.not_found_files);
+  CheckViewCount(p.det.views.size(), images.size(), p.poses_known, options, p.det.not_found_files,
+                 targets.board.IsCharuco());
   p.carried = InputWarnings(p.det.views, options);
   p.carried.insert(p.carried.end(), p.det.warnings.begin(), p.det.warnings.end());
   p.res = CalibrateViews(p.det.views, targets.board, p.det.image_width, p.det.image_height, targets.units,

@@ -3,7 +3,9 @@
 // Pipeline (docs/calibration.md):
 //   1. DetectBoards: findChessboardCornersSB on each raw image (quick search,
 //      then exhaustive); images where the board is not found are listed (and
-//      retried in step 4).
+//      retried in step 4). A ChArUco board: detectMarkers and
+//      interpolateCornersCharuco (lib/panotrack/charuco), keeping views with
+//      enough corners (EnoughCorners), each corner with its id.
 //   2. Initialise: a linear central-camera initialisation (after Scaramuzza:
 //      per board a 6x6 null vector gives the in-plane pose, then one linear
 //      least-squares gives a radial polynomial and the boards' heights), a

@@ -329,16 +329,17 @@ bool DetectInView(const cv::Mat& image, const TargetBoard& board, const VirtualV
       *failure = e.what();
       return false;
     }
+  } else {
+    try {
+      SeedDetector();
+      ok = cv::findChessboardCornersSB(view, cv::Size(board.cols, board.rows), c,
+                                       cv::CALIB_CB_NORMALIZE_IMAGE | cv::CALIB_CB_ACCURACY);
+    } catch (const cv::Exception& e) {
+      ok = false;
+      *failure = OpenCvReason(e);
+    }
+    if (!ok || c.size() != static_cast<size_t>(board.cols * board.rows)) return false;
   }
-  if (!board.IsCharuco()) try {
-    SeedDetector();
-    ok = cv::findChessboardCornersSB(view, cv::Size(board.cols, board.rows), c,
-                                     cv::CALIB_CB_NORMALIZE_IMAGE | cv::CALIB_CB_ACCURACY);
-  } catch (const cv::Exception& e) {
-    ok = false;
-    *failure = OpenCvReason(e);
-  }
-  if (!board.IsCharuco() && (!ok || c.size() != static_cast<size_t>(board.cols * board.rows))) return false;
   raw->clear();
   ids->clear();
   for (size_t k = 0; k < c.size(); ++k) {
