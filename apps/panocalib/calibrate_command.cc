@@ -23,14 +23,41 @@ void AddCalibrateCommand(CLI::App& app) {
     bool no_aspect = false, ignore_poses = false, no_unwarp = false, verbose = false;
   };
   auto o = std::make_shared<Opts>();
+  // Input without a target file: the board on the command line.
+  struct BoardOpts {
+    std::string board, dictionary = "DICT_4X4_50", units = TargetSet().units;
+    double square = 0.0, marker = 0.0;
+    int every = 0;
+  };
+  auto bo = std::make_shared<BoardOpts>();
   CLI::App* cmd = app.add_subcommand(
       "calibrate",
-      "Fit the sensor model to images of a chessboard (target file: spec section 6). Writes the "
+      "Fit the sensor model to images of a chessboard or a ChArUco board (target file: spec section 6; "
+      "or a folder of images or a video with --board). Writes the "
       "calibration YAML (spec section 3) with standard deviations and RMS reprojection errors, "
       "optionally the E(D,Z) lookup table and a report PNG, and prints a summary. Boards with "
       "rvec/tvec given are 'known targets' (only the sensor is fitted); otherwise every board pose "
       "is estimated too. Nothing is written when the calibration fails.");
-  cmd->add_option("targets", o->targets, "Calibration target file (YAML)")->required();
+  cmd->add_option("targets", o->targets,
+                  "Calibration target file (.yaml/.yml), or a folder of images (natural order: image_2 before "
+                  "image_10), or a video (every --every-th frame, named VIDEO#FRAME); a folder or video "
+                  "needs --board and --square")
+      ->required();
+  // --- Folder or video input: the board (the target file's board fields).
+  CLI::Option* board_opt = cmd->add_option(
+      "--board", bo->board,
+      "Board for a folder or video: COLSxROWS inner corners (board.cols along the board's x, board.rows "
+      "along y; e.g. 7x11 for an 8 x 12 squares board), or charuco:COLSxROWS for a ChArUco board");
+  cmd->add_option("--square", bo->square, "Square side in the map's units (with --board)")->needs(board_opt);
+  cmd->add_option("--marker", bo->marker, "ChArUco marker side in the map's units (with --board charuco:...)")
+      ->needs(board_opt);
+  cmd->add_option("--dictionary", bo->dictionary, "ChArUco: OpenCV's ArUco dictionary")
+      ->capture_default_str()
+      ->needs(board_opt);
+  cmd->add_option("--units", bo->units, "Map units of --square (with --board)")->capture_default_str()->needs(board_opt);
+  cmd->add_option("--every", bo->every, "Video: take every N-th frame (0: about 30 frames)")
+      ->capture_default_str()
+      ->needs(board_opt);
   cmd->add_option("-o,--output", o->out, "Output calibration file (YAML)")->required();
   cmd->add_option("--lut", o->lut, "Also write the E(D,Z) lookup table here (referenced from the YAML)");
   cmd->add_option("--report", o->report, "Also write a report PNG (per-image RMS, residual vectors)");
@@ -70,7 +97,7 @@ void AddCalibrateCommand(CLI::App& app) {
   cmd->parse_complete_callback([o, run]() {
     RefuseToReplace({o->out, o->lut, o->report, run->summary_json}, run->force);
   });
-  cmd->callback([o, run]() {
+  cmd->callback([o, bo, run]() {
     CalibrateOptions opt;
     if (o->model == "sphere") opt.model = MirrorModel::kSphere;
     else if (o->model == "conic") opt.model = MirrorModel::kConic;
@@ -88,7 +115,15 @@ void AddCalibrateCommand(CLI::App& app) {
     opt.num_threads = o->threads;
     opt.verbose = o->verbose;
     opt.Check();
-    const TargetSet targets = ReadTargets(o->targets);
+    TargetInputBoard input;
+    input.board_given = !bo->board.empty();
+    if (input.board_given) {
+      if (!(bo->square > 0.0)) throw Error("--square: required with --board (the square side, map units)");
+      input.board = ParseBoardSpec(bo->board, bo->square, bo->marker, bo->dictionary);
+      input.units = bo->units;
+      input.every = bo->every;
+    }
+    const TargetSet targets = ReadTargetInput(o->targets, input);
     const std::vector<cv::Mat> images = LoadTargetImages(targets);
     CalibrationResult r = Calibrate(targets, images, opt);
     r.calib.command_line = ShellCommandLine(CommandLine());

@@ -244,7 +244,7 @@ images:
     const std::string path = Write(dir, name, body);
     ExpectError([&] { ReadTargets(path); }, path, frags);
   };
-  bad("type.yaml", text, "type: chessboard", "type: charuco", {"board.type", "charuco"});
+  bad("type.yaml", text, "type: chessboard", "type: hexagon", {"board.type", "hexagon"});
   bad("cols.yaml", text, "cols: 9", "cols: 1", {"board", "2 x 2"});
   bad("half.yaml", text, "    tvec: [40.0, 0.0, 5.0]\n", "", {"images[0]", "both rvec and tvec"});
   bad("rvec.yaml", text, "rvec: [0.1, -1.2, 0.3]", "rvec: [0.1, -1.2]", {"images[0].rvec", "3 numbers"});

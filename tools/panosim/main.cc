@@ -306,6 +306,8 @@ struct TargetsArgs {
   std::string calib_path, poses_path, out;
   std::vector<double> board;
   int auto_n = 0;
+  double charuco_marker = 0.0, min_visible = 1.0;  // ChArUco: marker side (0: chessboard)
+  std::string dictionary = "DICT_4X4_50";
   CLI::Option *o_poses = nullptr, *o_auto = nullptr;
   RenderFlags flags;
   CommonFlags common;
@@ -330,6 +332,16 @@ CLI::App* AddTargets(CLI::App* app, TargetsArgs* a) {
                              "below to 60 above it, corners out to the limb (the placement that calibrates "
                              "best with unknown poses)");
   a->o_poses->excludes(a->o_auto);
+  tg->add_option("--charuco", a->charuco_marker,
+                 "Render a ChArUco board with markers of this side (map units) instead of a chessboard")
+      ->group("Rendering");
+  tg->add_option("--dictionary", a->dictionary, "ChArUco: OpenCV's ArUco dictionary")
+      ->capture_default_str()
+      ->group("Rendering");
+  tg->add_option("--min-visible", a->min_visible,
+                 "--auto: fraction of the inner corners that must be in view (below 1: boards run past the limb)")
+      ->capture_default_str()
+      ->group("Input");
   tg->add_option("-o,--output", a->out, "Output folder (created; must not exist unless --force)")
       ->required()
       ->group("Output");
@@ -366,13 +378,19 @@ std::vector<pano::BoardPose> BoardPosesOf(const TargetsArgs& a, const pano::Sens
                   << ": not every inner corner of the board is in view\n";
     return poses;
   }
-  if (a.o_auto->count()) return pano::AutoBoardPoses(sensor, board, a.auto_n, seed);
+  if (a.o_auto->count()) return pano::AutoBoardPoses(sensor, board, a.auto_n, seed, a.min_visible);
   throw pano::Error("--poses or --auto: give the board poses file or the number of images to generate");
 }
 
 void RunTargets(const TargetsArgs& a) {
   const pano::Calibration calib = pano::ReadCalibration(a.calib_path);
-  const pano::TargetBoard board = BoardOf(a.board);
+  pano::TargetBoard board = BoardOf(a.board);
+  if (a.charuco_marker != 0.0) {
+    board.type = "charuco";
+    board.marker = a.charuco_marker;
+    board.dictionary = a.dictionary;
+    pano::CheckTargetBoard(board, "--charuco");
+  }
   pano::RenderOptions ro;
   a.flags.Apply(&ro, false);
   ro.Check("options");

@@ -51,11 +51,15 @@ namespace {
 int MinImages(bool poses_known) { return poses_known ? 2 : 3; }
 
 void CheckViewCount(size_t n_found, size_t n_total, bool poses_known, const CalibrateOptions& o,
-                    const std::vector<std::string>& not_found) {
+                    const std::vector<std::string>& not_found, bool charuco = false) {
   const size_t need = MinImages(poses_known);
   if (n_found == 0) {
     std::string list;
     for (const std::string& f : not_found) list += (list.empty() ? "" : ", ") + f;
+    if (charuco)
+      throw Error("no ChArUco board (" + std::to_string(kMinPartialCorners) +
+                  " corners or more) found in any of the " + std::to_string(n_total) + " images (" + list +
+                  "): check the board's size, marker and dictionary against the images");
     throw Error("no chessboard found in any of the " + std::to_string(n_total) +
                 " images (" + list + "): check board.cols/board.rows (inner corners) against the images");
   }
@@ -275,6 +279,7 @@ std::vector<BoardView> FindUnwarpedBoards(Pipeline* p) {
   const std::vector<int>& missing = p->det.not_found;
   const int n_missing = static_cast<int>(missing.size()), threads = p->options.Threads();
   std::vector<std::vector<Eigen::Vector2d>> corners(n_missing);
+  std::vector<std::vector<int>> ids(n_missing);
   std::vector<std::string> failures(n_missing);
   std::vector<char> ok(n_missing, 0);
   ParallelFor(
@@ -282,13 +287,15 @@ std::vector<BoardView> FindUnwarpedBoards(Pipeline* p) {
       [&](int k) {
         ok[k] = DetectBoardUnwarped(p->images[missing[k]], p->targets.board, p->res.calib.sensor,
                                     place.distance, place.height, &corners[k], n_missing > 1 ? 1 : threads,
-                                    &failures[k]);
+                                    &failures[k], &ids[k]);
       },
       true, threads);
   std::vector<BoardView> found;
   for (int k = 0; k < n_missing; ++k) {
-    if (ok[k]) found.push_back(ViewOfImage(p->targets, missing[k], corners[k], "unwarped"));
-    else if (!failures[k].empty())
+    if (ok[k]) {
+      found.push_back(ViewOfImage(p->targets, missing[k], corners[k], "unwarped"));
+      found.back().ids = ids[k];
+    } else if (!failures[k].empty())
       p->carried.push_back(p->det.not_found_files[k] + ": the search in unwarped views failed (" +
                            failures[k] + ")");
   }
@@ -443,6 +450,7 @@ CalibrationResult CalibrateViews(const std::vector<BoardView>& views_in, const T
   options.Check();
   if (width <= 0 || height <= 0) throw Error("calibration: image size unknown");
   std::vector<BoardView> views = views_in;
+  for (const BoardView& v : views) CheckBoardView(v, board);
   const bool poses_known = PosesKnown(views, options);
   CheckViewCount(views.size(), views.size(), poses_known, options, {});
   if (poses_known) OrderCornersByKnownPose(board, 0.5 * (width - 1), 0.5 * (height - 1), &views);
@@ -467,7 +475,8 @@ CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>
   p.det = DetectBoards(targets, images, options);
   clock.Done("raw detection");
   p.poses_known = targets.AllPosesKnown() && !options.ignore_known_poses;
-  CheckViewCount(p.det.views.size(), images.size(), p.poses_known, options, p.det.not_found_files);
+  CheckViewCount(p.det.views.size(), images.size(), p.poses_known, options, p.det.not_found_files,
+                 targets.board.IsCharuco());
   p.carried = InputWarnings(p.det.views, options);
   p.carried.insert(p.carried.end(), p.det.warnings.begin(), p.det.warnings.end());
   p.res = CalibrateViews(p.det.views, targets.board, p.det.image_width, p.det.image_height, targets.units,

@@ -3,7 +3,9 @@
 // Pipeline (docs/calibration.md):
 //   1. DetectBoards: findChessboardCornersSB on each raw image (quick search,
 //      then exhaustive); images where the board is not found are listed (and
-//      retried in step 4).
+//      retried in step 4). A ChArUco board: detectMarkers and
+//      interpolateCornersCharuco (lib/panotrack/charuco), keeping views with
+//      enough corners (EnoughCorners), each corner with its id.
 //   2. Initialise: a linear central-camera initialisation (after Scaramuzza:
 //      per board a 6x6 null vector gives the in-plane pose, then one linear
 //      least-squares gives a radial polynomial and the boards' heights), a
@@ -84,17 +86,35 @@ struct CalibrateOptions {
   void Check() const;
 };
 
-// One image's board: corners in board order (index j * cols + i is the board
-// point (i * square, j * square, 0)).
+// One image's board. Without ids: every corner, in board order (index
+// j * cols + i is the board point (i * square, j * square, 0)). With ids (a
+// partial view, e.g. a ChArUco board partly outside the mirror): corners[k]
+// is the board point ids[k] (the same numbering), in any order.
 struct BoardView {
   int image_index = -1;  // index in the target file's image list
   std::string file;
   std::vector<Eigen::Vector2d> corners;
+  std::vector<int> ids;  // empty: the full grid in board order
   std::string method = "given";  // "raw", "unwarped" or "given" (tests)
   bool has_pose = false;         // known pose (X_sensor = R(rvec) X_board + tvec)
   Eigen::Vector3d rvec = Eigen::Vector3d::Zero();
   Eigen::Vector3d tvec = Eigen::Vector3d::Zero();
+
+  // Board point index of corners[k].
+  int PointId(size_t k) const { return ids.empty() ? static_cast<int>(k) : ids[k]; }
+  bool Partial() const { return !ids.empty(); }
 };
+
+// Fewest corners a partial view may have, on at least 2 board rows and 2
+// board columns (fewer cannot fix the board's pose in the initialisation).
+constexpr int kMinPartialCorners = 8;
+// Throws pano::Error (naming the view's file) when a view's corners do not
+// fit the board: a full grid of the wrong size, ids out of range, repeated
+// or not one per corner, or a partial view below the minimum.
+void CheckBoardView(const BoardView& view, const TargetBoard& board);
+// True when a partial view has enough corners spread over the board
+// (kMinPartialCorners on 2 rows and 2 columns at least).
+bool EnoughCorners(const std::vector<int>& ids, const TargetBoard& board);
 
 struct DetectionResult {
   int image_width = 0;
@@ -140,8 +160,25 @@ struct CalibrationResult {
 // Board points (z = 0) in board order.
 std::vector<Eigen::Vector3d> BoardPoints(const TargetBoard& board);
 
-// Loads the images (grey) and checks that they exist and share one size.
+// Loads the images (grey; a video's frames read front to back) and checks
+// that they exist and share one size.
 std::vector<cv::Mat> LoadTargetImages(const TargetSet& targets);
+
+// The board and settings for an input without a target file.
+struct TargetInputBoard {
+  bool board_given = false;  // --board was given
+  TargetBoard board;
+  std::string units = "cm";  // the target file's default
+  int every = 0;             // a video's frame step; 0: about 30 frames
+};
+// The calibration input `path`: a target file (.yaml/.yml: the board comes
+// from it, so none may be given), a folder of images (natural order) or a
+// video (sampled every `every` frames), both with the board given (io/targets.h:
+// ClassifyTargetInput, TargetsFromFolder, TargetsFromVideoFrames). Throws
+// pano::Error naming --board or the path.
+TargetSet ReadTargetInput(const std::string& path, const TargetInputBoard& input);
+// Frames in a video, counted by reading it (containers' counts are estimates).
+int CountVideoFrames(const std::string& path);
 
 // Step 1: raw-image detection (in parallel over images, options.Threads()).
 // Throws when an image cannot be read or the images differ in size.
@@ -152,10 +189,11 @@ DetectionResult DetectBoards(const TargetSet& targets, const std::vector<cv::Mat
 // mapped back to the raw image and refined there. `distance` is a typical
 // board distance (for the virtual view's depth). False when not found; then
 // `failure` (when given) gets the first error a view's search raised, if any.
-// num_threads: views searched at once (0: OpenMP's default).
+// num_threads: views searched at once (0: OpenMP's default). A ChArUco
+// board's corners come with their ids (required then; EnoughCorners).
 bool DetectBoardUnwarped(const cv::Mat& image, const TargetBoard& board, const Sensor& sensor,
                          double distance, double height, std::vector<Eigen::Vector2d>* corners,
-                         int num_threads = 0, std::string* failure = nullptr);
+                         int num_threads = 0, std::string* failure = nullptr, std::vector<int>* ids = nullptr);
 
 // Reorders the corners of views with known poses so that they match the board
 // frame (OpenCV may start at any of the board's corners): the order whose

@@ -11,7 +11,8 @@
 namespace pano {
 
 // Square roots L (upper triangular) of the corners' information matrices
-// L^T L, one per corner in board order; the fit's residual for a corner is
+// L^T L, one per corner of the view (in its order; a partial view's
+// corners take their neighbours from the corners it has); the fit's residual for a corner is
 // L * (projected - observed).
 //
 // A corner is the crossing of the board's two lines through it; with n1, n2

@@ -11,10 +11,13 @@
 #include <chrono>
 #include <cmath>
 #include <numeric>
+#include <memory>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/videoio.hpp>
 
 #include "panotrack/calibrate/calibrate.h"
 #include "panotrack/calibrate/internal.h"
+#include "panotrack/charuco/charuco.h"
 #include "panotrack/core/angles.h"
 #include "panotrack/core/error.h"
 #include "panotrack/core/parallel.h"
@@ -29,14 +32,118 @@ std::vector<Eigen::Vector3d> BoardPoints(const TargetBoard& board) {
   return pts;
 }
 
+bool EnoughCorners(const std::vector<int>& ids, const TargetBoard& board) {
+  if (static_cast<int>(ids.size()) < kMinPartialCorners || board.cols < 1) return false;
+  std::vector<int> rows, cols;
+  for (int id : ids) {
+    rows.push_back(id / board.cols);
+    cols.push_back(id % board.cols);
+  }
+  auto distinct = [](std::vector<int> v) {
+    std::sort(v.begin(), v.end());
+    return std::unique(v.begin(), v.end()) - v.begin();
+  };
+  return distinct(rows) >= 2 && distinct(cols) >= 2;
+}
+
+void CheckBoardView(const BoardView& view, const TargetBoard& board) {
+  const size_t n_points = static_cast<size_t>(board.cols) * board.rows;
+  if (!view.Partial()) {
+    if (view.corners.size() != n_points)
+      throw Error(view.file + ": expected " + std::to_string(n_points) + " corners (the full " +
+                  std::to_string(board.cols) + " x " + std::to_string(board.rows) + " grid), got " +
+                  std::to_string(view.corners.size()) + " without corner ids");
+    return;
+  }
+  if (view.ids.size() != view.corners.size())
+    throw Error(view.file + ": " + std::to_string(view.corners.size()) + " corners but " +
+                std::to_string(view.ids.size()) + " corner ids");
+  std::vector<char> seen(n_points, 0);
+  for (int id : view.ids) {
+    if (id < 0 || static_cast<size_t>(id) >= n_points)
+      throw Error(view.file + ": corner id " + std::to_string(id) + " outside the board's 0.." +
+                  std::to_string(n_points - 1));
+    if (seen[static_cast<size_t>(id)]++) throw Error(view.file + ": corner id " + std::to_string(id) + " given twice");
+  }
+  if (!EnoughCorners(view.ids, board))
+    throw Error(view.file + ": " + std::to_string(view.ids.size()) + " corners; a partial view needs at least " +
+                std::to_string(kMinPartialCorners) + " on 2 rows and 2 columns of the board");
+}
+
+namespace {
+
+// A video read front to back: the frames wanted, in increasing order.
+class VideoReader {
+ public:
+  explicit VideoReader(const std::string& path) : path_(path) {
+    if (!capture_.open(path)) throw Error(path + ": cannot open the video (missing, or a format OpenCV cannot read)");
+  }
+  cv::Mat Frame(int index) {
+    if (index < next_) throw Error(path_ + ": internal: video frames out of order");
+    for (; next_ < index; ++next_)
+      if (!capture_.grab()) throw Error(path_ + ": the video ends before frame " + std::to_string(index));
+    cv::Mat frame, grey;
+    if (!capture_.read(frame) || frame.empty())
+      throw Error(path_ + ": the video ends before frame " + std::to_string(index));
+    ++next_;
+    if (frame.channels() == 1) grey = frame;
+    else cv::cvtColor(frame, grey, frame.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
+    if (grey.depth() != CV_8U) grey.convertTo(grey, CV_8U);
+    return grey;
+  }
+
+ private:
+  std::string path_;
+  cv::VideoCapture capture_;
+  int next_ = 0;
+};
+
+}  // namespace
+
+int CountVideoFrames(const std::string& path) {
+  cv::VideoCapture capture;
+  if (!capture.open(path)) throw Error(path + ": cannot open the video (missing, or a format OpenCV cannot read)");
+  // Counted by reading: the container's frame count may be an estimate.
+  int n = 0;
+  while (capture.grab()) ++n;
+  return n;
+}
+
+TargetSet ReadTargetInput(const std::string& path, const TargetInputBoard& input) {
+  switch (ClassifyTargetInput(path)) {
+    case TargetInputKind::kTargetFile:
+      if (input.board_given)
+        throw Error("--board: " + path + " is a target file, which gives the board itself");
+      return ReadTargets(path);
+    case TargetInputKind::kImageFolder:
+      if (!input.board_given) throw Error("--board: required with a folder of images (e.g. --board 7x11 --square 30)");
+      return TargetsFromFolder(path, input.board, input.units);
+    case TargetInputKind::kVideo:
+      if (!input.board_given) throw Error("--board: required with a video (e.g. --board 7x11 --square 30)");
+      return TargetsFromVideoFrames(path, CountVideoFrames(path), input.every, input.board, input.units);
+  }
+  throw Error(path + ": internal: unknown input kind");
+}
+
 std::vector<cv::Mat> LoadTargetImages(const TargetSet& targets) {
   std::vector<cv::Mat> images;
+  std::unique_ptr<VideoReader> video;
+  std::string video_path;
   for (const TargetImage& ti : targets.images) {
-    cv::Mat im = cv::imread(ti.resolved, cv::IMREAD_GRAYSCALE);
-    if (im.empty()) throw Error(ti.resolved + ": cannot read the image (missing or not an image file)");
+    cv::Mat im;
+    if (ti.frame >= 0) {
+      if (!video || video_path != ti.resolved) {
+        video = std::make_unique<VideoReader>(ti.resolved);
+        video_path = ti.resolved;
+      }
+      im = video->Frame(ti.frame);
+    } else {
+      im = cv::imread(ti.resolved, cv::IMREAD_GRAYSCALE);
+      if (im.empty()) throw Error(ti.resolved + ": cannot read the image (missing or not an image file)");
+    }
     if (!images.empty() && im.size() != images.front().size())
-      throw Error(ti.resolved + ": image size " + std::to_string(im.cols) + "x" + std::to_string(im.rows) +
-                  " differs from " + targets.images.front().resolved + " (" +
+      throw Error(ti.file + ": image size " + std::to_string(im.cols) + "x" + std::to_string(im.rows) +
+                  " differs from " + targets.images.front().file + " (" +
                   std::to_string(images.front().cols) + "x" + std::to_string(images.front().rows) +
                   "): all calibration images must come from one camera setting");
     images.push_back(im);
@@ -57,10 +164,36 @@ std::string OpenCvReason(const cv::Exception& e) {
   return "OpenCV: " + e.err + (e.func.empty() ? "" : " in " + e.func);
 }
 
+// A ChArUco detection as a view's corners and ids, in id order; false when
+// too few corners (EnoughCorners).
+bool CharucoCorners(const CharucoDetection& d, const TargetBoard& board, std::vector<Eigen::Vector2d>* corners,
+                    std::vector<int>* ids) {
+  if (!EnoughCorners(d.ids, board)) return false;
+  std::vector<size_t> order(d.ids.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return d.ids[a] < d.ids[b]; });
+  corners->clear();
+  ids->clear();
+  for (size_t k : order) {
+    corners->push_back(d.corners[k]);
+    ids->push_back(d.ids[k]);
+  }
+  return true;
+}
+
 // The board in a raw image; false when not found, and then `failure` says
-// why when the search raised an error.
+// why when the search raised an error. A ChArUco board's corners come with
+// their ids (a chessboard's: none, the full grid).
 bool FindRaw(const cv::Mat& image, const TargetBoard& board, std::vector<Eigen::Vector2d>* corners,
-             std::string* failure) {
+             std::vector<int>* ids, std::string* failure) {
+  if (board.IsCharuco()) {
+    try {
+      return CharucoCorners(DetectCharuco(image, board), board, corners, ids);
+    } catch (const Error& e) {
+      *failure = e.what();
+      return false;
+    }
+  }
   std::vector<cv::Point2f> c;
   bool ok = false;
   // The quick search first (a third of the time), the exhaustive one where
@@ -94,20 +227,23 @@ DetectionResult DetectBoards(const TargetSet& targets, const std::vector<cv::Mat
   det.image_height = images.front().rows;
   const int n = static_cast<int>(images.size());
   std::vector<std::vector<Eigen::Vector2d>> found(n);
+  std::vector<std::vector<int>> found_ids(n);
   std::vector<std::string> failures(n);
   std::vector<char> ok(n, 0);
   ParallelFor(
-      n, [&](int i) { ok[i] = FindRaw(images[i], targets.board, &found[i], &failures[i]); }, true,
+      n, [&](int i) { ok[i] = FindRaw(images[i], targets.board, &found[i], &found_ids[i], &failures[i]); }, true,
       options.Threads());
   for (int i = 0; i < n; ++i) {
     if (ok[i]) {
       det.views.push_back(calib_internal::ViewOfImage(targets, i, found[i], "raw"));
+      det.views.back().ids = found_ids[i];
       continue;
     }
     det.not_found.push_back(i);
     det.not_found_files.push_back(targets.images[i].file);
     if (!failures[i].empty())
-      det.warnings.push_back(targets.images[i].file + ": the chessboard search failed (" + failures[i] + ")");
+      det.warnings.push_back(targets.images[i].file + ": the " + (targets.board.IsCharuco() ? "ChArUco" : "chessboard") +
+                             " search failed (" + failures[i] + ")");
   }
   det.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return det;
@@ -172,39 +308,63 @@ VirtualView MakeView(const Sensor& sensor, double az, double el, double distance
 
 // Detects the board in one view; corners mapped back to the raw image.
 // False when not found, and then `failure` says why when the search raised an error.
+// A ChArUco board's corners come with their ids (`ids`); those whose
+// neighbourhood leaves the mirror in the view are dropped.
 bool DetectInView(const cv::Mat& image, const TargetBoard& board, const VirtualView& vv, int size,
-                  std::vector<cv::Point2f>* raw, std::string* failure) {
+                  std::vector<cv::Point2f>* raw, std::vector<int>* ids, std::string* failure) {
   if (vv.n_valid < size * size / 10) return false;
   cv::Mat view;
   cv::remap(image, view, vv.mapx, vv.mapy, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(128));
   std::vector<cv::Point2f> c;
+  std::vector<int> c_ids;
   bool ok = false;
-  try {
-    SeedDetector();
-    ok = cv::findChessboardCornersSB(view, cv::Size(board.cols, board.rows), c,
-                                     cv::CALIB_CB_NORMALIZE_IMAGE | cv::CALIB_CB_ACCURACY);
-  } catch (const cv::Exception& e) {
-    ok = false;
-    *failure = OpenCvReason(e);
+  if (board.IsCharuco()) {
+    try {
+      const CharucoDetection d = DetectCharuco(view, board);
+      for (size_t k = 0; k < d.corners.size(); ++k) {
+        c.push_back(cv::Point2f(static_cast<float>(d.corners[k].x()), static_cast<float>(d.corners[k].y())));
+        c_ids.push_back(d.ids[k]);
+      }
+    } catch (const Error& e) {
+      *failure = e.what();
+      return false;
+    }
+  } else {
+    try {
+      SeedDetector();
+      ok = cv::findChessboardCornersSB(view, cv::Size(board.cols, board.rows), c,
+                                       cv::CALIB_CB_NORMALIZE_IMAGE | cv::CALIB_CB_ACCURACY);
+    } catch (const cv::Exception& e) {
+      ok = false;
+      *failure = OpenCvReason(e);
+    }
+    if (!ok || c.size() != static_cast<size_t>(board.cols * board.rows)) return false;
   }
-  if (!ok || c.size() != static_cast<size_t>(board.cols * board.rows)) return false;
   raw->clear();
-  for (const cv::Point2f& q : c) {
+  ids->clear();
+  for (size_t k = 0; k < c.size(); ++k) {
+    const cv::Point2f& q = c[k];
     const int x0 = std::clamp(static_cast<int>(std::floor(q.x)), 0, size - 2);
     const int y0 = std::clamp(static_cast<int>(std::floor(q.y)), 0, size - 2);
     const float fx = q.x - x0, fy = q.y - y0;
     float mx = 0, my = 0;
+    bool inside = true;
     for (int dy = 0; dy <= 1; ++dy)
       for (int dx = 0; dx <= 1; ++dx) {
         const float w = (dx ? fx : 1 - fx) * (dy ? fy : 1 - fy);
         const float ax = vv.mapx.at<float>(y0 + dy, x0 + dx), ay = vv.mapy.at<float>(y0 + dy, x0 + dx);
-        if (ax < -100.f) return false;
+        inside = inside && ax >= -100.f;
         mx += w * ax;
         my += w * ay;
       }
+    if (!inside) {
+      if (!board.IsCharuco()) return false;
+      continue;
+    }
     raw->push_back({mx, my});
+    if (board.IsCharuco()) ids->push_back(c_ids[k]);
   }
-  return true;
+  return !board.IsCharuco() || EnoughCorners(*ids, board);
 }
 
 }  // namespace
@@ -255,19 +415,20 @@ bool SaddleClusterCentre(const cv::Mat& image, cv::Point* centre) {
 }
 
 bool CornersInView(const cv::Mat& image, const TargetBoard& board, const Sensor& sensor, double az, double el,
-                   double distance, std::vector<cv::Point2f>* raw, std::string* failure) {
+                   double distance, std::vector<cv::Point2f>* raw, std::vector<int>* ids, std::string* failure) {
   const int size = 800;
   const double fov = 130.0 * M_PI / 180.0;
   const double fv = 0.5 * size / std::tan(0.5 * fov);
   const VirtualView vv = MakeView(sensor, az, el, distance, size, fv);
-  return DetectInView(image, board, vv, size, raw, failure);
+  return DetectInView(image, board, vv, size, raw, ids, failure);
 }
 
 }  // namespace
 
 bool DetectBoardUnwarped(const cv::Mat& image, const TargetBoard& board, const Sensor& sensor,
                          double distance, double height, std::vector<Eigen::Vector2d>* corners,
-                         int num_threads, std::string* failure) {
+                         int num_threads, std::string* failure, std::vector<int>* ids) {
+  if (board.IsCharuco() && !ids) throw Error("ChArUco detection in unwarped views: internal: no ids");
   // Virtual pinhole views (100 degrees wide) from the mirror's vertex: aimed
   // first at the densest cluster of saddle points (and 20 degrees below and
   // above it), then 8 azimuth sectors at the boards' typical elevation.
@@ -288,6 +449,7 @@ bool DetectBoardUnwarped(const cv::Mat& image, const TargetBoard& board, const S
   for (int k = 0; k < 8; ++k) dirs.push_back({k * M_PI / 4.0, el0});
   const int n = static_cast<int>(dirs.size());
   std::vector<std::vector<cv::Point2f>> found(n);
+  std::vector<std::vector<int>> found_ids(n);
   std::vector<std::string> failures(n);
   std::vector<char> ok(n, 0);
   // In batches of one view per thread so that an early success stops the
@@ -303,12 +465,19 @@ bool DetectBoardUnwarped(const cv::Mat& image, const TargetBoard& board, const S
         [&](int j) {
           const int k = b0 + j;
           ok[k] = CornersInView(image, board, sensor, dirs[k].first, dirs[k].second, distance, &found[k],
-                                &failures[k]);
+                                &found_ids[k], &failures[k]);
         },
         true, batch);
     for (int k = b0; k < b1; ++k) {
       if (!ok[k]) continue;
       std::vector<cv::Point2f>& raw = found[k];
+      if (board.IsCharuco()) {
+        // Corners as mapped back: the refinement through the model follows.
+        corners->clear();
+        for (const cv::Point2f& p : raw) corners->push_back({p.x, p.y});
+        *ids = found_ids[k];
+        return true;
+      }
       // Window: a third of the smallest square side in the raw image, 2..5 px.
       double min_side = 1e9;
       for (int j = 0; j < board.rows; ++j)
@@ -374,7 +543,8 @@ double Spearman(const std::vector<double>& a, const std::vector<double>& b) {
 void OrderCornersByKnownPose(const TargetBoard& board, double cx, double cy, std::vector<BoardView>* views) {
   const std::vector<Eigen::Vector3d> pts = BoardPoints(board);
   for (BoardView& v : *views) {
-    if (!v.has_pose) continue;
+    // A partial view's corners carry their ids: their order is known.
+    if (!v.has_pose || v.Partial()) continue;
     Eigen::Matrix3d R;
     ceres::AngleAxisToRotationMatrix(v.rvec.data(), R.data());
     std::vector<Eigen::Vector3d> X;

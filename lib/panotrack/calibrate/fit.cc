@@ -67,16 +67,17 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
   problem.AddParameterBlock(s.data(), kNumSensor);
   const std::vector<int> fixed = FixedSensorIndices(poses_known, options);
   if (!fixed.empty()) problem.SetManifold(s.data(), new ceres::SubsetManifold(kNumSensor, fixed));
-  size_t n_obs = 0, n_invisible = 0;
+  size_t n_obs = 0, n_invisible = 0, n_total = 0;
   for (size_t i = 0; i < views.size(); ++i) {
     problem.AddParameterBlock(poses[i].data(), 6);
     if (poses_known) problem.SetParameterBlockConstant(poses[i].data());
     const BoardView& bv = views[i];
-    if (bv.corners.size() != pts.size())
-      throw Error(bv.file + ": internal: expected " + std::to_string(pts.size()) + " corners");
+    CheckBoardView(bv, board);
     const std::vector<Eigen::Matrix2d> weights = CornerWeights(bv, board, options.full_weight_px);
-    for (size_t j = 0; j < pts.size(); ++j) {
-      CornerCost probe(pts[j], bv.corners[j], cap);
+    n_total += bv.corners.size();
+    for (size_t j = 0; j < bv.corners.size(); ++j) {
+      const Eigen::Vector3d& X = pts[bv.PointId(j)];
+      CornerCost probe(X, bv.corners[j], cap);
       double r[2];
       if (!probe(s.data(), poses[i].data(), r)) {
         ++n_invisible;
@@ -84,12 +85,11 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
       }
       ceres::LossFunction* loss = options.huber_px > 0 ? new ceres::HuberLoss(options.huber_px) : nullptr;
       problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CornerCost, 2, kNumSensor, 6>(
-                                   new CornerCost(pts[j], bv.corners[j], cap, weights[j])),
+                                   new CornerCost(X, bv.corners[j], cap, weights[j])),
                                loss, s.data(), poses[i].data());
       ++n_obs;
     }
   }
-  const size_t n_total = pts.size() * views.size();
   if (n_obs < n_total * 9 / 10)
     throw Error("calibration fit: the initial model cannot see " + std::to_string(n_invisible) + " of " +
                 std::to_string(n_total) + " corners (initialisation failed)");
@@ -133,8 +133,8 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
     std::vector<Eigen::Vector2d> rv;
     double s2 = 0.0;
     size_t n = 0;
-    for (size_t j = 0; j < pts.size(); ++j) {
-      CornerCost c(pts[j], bv.corners[j], cap);
+    for (size_t j = 0; j < bv.corners.size(); ++j) {
+      CornerCost c(pts[bv.PointId(j)], bv.corners[j], cap);
       double r[2];
       if (!c(s.data(), poses[i].data(), r)) {
         rv.push_back(Eigen::Vector2d(NAN, NAN));
@@ -144,7 +144,7 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
       s2 += r[0] * r[0] + r[1] * r[1];
       ++n;
     }
-    if (n < pts.size() / 2)
+    if (n == 0 || n < bv.corners.size() / 2)
       throw Error(bv.file + ": the fitted model cannot see the board (fit diverged)");
     res.image_rms.push_back(std::sqrt(s2 / n));
     res.residuals.push_back(rv);

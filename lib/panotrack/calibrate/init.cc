@@ -86,11 +86,12 @@ struct PlanarPose {
 
 PlanarPose SolveInPlane(const BoardView& v, const std::vector<Eigen::Vector3d>& pts,
                         const CentralModel& cm, double board_size) {
-  const int n = static_cast<int>(pts.size());
+  const int n = static_cast<int>(v.corners.size());
   Eigen::MatrixXd M(n, 6);
   for (int j = 0; j < n; ++j) {
+    const Eigen::Vector3d& P = pts[v.PointId(j)];
     const double u = (v.corners[j].x() - cm.cx) / cm.rho_ref, w = (v.corners[j].y() - cm.cy) / cm.rho_ref;
-    const double x = pts[j].x() / board_size, y = pts[j].y() / board_size;
+    const double x = P.x() / board_size, y = P.y() / board_size;
     M.row(j) << -w * x, -w * y, u * x, u * y, -w, u;
   }
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(M, Eigen::ComputeThinV);
@@ -117,7 +118,8 @@ PlanarPose SolveInPlane(const BoardView& v, const std::vector<Eigen::Vector3d>& 
   double s = 0.0;
   for (int j = 0; j < n; ++j) {
     const double u = v.corners[j].x() - cm.cx, w = v.corners[j].y() - cm.cy;
-    s += (a * pts[j].x() + b * pts[j].y() + t1) * u + (c * pts[j].x() + d * pts[j].y() + t2) * w;
+    const Eigen::Vector3d& P = pts[v.PointId(j)];
+    s += (a * P.x() + b * P.y() + t1) * u + (c * P.x() + d * P.y() + t2) * w;
   }
   if (s < 0) a = -a, b = -b, c = -c, d = -d, t1 = -t1, t2 = -t2;
   pp.r1 = {a, c, p};
@@ -134,10 +136,10 @@ void AddCentralRows(const BoardView& v, const std::vector<Eigen::Vector3d>& pts,
                     const Eigen::Vector3d& r1, const Eigen::Vector3d& r2, double t1, double t2,
                     double board_size, int n_a, int t3_col, std::vector<Eigen::VectorXd>* rows,
                     std::vector<double>* rhs, int n_cols) {
-  for (size_t j = 0; j < pts.size(); ++j) {
+  for (size_t j = 0; j < v.corners.size(); ++j) {
     const double u = (v.corners[j].x() - cm.cx) / cm.rho_ref, w = (v.corners[j].y() - cm.cy) / cm.rho_ref;
     const double x2 = u * u + w * w, x = std::sqrt(x2);
-    const double X = pts[j].x(), Y = pts[j].y();
+    const double X = pts[v.PointId(j)].x(), Y = pts[v.PointId(j)].y();
     const double A = (r1.y() * X + r2.y() * Y + t2) / board_size;
     const double Bx = (r1.x() * X + r2.x() * Y + t1) / board_size;
     const double Cz = (r1.z() * X + r2.z() * Y) / board_size;
@@ -273,8 +275,8 @@ double QuickFit(const std::vector<BoardView>& views, const std::vector<Eigen::Ve
   for (size_t i = 0; i < views.size(); ++i) {
     problem.AddParameterBlock((*poses)[i].data(), 6);
     if (poses_known) problem.SetParameterBlockConstant((*poses)[i].data());
-    for (size_t j = 0; j < pts.size(); ++j) {
-      CornerCost c(pts[j], views[i].corners[j], cap);
+    for (size_t j = 0; j < views[i].corners.size(); ++j) {
+      CornerCost c(pts[views[i].PointId(j)], views[i].corners[j], cap);
       double r[2];
       ++n;
       if (!c(s->data(), (*poses)[i].data(), r)) {
@@ -282,7 +284,7 @@ double QuickFit(const std::vector<BoardView>& views, const std::vector<Eigen::Ve
         continue;
       }
       problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CornerCost, 2, kNumSensor, 6>(
-                                   new CornerCost(pts[j], views[i].corners[j], cap)),
+                                   new CornerCost(pts[views[i].PointId(j)], views[i].corners[j], cap)),
                                new ceres::HuberLoss(3.0), s->data(), (*poses)[i].data());
     }
   }
@@ -298,8 +300,8 @@ double QuickFit(const std::vector<BoardView>& views, const std::vector<Eigen::Ve
   double s2 = 0;
   size_t m = 0;
   for (size_t i = 0; i < views.size(); ++i)
-    for (size_t j = 0; j < pts.size(); ++j) {
-      CornerCost c(pts[j], views[i].corners[j], cap);
+    for (size_t j = 0; j < views[i].corners.size(); ++j) {
+      CornerCost c(pts[views[i].PointId(j)], views[i].corners[j], cap);
       double r[2];
       if (!c(s->data(), (*poses)[i].data(), r)) {
         s2 += 1e4;  // invisible corner: heavy penalty
@@ -328,8 +330,9 @@ bool InitialPoseFromSensor(const BoardView& view, const TargetBoard& board, cons
   const PlanarPose pp = SolveInPlane(view, pts, cm, board_size);
   if (!pp.ok) return false;
   // Rays of the corners through the fitted sensor.
-  std::vector<Eigen::Vector3d> o(pts.size()), d(pts.size());
-  for (size_t j = 0; j < pts.size(); ++j)
+  const size_t n = view.corners.size();
+  std::vector<Eigen::Vector3d> o(n), d(n);
+  for (size_t j = 0; j < n; ++j)
     if (!sensor.backproject(view.corners[j], &o[j], &d[j])) return false;
   double best = kInf;
   for (double sgn : {1.0, -1.0}) {
@@ -338,14 +341,14 @@ bool InitialPoseFromSensor(const BoardView& view, const TargetBoard& board, cons
     r2.z() *= sgn;
     // Each corner's height on its ray at its horizontal distance gives t3.
     std::vector<double> t3;
-    for (size_t j = 0; j < pts.size(); ++j) {
-      const double X = pts[j].x(), Y = pts[j].y();
+    for (size_t j = 0; j < n; ++j) {
+      const double X = pts[view.PointId(j)].x(), Y = pts[view.PointId(j)].y();
       const double D = std::hypot(r1.x() * X + r2.x() * Y + pp.t1, r1.y() * X + r2.y() * Y + pp.t2);
       const double os = std::hypot(o[j].x(), o[j].y()), ds = std::hypot(d[j].x(), d[j].y());
       if (!(ds > 1e-9)) continue;
       t3.push_back(o[j].z() + (D - os) * d[j].z() / ds - (r1.z() * X + r2.z() * Y));
     }
-    if (t3.size() < pts.size() / 2) continue;
+    if (t3.empty() || t3.size() < n / 2) continue;
     double mean = 0, var = 0;
     for (double v : t3) mean += v;
     mean /= t3.size();
@@ -502,8 +505,8 @@ bool CentralWithKnownPoses(const InitInput& in, CentralFit* fit, std::ostringstr
   for (const BoardView& v : in.views) {
     Eigen::Matrix3d R;
     ceres::AngleAxisToRotationMatrix(v.rvec.data(), R.data());
-    for (size_t j = 0; j < in.pts.size(); ++j) {
-      const Eigen::Vector3d X = R * in.pts[j] + v.tvec;
+    for (size_t j = 0; j < v.corners.size(); ++j) {
+      const Eigen::Vector3d X = R * in.pts[v.PointId(j)] + v.tvec;
       const double d = wrap_angle(std::atan2(v.corners[j].y() - cm.cy, v.corners[j].x() - cm.cx) -
                                   std::atan2(X.y(), X.x()));
       sx += std::cos(d);
@@ -516,8 +519,8 @@ bool CentralWithKnownPoses(const InitInput& in, CentralFit* fit, std::ostringstr
   for (const BoardView& v : in.views) {
     Eigen::Matrix3d R;
     ceres::AngleAxisToRotationMatrix(v.rvec.data(), R.data());
-    for (size_t j = 0; j < in.pts.size(); ++j) {
-      const Eigen::Vector3d X = R * in.pts[j] + v.tvec;
+    for (size_t j = 0; j < v.corners.size(); ++j) {
+      const Eigen::Vector3d X = R * in.pts[v.PointId(j)] + v.tvec;
       const double D = std::hypot(X.x(), X.y()) / in.board_size, Z = X.z() / in.board_size;
       const double x = std::hypot(v.corners[j].x() - cm.cx, v.corners[j].y() - cm.cy) / cm.rho_ref;
       // g(x) D + x h = x Z

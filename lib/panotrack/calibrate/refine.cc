@@ -45,15 +45,17 @@ int RefineCornersThroughModel(const std::vector<cv::Mat>& images, const TargetBo
     if (grey.channels() != 1) cv::cvtColor(grey, grey, cv::COLOR_BGR2GRAY);
     if (grey.depth() != CV_8U) continue;
     greys[i] = grey;
-    for (size_t k = 0; k < points.size() && k < v.corners.size(); ++k)
-      tasks.push_back({static_cast<int>(i), static_cast<int>(k)});
+    for (size_t k = 0; k < v.corners.size(); ++k)
+      if (v.PointId(k) >= 0 && v.PointId(k) < static_cast<int>(points.size()))
+        tasks.push_back({static_cast<int>(i), static_cast<int>(k)});
   }
   std::vector<char> moved(tasks.size(), 0);
   ParallelFor(static_cast<int>(tasks.size()), [&](int t) {
     BoardView& v = (*views)[tasks[t].first];
     const cv::Mat& grey = greys[tasks[t].first];
     const size_t k = static_cast<size_t>(tasks[t].second);
-    const double x0 = points[k].x(), y0 = points[k].y();
+    const Eigen::Vector3d& point = points[static_cast<size_t>(v.PointId(k))];
+    const double x0 = point.x(), y0 = point.y();
     cv::Mat patch(kN, kN, CV_32FC1);
     bool ok = true;
     for (int i = 0; i < kN && ok; ++i)

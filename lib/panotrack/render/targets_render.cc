@@ -1,6 +1,7 @@
 #include "panotrack/render/targets_render.h"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -8,6 +9,7 @@
 #include <random>
 #include <sstream>
 
+#include "panotrack/charuco/charuco.h"
 #include "panotrack/core/error.h"
 #include "panotrack/io/calibration.h"
 #include "panotrack/render/writers.h"
@@ -72,6 +74,27 @@ std::vector<Eigen::Vector3d> BoardCornersSensor(const TargetBoard& b, const Boar
   return out;
 }
 
+double BoardVisibleFraction(const Sensor& sensor, const TargetBoard& board, const BoardPose& pose,
+                            double inner, double outer) {
+  const Eigen::Matrix3d R = RotationOf(pose.rvec);
+  const Eigen::Vector3d t(pose.tvec[0], pose.tvec[1], pose.tvec[2]);
+  const Eigen::Vector3d centre =
+      R * Eigen::Vector3d(0.5 * (board.cols - 1) * board.square, 0.5 * (board.rows - 1) * board.square, 0) + t;
+  const Eigen::Vector3d mirror(0, 0, sensor.params.vertex_distance);
+  if (!(R.col(2).dot(centre - mirror) > 0.0)) return 0.0;  // must show its -z side
+  const double limb = sensor.limb_radius();
+  const std::vector<Eigen::Vector3d> corners = BoardCornersSensor(board, pose);
+  int seen = 0;
+  for (const Eigen::Vector3d& p : corners) {
+    Eigen::Vector2d px;
+    if (!sensor.project(p, &px) || !sensor.inside_image(px, 3.0)) continue;
+    double r, az;
+    sensor.to_polar(px.x(), px.y(), &r, &az);
+    if (r >= inner * limb && r <= outer * limb) ++seen;
+  }
+  return static_cast<double>(seen) / static_cast<double>(corners.size());
+}
+
 bool BoardFullyVisible(const Sensor& sensor, const TargetBoard& board, const BoardPose& pose,
                        double inner, double outer) {
   const Eigen::Matrix3d R = RotationOf(pose.rvec);
@@ -92,8 +115,10 @@ bool BoardFullyVisible(const Sensor& sensor, const TargetBoard& board, const Boa
 }
 
 std::vector<BoardPose> AutoBoardPoses(const Sensor& sensor, const TargetBoard& board, int n,
-                                      uint64_t seed) {
+                                      uint64_t seed, double min_visible) {
   if (n < 1) throw Error("--auto: expected a positive number of images");
+  if (!(min_visible > 0.0 && min_visible <= 1.0))
+    throw Error("--min-visible: expected a fraction in (0, 1], got " + std::to_string(min_visible));
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> uni(0.0, 1.0);
   const double w = (board.cols + 1) * board.square, h = (board.rows + 1) * board.square;
@@ -130,7 +155,8 @@ std::vector<BoardPose> AutoBoardPoses(const Sensor& sensor, const TargetBoard& b
       const Eigen::Vector3d cb(0.5 * (board.cols - 1) * board.square, 0.5 * (board.rows - 1) * board.square, 0);
       const Eigen::Vector3d t = C - R * cb;
       BoardPose p{RvecOf(R), {t.x(), t.y(), t.z()}};
-      if (BoardFullyVisible(sensor, board, p)) {
+      if (min_visible >= 1.0 ? BoardFullyVisible(sensor, board, p)
+                             : BoardVisibleFraction(sensor, board, p) >= min_visible) {
         out.push_back(p);
         ok = true;
       }
@@ -153,6 +179,10 @@ cv::Mat RenderBoard(const RayTable& table, const TargetBoard& board, const Board
   const double bg = options.background > 0.0 ? options.background : 0.45;
   const double sq = board.square;
   const double x_lo = -2.0 * sq, x_hi = (board.cols + 1) * sq, y_lo = -2.0 * sq, y_hi = (board.rows + 1) * sq;
+  // A ChArUco board: its printed image (kTexel pixels per square), 0..1.
+  constexpr int kTexel = 48;
+  cv::Mat texture;
+  if (board.IsCharuco()) DrawCharucoBoard(board, kTexel, 0).convertTo(texture, CV_32F, 1.0 / 255.0);
   const auto& rays = table.rays();
   const auto& starts = table.starts();
   const float inv_n = 1.0f / static_cast<float>(table.supersample() * table.supersample());
@@ -177,7 +207,21 @@ cv::Mat RenderBoard(const RayTable& table, const TargetBoard& board, const Board
             const Eigen::Vector3d X = R.transpose() * (o + tau * d - t);
             if (X.x() >= x_lo && X.x() <= x_hi && X.y() >= y_lo && X.y() <= y_hi) {
               shade = 0.92;  // margin
-              if (X.x() >= -sq && X.x() <= board.cols * sq && X.y() >= -sq && X.y() <= board.rows * sq) {
+              if (!texture.empty()) {
+                // Texel centres at half-integers; bilinear, clamped at the edge.
+                const double tx = (X.x() / sq + 1.0) * kTexel - 0.5, ty = (X.y() / sq + 1.0) * kTexel - 0.5;
+                if (tx > -1.0 && ty > -1.0 && tx < texture.cols && ty < texture.rows) {
+                  const int x0 = static_cast<int>(std::floor(tx)), y0 = static_cast<int>(std::floor(ty));
+                  const double fx = tx - x0, fy = ty - y0;
+                  auto texel = [&](int x, int y) {
+                    return static_cast<double>(texture.at<float>(std::clamp(y, 0, texture.rows - 1),
+                                                                 std::clamp(x, 0, texture.cols - 1)));
+                  };
+                  const double ink = (1 - fy) * ((1 - fx) * texel(x0, y0) + fx * texel(x0 + 1, y0)) +
+                                   fy * ((1 - fx) * texel(x0, y0 + 1) + fx * texel(x0 + 1, y0 + 1));
+                  shade = 0.08 + 0.84 * ink;
+                }
+              } else if (X.x() >= -sq && X.x() <= board.cols * sq && X.y() >= -sq && X.y() <= board.rows * sq) {
                 const long i = static_cast<long>(std::floor(X.x() / sq)), j = static_cast<long>(std::floor(X.y() / sq));
                 if (((i + j) % 2 + 2) % 2 == 0) shade = 0.08;  // (-1, -1) is black
               }
@@ -199,6 +243,7 @@ void WriteTargetImages(const std::string& dir, const Calibration& calib, const T
   calib.sensor.Check("--calib");
   if (board.cols < 2 || board.rows < 2 || !(board.square > 0.0))
     throw Error("--board: expected cols,rows >= 2 inner corners and a positive square size");
+  CheckTargetBoard(board, "--board");
   if (poses.empty()) throw Error("targets: no board poses");
   StagingDir sd(dir, wo.overwrite);
   const RayTable table(calib.sensor, options.supersample);

@@ -29,15 +29,23 @@ std::vector<Eigen::Vector3d> BoardCornersSensor(const TargetBoard& board, const 
 bool BoardFullyVisible(const Sensor& sensor, const TargetBoard& board, const BoardPose& pose,
                        double inner = 0.1, double outer = 0.98);
 
+// Fraction of the inner corners that project inside the image and inside
+// the annulus [inner, outer] * limb radius (0 when the board shows its back).
+double BoardVisibleFraction(const Sensor& sensor, const TargetBoard& board, const BoardPose& pose,
+                            double inner = 0.1, double outer = 0.98);
+
 // `n` random board poses around the mirror (bearings spread over the circle),
-// each fully visible; deterministic in `seed`. Throws when the board is too
-// big for the sensor.
+// each with at least `min_visible` of its inner corners in view (1: fully
+// visible; below 1, e.g. 0.4 for ChArUco boards, boards run past the limb);
+// deterministic in `seed`. Throws when the board is too big for the sensor.
 std::vector<BoardPose> AutoBoardPoses(const Sensor& sensor, const TargetBoard& board, int n,
-                                      uint64_t seed);
+                                      uint64_t seed, double min_visible = 1.0);
 
 // Renders the board seen from the sensor; other rays see a uniform grey
 // (shade `options.background`, 0.45 when 0). Black squares 0.08, white 0.92;
 // a white margin of one square surrounds the (cols + 1) x (rows + 1) squares.
+// A ChArUco board (board.type charuco) is the image DrawCharucoBoard prints,
+// mapped onto the board plane.
 cv::Mat RenderBoard(const RayTable& table, const TargetBoard& board, const BoardPose& pose,
                     const RenderOptions& options, int index);
 
