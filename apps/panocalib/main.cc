@@ -54,6 +54,7 @@ int main(int argc, char** argv) {
   pano::app::AddProjectCommands(app);
   pano::app::AddLutCommand(app);
   pano::app::AddCalibrateCommand(app);
+  pano::app::AddUnwarpCommand(app);
   // Runs after the arguments are parsed and before the subcommand's callback.
   app.parse_complete_callback([&app, argv]() { SetUpLogging(argv[0], VerboseRequested(app)); });
   try {
