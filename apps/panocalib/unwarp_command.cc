@@ -75,17 +75,17 @@ void AddUnwarpCommand(CLI::App& app) {
     opt.pitch_deg = o->pitch;
     opt.fov_deg = o->fov;
     const UnwarpView view = UnwarpImageFile(o->calib, o->image, o->out, opt, o->force);
-    const std::string distance =
-        opt.distance > 0.0 ? "distance " + std::to_string(opt.distance) : std::string("infinitely far");
+    char distance[64] = "infinitely far";
+    if (opt.distance > 0.0) std::snprintf(distance, sizeof distance, "distance %g", opt.distance);
     if (view.kind() == UnwarpKind::kPanorama)
       std::printf("wrote %s: panorama %dx%d, elevation %.2f..%.2f deg, eye %.4g above the pinhole, %s\n",
                   o->out.c_str(), view.width(), view.height(), view.min_elevation() * 180 / M_PI,
-                  view.max_elevation() * 180 / M_PI, view.eye_height(), distance.c_str());
+                  view.max_elevation() * 180 / M_PI, view.eye_height(), distance);
     else
       std::printf("wrote %s: perspective %dx%d, yaw %.2f pitch %.2f fov %.2f deg (focal %.2f px), eye %.4g above "
                   "the pinhole, %s\n",
                   o->out.c_str(), view.width(), view.height(), opt.yaw_deg, opt.pitch_deg, opt.fov_deg,
-                  view.focal_px(), view.eye_height(), distance.c_str());
+                  view.focal_px(), view.eye_height(), distance);
   });
 }
 

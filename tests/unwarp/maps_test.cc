@@ -135,6 +135,27 @@ TEST_CASE("defaults come from the mirror", "[defaults]") {
   CHECK(persp.PointOfPixel(600, 239.5).y() < 0);
   CHECK(persp.PointOfPixel(319.5, 10).z() > ahead.z());
 
+  // A hyperbolic mirror with the pinhole at its outer focus has a single
+  // viewpoint, its inner focus (2 a e above the pinhole): the eye lands there
+  // and the views are exact at every distance.
+  Sensor hyper = make_sphere_sensor(600, 600, 300, 299.5, 299.5, 1.0, 2.0, 2.0);
+  hyper.model = MirrorModel::kConic;
+  const double ecc = 1.5, a = 2.0 / (ecc * ecc - 1.0);
+  hyper.params.conic_constant = -ecc * ecc;
+  hyper.params.vertex_distance = a * (1.0 + ecc);
+  hyper.params.rim_radius = 4.0;
+  hyper.Check("hyperbolic test sensor");
+  CHECK(HorizonEyeHeight(hyper) == Approx(2.0 * a * ecc).epsilon(1e-9));
+  const UnwarpView far_view(hyper, UnwarpOptions{});
+  for (const Eigen::Vector3d& p : {Eigen::Vector3d(10, 3, 2), Eigen::Vector3d(-30, 70, -20), Eigen::Vector3d(3, -4, 5)}) {
+    INFO("point " << p.transpose());
+    Eigen::Vector2d at_view, direct, through_view;
+    REQUIRE(far_view.PixelOfPoint(p, &at_view));
+    REQUIRE(hyper.project(p, &direct));
+    REQUIRE(hyper.project(far_view.PointOfPixel(at_view.x(), at_view.y()), &through_view));
+    CHECK((direct - through_view).norm() < 1e-6);
+  }
+
   // Unwarping a 3-channel 16-bit image keeps its type; off-mirror pixels get the border value.
   UnwarpOptions bo;
   bo.border_value = cv::Scalar(1, 2, 3);
