@@ -39,8 +39,12 @@ void AddUnwarpCommand(CLI::App& app) {
       "for points at --distance (on the cylinder of that radius, or the plane at that depth); default infinitely "
       "far.");
   cmd->add_option("--calib", o->calib, "Calibration YAML")->required();
-  cmd->add_option("image", o->image, "Raw image of the calibration's size")->required();
-  cmd->add_option("-o,--output", o->out, "Output image (.png, .jpg, .tif...)")->required();
+  cmd->add_option("input", o->image,
+                  "Raw image of the calibration's size; with a video output, a video, image folder or pattern")
+      ->required();
+  cmd->add_option("-o,--output", o->out,
+                  "Output image (.png, .jpg, .tif...), or video (.mp4, .avi, .mkv, .mov: every frame, grey)")
+      ->required();
   CLI::Option* pano = cmd->add_flag("--panorama", o->panorama, "Cylindrical panorama (the default)");
   cmd->add_flag("--perspective", o->perspective, "Perspective view (--yaw, --pitch, --fov)")->excludes(pano);
   cmd->add_option("--size", o->size,
@@ -74,17 +78,21 @@ void AddUnwarpCommand(CLI::App& app) {
     opt.yaw_deg = o->yaw;
     opt.pitch_deg = o->pitch;
     opt.fov_deg = o->fov;
-    const UnwarpView view = UnwarpImageFile(o->calib, o->image, o->out, opt, o->force);
+    int frames = -1;
+    const UnwarpView view = IsVideoPath(o->out) ? UnwarpVideoFile(o->calib, o->image, o->out, opt, o->force, &frames)
+                                                : UnwarpImageFile(o->calib, o->image, o->out, opt, o->force);
+    std::string written = o->out;
+    if (frames >= 0) written += " (" + std::to_string(frames) + " frames)";
     char distance[64] = "infinitely far";
     if (opt.distance > 0.0) std::snprintf(distance, sizeof distance, "distance %g", opt.distance);
     if (view.kind() == UnwarpKind::kPanorama)
       std::printf("wrote %s: panorama %dx%d, elevation %.2f..%.2f deg, eye %.4g above the pinhole, %s\n",
-                  o->out.c_str(), view.width(), view.height(), view.min_elevation() * 180 / M_PI,
+                  written.c_str(), view.width(), view.height(), view.min_elevation() * 180 / M_PI,
                   view.max_elevation() * 180 / M_PI, view.eye_height(), distance);
     else
       std::printf("wrote %s: perspective %dx%d, yaw %.2f pitch %.2f fov %.2f deg (focal %.2f px), eye %.4g above "
                   "the pinhole, %s\n",
-                  o->out.c_str(), view.width(), view.height(), opt.yaw_deg, opt.pitch_deg, opt.fov_deg,
+                  written.c_str(), view.width(), view.height(), opt.yaw_deg, opt.pitch_deg, opt.fov_deg,
                   view.focal_px(), view.eye_height(), distance);
   });
 }

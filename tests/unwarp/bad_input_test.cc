@@ -3,6 +3,8 @@
 #include <catch2/catch.hpp>
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
 
 #include <filesystem>
 #include <fstream>
@@ -135,6 +137,49 @@ TEST_CASE("panocalib unwarp", "[cli]") {
   CHECK(r.code == 1);
   CHECK(test::CountLines(r.out) >= 1);
   CHECK(!std::filesystem::exists(dir + "/x.png"));
+}
+
+TEST_CASE("unwarp videos: every frame, even sizes", "[video]") {
+  const std::string dir = test::ScratchDir("unwarp_video");
+  const std::string calib = dir + "/calib.yaml", in = dir + "/in.avi", out = dir + "/pano.mp4";
+  WriteCalibration(calib, PaperSyntheticCalibration());
+  {
+    cv::VideoWriter w(in, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 5.0, cv::Size(500, 500), true);
+    REQUIRE(w.isOpened());
+    for (int i = 0; i < 4; ++i) {
+      cv::Mat f(500, 500, CV_8UC3, cv::Scalar::all(40 + 40 * i));
+      w.write(f);
+    }
+  }
+  CHECK(IsVideoPath(out));
+  CHECK(IsVideoPath("a/B.MKV"));
+  CHECK(!IsVideoPath("a.mp4/b.png"));
+  int frames = 0;
+  const UnwarpView v = UnwarpVideoFile(calib, in, out, UnwarpOptions{}, false, &frames);
+  CHECK(frames == 4);
+  CHECK(v.width() == 1272);
+  CHECK(v.height() == 348);  // 347 made even
+  cv::VideoCapture cap(out);
+  REQUIRE(cap.isOpened());
+  int read = 0;
+  cv::Mat f;
+  while (cap.read(f)) {
+    CHECK(f.size() == cv::Size(1272, 348));
+    ++read;
+  }
+  CHECK(read == 4);
+  CHECK(ErrorOf([&] { UnwarpVideoFile(calib, in, out, UnwarpOptions{}, false); }) ==
+        out + " exists (use --force to replace it)");
+  UnwarpOptions odd;
+  odd.width = 301;
+  odd.height = 100;
+  CHECK(ErrorOf([&] { UnwarpVideoFile(calib, in, dir + "/o.mp4", odd, false); }) ==
+        "unwarp size: a video needs even sides, got 301x100");
+  CHECK_THAT(ErrorOf([&] { UnwarpVideoFile(dir + "/missing.yaml", in, dir + "/o.mp4", UnwarpOptions{}, false); }),
+             Catch::Contains("missing.yaml"));
+  CHECK_THAT(ErrorOf([&] { UnwarpVideoFile(calib, dir + "/none.avi", dir + "/o.mp4", UnwarpOptions{}, false); }),
+             Catch::Contains("none.avi"));
+  CHECK(!std::filesystem::exists(dir + "/o.mp4"));
 }
 
 }  // namespace

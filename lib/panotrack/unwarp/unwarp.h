@@ -156,4 +156,17 @@ double OuterImageRadius(const Sensor& sensor);
 UnwarpView UnwarpImageFile(const std::string& calib_path, const std::string& image_path,
                            const std::string& out_path, const UnwarpOptions& options, bool overwrite);
 
+// True when `path` names a video by its extension (.mp4, .avi, .mkv, .mov).
+bool IsVideoPath(const std::string& path);
+
+// The same for every frame of a video (or anything FrameSource reads: an
+// image folder, a printf pattern), as 8-bit grey, written as an MPEG-4 video
+// at the input's frame rate (10 fps when it has none). Video codecs need even
+// sizes: a default side that comes out odd is made one pixel larger, a given
+// odd side is refused. Returns
+// the view; `frames` (optional) receives the number of frames written.
+UnwarpView UnwarpVideoFile(const std::string& calib_path, const std::string& input_path,
+                           const std::string& out_path, const UnwarpOptions& options, bool overwrite,
+                           int* frames = nullptr);
+
 }  // namespace pano
