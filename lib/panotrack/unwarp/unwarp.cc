@@ -284,10 +284,11 @@ cv::Mat UnwarpView::Unwarp(const cv::Mat& image) const {
     throw Error("unwarp: the image is " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
                 ", the calibration's " + std::to_string(sensor_.image_width) + "x" +
                 std::to_string(sensor_.image_height));
-  if (map_x_.empty()) InitMaps(&map_x_, &map_y_);
+  Tables& t = *tables_;
+  std::call_once(t.built, [&] { InitMaps(&t.map_x, &t.map_y); });
   cv::Mat out;
   try {
-    cv::remap(image, out, map_x_, map_y_, options_.interpolation, cv::BORDER_CONSTANT, options_.border_value);
+    cv::remap(image, out, t.map_x, t.map_y, options_.interpolation, cv::BORDER_CONSTANT, options_.border_value);
   } catch (const cv::Exception& e) {
     throw Error(std::string("unwarp: cannot remap the image: ") + e.what());
   }

@@ -32,6 +32,8 @@
 #include <opencv2/imgproc.hpp>
 
 #include <limits>
+#include <memory>
+#include <mutex>
 #include <string>
 
 #include "panotrack/sensor/sensor.h"
@@ -113,7 +115,8 @@ class UnwarpView {
   // show it. Parallel over rows.
   void InitMaps(cv::Mat* map_x, cv::Mat* map_y) const;
   // Remaps an image of the sensor's size (any depth and channel count that
-  // cv::remap takes) with the tables, built on first use.
+  // cv::remap takes) with the tables, built once on first use (thread-safe;
+  // copies of the view share them).
   cv::Mat Unwarp(const cv::Mat& image) const;
 
  private:
@@ -128,7 +131,11 @@ class UnwarpView {
   double min_elevation_ = 0.0, max_elevation_ = 0.0;
   double focal_px_ = 0.0;
   Eigen::Vector3d forward_{1, 0, 0}, right_{0, -1, 0}, down_{0, 0, -1};
-  mutable cv::Mat map_x_, map_y_;
+  struct Tables {
+    std::once_flag built;
+    cv::Mat map_x, map_y;
+  };
+  std::shared_ptr<Tables> tables_ = std::make_shared<Tables>();
 };
 
 // Value of map_x/map_y where the mirror does not show the view pixel's point.
