@@ -46,7 +46,8 @@ void AddUnwarpCommand(CLI::App& app) {
                   "Output image (.png, .jpg, .tif...), or video (.mp4, .avi, .mkv, .mov: every frame, grey)")
       ->required();
   CLI::Option* pano = cmd->add_flag("--panorama", o->panorama, "Cylindrical panorama (the default)");
-  cmd->add_flag("--perspective", o->perspective, "Perspective view (--yaw, --pitch, --fov)")->excludes(pano);
+  CLI::Option* persp =
+      cmd->add_flag("--perspective", o->perspective, "Perspective view (--yaw, --pitch, --fov)")->excludes(pano);
   cmd->add_option("--size", o->size,
                   "View size WxH (default: panorama 2 pi x the mirror's outer image radius wide, square pixels in "
                   "angle; perspective 640x480)");
@@ -57,13 +58,18 @@ void AddUnwarpCommand(CLI::App& app) {
   cmd->add_option("--elevation", o->elevation,
                   "Panorama: MIN,MAX elevation of the bottom and top rows, degrees (default: what the mirror sees)")
       ->delimiter(',')
-      ->expected(2);
+      ->expected(2)
+      ->excludes(persp);
   cmd->add_flag("--clockwise", o->clockwise,
-                "Panorama: columns clockwise (reads as seen from inside, not mirror-reversed)");
+                "Panorama: columns clockwise (reads as seen from inside, not mirror-reversed)")
+      ->excludes(persp);
   cmd->add_option("--yaw", o->yaw, "Perspective: bearing of the optical axis, degrees counter-clockwise from +x")
-      ->capture_default_str();
-  cmd->add_option("--pitch", o->pitch, "Perspective: elevation of the optical axis, degrees")->capture_default_str();
-  cmd->add_option("--fov", o->fov, "Perspective: horizontal field of view, degrees")->capture_default_str();
+      ->capture_default_str()
+      ->needs(persp);
+  cmd->add_option("--pitch", o->pitch, "Perspective: elevation of the optical axis, degrees")
+      ->capture_default_str()
+      ->needs(persp);
+  cmd->add_option("--fov", o->fov, "Perspective: horizontal field of view, degrees")->capture_default_str()->needs(persp);
   cmd->add_flag("--force", o->force, "Replace an existing output file");
   cmd->callback([o]() {
     UnwarpOptions opt;

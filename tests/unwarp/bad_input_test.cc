@@ -133,9 +133,13 @@ TEST_CASE("panocalib unwarp", "[cli]") {
   r = test::RunProgram(base + " -o " + dir + "/x.png --perspective --fov 200");
   CHECK(r.code == 1);
   CHECK_THAT(r.out, Catch::StartsWith("panocalib: unwarp fov_deg: expected 0 < fov <= 170 degrees, got 200"));
-  r = test::RunProgram(base + " -o " + dir + "/x.png --perspective --panorama");
-  CHECK(r.code == 1);
-  CHECK(test::CountLines(r.out) >= 1);
+  for (const char* wrong : {" --perspective --panorama", " --yaw 30", " --perspective --clockwise",
+                            " --perspective --elevation -10,10"}) {
+    INFO(wrong);
+    r = test::RunProgram(base + " -o " + dir + "/x.png" + wrong);
+    CHECK(r.code == 1);
+    CHECK(test::CountLines(r.out) >= 1);
+  }
   CHECK(!std::filesystem::exists(dir + "/x.png"));
 }
 
