@@ -100,6 +100,7 @@ int main(int argc, char** argv) {
   pano::app::AddLutCommand(app);
   pano::app::AddCalibrateCommand(app);
   pano::app::AddExportCommand(app);
+  pano::app::AddUnwarpCommand(app);
   SplitDescriptions(app, exit_codes);
   // Runs after the arguments are parsed and before the subcommand's callback.
   app.parse_complete_callback([&app, argv]() { SetUpLogging(argv[0], VerboseRequested(app)); });
