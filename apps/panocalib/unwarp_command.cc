@@ -27,7 +27,7 @@ void ParseSize(const std::string& text, int* width, int* height) {
 void AddUnwarpCommand(CLI::App& app) {
   struct Opts {
     std::string calib, image, out, size;
-    bool panorama = false, perspective = false, clockwise = false, force = false;
+    bool panorama = false, perspective = false, clockwise = false, force = false, quiet = false;
     double distance = 0.0, yaw = 0.0, pitch = 0.0, fov = 60.0;
     std::vector<double> elevation;
   };
@@ -70,7 +70,8 @@ void AddUnwarpCommand(CLI::App& app) {
       ->capture_default_str()
       ->needs(persp);
   cmd->add_option("--fov", o->fov, "Perspective: horizontal field of view, degrees")->capture_default_str()->needs(persp);
-  cmd->add_flag("--force", o->force, "Replace an existing output file");
+  cmd->add_flag("--force", o->force, "Replace an existing output file (otherwise nothing is done)");
+  cmd->add_flag("-q,--quiet", o->quiet, "Print nothing but errors");
   cmd->callback([o]() {
     UnwarpOptions opt;
     opt.kind = o->perspective ? UnwarpKind::kPerspective : UnwarpKind::kPanorama;
@@ -87,6 +88,7 @@ void AddUnwarpCommand(CLI::App& app) {
     int frames = -1;
     const UnwarpView view = IsVideoPath(o->out) ? UnwarpVideoFile(o->calib, o->image, o->out, opt, o->force, &frames)
                                                 : UnwarpImageFile(o->calib, o->image, o->out, opt, o->force);
+    if (o->quiet) return;
     std::string written = o->out;
     if (frames >= 0) written += " (" + std::to_string(frames) + " frames)";
     char distance[64] = "infinitely far";

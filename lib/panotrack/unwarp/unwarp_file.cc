@@ -4,6 +4,7 @@
 
 #include "panotrack/core/atomic_file.h"
 #include "panotrack/core/error.h"
+#include "panotrack/core/output_check.h"
 #include "panotrack/io/calibration.h"
 #include "panotrack/unwarp/unwarp.h"
 
@@ -12,9 +13,7 @@ namespace pano {
 UnwarpView UnwarpImageFile(const std::string& calib_path, const std::string& image_path,
                            const std::string& out_path, const UnwarpOptions& options, bool overwrite) {
   if (out_path.empty()) throw Error("-o: expected an output image");
-  std::error_code ec;
-  if (!overwrite && std::filesystem::exists(out_path, ec))
-    throw Error(out_path + " exists (use --force to replace it)");
+  RefuseToReplace({out_path}, overwrite);
   const Calibration calib = ReadCalibration(calib_path);
   UnwarpView view(calib.sensor, options);
   // Read here (bounded, a folder refused with its name), decoded by OpenCV:

@@ -7,6 +7,7 @@
 
 #include "panotrack/core/atomic_file.h"
 #include "panotrack/core/error.h"
+#include "panotrack/core/output_check.h"
 #include "panotrack/io/calibration.h"
 #include "panotrack/unwarp/unwarp.h"
 #include "panotrack/video/frame_source.h"
@@ -25,9 +26,7 @@ UnwarpView UnwarpVideoFile(const std::string& calib_path, const std::string& inp
                            const std::string& out_path, const UnwarpOptions& options, bool overwrite,
                            int* frames) {
   if (out_path.empty()) throw Error("-o: expected an output video");
-  std::error_code ec;
-  if (!overwrite && std::filesystem::exists(out_path, ec))
-    throw Error(out_path + " exists (use --force to replace it)");
+  RefuseToReplace({out_path}, overwrite);
   const Calibration calib = ReadCalibration(calib_path);
   UnwarpOptions even = options;
   {
