@@ -6,7 +6,6 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "panotrack/calibrate/calibrate.h"
-#include "panotrack/calibrate/summary_json.h"
 #include "panotrack/core/output_check.h"
 #include "commands.h"
 #include "panotrack/core/command_line.h"
@@ -95,7 +94,9 @@ void AddCalibrateCommand(CLI::App& app) {
                   "without a board, warnings, timings) as JSON; - writes it to standard output");
   cmd->add_flag("-q,--quiet", run->quiet, "No summary or warnings (errors still on stderr)");
   cmd->parse_complete_callback([o, run]() {
-    RefuseToReplace({o->out, o->lut, o->report, run->summary_json}, run->force);
+    CheckPlannedOutputs({{"", o->targets}},
+                        {{"-o", o->out}, {"--lut", o->lut}, {"--report", o->report}, {"--summary-json", run->summary_json}},
+                        run->force);
   });
   cmd->callback([o, bo, run]() {
     CalibrateOptions opt;
@@ -140,8 +141,9 @@ void AddCalibrateCommand(CLI::App& app) {
     out.calibration = o->out;
     out.lut = o->lut;
     out.report = o->report;
+    out.summary_json = run->summary_json;
+    out.command_line = CommandLine();
     WriteCalibrationOutputs(r, out, report);
-    if (!run->summary_json.empty()) WriteCalibrationSummaryJson(run->summary_json, r, out, CommandLine());
     if (run->quiet) return;
     // With the JSON on standard output, the text goes to stderr.
     std::FILE* text = run->summary_json == "-" ? stderr : stdout;

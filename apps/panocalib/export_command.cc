@@ -34,7 +34,7 @@ void AddExportCommand(CLI::App& app) {
   cmd->add_flag("--force", o->force, "Replace an existing output file (otherwise nothing is done)");
   cmd->add_flag("-q,--quiet", o->quiet, "Print nothing but errors");
   cmd->callback([o]() {
-    RefuseToReplace({o->out}, o->force);
+    CheckPlannedOutputs({{"--calib", o->calib}}, {{"-o", o->out}}, o->force);
     const Calibration c = ReadCalibration(o->calib);
     const OmnidirApproximation om = FitOmnidirApproximation(c.sensor, o->omnidir);
     WriteOpenCvCalibration(o->out, c, om);

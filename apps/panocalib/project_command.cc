@@ -100,7 +100,7 @@ void AddLutCommand(CLI::App& app) {
   lut->add_flag("-q,--quiet", o->quiet, "No summary line");
   lut->callback([o]() {
     if (o->n < 16 || o->n > 8192) throw Error("--size: expected 16..8192, got " + std::to_string(o->n));
-    RefuseToReplace({o->out}, o->force);
+    CheckPlannedOutputs({{"--calib", o->calib}, {"--map", o->map}}, {{"-o", o->out}}, o->force);
     const Calibration c = ReadCalibration(o->calib);
     LutRanges ranges = o->map.empty() ? DefaultRanges(c.sensor) : RangesForMap(ReadMap(o->map), c.sensor);
     LutSize size;

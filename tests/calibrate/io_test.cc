@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
 #include "panotrack/calibrate/calibrate.h"
 #include "panotrack/config.h"
@@ -182,6 +183,42 @@ TEST_CASE("outputs: calibration YAML with standard deviations, LUT, report", "[o
   CHECK_THROWS_AS(WriteCalibrationOutputs(r, bad, cv::Mat()), Error);
   CHECK_FALSE(fs::exists(bad.calibration));
   CHECK_FALSE(fs::exists(bad.lut));
+}
+
+TEST_CASE("outputs: a calibration file of an earlier version still reads", "[outputs]") {
+  const std::string dir = test::ScratchDir("calib_old_format");
+  const std::string path = dir + "/old.yaml";
+  {
+    std::ofstream f(path);
+    f << "model: sphere\nunits: cm\nimage_width: 640\nimage_height: 480\nfocal_px: 590\ncx: 319.5\n"
+         "cy: 239.5\naspect: 1\nmirror_radius: 4.9\nmirror_distance: 15.1\nazimuth_offset: 0\n"
+         "rms_px: 0.25\nimages_used: 12.0\nimages_total: 14.0\nrms_image_3: 0.31\nrms_image_10: 0.2\n";
+  }
+  const Calibration c = ReadCalibration(path);
+  CHECK(c.images_total == 14);
+  CHECK(c.images.empty());
+  CHECK(c.extras.at("rms_image_10") == 0.2);
+  CHECK(c.extras.count("images_used") == 0);
+  // A count that is not one is named.
+  {
+    std::ofstream f(path, std::ios::app);
+    f << "images_total_bad: 1\n";
+  }
+  std::string text;
+  {
+    std::ifstream in(path);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    text = ss.str();
+  }
+  const size_t at = text.find("images_total: 14.0");
+  REQUIRE(at != std::string::npos);
+  text.replace(at, 18, "images_total: 2.5");
+  {
+    std::ofstream f(path);
+    f << text;
+  }
+  CHECK_THROWS_WITH(ReadCalibration(path), Catch::Contains("images_total") && Catch::Contains("2.5"));
 }
 
 }  // namespace

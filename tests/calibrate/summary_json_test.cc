@@ -42,13 +42,7 @@ TEST_CASE("summary JSON: RMS, per-image RMS by file, parameters with standard de
   out.report = "report.png";
   const std::vector<std::string> argv = {"panocalib", "calibrate", "targets.yaml", "-o", "calib.yaml"};
 
-  const std::string dir = test::ScratchDir("calib_summary_json");
-  const std::string path = dir + "/summary.json";
-  WriteCalibrationSummaryJson(path, r, out, argv);
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  const json j = json::parse(text.str());
+  const json j = json::parse(CalibrationSummaryJson(r, out, argv));
   CHECK(j.at("tool") == "panocalib calibrate");
   CHECK(j.at("version") == PANO_VERSION);
   CHECK(j.at("command_line").get<std::vector<std::string>>() == argv);

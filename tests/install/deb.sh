@@ -29,4 +29,4 @@ done
 echo "$(find . -type f | wc -l) files in the package"
 got=$(usr/bin/panoloc --version)
 echo "usr/bin/panoloc --version: $got"
-[ "$got" = "$version" ] || { echo "deb: expected version $version"; exit 1; }
+[ "$got" = "panoloc $version" ] || { echo "deb: expected panoloc $version"; exit 1; }

@@ -230,7 +230,7 @@ void RunStill(const StillArgs& a) {
   pano::Map map;
   pano::Pose2 pose;
   pano::RenderOptions ro;
-  pano::RefuseToReplace({a.out}, a.common.force);
+  pano::CheckPlannedOutputs({{"--map", a.map_path}, {"--calib", a.calib_path}}, {{"-o", a.out}}, a.common.force);
   StillScene(a, &sensor, &map, &pose, &ro);
   a.flags.Apply(&ro, true);
   ro.Check("options");

@@ -16,9 +16,11 @@
 #include <thread>
 
 #include "panotrack/calibrate/internal.h"
+#include "panotrack/calibrate/summary_json.h"
 #include "panotrack/core/atomic_file.h"
 #include "panotrack/core/error.h"
 #include "panotrack/core/parallel.h"
+#include "panotrack/io/calibration.h"
 #include "panotrack/lut/radius_table.h"
 
 namespace pano {
@@ -546,13 +548,26 @@ void WriteCalibrationOutputs(const CalibrationResult& result, const CalibrationO
     if (report_image.empty()) throw Error(out.report + ": no report image to write");
     if (!cv::imencode(".png", report_image, png)) throw Error(out.report + ": cannot encode the report PNG");
   }
+  const std::string yaml = CalibrationToYaml(calib);
+  const std::string json = out.summary_json.empty() ? "" : CalibrationSummaryJson(result, out, out.command_line);
+  // The summary's folder exists (a file there is replaced atomically).
+  if (!out.summary_json.empty() && out.summary_json != "-") {
+    const fs::path dir = fs::absolute(fs::path(out.summary_json)).parent_path();
+    if (!fs::is_directory(dir)) throw Error(out.summary_json + ": no such folder " + dir.string());
+  }
   if (!out.lut.empty()) table.Save(out.lut);
   if (!out.report.empty()) {
     AtomicFile f(out.report);
     f.Write(png.data(), png.size());
     f.Commit();
   }
-  WriteCalibration(out.calibration, calib);
+  WriteFileAtomic(out.calibration, yaml);
+  if (out.summary_json == "-") {
+    if (std::fwrite(json.data(), 1, json.size(), stdout) != json.size() || std::fflush(stdout) != 0)
+      throw Error("--summary-json: cannot write to standard output");
+  } else if (!out.summary_json.empty()) {
+    WriteFileAtomic(out.summary_json, json);
+  }
 }
 
 }  // namespace pano

@@ -256,6 +256,8 @@ struct CalibrationOutputs {
   std::string calibration;  // YAML (spec section 3)
   std::string lut;          // E(D,Z) table, referenced from the YAML
   std::string report;       // PNG
+  std::string summary_json; // the summary as JSON (CalibrationSummaryJson); "-": standard output
+  std::vector<std::string> command_line;  // recorded in the summary JSON
 };
 // Writes every output atomically; all are prepared (LUT built, PNG encoded)
 // before the first file is written, so a failure leaves no partial output.

@@ -29,10 +29,13 @@ inline OmnidirFit FitOmnidir(const std::vector<BoardView>& views, const TargetBo
   std::vector<cv::Mat> obj, img;
   const std::vector<Eigen::Vector3d> pts = BoardPoints(board);
   for (const BoardView& v : views) {
-    cv::Mat o(static_cast<int>(pts.size()), 1, CV_64FC3), p(static_cast<int>(pts.size()), 1, CV_64FC2);
-    for (size_t j = 0; j < pts.size(); ++j) {
-      o.at<cv::Vec3d>(static_cast<int>(j)) = cv::Vec3d(pts[j].x(), pts[j].y(), 0.0);
-      p.at<cv::Vec2d>(static_cast<int>(j)) = cv::Vec2d(v.corners[j].x(), v.corners[j].y());
+    // A partial view (ChArUco) names the board point of each corner.
+    const int n = static_cast<int>(v.corners.size());
+    cv::Mat o(n, 1, CV_64FC3), p(n, 1, CV_64FC2);
+    for (int j = 0; j < n; ++j) {
+      const Eigen::Vector3d& q = pts[v.PointId(j)];
+      o.at<cv::Vec3d>(j) = cv::Vec3d(q.x(), q.y(), 0.0);
+      p.at<cv::Vec2d>(j) = cv::Vec2d(v.corners[j].x(), v.corners[j].y());
     }
     obj.push_back(o);
     img.push_back(p);

@@ -49,15 +49,4 @@ std::string CalibrationSummaryJson(const CalibrationResult& r, const Calibration
   return j.dump(2, ' ', false, json::error_handler_t::replace) + "\n";
 }
 
-void WriteCalibrationSummaryJson(const std::string& path, const CalibrationResult& result,
-                                 const CalibrationOutputs& outputs, const std::vector<std::string>& command_line) {
-  const std::string text = CalibrationSummaryJson(result, outputs, command_line);
-  if (path == "-") {
-    if (std::fwrite(text.data(), 1, text.size(), stdout) != text.size() || std::fflush(stdout) != 0)
-      throw Error("--summary-json: cannot write to standard output");
-    return;
-  }
-  WriteFileAtomic(path, text);
-}
-
 }  // namespace pano

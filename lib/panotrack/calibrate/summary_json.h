@@ -20,9 +20,4 @@ namespace pano {
 std::string CalibrationSummaryJson(const CalibrationResult& result, const CalibrationOutputs& outputs,
                                    const std::vector<std::string>& command_line);
 
-// Writes CalibrationSummaryJson to `path` atomically ("-": standard output).
-// Throws pano::Error when it cannot be written.
-void WriteCalibrationSummaryJson(const std::string& path, const CalibrationResult& result,
-                                 const CalibrationOutputs& outputs, const std::vector<std::string>& command_line);
-
 }  // namespace pano

@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "panotrack/core/error.h"
@@ -28,5 +29,26 @@ inline void RefuseToReplace(const std::vector<std::string>& paths, bool overwrit
   for (const std::string& p : paths)
     if (WouldReplaceFile(p)) throw Error(p + " exists (use --force to replace it)");
 }
+
+// True for outputs written in place rather than through a temporary file:
+// standard output ("-"), /dev and /proc paths, existing special files
+// (FIFOs, character devices).
+bool WritesInPlace(const std::string& path);
+
+// True when both paths name one file: std::filesystem::equivalent where both
+// exist, else the same absolute path once symlinks and dots are resolved.
+bool SameFile(const std::string& a, const std::string& b);
+
+// (option, path) pairs, e.g. {"-o", "out.csv"}; empty paths are ignored.
+using NamedPaths = std::vector<std::pair<std::string, std::string>>;
+
+// Throws pano::Error naming the option when an output is a file the run
+// reads, or two outputs are one file. Outputs written in place
+// (WritesInPlace) and URLs are not compared.
+void CheckOutputsDistinct(const NamedPaths& reads, const NamedPaths& writes);
+
+// Both checks every program runs on its planned outputs before any work:
+// CheckOutputsDistinct, then RefuseToReplace unless `overwrite`.
+void CheckPlannedOutputs(const NamedPaths& reads, const NamedPaths& writes, bool overwrite);
 
 }  // namespace pano

@@ -50,7 +50,13 @@ void ReadImageResults(const YamlReader& r, const YAML::Node& n, Calibration* c) 
     if (!missing.IsSequence()) r.Fail("images_not_found", "expected a list of file names");
     for (const auto& f : missing) c->images_not_found.push_back(f.Scalar());
   }
-  if (r.Has(n, "images_total")) c->images_total = r.Int(n, "images_total", "images_total", 0);
+  if (r.Has(n, "images_total")) {
+    // Earlier versions wrote the count as a real number ("14.0").
+    const double total = r.Double(n, "images_total", "images_total");
+    if (!(total >= 0 && total <= 1e9 && total == std::floor(total)))
+      r.Fail("images_total", "expected a count of images, got " + YamlDouble(total));
+    c->images_total = static_cast<int>(total);
+  }
   if (r.Has(n, "software")) c->software = r.String(n, "software", "software");
   if (r.Has(n, "command_line")) c->command_line = r.String(n, "command_line", "command_line");
 }

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "panotrack/core/error.h"
+#include "panotrack/core/output_check.h"
 #include "panotrack/io/csv_util.h"
 
 namespace pano {
@@ -95,12 +96,7 @@ std::string FormatPoseRow(const PoseRow& r) {
 
 const char* const kPartialSuffix = ".partial";
 
-bool PoseCsvWriter::WritesDirectly(const std::string& path) {
-  if (path == "-" || path.rfind("/dev/", 0) == 0 || path.rfind("/proc/", 0) == 0) return true;
-  std::error_code ec;
-  const std::filesystem::file_status st = std::filesystem::status(path, ec);
-  return !ec && std::filesystem::exists(st) && !std::filesystem::is_regular_file(st);
-}
+bool PoseCsvWriter::WritesDirectly(const std::string& path) { return WritesInPlace(path); }
 
 StagedLineWriter::StagedLineWriter(const std::string& path, PoseCsvStaging staging) : path_(path) {
   if (path == "-") {

@@ -124,6 +124,10 @@ TargetSet ParseTargets(const std::string& path, const YAML::Node& n) {
       r.Fail(p, "expected a mapping with file, rvec?, tvec?, got " + DescribeNode(im_node));
     TargetImage im;
     im.file = r.String(im_node, "file", p + ".file");
+    // The calibration's per-image results are keyed by file name.
+    for (size_t k = 0; k < t.images.size(); ++k)
+      if (t.images[k].file == im.file)
+        r.Fail(p + ".file", "'" + im.file + "' is listed already as images[" + std::to_string(k) + "]");
     im.resolved = JoinPath(dir, im.file);
     const bool has_r = r.Has(im_node, "rvec"), has_t = r.Has(im_node, "tvec");
     if (has_r != has_t) r.Fail(p, "give both rvec and tvec, or neither");

@@ -3,8 +3,9 @@
 #pragma once
 
 #include <string>
-#include <utility>
 #include <vector>
+
+#include "panotrack/core/output_check.h"
 
 namespace pano {
 
@@ -17,16 +18,5 @@ namespace pano {
 // way (the same input twice, a/run.mp4 and a/run.mkv).
 std::vector<std::string> OutputPathsInDir(const std::vector<std::string>& inputs, const std::string& out_dir);
 
-// True when both paths name one file: std::filesystem::equivalent where both
-// exist, else the same absolute path once symlinks and dots are resolved.
-bool SameFile(const std::string& a, const std::string& b);
-
-// (option, path) pairs, e.g. {"-o", "out.csv"}; empty paths are ignored.
-using NamedPaths = std::vector<std::pair<std::string, std::string>>;
-
-// Throws pano::Error naming the option when an output is a file the run
-// reads, or two outputs are one file. Standard streams ("-") and special
-// files (/dev/null) are not compared.
-void CheckOutputsDistinct(const NamedPaths& reads, const NamedPaths& writes);
 
 }  // namespace pano

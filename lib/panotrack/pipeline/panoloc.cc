@@ -160,10 +160,7 @@ void CheckOutputs(const PanolocOptions& opt, const std::vector<PlannedJob>& jobs
     writes.push_back({"--tum", p.job.tum});
   }
   writes.push_back({"--summary-json", opt.summary_json});
-  CheckOutputsDistinct(reads, writes);
-  std::vector<std::string> paths;
-  for (const auto& named : writes) paths.push_back(named.second);
-  RefuseToReplace(paths, opt.overwrite);
+  CheckPlannedOutputs(reads, writes, opt.overwrite);
 }
 
 // Calls the progress callback about four times a second on a thread of its

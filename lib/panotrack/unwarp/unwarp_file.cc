@@ -13,7 +13,7 @@ namespace pano {
 UnwarpView UnwarpImageFile(const std::string& calib_path, const std::string& image_path,
                            const std::string& out_path, const UnwarpOptions& options, bool overwrite) {
   if (out_path.empty()) throw Error("-o: expected an output image");
-  RefuseToReplace({out_path}, overwrite);
+  CheckPlannedOutputs({{"--calib", calib_path}, {"", image_path}}, {{"-o", out_path}}, overwrite);
   const Calibration calib = ReadCalibration(calib_path);
   UnwarpView view(calib.sensor, options);
   // Read here (bounded, a folder refused with its name), decoded by OpenCV:

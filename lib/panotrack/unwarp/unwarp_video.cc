@@ -26,7 +26,7 @@ UnwarpView UnwarpVideoFile(const std::string& calib_path, const std::string& inp
                            const std::string& out_path, const UnwarpOptions& options, bool overwrite,
                            int* frames) {
   if (out_path.empty()) throw Error("-o: expected an output video");
-  RefuseToReplace({out_path}, overwrite);
+  CheckPlannedOutputs({{"--calib", calib_path}, {"", input_path}}, {{"-o", out_path}}, overwrite);
   const Calibration calib = ReadCalibration(calib_path);
   UnwarpOptions even = options;
   {
