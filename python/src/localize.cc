@@ -13,6 +13,7 @@
 #include <future>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -116,14 +117,16 @@ class PyLocalizer {
 
   py::dict Track(const py::array& frame, std::optional<double> time_s) {
     const cv::Mat grey = GreyView(frame);
-    const int index = next_frame_;
-    const double t = time_s ? *time_s : index / fps_;
     FrameResult fr;
     {
       py::gil_scoped_release release;
-      fr = localizer_->Process(grey, index, t);
+      // One frame at a time, whichever Python threads call; the frame
+      // counter moves on only when the frame was processed.
+      std::lock_guard<std::mutex> lock(busy_);
+      const int index = next_frame_;
+      fr = localizer_->Process(grey, index, time_s ? *time_s : index / fps_);
+      next_frame_ = index + 1;
     }
-    ++next_frame_;
     const PoseRow& row = fr.row;
     const bool ok = row.status == PoseStatus::kOk;
     const bool has_pose = row.status != PoseStatus::kLost;
@@ -147,7 +150,7 @@ class PyLocalizer {
     return d;
   }
 
-  int next_frame() const { return next_frame_; }
+  int next_frame() const { return next_frame_.load(); }
   const Calibration& calibration() const { return calib_; }
   const Map& map() const { return map_; }
   std::string method() const { return tracking_method_name(options_.method); }
@@ -173,7 +176,8 @@ class PyLocalizer {
   std::shared_ptr<const RadiusTable> table_;
   std::shared_ptr<PhTableCache> ph_tables_;
   std::unique_ptr<Localizer> localizer_;
-  int next_frame_ = 0;
+  std::mutex busy_;
+  std::atomic<int> next_frame_{0};
 };
 
 // A scratch folder removed when it goes out of scope.

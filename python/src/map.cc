@@ -3,11 +3,15 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include <stdlib.h>  // mkdtemp
+
 #include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
 #include "bindings.h"
+#include "panotrack/core/error.h"
 #include "panotrack/io/map.h"
 #include "panotrack/scene/map.h"
 #include "panotrack/track/landmarks.h"
@@ -35,6 +39,22 @@ py::dict Rectangles(const std::vector<MapRectangle>& rects) {
   d["z"] = Table(rects.size(), 2, [&](size_t k, double* p) { p[0] = rects[k].z0, p[1] = rects[k].z1; });
   d["shade"] = Table(rects.size(), 1, [&](size_t k, double* p) { p[0] = rects[k].shade; }).attr("ravel")();
   return d;
+}
+
+Map MapFromYaml(const std::string& yaml) {
+  std::string folder = (std::filesystem::temp_directory_path() / "panotrack_map_XXXXXX").string();
+  if (!::mkdtemp(folder.data())) throw Error("cannot create a temporary folder to unpickle a map");
+  const std::string path = folder + "/map.yaml";
+  Map map;
+  try {
+    std::ofstream(path) << yaml;
+    map = ReadMap(path);
+  } catch (...) {
+    std::filesystem::remove_all(folder);
+    throw;
+  }
+  std::filesystem::remove_all(folder);
+  return map;
 }
 
 }  // namespace
@@ -93,6 +113,10 @@ void BindMap(py::module_& m) {
           "dict: min (x, y), max (x, y), height; None when the map has no room")
       .def("is_free", &Map::IsFree, py::arg("x"), py::arg("y"),
            "True when (x, y) is inside the room (or there is none) and not inside a box")
+      // Pickled as its YAML (with the distractors), read back through a
+      // scratch file by the library's reader, which checks it again.
+      .def(py::pickle([](const Map& map) { return MapToYaml(map, /*with_distractors=*/true); },
+                      [](const std::string& yaml) { return MapFromYaml(yaml); }))
       .def("__copy__", [](const Map& map) { return map; })
       .def("__deepcopy__", [](const Map& map, const py::dict&) { return map; }, py::arg("memo"))
       .def("units_per_metre", &Map::UnitsPerMetre)

@@ -136,6 +136,32 @@ void BindSensor(py::module_& m) {
                              "Height of the sphere's centre above the pinhole (sphere model)")
       .def_property_readonly("limb_radius", &Sensor::limb_radius,
                              "Image radius (pixels) of the mirror's visible edge")
+      .def(py::pickle(
+          [](const Sensor& s) {
+            return py::make_tuple(std::string(mirror_model_name(s.model)), s.image_width, s.image_height,
+                                  ParamsDict(s.params));
+          },
+          [](const py::tuple& t) {
+            if (t.size() != 4) throw py::value_error("Sensor: bad pickled state");
+            Sensor s;
+            s.model = ModelFromName(t[0].cast<std::string>());
+            s.image_width = t[1].cast<int>();
+            s.image_height = t[2].cast<int>();
+            const py::dict p = t[3].cast<py::dict>();
+            auto get = [&p](const char* key) { return p[key].cast<double>(); };
+            s.params.focal_px = get("focal_px");
+            s.params.cx = get("cx");
+            s.params.cy = get("cy");
+            s.params.aspect = get("aspect");
+            s.params.azimuth_offset = get("azimuth_offset");
+            s.params.k1 = get("k1");
+            s.params.k2 = get("k2");
+            s.params.curvature_radius = get("curvature_radius");
+            s.params.conic_constant = get("conic_constant");
+            s.params.vertex_distance = get("vertex_distance");
+            s.params.rim_radius = get("rim_radius");
+            return s;
+          }))
       .def("__copy__", [](const Sensor& s) { return s; })
       .def("__deepcopy__", [](const Sensor& s, const py::dict&) { return s; }, py::arg("memo"))
       .def("check", &Sensor::Check, py::arg("what") = "sensor",
@@ -208,6 +234,21 @@ void BindSensor(py::module_& m) {
       .def_readwrite("extras", &Calibration::extras, "Extra keys (standard deviations, RMS...)")
       .def_readwrite("comment", &Calibration::comment)
       .def("to_yaml", &CalibrationToYaml)
+      .def(py::pickle(
+          [](const Calibration& c) {
+            return py::make_tuple(py::cast(c.sensor), c.units, c.lut, c.lut_resolved, c.extras, c.comment);
+          },
+          [](const py::tuple& t) {
+            if (t.size() != 6) throw py::value_error("Calibration: bad pickled state");
+            Calibration c;
+            c.sensor = t[0].cast<Sensor>();
+            c.units = t[1].cast<std::string>();
+            c.lut = t[2].cast<std::string>();
+            c.lut_resolved = t[3].cast<std::string>();
+            c.extras = t[4].cast<std::map<std::string, double>>();
+            c.comment = t[5].cast<std::string>();
+            return c;
+          }))
       .def("__copy__", [](const Calibration& c) { return c; })
       .def("__deepcopy__", [](const Calibration& c, const py::dict&) { return c; }, py::arg("memo"))
       .def("__repr__", [](const Calibration& c) {

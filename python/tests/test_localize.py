@@ -166,6 +166,9 @@ def test_map_landmarks(sequence, tmp_path):
     assert len(mine) == 4
     expected = {(*rect[end][0], z) for end in ("from", "to") for z in rect["z"][0]}
     assert {tuple(c) for c in mine} == expected
+    import pickle
+    again = pickle.loads(pickle.dumps(m))
+    assert again.to_yaml(with_distractors=True) == m.to_yaml(with_distractors=True)
     pt.write_map(tmp_path / "m.yaml", m)
     back = pt.read_map(tmp_path / "m.yaml")
     assert back.landmark_ids == ids and np.array_equal(back.landmark_corners, corners)

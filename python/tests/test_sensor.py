@@ -154,6 +154,18 @@ def test_calibration_file_round_trip(sensor, tmp_path):
     assert back.to_yaml() == calib.to_yaml()
 
 
+def test_pickle_and_copy(sensor):
+    import copy
+    import pickle
+    calib = pt.read_calibration(SOURCE_DIR / "calib" / "paper-synthetic.yaml")
+    calib.extras = {"rms_px": 0.25}
+    for c in (pickle.loads(pickle.dumps(calib)), copy.deepcopy(calib)):
+        assert c.to_yaml() == calib.to_yaml() and c.lut_resolved == calib.lut_resolved
+    s = pickle.loads(pickle.dumps(sensor))
+    assert s.params == sensor.params and s.model == sensor.model
+    assert same(s.project(point_grid(20)), sensor.project(point_grid(20)))
+
+
 def test_speed_against_the_cpp_loop(sensor, capsys):
     """project on 10^6 points through numpy against the plain C++ loop (one
     thread, no numpy): measured and printed, not asserted."""
