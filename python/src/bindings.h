@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <string>
+#include <vector>
 
 #include "panotrack/core/parallel.h"
 
@@ -30,8 +31,8 @@ inline py::ssize_t RowsOf(const DoubleArray& a, py::ssize_t width, const char* w
 // A new float64 array of `rows` x `width`, or (width,) when the input was a
 // single vector.
 inline DoubleArray NewRows(py::ssize_t rows, py::ssize_t width, bool single) {
-  if (single) return DoubleArray({width});
-  return DoubleArray({rows, width});
+  if (single) return DoubleArray(std::vector<py::ssize_t>{width});
+  return DoubleArray(std::vector<py::ssize_t>{rows, width});
 }
 
 // Loops below this many elements run on the calling thread only: starting
