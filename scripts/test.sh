@@ -6,7 +6,11 @@ cd "$(dirname "$0")/.."
 build=${1:-build}
 bash scripts/install-deps.sh
 jobs=$(nproc 2>/dev/null || echo 2)
-cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DPANO_WERROR=ON
+# The Python module and its tests use Debian's interpreter (where numpy and
+# pytest come from), not another python3 earlier on the PATH.
+python=()
+[ -x /usr/bin/python3 ] && python=(-DPython_EXECUTABLE=/usr/bin/python3)
+cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DPANO_WERROR=ON "${python[@]}"
 cmake --build "$build" -j"$jobs"
 cd "$build"
 ctest --output-on-failure -j"$jobs" --label-exclude benchmark
