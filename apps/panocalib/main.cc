@@ -12,36 +12,11 @@
 
 #include "commands.h"
 #include "panotrack/core/error.h"
+#include "cli_help.h"
 #include "panotrack/config.h"
 
 namespace {
 
-// `text` broken into lines of at most `width` characters at spaces.
-std::string Wrapped(const std::string& text, size_t width = 96) {
-  std::string out, line;
-  std::istringstream words(text);
-  for (std::string w; words >> w;) {
-    if (!line.empty() && line.size() + 1 + w.size() > width) out += line + "\n", line.clear();
-    line += (line.empty() ? "" : " ") + w;
-  }
-  return out + line;
-}
-
-// Each subcommand's description becomes its first sentence (the one line the
-// subcommand list shows); the rest goes to the foot of its help, above the
-// exit codes.
-void SplitDescriptions(CLI::App& app, const std::string& exit_codes) {
-  for (CLI::App* sub : app.get_subcommands({})) {
-    const std::string d = sub->get_description();
-    const size_t end = d.find(". ");
-    if (end == std::string::npos) {
-      sub->footer(exit_codes);
-      continue;
-    }
-    sub->description(d.substr(0, end + 1));
-    sub->footer(Wrapped(d.substr(end + 2)) + "\n\n" + exit_codes);
-  }
-}
 
 // Whether the subcommand being run was given --verbose.
 bool VerboseRequested(const CLI::App& app) {
@@ -101,7 +76,7 @@ int main(int argc, char** argv) {
   pano::app::AddCalibrateCommand(app);
   pano::app::AddExportCommand(app);
   pano::app::AddUnwarpCommand(app);
-  SplitDescriptions(app, exit_codes);
+  pano::app::SplitDescriptions(app, exit_codes);
   // Runs after the arguments are parsed and before the subcommand's callback.
   app.parse_complete_callback([&app, argv]() { SetUpLogging(argv[0], VerboseRequested(app)); });
   try {

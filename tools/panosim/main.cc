@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "cli_help.h"
 #include "panotrack/config.h"
 #include "panotrack/core/error.h"
 #include "panotrack/core/output_check.h"
@@ -409,32 +410,6 @@ void ListPresets() {
   }
 }
 
-// `text` broken into lines of at most `width` characters at spaces.
-std::string Wrapped(const std::string& text, size_t width = 96) {
-  std::string out, line;
-  std::istringstream words(text);
-  for (std::string w; words >> w;) {
-    if (!line.empty() && line.size() + 1 + w.size() > width) out += line + "\n", line.clear();
-    line += (line.empty() ? "" : " ") + w;
-  }
-  return out + line;
-}
-
-// Each subcommand's description becomes its first sentence (the one line the
-// subcommand list shows); the rest goes to the foot of its help, above the
-// exit codes.
-void SplitDescriptions(CLI::App& app, const std::string& exit_codes) {
-  for (CLI::App* sub : app.get_subcommands({})) {
-    const std::string d = sub->get_description();
-    const size_t end = d.find(". ");
-    if (end == std::string::npos) {
-      sub->footer(exit_codes);
-      continue;
-    }
-    sub->description(d.substr(0, end + 1));
-    sub->footer(Wrapped(d.substr(end + 2)) + "\n\n" + exit_codes);
-  }
-}
 
 // Command-line errors in the program's one-line form; help and version as CLI11 prints them.
 int ParseCommandLine(CLI::App* app, int argc, char** argv) {
@@ -480,7 +455,7 @@ int main(int argc, char** argv) {
   const CLI::App* seq = AddSequence(&app, &seq_args);
   const CLI::App* tg = AddTargets(&app, &tg_args);
   const CLI::App* list = app.add_subcommand("presets", "List the built-in presets");
-  SplitDescriptions(app, exit_codes);
+  pano::app::SplitDescriptions(app, exit_codes);
   const int parsed = ParseCommandLine(&app, argc, argv);
   if (parsed >= 0) return parsed;
   try {
