@@ -6,7 +6,6 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -66,11 +65,7 @@ void EncodeAndWrite(const std::string& path, const cv::Mat& image) {
   if (!cv::imencode(".png", image, png, {cv::IMWRITE_PNG_COMPRESSION, 9}))
     throw Error(path + ": cannot encode the plot");
   AtomicFile f(path);
-  {
-    std::ofstream out(f.temp_path(), std::ios::binary);
-    out.write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
-    if (!out) throw Error(path + ": cannot write the plot");
-  }
+  f.Write(png.data(), png.size());
   f.Commit();
 }
 
