@@ -34,7 +34,8 @@ TEST_CASE("--board specs: chessboard and ChArUco, cols x rows inner corners", "[
     CHECK(ErrorOf([&] { ParseBoardSpec(bad, 30.0, 22.0); }).find("--board: expected COLSxROWS") == 0);
   CHECK(ErrorOf([] { ParseBoardSpec("1x11", 30.0); }).find("2..1000 inner corners") != std::string::npos);
   CHECK(ErrorOf([] { ParseBoardSpec("7x11", 0.0); }).find("positive square") != std::string::npos);
-  CHECK(ErrorOf([] { ParseBoardSpec("charuco:7x11", 30.0, 0.0); }).find("marker side") != std::string::npos);
+  CHECK(ErrorOf([] { ParseBoardSpec("charuco:7x11", 30.0, 0.0); }) ==
+        "--marker: a ChArUco board (--board charuco:7x11) needs the side of its markers");
   CHECK(ErrorOf([] { ParseBoardSpec("charuco:7x11", 30.0, 30.0); }).find("marker side") != std::string::npos);
   CHECK(ErrorOf([] { ParseBoardSpec("charuco:7x11", 30.0, 22.0, "DICT_9X9"); }).find("unknown ArUco dictionary") !=
         std::string::npos);

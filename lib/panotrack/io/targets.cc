@@ -202,6 +202,8 @@ TargetBoard ParseBoardSpec(const std::string& spec, double square, double marker
   if (x == std::string::npos || !number(size.substr(0, x), &b.cols) || !number(size.substr(x + 1), &b.rows))
     throw Error("--board: expected COLSxROWS inner corners (e.g. 7x11) or charuco:COLSxROWS, got '" + spec + "'");
   b.square = square;
+  if (b.IsCharuco() && !(b.marker > 0.0))
+    throw Error("--marker: a ChArUco board (--board " + spec + ") needs the side of its markers");
   CheckTargetBoard(b, "--board");
   return b;
 }
