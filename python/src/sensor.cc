@@ -233,13 +233,35 @@ void BindSensor(py::module_& m) {
       .def_readwrite("lut_resolved", &Calibration::lut_resolved, "The table path resolved against the file's folder")
       .def_readwrite("extras", &Calibration::extras, "Extra keys (standard deviations, RMS...)")
       .def_readwrite("comment", &Calibration::comment)
+      .def_property_readonly(
+          "images",
+          [](const Calibration& c) {
+            py::dict out;  // in the file's order (dicts keep insertion order)
+            for (const CalibrationImage& im : c.images)
+              out[py::str(im.file)] = py::dict(py::arg("method") = im.method, py::arg("corners") = im.corners,
+                                               py::arg("rms_px") = im.rms_px,
+                                               py::arg("rvec") = std::vector<double>(im.rvec.data(), im.rvec.data() + 3),
+                                               py::arg("tvec") = std::vector<double>(im.tvec.data(), im.tvec.data() + 3));
+            return out;
+          },
+          "Per-image results keyed by file name: method, corners, rms_px, rvec, tvec (the board pose)")
+      .def_readwrite("images_not_found", &Calibration::images_not_found)
+      .def_readwrite("images_total", &Calibration::images_total)
+      .def_readwrite("software", &Calibration::software)
+      .def_readwrite("command_line", &Calibration::command_line)
       .def("to_yaml", &CalibrationToYaml)
       .def(py::pickle(
           [](const Calibration& c) {
-            return py::make_tuple(py::cast(c.sensor), c.units, c.lut, c.lut_resolved, c.extras, c.comment);
+            py::list images;
+            for (const CalibrationImage& im : c.images)
+              images.append(py::make_tuple(im.file, im.method, im.corners, im.rms_px,
+                                           std::vector<double>(im.rvec.data(), im.rvec.data() + 3),
+                                           std::vector<double>(im.tvec.data(), im.tvec.data() + 3)));
+            return py::make_tuple(py::cast(c.sensor), c.units, c.lut, c.lut_resolved, c.extras, c.comment, images,
+                                  c.images_not_found, c.images_total, c.software, c.command_line);
           },
           [](const py::tuple& t) {
-            if (t.size() != 6) throw py::value_error("Calibration: bad pickled state");
+            if (t.size() != 11) throw py::value_error("Calibration: bad pickled state");
             Calibration c;
             c.sensor = t[0].cast<Sensor>();
             c.units = t[1].cast<std::string>();
@@ -247,6 +269,22 @@ void BindSensor(py::module_& m) {
             c.lut_resolved = t[3].cast<std::string>();
             c.extras = t[4].cast<std::map<std::string, double>>();
             c.comment = t[5].cast<std::string>();
+            for (const py::handle item : t[6].cast<py::list>()) {
+              const py::tuple im_t = item.cast<py::tuple>();
+              CalibrationImage im;
+              im.file = im_t[0].cast<std::string>();
+              im.method = im_t[1].cast<std::string>();
+              im.corners = im_t[2].cast<int>();
+              im.rms_px = im_t[3].cast<double>();
+              const std::vector<double> rv = im_t[4].cast<std::vector<double>>(), tv = im_t[5].cast<std::vector<double>>();
+              im.rvec = Eigen::Vector3d(rv.at(0), rv.at(1), rv.at(2));
+              im.tvec = Eigen::Vector3d(tv.at(0), tv.at(1), tv.at(2));
+              c.images.push_back(im);
+            }
+            c.images_not_found = t[7].cast<std::vector<std::string>>();
+            c.images_total = t[8].cast<int>();
+            c.software = t[9].cast<std::string>();
+            c.command_line = t[10].cast<std::string>();
             return c;
           }))
       .def("__copy__", [](const Calibration& c) { return c; })

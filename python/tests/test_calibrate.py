@@ -22,7 +22,11 @@ def test_calibrate_matches_panocalib(targets, tmp_path):
     assert result.rms_px == pytest.approx(0.0753, abs=0.002)  # measured (noise 2 grey levels)
     assert list(result.image_rms) == [f"cal_{i:03d}.png" for i in range(8)]
     for i, v in enumerate(result.image_rms.values()):
-        assert v == pytest.approx(extras[f"rms_image_{i}"], rel=1e-9)
+        assert v == pytest.approx(expected.images[f"cal_{i:03d}.png"]["rms_px"], rel=1e-9)
+    assert " calibrate " in expected.command_line and expected.software.startswith("panotrack ")
+    import pickle
+    again = pickle.loads(pickle.dumps(expected))
+    assert again.images == expected.images and again.command_line == expected.command_line
     assert set(result.parameters) == {"focal_px", "cx", "cy", "aspect", "mirror_radius", "mirror_distance",
                                       "azimuth_offset"}
     for name, p in result.parameters.items():

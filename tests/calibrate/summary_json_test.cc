@@ -76,10 +76,27 @@ TEST_CASE("summary JSON: RMS, per-image RMS by file, parameters with standard de
   CHECK(j.at("seconds").at("detection") == 1.25);
   CHECK(j.at("seconds").at("fit").get<double>() == r.seconds_fit);
   CHECK(j.at("outputs") == json({{"calibration", "calib.yaml"}, {"report", "report.png"}}));
-  // Written atomically: nothing but the file is left in the folder.
+  // Written with the calibration, prepared before either file: both there,
+  // nothing else left in the folder.
+  const std::string dir = test::ScratchDir("calib_summary_json");
+  CalibrationOutputs files;
+  files.calibration = dir + "/calib.yaml";
+  files.summary_json = dir + "/summary.json";
+  files.command_line = argv;
+  WriteCalibrationOutputs(r, files, cv::Mat());
+  std::ifstream in(files.summary_json);
+  std::stringstream text;
+  text << in.rdbuf();
+  CHECK(text.str() == CalibrationSummaryJson(r, files, argv));
   int entries = 0;
   for ([[maybe_unused]] const auto& e : std::filesystem::directory_iterator(dir)) ++entries;
-  CHECK(entries == 1);
+  CHECK(entries == 2);
+  // A summary whose folder does not exist stops everything before any write.
+  CalibrationOutputs bad = files;
+  bad.calibration = dir + "/other.yaml";
+  bad.summary_json = dir + "/missing/summary.json";
+  CHECK_THROWS_WITH(WriteCalibrationOutputs(r, bad, cv::Mat()), Catch::Contains("missing/summary.json"));
+  CHECK_FALSE(std::filesystem::exists(bad.calibration));
 }
 
 }  // namespace

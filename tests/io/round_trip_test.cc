@@ -393,7 +393,14 @@ TEST_CASE("random target sets with nasty file names round-trip exactly", "[fuzz]
     t.board.square = g.Positive();
     for (int i = g.Int(1, 4); i > 0; --i) {
       TargetImage im;
-      im.file = g.String();
+      // Names are unique in a target file (the calibration is keyed by them).
+      auto taken = [&](const std::string& f) {
+        for (const TargetImage& other : t.images)
+          if (other.file == f) return true;
+        return false;
+      };
+      do im.file = g.String();
+      while (taken(im.file));
       im.has_pose = g.Chance(0.6);
       if (im.has_pose) im.rvec = {g.Any(), g.Any(), g.Any()}, im.tvec = {g.Any(), g.Any(), g.Any()};
       t.images.push_back(im);

@@ -89,7 +89,7 @@ TEST_CASE("--summary-json: the printed figures per input, accuracy, version and 
   CheckAccuracy(in.at("smoothed_accuracy"), s[0].smoothed_accuracy);
   // The file is replaced only as a whole: no temporary file is left beside it.
   CHECK(test::FilesIn(dir) == std::vector<std::string>{"est.csv", "est.smoothed.csv", "est.tum", "plot.png",
-                                                      "summary.json"});
+                                                      "plot_error.png", "summary.json"});
 
   // An input that failed: its error, no outputs, no accuracy.
   VideoSummary failed;
