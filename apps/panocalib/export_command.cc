@@ -20,7 +20,7 @@ void AddExportCommand(CLI::App& app) {
   auto o = std::make_shared<Opts>();
   CLI::App* cmd = app.add_subcommand(
       "export",
-      "Write a calibration in OpenCV's terms (--opencv): a cv::FileStorage file (.yml, .xml or .json) "
+      "Write a calibration in OpenCV's terms (--opencv). A cv::FileStorage file (.yml, .xml or .json) "
       "with the camera matrix and distortion of the pinhole that views the mirror, the mirror, and "
       "OpenCV's omnidirectional model (cv::omnidir: K, xi, D) fitted to the sensor, with the RMS of "
       "that approximation (the mirror has no single viewpoint, so it is exact only at one distance).");
