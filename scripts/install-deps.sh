@@ -7,7 +7,7 @@ pkgs=(build-essential cmake pkg-config
       libeigen3-dev libceres-dev libyaml-cpp-dev libcli11-dev
       catch2 libbenchmark-dev ffmpeg libavcodec-dev libavformat-dev libavutil-dev
       help2man dpkg-dev nlohmann-json3-dev
-      pybind11-dev python3-dev python3-numpy python3-pytest python3-venv python3-dask)
+      pybind11-dev python3-dev python3-numpy python3-pytest python3-venv python3-dask python3-distributed)
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
