@@ -12,7 +12,15 @@ import warnings
 
 import numpy as np
 
-from ._panotrack import (  # noqa: F401
+from . import _panotrack
+
+if int(np.__version__.split(".")[0]) >= 2 and tuple(_panotrack.pybind11_version) < (2, 12):
+    raise ImportError(
+        "panotrack: this build uses pybind11 %d.%d, which does not support numpy %s (arrays would come back "
+        "corrupted); install numpy<2, or rebuild with pybind11 >= 2.12 (pip install . does)"
+        % (_panotrack.pybind11_version[0], _panotrack.pybind11_version[1], np.__version__))
+
+from ._panotrack import (  # noqa: F401,E402
     Calibration,
     CalibrationResult,
     Error,

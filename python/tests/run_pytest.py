@@ -6,12 +6,18 @@ panotrack itself, fails the test.
 """
 import sys
 
-try:
-    import numpy  # noqa: F401
-    import pytest
-except ImportError as e:
-    print(f"python/pytest: skipped: {e}")
-    sys.exit(77)
 
-# No cache folder in the source tree; -rs lists the skipped tests and why.
-sys.exit(pytest.main(["-q", "-rs", "-p", "no:cacheprovider", *sys.argv[1:]]))
+def main():
+    try:
+        import numpy  # noqa: F401
+        import pytest
+    except ImportError as e:
+        print(f"python/pytest: skipped: {e}")
+        return 77
+    # No cache folder in the source tree; -rs lists the skipped tests and why.
+    return pytest.main(["-q", "-rs", "-p", "no:cacheprovider", *sys.argv[1:]])
+
+
+# Guarded: processes that a test spawns (Dask's workers) import this file again.
+if __name__ == "__main__":
+    sys.exit(main())
