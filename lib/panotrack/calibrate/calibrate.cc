@@ -562,12 +562,7 @@ void WriteCalibrationOutputs(const CalibrationResult& result, const CalibrationO
     f.Commit();
   }
   WriteFileAtomic(out.calibration, yaml);
-  if (out.summary_json == "-") {
-    if (std::fwrite(json.data(), 1, json.size(), stdout) != json.size() || std::fflush(stdout) != 0)
-      throw Error("--summary-json: cannot write to standard output");
-  } else if (!out.summary_json.empty()) {
-    WriteFileAtomic(out.summary_json, json);
-  }
+  if (!out.summary_json.empty()) WriteFileOrStdout(out.summary_json, json, "--summary-json");
 }
 
 }  // namespace pano

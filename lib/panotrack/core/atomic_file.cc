@@ -173,4 +173,10 @@ std::string JoinPath(const std::string& dir, const std::string& path) {
   return dir + "/" + path;
 }
 
+void WriteFileOrStdout(const std::string& path, const std::string& text, const std::string& what) {
+  if (path != "-") return WriteFileAtomic(path, text);
+  if (std::fwrite(text.data(), 1, text.size(), stdout) != text.size() || std::fflush(stdout) != 0)
+    throw Error(what + ": cannot write to standard output");
+}
+
 }  // namespace pano

@@ -48,6 +48,9 @@ class AtomicFile {
 
 // Writes `text` to `path` atomically.
 void WriteFileAtomic(const std::string& path, const std::string& text);
+// WriteFileAtomic, or standard output when `path` is "-" (flushed; a failure
+// throws pano::Error naming `what`, the option that asked for it).
+void WriteFileOrStdout(const std::string& path, const std::string& text, const std::string& what);
 
 // A file opened for reading: a folder is refused with a message naming it,
 // and reads stop where the caller says, whatever the file is.

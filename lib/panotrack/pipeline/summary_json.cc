@@ -69,12 +69,7 @@ void WritePanolocSummaryJson(const PanolocOptions& options, const std::vector<Vi
                              const std::vector<std::string>& command_line) {
   if (options.summary_json.empty()) return;
   const std::string text = PanolocSummaryJson(options, results, command_line);
-  if (options.summary_json == "-") {
-    if (std::fwrite(text.data(), 1, text.size(), stdout) != text.size() || std::fflush(stdout) != 0)
-      throw Error("--summary-json: cannot write to standard output");
-    return;
-  }
-  WriteFileAtomic(options.summary_json, text);
+  WriteFileOrStdout(options.summary_json, text, "--summary-json");
 }
 
 }  // namespace pano
