@@ -4,8 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include <string>
-#include <vector>
+#include "subcommand_main.h"
 
 namespace pano::app {
 
@@ -19,8 +18,5 @@ void AddCalibrateCommand(CLI::App& app);
 void AddUnwarpCommand(CLI::App& app);
 // export: the calibration in OpenCV's terms (camera matrix, cv::omnidir model).
 void AddExportCommand(CLI::App& app);
-
-// The program's arguments (set by main), recorded in --summary-json files.
-std::vector<std::string>& CommandLine();
 
 }  // namespace pano::app

@@ -1,0 +1,9 @@
+// Subcommands of panomap. Each registers itself on the CLI11 app and runs one
+// tested library function (lib/panotrack/mapping); main() catches pano::Error.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include "subcommand_main.h"
+
+namespace pano::app {}  // namespace pano::app
