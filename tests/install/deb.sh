@@ -18,7 +18,7 @@ dpkg-deb -f "$deb" Package Version Section Maintainer Depends
 dpkg-deb -f "$deb" Depends | grep -q libopencv || { echo "deb: Depends names no OpenCV library"; exit 1; }
 dpkg-deb -x "$deb" "$work/root"
 cd "$work/root"
-expected=(usr/bin/panoloc usr/bin/panocalib usr/bin/panosim usr/lib/libpano_core.a
+expected=(usr/bin/panoloc usr/bin/panocalib usr/bin/panomap usr/bin/panosim usr/lib/libpano_core.a
           usr/lib/cmake/panotrack/panotrackConfig.cmake usr/lib/pkgconfig/panotrack.pc
           usr/include/panotrack/config.h usr/include/panotrack/sensor/sensor.h
           usr/share/panotrack/calib/paper-real.yaml usr/share/doc/panotrack/LICENSE)

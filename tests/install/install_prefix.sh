@@ -10,7 +10,7 @@ rm -rf "$prefix"
 cmake --install "$build" --prefix "$prefix" > "$prefix.install.log"
 cd "$prefix"
 libdir=$(dirname "$(find . -name libpano_core.a)")
-expected=(bin/panoloc bin/panocalib bin/panosim
+expected=(bin/panoloc bin/panocalib bin/panomap bin/panosim
           "$libdir/libpano_core.a" "$libdir/libpano_sensor.a" "$libdir/libpano_pipeline.a"
           "$libdir/cmake/panotrack/panotrackConfig.cmake" "$libdir/cmake/panotrack/panotrackConfigVersion.cmake"
           "$libdir/cmake/panotrack/panotrackTargets.cmake" "$libdir/pkgconfig/panotrack.pc"
@@ -18,7 +18,7 @@ expected=(bin/panoloc bin/panocalib bin/panosim
           share/panotrack/calib/paper-real.yaml share/panotrack/calib/paper-synthetic.yaml
           share/doc/panotrack/README.md share/doc/panotrack/LICENSE share/doc/panotrack/CHANGELOG.md
           share/doc/panotrack/docs/panoloc.md)
-[ "$with_man" = 1 ] && expected+=(share/man/man1/panoloc.1 share/man/man1/panocalib.1 share/man/man1/panosim.1)
+[ "$with_man" = 1 ] && expected+=(share/man/man1/panoloc.1 share/man/man1/panocalib.1 share/man/man1/panomap.1 share/man/man1/panosim.1)
 internal=(include/panotrack/calibrate/internal.h include/panotrack/calibrate/refit.h
           include/panotrack/calibrate/omnidir_peer.h include/panotrack/hough/peak_refine.h)
 status=0
