@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <sstream>
 
@@ -178,28 +179,6 @@ void PhWholeImage::FillCurveTable(Plane* plane) const {
       }
 }
 
-void PhWholeImage::BuildPolarMaps(const Sensor& sensor) {
-  polar_w_ = sensor.image_width;
-  polar_h_ = sensor.image_height;
-  const size_t npx = static_cast<size_t>(polar_w_) * polar_h_;
-  polar_r_.resize(npx);
-  polar_t_.resize(npx);
-  polar_c_.resize(npx);
-  polar_s_.resize(npx);
-  for (int v = 0; v < polar_h_; ++v)
-    for (int u = 0; u < polar_w_; ++u) {
-      const double du = u - cx_, dv = (v - cy_) / aspect_;
-      const double R = std::sqrt(du * du + dv * dv);
-      double t = std::atan2(dv, du);
-      if (t < 0.0) t += 2.0 * M_PI;
-      const size_t i = static_cast<size_t>(v) * polar_w_ + u;
-      polar_r_[i] = static_cast<float>(R);
-      polar_t_[i] = static_cast<float>(t);
-      polar_c_[i] = static_cast<float>(R > 0 ? du / R : 1.0);
-      polar_s_[i] = static_cast<float>(R > 0 ? dv / R : 0.0);
-    }
-}
-
 PhWholeImage PhWholeImage::Build(const RadiusTable& table, const WholeImageOptions& options) {
   const std::string what = "Panoramic Hough whole-image";
   options.Check(what);
@@ -221,7 +200,6 @@ PhWholeImage PhWholeImage::Build(const RadiusTable& table, const WholeImageOptio
     w.FillCurveTable(&plane);
     w.planes_.push_back(std::move(plane));
   }
-  w.BuildPolarMaps(table.sensor());
   return w;
 }
 
@@ -350,69 +328,111 @@ void PhWholeImage::Prepare(const EdgeMap& edges, std::vector<PhVoteRecord>* reco
   records->clear();
   const VoteScales k{1.0 / options_.r_row_step, 1.0 / theta_bin_,
                      std::cos(M_PI / 2 - options_.vertical_tolerance)};
-  const bool use_maps = edges.mask.cols == polar_w_ && edges.mask.rows == polar_h_;
+  const int cols = edges.mask.cols;
   for (int v = 0; v < edges.mask.rows; ++v) {
+    const double dv = (v - cy_) / aspect_;
+    // Only the columns that can lie inside the annulus's outer circle (one
+    // pixel of margin; the exact radius test follows).
+    if (std::abs(dv) > r_max_ + 1.0) continue;
+    const double half = std::sqrt(std::max(0.0, (r_max_ + 1.0) * (r_max_ + 1.0) - dv * dv));
+    const int u_begin = std::clamp(static_cast<int>(std::floor(cx_ - half)), 0, cols);
+    const int u_end = std::clamp(static_cast<int>(std::ceil(cx_ + half)) + 1, u_begin, cols);
     const uint8_t* mrow = edges.mask.ptr<uint8_t>(v);
     const int16_t* gxr = edges.dx.ptr<int16_t>(v);
     const int16_t* gyr = edges.dy.ptr<int16_t>(v);
-    const double dv = (v - cy_) / aspect_;
-    const size_t prow = static_cast<size_t>(v) * polar_w_;
-    for (int u = 0; u < edges.mask.cols; ++u) {
-      if (!mrow[u]) continue;
+    auto visit = [&](int u) {
+      // Polar coordinates in single precision (voter_radius / voter_azimuth
+      // keep them), computed only for edge pixels.
+      const double du = u - cx_;
+      const double r = std::sqrt(du * du + dv * dv);
+      double t = std::atan2(dv, du);
+      if (t < 0.0) t += 2.0 * M_PI;
       EdgePixel e;
-      if (use_maps) {  // precomputed per-pixel polar coordinates
-        e.R = polar_r_[prow + u];
-        e.theta = polar_t_[prow + u];
-        e.cr = polar_c_[prow + u];
-        e.sr = polar_s_[prow + u];
-      } else {
-        const double du = u - cx_;
-        e.R = std::sqrt(du * du + dv * dv);
-        e.theta = std::atan2(dv, du);
-        if (e.theta < 0.0) e.theta += 2.0 * M_PI;
-        e.cr = e.R > 0 ? du / e.R : 1.0;
-        e.sr = e.R > 0 ? dv / e.R : 0.0;
-      }
-      if (e.R < r_min_ || e.R > r_max_) continue;
+      e.R = static_cast<float>(r);
+      if (e.R < r_min_ || e.R > r_max_) return;
+      e.theta = static_cast<float>(t);
+      e.cr = static_cast<float>(r > 0 ? du / r : 1.0);
+      e.sr = static_cast<float>(r > 0 ? dv / r : 0.0);
       e.gx = gxr[u];
       e.gy = gyr[u] * aspect_;
       e.gn = std::sqrt(e.gx * e.gx + e.gy * e.gy);
-      if (!(e.gn > 0.0)) continue;
+      if (!(e.gn > 0.0)) return;
       AddEdgePixel(e, k, records, result);
+    };
+    // Edge pixels are sparse (about 1 %): test the mask eight bytes at a
+    // time and visit the non-zero bytes of a word in order (raster order).
+    int u = u_begin;
+    for (; u + 8 <= u_end; u += 8) {
+      uint64_t word;
+      std::memcpy(&word, mrow + u, sizeof(word));
+      if (word == 0) continue;
+      for (int b = 0; b < 8; ++b)
+        if (mrow[u + b]) visit(u + b);
     }
+    for (; u < u_end; ++u)
+      if (mrow[u]) visit(u);
   }
 }
 
 namespace {
-inline void VoteRecord(const PhVoteRecord& rec, const int32_t* table, size_t plane_size, int stride,
-                       int32_t* padded, size_t padded_plane, int n_r, int n_theta) {
+
+// One run of a record's votes: bins j = 0..n-1 of rows acc + j * cols, R_main
+// bin (Eqn 7) interpolated between the table rows a and b with 8-bit weights.
+// The bins are computed in chunks by a vectorisable loop (SIMD over theta),
+// then counted; every vote lands in its own theta row, so the counts never
+// collide within a run.
+template <typename T>
+inline void VoteRun(const int32_t* a, const int32_t* b, int w0, int w1, int n, T* acc, int cols, int n_r) {
+  constexpr int kChunk = 64;
+  int32_t idx[kChunk];
+  for (int j0 = 0; j0 < n; j0 += kChunk) {
+    const int m = std::min(kChunk, n - j0);
+    const int32_t* aj = a + j0;
+    const int32_t* bj = b + j0;
+    const int32_t row0 = j0 * cols;
+    for (int j = 0; j < m; ++j) {
+      int32_t v = (aj[j] * w0 + bj[j] * w1) >> 16;  // integer-exact, as on the GPU
+      v = v < n_r ? v : n_r;                        // column n_r collects out-of-range votes
+      idx[j] = row0 + j * cols + v;
+    }
+    for (int j = 0; j < m; ++j) acc[idx[j]] += 1;
+  }
+}
+
+template <typename T>
+inline void VoteRecord(const PhVoteRecord& rec, const int32_t* table, size_t plane_size, int stride, T* padded,
+                       size_t padded_plane, int n_r, int n_theta) {
   const int32_t* a = table + rec.plane * plane_size + rec.offset;
   const int32_t* b = a + stride;
   const int w1 = rec.t, w0 = 256 - w1;
   const int cols = n_r + 1;
-  int32_t* plane_acc = padded + rec.plane * padded_plane;
-  int32_t* acc = plane_acc + static_cast<size_t>(rec.k_start) * cols;
+  T* plane_acc = padded + rec.plane * padded_plane;
   const int n = rec.count;
   const int n1 = std::min(n, n_theta - rec.k_start);  // bins before theta_main wraps at 2 pi
-  for (int j = 0; j < n1; ++j) {
-    int v = (a[j] * w0 + b[j] * w1) >> 16;  // R_main bin (Eqn 7), integer-exact
-    v = v < n_r ? v : n_r;                   // column n_r collects out-of-range votes
-    acc[j * cols + v] += 1;
-  }
-  acc = plane_acc - static_cast<size_t>(n1) * cols;
-  for (int j = n1; j < n; ++j) {
-    int v = (a[j] * w0 + b[j] * w1) >> 16;
-    v = v < n_r ? v : n_r;
-    acc[j * cols + v] += 1;
-  }
+  VoteRun(a, b, w0, w1, n1, plane_acc + static_cast<size_t>(rec.k_start) * cols, cols, n_r);
+  if (n > n1) VoteRun(a + n1, b + n1, w0, w1, n - n1, plane_acc, cols, n_r);
 }
+
 }  // namespace
 
-void PhWholeImage::VoteCpu(const std::vector<PhVoteRecord>& records, int32_t* padded) const {
+template <typename T>
+void PhWholeImage::VoteInto(const std::vector<PhVoteRecord>& unsorted, T* padded) const {
   const size_t total = PaddedSize();
   const int stride = row_stride();
   int64_t votes = 0;
-  for (const PhVoteRecord& r : records) votes += r.count;
+  for (const PhVoteRecord& r : unsorted) votes += r.count;
+  // Vote in (plane, first theta bin) order rather than raster order: then
+  // consecutive records count into the same few hundred theta rows of one
+  // plane, which stay in cache. Integer sums do not depend on the order.
+  const int n_keys = static_cast<int>(planes_.size()) * n_theta_;
+  thread_local std::vector<int> start;
+  thread_local std::vector<PhVoteRecord> sorted;
+  std::vector<PhVoteRecord>& records = sorted;  // this thread's, also inside the parallel region
+  start.assign(n_keys + 1, 0);
+  for (const PhVoteRecord& r : unsorted) ++start[r.plane * n_theta_ + r.k_start + 1];
+  for (int i = 0; i < n_keys; ++i) start[i + 1] += start[i];
+  records.resize(unsorted.size());
+  for (const PhVoteRecord& r : unsorted) records[start[r.plane * n_theta_ + r.k_start]++] = r;
   const int n_threads = votes < options_.parallel_min_votes ? 1 : omp_get_max_threads();
   if (n_threads <= 1) {
     for (const PhVoteRecord& r : records)
@@ -423,25 +443,30 @@ void PhWholeImage::VoteCpu(const std::vector<PhVoteRecord>& records, int32_t* pa
   // afterwards: integer addition makes the result independent of the split.
   // Allocated before the region: nothing in it throws, and a team smaller
   // than asked for leaves its unused accumulators zero rather than empty.
-  std::vector<std::vector<int32_t>> local(n_threads - 1, std::vector<int32_t>(total, 0));
+  std::vector<std::vector<T>> local(n_threads - 1, std::vector<T>(total, 0));
 #pragma omp parallel num_threads(n_threads)
   {
     const int tid = omp_get_thread_num();
-    int32_t* acc = tid > 0 ? local[tid - 1].data() : padded;
+    T* acc = tid > 0 ? local[tid - 1].data() : padded;
 #pragma omp for schedule(static)
     for (long i = 0; i < static_cast<long>(records.size()); ++i)
       VoteRecord(records[i], int_table_.data(), int_plane_size_, stride, acc, PaddedPlaneSize(), n_r_,
                  n_theta_);
 #pragma omp for schedule(static)
     for (long i = 0; i < static_cast<long>(total); ++i) {
-      int32_t s = 0;
+      T s = 0;
       for (int t = 0; t + 1 < n_threads; ++t) s += local[t][i];
       padded[i] += s;
     }
   }
 }
 
-void PhWholeImage::CopyAccumulator(const int32_t* padded, WholeImageResult* res) const {
+void PhWholeImage::VoteCpu(const std::vector<PhVoteRecord>& records, int32_t* padded) const {
+  VoteInto(records, padded);
+}
+
+template <typename T>
+void PhWholeImage::CopyAccumulator(const T* padded, WholeImageResult* res) const {
   const int P = static_cast<int>(planes_.size()), NT = n_theta_, NR = n_r_, cols = NR + 1;
   if (!options_.keep_accumulator) {
     res->accumulator.clear();
@@ -456,12 +481,21 @@ void PhWholeImage::CopyAccumulator(const int32_t* padded, WholeImageResult* res)
 
 // True if bin (k, j) of plane g (value v) is the maximum of its +-nms_theta
 // (circular) x +-nms_r neighbourhood, the first in index order on ties.
-bool PhWholeImage::IsPeak(const int32_t* g, int k, int j, int32_t v) const {
+template <typename T>
+bool PhWholeImage::IsPeak(const T* g, int k, int j, int32_t v) const {
   const int NT = n_theta_, NR = n_r_, cols = NR + 1;
   const int a = options_.nms_theta, b = options_.nms_r;
+  // The nearest neighbours first: most candidates on a ridge fail there.
+  const T* row = g + static_cast<size_t>(k) * cols;
+  if ((j > 0 && b > 0 && row[j - 1] >= v) || (j + 1 < NR && b > 0 && row[j + 1] > v)) return false;
+  if (a > 0) {
+    const int kp = k + 1 < NT ? k + 1 : 0, km = k > 0 ? k - 1 : NT - 1;
+    const T up = g[static_cast<size_t>(kp) * cols + j], down = g[static_cast<size_t>(km) * cols + j];
+    if (up > v || (up == v && kp < k) || down > v || (down == v && km < k)) return false;
+  }
   for (int dk = -a; dk <= a; ++dk) {
     const int kk = ((k + dk) % NT + NT) % NT;
-    const int32_t* orow = g + static_cast<size_t>(kk) * cols;
+    const T* orow = g + static_cast<size_t>(kk) * cols;
     for (int dj = -b; dj <= b; ++dj) {
       const int jj = j + dj;
       if (jj < 0 || jj >= NR || (dk == 0 && dj == 0)) continue;
@@ -473,11 +507,12 @@ bool PhWholeImage::IsPeak(const int32_t* g, int k, int j, int32_t v) const {
   return true;
 }
 
-HorizontalPeak PhWholeImage::RefinedPeak(const int32_t* g, int p, int k, int j, int32_t v) const {
+template <typename T>
+HorizontalPeak PhWholeImage::RefinedPeak(const T* g, int p, int k, int j, int32_t v) const {
   const int NT = n_theta_, NR = n_r_, cols = NR + 1;
   double f[3][3], ox = 0, oy = 0;
   for (int dk = -1; dk <= 1; ++dk) {
-    const int32_t* orow = g + static_cast<size_t>(((k + dk) % NT + NT) % NT) * cols;
+    const T* orow = g + static_cast<size_t>(((k + dk) % NT + NT) % NT) * cols;
     for (int dj = -1; dj <= 1; ++dj) {
       const int jj = j + dj;
       f[dk + 1][dj + 1] = (jj >= 0 && jj < NR) ? orow[jj] : v;
@@ -493,17 +528,18 @@ HorizontalPeak PhWholeImage::RefinedPeak(const int32_t* g, int p, int k, int j, 
   return pk;
 }
 
-std::vector<HorizontalPeak> PhWholeImage::PlanePeaks(const int32_t* padded, int p) const {
+template <typename T>
+std::vector<HorizontalPeak> PhWholeImage::PlanePeaks(const T* padded, int p) const {
   const int NT = n_theta_, NR = n_r_, cols = NR + 1;
   const int32_t thr = options_.min_votes;
-  constexpr int kChunk = 16;
+  constexpr int kChunk = 32;
   std::vector<HorizontalPeak> peaks;
-  const int32_t* g = padded + p * PaddedPlaneSize();  // rows of cols ints
+  const T* g = padded + p * PaddedPlaneSize();  // rows of cols bins
   for (int k = 0; k < NT; ++k) {
-    const int32_t* row = g + static_cast<size_t>(k) * cols;
+    const T* row = g + static_cast<size_t>(k) * cols;
     for (int j0 = 0; j0 < NR; j0 += kChunk) {
       const int j1 = std::min(NR, j0 + kChunk);
-      int32_t mx = 0;
+      T mx = 0;
       for (int j = j0; j < j1; ++j) mx = std::max(mx, row[j]);  // vectorised skip
       if (mx < thr) continue;
       for (int j = j0; j < j1; ++j)
@@ -513,13 +549,15 @@ std::vector<HorizontalPeak> PhWholeImage::PlanePeaks(const int32_t* padded, int 
   return peaks;
 }
 
-void PhWholeImage::FindHorizontalPeaks(const int32_t* padded, WholeImageResult* res) const {
+template <typename T>
+void PhWholeImage::FindHorizontalPeaks(const T* padded, WholeImageResult* res) const {
   // Local maxima with at least min_votes. Planes are independent: searched
-  // in parallel, their peaks joined in plane order afterwards, so the result
-  // is the sequential one for any thread count.
+  // in parallel (for large accumulators), their peaks joined in plane order
+  // afterwards, so the result is the sequential one for any thread count.
   const int P = static_cast<int>(planes_.size());
   std::vector<std::vector<HorizontalPeak>> plane_peaks(P);
-  ParallelFor(P, [&](int p) { plane_peaks[p] = PlanePeaks(padded, p); });
+  const bool parallel = static_cast<int64_t>(PaddedSize()) >= options_.parallel_min_votes;
+  ParallelFor(P, [&](int p) { plane_peaks[p] = PlanePeaks(padded, p); }, parallel);
   res->peaks.clear();
   for (const std::vector<HorizontalPeak>& pp : plane_peaks)
     res->peaks.insert(res->peaks.end(), pp.begin(), pp.end());
@@ -574,11 +612,14 @@ VerticalPeak PhWholeImage::VerticalPeakAt(const WholeImageResult& res, const std
   return vp;
 }
 
-void PhWholeImage::Finish(int32_t* padded, WholeImageResult* result) const {
+template <typename T>
+void PhWholeImage::FinishWith(const T* padded, WholeImageResult* result) const {
   CopyAccumulator(padded, result);
   FindHorizontalPeaks(padded, result);
   FindVerticalPeaks(result);
 }
+
+void PhWholeImage::Finish(int32_t* padded, WholeImageResult* result) const { FinishWith(padded, result); }
 
 // The voters bucketed by theta bin, each bucket sorted by radius (stable,
 // so deterministic): bucket k is order[start[k] .. start[k + 1]).
@@ -667,10 +708,21 @@ WholeImageResult PhWholeImage::Run(const EdgeMap& edges) const {
   WholeImageResult res;
   thread_local std::vector<PhVoteRecord> records;
   Prepare(edges, &records, &res);
-  thread_local std::vector<int32_t> padded;
-  padded.assign(PaddedSize(), 0);
-  VoteCpu(records, padded.data());
-  Finish(padded.data(), &res);
+  // A record votes at most once in a bin (its bins lie in distinct theta
+  // rows), so no bin exceeds the number of records: with fewer than 2^15 of
+  // them 16-bit counts are exact, and the accumulator (zeroing, voting, peak
+  // search) takes half the memory. The result is the same either way.
+  if (records.size() <= static_cast<size_t>(std::numeric_limits<int16_t>::max())) {
+    thread_local std::vector<int16_t> padded16;
+    padded16.assign(PaddedSize(), 0);
+    VoteInto(records, padded16.data());
+    FinishWith(padded16.data(), &res);
+  } else {
+    thread_local std::vector<int32_t> padded;
+    padded.assign(PaddedSize(), 0);
+    VoteInto(records, padded.data());
+    FinishWith(padded.data(), &res);
+  }
   return res;
 }
 

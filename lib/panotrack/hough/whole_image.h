@@ -215,8 +215,6 @@ class PhWholeImage {
                              Plane* plane) const;
   // PH^-1 for the explain-away step;
   void FillCurveTable(Plane* plane) const;
-  // per-pixel polar coordinates of the sensor's image.
-  void BuildPolarMaps(const Sensor& sensor);
 
   // Prepare's steps.
   void CheckEdgeMap(const EdgeMap& edges) const;
@@ -227,12 +225,22 @@ class PhWholeImage {
   bool AddRecords(const EdgePixel& e, double phi, const VoteScales& k, std::vector<PhVoteRecord>* records,
                   WholeImageResult* res) const;
 
-  // Finish's steps.
-  void CopyAccumulator(const int32_t* padded, WholeImageResult* res) const;
-  void FindHorizontalPeaks(const int32_t* padded, WholeImageResult* res) const;
-  std::vector<HorizontalPeak> PlanePeaks(const int32_t* padded, int p) const;
-  bool IsPeak(const int32_t* g, int k, int j, int32_t v) const;
-  HorizontalPeak RefinedPeak(const int32_t* g, int p, int k, int j, int32_t v) const;
+  // The voting and Finish's steps, for 32-bit (GPU, VoteCpu) and 16-bit
+  // (Run, when no bin can overflow) accumulators.
+  template <typename T>
+  void VoteInto(const std::vector<PhVoteRecord>& records, T* padded) const;
+  template <typename T>
+  void FinishWith(const T* padded, WholeImageResult* result) const;
+  template <typename T>
+  void CopyAccumulator(const T* padded, WholeImageResult* res) const;
+  template <typename T>
+  void FindHorizontalPeaks(const T* padded, WholeImageResult* res) const;
+  template <typename T>
+  std::vector<HorizontalPeak> PlanePeaks(const T* padded, int p) const;
+  template <typename T>
+  bool IsPeak(const T* g, int k, int j, int32_t v) const;
+  template <typename T>
+  HorizontalPeak RefinedPeak(const T* g, int p, int k, int j, int32_t v) const;
   // Explain-away: keep the peaks whose curve still has min_votes unclaimed voters.
   struct VoterIndex;
   VoterIndex BucketVoters(const WholeImageResult& res) const;
@@ -249,10 +257,6 @@ class PhWholeImage {
   int n_rows_padded_ = 0;  // theta rows of the working accumulator (n_theta)
   std::vector<Plane> planes_;
   std::vector<int32_t> int_table_;  // [plane][R row][sub step][m + M], 1/256 bin
-  // Per-pixel polar coordinates for the sensor's image size (R, theta in
-  // [0, 2 pi), cos, sin), used when the edge map has that size.
-  int polar_w_ = 0, polar_h_ = 0;
-  std::vector<float> polar_r_, polar_t_, polar_c_, polar_s_;
   size_t int_plane_size_ = 0;
 };
 
