@@ -20,7 +20,10 @@ namespace pano {
 namespace {
 
 constexpr int32_t kInvalid = -1;
-constexpr int kPhiBins = 180;  // gradient angle to the radial, 1 degree bins over [-90, 90)
+constexpr int kPhiBins = 180;
+// Byte order, for the mask scan's bit arithmetic (big-endian machines take
+// the bytes of a word one by one).
+constexpr bool kLittleEndian = __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__;  // gradient angle to the radial, 1 degree bins over [-90, 90)
 
 std::string Num(double v) {
   std::ostringstream s;
@@ -129,11 +132,10 @@ void PhWholeImage::FillIntegerPlane(const PhTable& ph, double d_min, double d_ma
 }
 
 void PhWholeImage::FillOrientationRanges(const std::vector<unsigned char>& valid,
-                                         const std::vector<float>& psi, Plane* plane) const {
+                                         const std::vector<float>& psi, size_t plane) {
   const int W = width_, M = half_width_, NR = n_rows_;
   // Ranges of m per (row pair r0, r0+1) and gradient angle bin.
-  plane->range_lo.assign(static_cast<size_t>(NR) * kPhiBins, 1);
-  plane->range_hi.assign(static_cast<size_t>(NR) * kPhiBins, 0);
+  const size_t P = options_.heights.size();
   const double tol = options_.orientation_tolerance + 0.5 * M_PI / 180;
   // Arithmetic on the tables only (nothing throws).
 #pragma omp parallel for schedule(static)
@@ -156,8 +158,9 @@ void PhWholeImage::FillOrientationRanges(const std::vector<unsigned char>& valid
           hi = m;
         }
       }
-      plane->range_lo[static_cast<size_t>(i) * kPhiBins + f] = static_cast<int16_t>(lo);
-      plane->range_hi[static_cast<size_t>(i) * kPhiBins + f] = static_cast<int16_t>(hi);
+      VoteRange& range = ranges_[(static_cast<size_t>(i) * kPhiBins + f) * P + plane];
+      range.lo = static_cast<int16_t>(lo);
+      range.hi = static_cast<int16_t>(hi);
     }
   }
 }
@@ -186,6 +189,7 @@ PhWholeImage PhWholeImage::Build(const RadiusTable& table, const WholeImageOptio
   PhWholeImage w;
   w.SetGeometry(table.sensor(), options);
   w.int_table_.assign(w.int_plane_size_ * options.heights.size(), kInvalid);
+  w.ranges_.assign(static_cast<size_t>(w.n_rows_) * kPhiBins * options.heights.size(), VoteRange{1, 0});
   PhTableOptions po;
   po.dtheta_max = std::min(89.0 * M_PI / 180, options.dtheta_max + 2.0 * w.theta_bin_);
   const double d_min = options.distance_min > 0.0 ? options.distance_min : table.ranges().d_min;
@@ -196,7 +200,7 @@ PhWholeImage PhWholeImage::Build(const RadiusTable& table, const WholeImageOptio
     Plane plane;
     plane.table = PhTable::Build(table, options.heights[p], po);
     w.FillIntegerPlane(plane.table, d_min, d_max, &w.int_table_[p * w.int_plane_size_], &valid, &psi);
-    w.FillOrientationRanges(valid, psi, &plane);
+    w.FillOrientationRanges(valid, psi, p);
     w.FillCurveTable(&plane);
     w.planes_.push_back(std::move(plane));
   }
@@ -287,9 +291,10 @@ bool PhWholeImage::AddRecords(const EdgePixel& e, double phi, const VoteScales& 
     s = 0;
   }
   bool voted = false;
-  for (size_t p = 0; p < planes_.size(); ++p) {
-    const size_t ri = static_cast<size_t>(r0) * kPhiBins + fb;
-    const int lo = planes_[p].range_lo[ri], hi = planes_[p].range_hi[ri];
+  const size_t P = planes_.size();
+  const VoteRange* ranges = &ranges_[(static_cast<size_t>(r0) * kPhiBins + fb) * P];
+  for (size_t p = 0; p < P; ++p) {
+    const int lo = ranges[p].lo, hi = ranges[p].hi;
     if (lo > hi) continue;
     PhVoteRecord rec;
     rec.offset = static_cast<int32_t>((static_cast<size_t>(r0) * S + s) * W + (lo + M));
@@ -328,7 +333,13 @@ void PhWholeImage::Prepare(const EdgeMap& edges, std::vector<PhVoteRecord>* reco
   records->clear();
   const VoteScales k{1.0 / options_.r_row_step, 1.0 / theta_bin_,
                      std::cos(M_PI / 2 - options_.vertical_tolerance)};
+  // The sparse edge list first (raster order), then the pixels' work: the
+  // mask scan stays a tight loop, and the gradients of the pixels ahead can
+  // be fetched while one pixel is processed.
+  thread_local std::vector<uint32_t> list;  // v << 16 | u (CheckEdgeMap: both < 2^15)
+  list.clear();
   const int cols = edges.mask.cols;
+  constexpr uint64_t kLow7 = 0x7F7F7F7F7F7F7F7FULL, kHigh = 0x8080808080808080ULL;
   for (int v = 0; v < edges.mask.rows; ++v) {
     const double dv = (v - cy_) / aspect_;
     // Only the columns that can lie inside the annulus's outer circle (one
@@ -338,39 +349,53 @@ void PhWholeImage::Prepare(const EdgeMap& edges, std::vector<PhVoteRecord>* reco
     const int u_begin = std::clamp(static_cast<int>(std::floor(cx_ - half)), 0, cols);
     const int u_end = std::clamp(static_cast<int>(std::ceil(cx_ + half)) + 1, u_begin, cols);
     const uint8_t* mrow = edges.mask.ptr<uint8_t>(v);
-    const int16_t* gxr = edges.dx.ptr<int16_t>(v);
-    const int16_t* gyr = edges.dy.ptr<int16_t>(v);
-    auto visit = [&](int u) {
-      // Polar coordinates in single precision (voter_radius / voter_azimuth
-      // keep them), computed only for edge pixels.
-      const double du = u - cx_;
-      const double r = std::sqrt(du * du + dv * dv);
-      double t = std::atan2(dv, du);
-      if (t < 0.0) t += 2.0 * M_PI;
-      EdgePixel e;
-      e.R = static_cast<float>(r);
-      if (e.R < r_min_ || e.R > r_max_) return;
-      e.theta = static_cast<float>(t);
-      e.cr = static_cast<float>(r > 0 ? du / r : 1.0);
-      e.sr = static_cast<float>(r > 0 ? dv / r : 0.0);
-      e.gx = gxr[u];
-      e.gy = gyr[u] * aspect_;
-      e.gn = std::sqrt(e.gx * e.gx + e.gy * e.gy);
-      if (!(e.gn > 0.0)) return;
-      AddEdgePixel(e, k, records, result);
-    };
-    // Edge pixels are sparse (about 1 %): test the mask eight bytes at a
-    // time and visit the non-zero bytes of a word in order (raster order).
+    const uint32_t row_key = static_cast<uint32_t>(v) << 16;
+    // Edge pixels are sparse (about 1 %): eight mask bytes at a time, the
+    // non-zero bytes of a word found by bit arithmetic, in order.
     int u = u_begin;
     for (; u + 8 <= u_end; u += 8) {
       uint64_t word;
       std::memcpy(&word, mrow + u, sizeof(word));
       if (word == 0) continue;
-      for (int b = 0; b < 8; ++b)
-        if (mrow[u + b]) visit(u + b);
+      uint64_t nonzero = (((word & kLow7) + kLow7) | word) & kHigh;  // top bit of each non-zero byte
+      if (!kLittleEndian) {
+        for (int b = 0; b < 8; ++b)
+          if (mrow[u + b]) list.push_back(row_key | static_cast<uint32_t>(u + b));
+        continue;
+      }
+      while (nonzero) {
+        list.push_back(row_key | static_cast<uint32_t>(u + (__builtin_ctzll(nonzero) >> 3)));
+        nonzero &= nonzero - 1;
+      }
     }
     for (; u < u_end; ++u)
-      if (mrow[u]) visit(u);
+      if (mrow[u]) list.push_back(row_key | static_cast<uint32_t>(u));
+  }
+  constexpr size_t kAhead = 8;
+  for (size_t i = 0; i < list.size(); ++i) {
+    if (i + kAhead < list.size()) {
+      const int va = static_cast<int>(list[i + kAhead] >> 16), ua = static_cast<int>(list[i + kAhead] & 0xFFFF);
+      __builtin_prefetch(edges.dx.ptr<int16_t>(va) + ua);
+      __builtin_prefetch(edges.dy.ptr<int16_t>(va) + ua);
+    }
+    const int v = static_cast<int>(list[i] >> 16), u = static_cast<int>(list[i] & 0xFFFF);
+    // Polar coordinates in single precision (voter_radius / voter_azimuth
+    // keep them), computed only for edge pixels.
+    const double du = u - cx_, dv = (v - cy_) / aspect_;
+    const double r = std::sqrt(du * du + dv * dv);
+    EdgePixel e;
+    e.R = static_cast<float>(r);
+    if (e.R < r_min_ || e.R > r_max_) continue;
+    double t = std::atan2(dv, du);
+    if (t < 0.0) t += 2.0 * M_PI;
+    e.theta = static_cast<float>(t);
+    e.cr = static_cast<float>(r > 0 ? du / r : 1.0);
+    e.sr = static_cast<float>(r > 0 ? dv / r : 0.0);
+    e.gx = edges.dx.ptr<int16_t>(v)[u];
+    e.gy = edges.dy.ptr<int16_t>(v)[u] * aspect_;
+    e.gn = std::sqrt(e.gx * e.gx + e.gy * e.gy);
+    if (!(e.gn > 0.0)) continue;
+    AddEdgePixel(e, k, records, result);
   }
 }
 
@@ -494,7 +519,9 @@ bool PhWholeImage::IsPeak(const T* g, int k, int j, int32_t v) const {
     if (up > v || (up == v && kp < k) || down > v || (down == v && km < k)) return false;
   }
   for (int dk = -a; dk <= a; ++dk) {
-    const int kk = ((k + dk) % NT + NT) % NT;
+    int kk = k + dk;  // circular in theta
+    while (kk < 0) kk += NT;
+    while (kk >= NT) kk -= NT;
     const T* orow = g + static_cast<size_t>(kk) * cols;
     for (int dj = -b; dj <= b; ++dj) {
       const int jj = j + dj;
@@ -625,6 +652,7 @@ void PhWholeImage::Finish(int32_t* padded, WholeImageResult* result) const { Fin
 // so deterministic): bucket k is order[start[k] .. start[k + 1]).
 struct PhWholeImage::VoterIndex {
   std::vector<int> start, order;
+  std::vector<float> radius;  // voter_radius[order[i]], contiguous for the searches
 };
 
 PhWholeImage::VoterIndex PhWholeImage::BucketVoters(const WholeImageResult& res) const {
@@ -645,10 +673,12 @@ PhWholeImage::VoterIndex PhWholeImage::BucketVoters(const WholeImageResult& res)
   for (int k = 0; k < NT; ++k)
     std::stable_sort(index.order.begin() + index.start[k], index.order.begin() + index.start[k + 1],
                      [&](int a, int b) { return res.voter_radius[a] < res.voter_radius[b]; });
+  index.radius.resize(n);
+  for (size_t i = 0; i < n; ++i) index.radius[i] = res.voter_radius[index.order[i]];
   return index;
 }
 
-void PhWholeImage::PeakSupport(const HorizontalPeak& pk, const WholeImageResult& res, const VoterIndex& index,
+void PhWholeImage::PeakSupport(const HorizontalPeak& pk, const VoterIndex& index,
                                const std::vector<unsigned char>& claimed, std::vector<int>* support) const {
   const int NT = n_theta_, M = half_width_, S = sub_steps_, W = width_;
   const double tol = options_.explain_tolerance;
@@ -669,6 +699,7 @@ void PhWholeImage::PeakSupport(const HorizontalPeak& pk, const WholeImageResult&
   const float tr = static_cast<float>(fr - r0);
   const float* c0 = &planes_[pk.plane].curve[(static_cast<size_t>(r0) * S + sub) * W + M];
   const float* c1 = c0 + static_cast<size_t>(S) * W;
+  const float* rad = index.radius.data();
   // Curve radius (Eqn 6) at the edges of each theta bin kc-M..kc+M.
   double r_prev = 0.0;
   bool ok_prev = false;
@@ -678,11 +709,11 @@ void PhWholeImage::PeakSupport(const HorizontalPeak& pk, const WholeImageResult&
     if (ok && ok_prev) {
       const int k = ((kc + d - 1) % NT + NT) % NT;
       const double lo = std::min(r, r_prev) - tol, hi = std::max(r, r_prev) + tol;
-      const auto end = index.order.begin() + index.start[k + 1];
-      auto first = std::lower_bound(index.order.begin() + index.start[k], end, lo,
-                                    [&](int a, double v) { return res.voter_radius[a] < v; });
-      for (auto it = first; it != end && res.voter_radius[*it] <= hi; ++it)
-        if (!claimed[*it]) support->push_back(*it);
+      const int e = index.start[k + 1];
+      const int first = static_cast<int>(
+          std::lower_bound(rad + index.start[k], rad + e, lo, [](float a, double v) { return a < v; }) - rad);
+      for (int i = first; i < e && rad[i] <= hi; ++i)
+        if (!claimed[index.order[i]]) support->push_back(index.order[i]);
     }
     r_prev = r;
     ok_prev = ok;
@@ -696,7 +727,7 @@ void PhWholeImage::ExplainAway(WholeImageResult* result) const {
   std::vector<int> support;
   std::vector<HorizontalPeak> kept;
   for (const HorizontalPeak& pk : res.peaks) {
-    PeakSupport(pk, res, index, claimed, &support);
+    PeakSupport(pk, index, claimed, &support);
     if (static_cast<int>(support.size()) < options_.min_votes) continue;
     for (int i : support) claimed[i] = 1;
     kept.push_back(pk);

@@ -196,7 +196,6 @@ class PhWholeImage {
  private:
   struct Plane {
     PhTable table;
-    std::vector<int16_t> range_lo, range_hi;  // [row][phi bin]; lo > hi: none
     // PH^-1 (Eqn 6) for the explain-away step: [R_main row][sub step][d + M]
     // at dtheta = (d - s / sub_steps) theta_bin, NaN undefined.
     std::vector<float> curve;
@@ -212,7 +211,7 @@ class PhWholeImage {
                         std::vector<unsigned char>* valid, std::vector<float>* psi) const;
   // the m range each (row, gradient angle) votes for;
   void FillOrientationRanges(const std::vector<unsigned char>& valid, const std::vector<float>& psi,
-                             Plane* plane) const;
+                             size_t plane);
   // PH^-1 for the explain-away step;
   void FillCurveTable(Plane* plane) const;
 
@@ -244,7 +243,7 @@ class PhWholeImage {
   // Explain-away: keep the peaks whose curve still has min_votes unclaimed voters.
   struct VoterIndex;
   VoterIndex BucketVoters(const WholeImageResult& res) const;
-  void PeakSupport(const HorizontalPeak& pk, const WholeImageResult& res, const VoterIndex& index,
+  void PeakSupport(const HorizontalPeak& pk, const VoterIndex& index,
                    const std::vector<unsigned char>& claimed, std::vector<int>* support) const;
   void ExplainAway(WholeImageResult* result) const;
   void FindVerticalPeaks(WholeImageResult* res) const;
@@ -257,6 +256,12 @@ class PhWholeImage {
   int n_rows_padded_ = 0;  // theta rows of the working accumulator (n_theta)
   std::vector<Plane> planes_;
   std::vector<int32_t> int_table_;  // [plane][R row][sub step][m + M], 1/256 bin
+  // The m range each (R row, gradient angle bin) votes for in each plane
+  // (lo > hi: none), planes innermost: one edge pixel reads one cache line.
+  struct VoteRange {
+    int16_t lo, hi;
+  };
+  std::vector<VoteRange> ranges_;  // [R row][phi bin][plane]
   size_t int_plane_size_ = 0;
 };
 
