@@ -270,8 +270,7 @@ void PhWholeImage::AddVertical(const EdgePixel& e, double g_rad, const VoteScale
   res->vertical_r_max[kb] = std::max(res->vertical_r_max[kb], static_cast<float>(e.R));
 }
 
-bool PhWholeImage::AddRecords(const EdgePixel& e, double phi, const VoteScales& k,
-                              std::vector<PhVoteRecord>* records, WholeImageResult* res) const {
+bool PhWholeImage::LocateVotes(const EdgePixel& e, double phi, const VoteScales& k, PixelVotes* out) const {
   const int S = sub_steps_, W = width_, M = half_width_;
   const double fr = e.R * k.inv_q;
   int r0 = static_cast<int>(fr);
@@ -290,19 +289,30 @@ bool PhWholeImage::AddRecords(const EdgePixel& e, double phi, const VoteScales& 
     ++fl;
     s = 0;
   }
+  out->radius = static_cast<float>(e.R);
+  out->azimuth = static_cast<float>(e.theta);
+  out->ranges = (static_cast<size_t>(r0) * kPhiBins + fb) * planes_.size();
+  out->offset = static_cast<int32_t>((static_cast<size_t>(r0) * S + s) * W + M);
+  out->fl = fl;
+  out->t8 = static_cast<uint16_t>(t8);
+  return true;
+}
+
+bool PhWholeImage::AddRecords(const PixelVotes& pv, std::vector<PhVoteRecord>* records,
+                              WholeImageResult* res) const {
   bool voted = false;
   const size_t P = planes_.size();
-  const VoteRange* ranges = &ranges_[(static_cast<size_t>(r0) * kPhiBins + fb) * P];
+  const VoteRange* ranges = &ranges_[pv.ranges];
   for (size_t p = 0; p < P; ++p) {
     const int lo = ranges[p].lo, hi = ranges[p].hi;
     if (lo > hi) continue;
     PhVoteRecord rec;
-    rec.offset = static_cast<int32_t>((static_cast<size_t>(r0) * S + s) * W + (lo + M));
-    int kt = (fl + lo) % n_theta_;
+    rec.offset = pv.offset + lo;
+    int kt = (pv.fl + lo) % n_theta_;
     if (kt < 0) kt += n_theta_;
     rec.k_start = static_cast<int16_t>(kt);
     rec.count = static_cast<int16_t>(hi - lo + 1);
-    rec.t = static_cast<uint16_t>(t8);
+    rec.t = pv.t8;
     rec.plane = static_cast<uint16_t>(p);
     records->push_back(rec);
     res->n_votes += rec.count;
@@ -311,7 +321,7 @@ bool PhWholeImage::AddRecords(const EdgePixel& e, double phi, const VoteScales& 
   return voted;
 }
 
-void PhWholeImage::AddEdgePixel(const EdgePixel& e, const VoteScales& k, std::vector<PhVoteRecord>* records,
+bool PhWholeImage::AddEdgePixel(const EdgePixel& e, const VoteScales& k, PixelVotes* pv,
                                 WholeImageResult* res) const {
   ++res->n_edge_pixels;
   // Gradient angle to the radial, modulo pi, in [-pi/2, pi/2).
@@ -320,10 +330,7 @@ void PhWholeImage::AddEdgePixel(const EdgePixel& e, const VoteScales& k, std::ve
   if (phi >= M_PI / 2) phi -= M_PI;
   if (phi < -M_PI / 2) phi += M_PI;
   AddVertical(e, g_rad, k, res);
-  if (AddRecords(e, phi, k, records, res)) {
-    res->voter_radius.push_back(static_cast<float>(e.R));
-    res->voter_azimuth.push_back(static_cast<float>(e.theta));
-  }
+  return LocateVotes(e, phi, k, pv);
 }
 
 void PhWholeImage::Prepare(const EdgeMap& edges, std::vector<PhVoteRecord>* records,
@@ -372,6 +379,8 @@ void PhWholeImage::Prepare(const EdgeMap& edges, std::vector<PhVoteRecord>* reco
       if (mrow[u]) list.push_back(row_key | static_cast<uint32_t>(u));
   }
   constexpr size_t kAhead = 8;
+  thread_local std::vector<PixelVotes> located;
+  located.clear();
   for (size_t i = 0; i < list.size(); ++i) {
     if (i + kAhead < list.size()) {
       const int va = static_cast<int>(list[i + kAhead] >> 16), ua = static_cast<int>(list[i + kAhead] & 0xFFFF);
@@ -395,7 +404,18 @@ void PhWholeImage::Prepare(const EdgeMap& edges, std::vector<PhVoteRecord>* reco
     e.gy = edges.dy.ptr<int16_t>(v)[u] * aspect_;
     e.gn = std::sqrt(e.gx * e.gx + e.gy * e.gy);
     if (!(e.gn > 0.0)) continue;
-    AddEdgePixel(e, k, records, result);
+    PixelVotes pv;
+    if (AddEdgePixel(e, k, &pv, result)) located.push_back(pv);
+  }
+  // The records, in the same order; the orientation ranges of the pixels
+  // ahead are fetched meanwhile (the table is larger than the caches, and
+  // the gradient angle makes its accesses random).
+  for (size_t i = 0; i < located.size(); ++i) {
+    if (i + kAhead < located.size()) __builtin_prefetch(&ranges_[located[i + kAhead].ranges]);
+    if (AddRecords(located[i], records, result)) {
+      result->voter_radius.push_back(located[i].radius);
+      result->voter_azimuth.push_back(located[i].azimuth);
+    }
   }
 }
 
@@ -703,11 +723,11 @@ void PhWholeImage::PeakSupport(const HorizontalPeak& pk, const VoterIndex& index
   // Curve radius (Eqn 6) at the edges of each theta bin kc-M..kc+M.
   double r_prev = 0.0;
   bool ok_prev = false;
-  for (int d = -M; d <= M; ++d) {
+  int k = ((kc - M - 1) % NT + NT) % NT;  // theta bin between the edges d - 1 and d
+  for (int d = -M; d <= M; ++d, k = k + 1 < NT ? k + 1 : 0) {
     const double r = (1.0f - tr) * c0[d] + tr * c1[d];
     const bool ok = !std::isnan(r);
     if (ok && ok_prev) {
-      const int k = ((kc + d - 1) % NT + NT) % NT;
       const double lo = std::min(r, r_prev) - tol, hi = std::max(r, r_prev) + tol;
       const int e = index.start[k + 1];
       const int first = static_cast<int>(

@@ -218,11 +218,19 @@ class PhWholeImage {
   // Prepare's steps.
   void CheckEdgeMap(const EdgeMap& edges) const;
   void ResetResult(WholeImageResult* res) const;
-  void AddEdgePixel(const EdgePixel& e, const VoteScales& k, std::vector<PhVoteRecord>* records,
-                    WholeImageResult* res) const;
+  // An edge pixel that votes: where its records read the tables.
+  struct PixelVotes {
+    float radius, azimuth;
+    size_t ranges;   // its orientation ranges in ranges_
+    int32_t offset;  // table offset of m = 0 at its R row and sub step
+    int fl;          // theta_main bin of m = 0
+    uint16_t t8;     // weight of the next R row
+  };
+  // The vertical histogram, and (true) where the pixel's votes go.
+  bool AddEdgePixel(const EdgePixel& e, const VoteScales& k, PixelVotes* pv, WholeImageResult* res) const;
   void AddVertical(const EdgePixel& e, double g_rad, const VoteScales& k, WholeImageResult* res) const;
-  bool AddRecords(const EdgePixel& e, double phi, const VoteScales& k, std::vector<PhVoteRecord>* records,
-                  WholeImageResult* res) const;
+  bool LocateVotes(const EdgePixel& e, double phi, const VoteScales& k, PixelVotes* out) const;
+  bool AddRecords(const PixelVotes& pv, std::vector<PhVoteRecord>* records, WholeImageResult* res) const;
 
   // The voting and Finish's steps, for 32-bit (GPU, VoteCpu) and 16-bit
   // (Run, when no bin can overflow) accumulators.
