@@ -589,8 +589,16 @@ std::vector<HorizontalPeak> PhWholeImage::PlanePeaks(const T* padded, int p) con
       T mx = 0;
       for (int j = j0; j < j1; ++j) mx = std::max(mx, row[j]);  // vectorised skip
       if (mx < thr) continue;
+      // Candidates: at least thr and not beaten by a row neighbour (IsPeak's
+      // first test), flagged branch-free; the full test on those only.
+      uint8_t cand[kChunk];
+      for (int j = j0; j < j1; ++j) cand[j - j0] = row[j] >= thr;
+      if (options_.nms_r > 0) {
+        const int ja = std::max(j0, 1), jb = std::min(j1, NR - 1);
+        for (int j = ja; j < jb; ++j) cand[j - j0] &= (row[j - 1] < row[j]) & (row[j + 1] <= row[j]);
+      }
       for (int j = j0; j < j1; ++j)
-        if (row[j] >= thr && IsPeak(g, k, j, row[j])) peaks.push_back(RefinedPeak(g, p, k, j, row[j]));
+        if (cand[j - j0] && IsPeak(g, k, j, row[j])) peaks.push_back(RefinedPeak(g, p, k, j, row[j]));
     }
   }
   return peaks;
