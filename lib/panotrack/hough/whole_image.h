@@ -39,6 +39,16 @@
 // to theta_bin / sub_steps: the same records give bit-identical accumulators
 // on the CPU (any thread count: per-thread integer accumulators summed) and
 // on the GPU (integer atomicAdd), see whole_image_gpu.h.
+//
+// Speed (BENCHMARKS.md, "Panoramic Hough Transform"). The CPU path works on
+// the sparse list of edge pixels (the mask scanned eight bytes at a time
+// inside the annulus's outer circle), computes the polar coordinates of edge
+// pixels only, reads one cache line of orientation ranges per pixel (all
+// planes together, prefetched), votes in (plane, theta_main) order so that
+// the accumulator rows in use stay in cache, computes each run's R_main bins
+// in a vectorisable loop (SIMD over theta), and counts in 16 bits when no bin
+// can exceed 2^15 - 1. None of this changes a vote: the result is the plain
+// raster-order vote's, bit for bit (test hough/reference_vote).
 #pragma once
 
 #include <opencv2/core.hpp>
@@ -109,9 +119,10 @@ struct WholeImageOptions {
   double explain_tolerance = 1.5;
   // Fill WholeImageResult::accumulator (the peaks do not need it).
   bool keep_accumulator = true;
-  // The voting runs on OpenMP threads only above this many votes (below it
-  // the threads' start-up and the per-thread accumulators cost more than
-  // they save); the result is the same either way.
+  // The voting runs on OpenMP threads only above this many votes, and the
+  // peak search over the planes only above this many accumulator bins
+  // (below it the threads' start-up and the per-thread accumulators cost
+  // more than they save); the result is the same either way.
   int64_t parallel_min_votes = 1 << 20;
   // Vertical edges: pixels whose gradient is within vertical_tolerance of
   // tangential vote into a theta histogram (theta_bin bins); peaks of the
