@@ -1,9 +1,10 @@
 // Panoramic Hough Transform (paper section 4.1): the whole-image transform
-// against cv::HoughLines on the same edge image (a ray-traced 500 x 500
-// panorama of the paper's room, Canny edges), both with 1 px x 1 degree
-// accumulators and 2 threads; the tracking mode per predicted edge; the GPU
-// batch when a CUDA device is present. BM_Ratio times both in the same loop
-// and reports PH / HoughLines.
+// against cv::HoughLines on the same edge image (ray-traced panoramas of the
+// paper's room at 500 x 500 and 1600 x 1200, Canny edges), both with 1 px x
+// 1 degree accumulators, on 1 and 2 threads; the tracking mode per predicted
+// edge; the GPU batch when a CUDA device is present. BM_Ratio times both in
+// the same loop (alternating, so both see the same machine load) and reports
+// PH / HoughLines in wall and in CPU time.
 #include <benchmark/benchmark.h>
 #include <omp.h>
 
@@ -11,6 +12,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <chrono>
+#include <ctime>
 #include <memory>
 #include <random>
 
@@ -24,13 +26,22 @@ namespace {
 constexpr int kThreads = 2;
 constexpr int kHoughLinesThreshold = 30;
 
+// Image sizes: 0 the paper's 500 x 500 sensor; 1 the same mirror seen by a
+// 1600 x 1200 camera (focal length scaled by 2.4, so the mirror fills the
+// frame's height as at 500 x 500).
+pano::Sensor SensorOfSize(int size) {
+  if (size == 0) return pano::test::PaperSyntheticSensor();
+  return pano::make_sphere_sensor(1600, 1200, 590.0 * 2.4, 799.5, 599.5, 1.0, 4.9, 15.1);
+}
+
 struct Setup {
-  pano::Sensor sensor = pano::test::PaperSyntheticSensor();
-  std::shared_ptr<const pano::RadiusTable> table = pano::test::BuildTestTable(sensor);
+  pano::Sensor sensor;
+  std::shared_ptr<const pano::RadiusTable> table;
   pano::WholeImageOptions options;
   pano::PhWholeImage ph;
+  cv::Mat image;
   pano::EdgeMap edges;
-  Setup() {
+  explicit Setup(int size) : sensor(SensorOfSize(size)), table(pano::test::BuildTestTable(sensor)) {
     options.heights = {-30.0, 9.0, 13.0, 60.0};  // as in the test hough/whole_image
     options.distance_min = 20.0;
     options.distance_max = 600.0;
@@ -38,13 +49,16 @@ struct Setup {
     options.theta_bin = M_PI / 180;
     options.keep_accumulator = false;  // peaks only, as HoughLines returns lines only
     ph = pano::PhWholeImage::Build(*table, options);
-    edges = pano::ComputeEdgeMap(pano::test::RenderRoom(sensor, pano::test::PaperRoom()));
+    image = pano::test::RenderRoom(sensor, pano::test::PaperRoom());
+    edges = pano::ComputeEdgeMap(image);
   }
 };
 
-const Setup& Get() {
-  static const Setup s;
-  return s;
+const Setup& Get(int size = 0) {
+  static const Setup small(0);
+  if (size == 0) return small;
+  static const Setup large(1);
+  return large;
 }
 
 void Threads(int n = kThreads) {
@@ -52,27 +66,42 @@ void Threads(int n = kThreads) {
   cv::setNumThreads(n);
 }
 
+double ProcessCpuSeconds() {
+  timespec ts;
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}
+
+void Sizes(benchmark::internal::Benchmark* b) {
+  for (int size : {0, 1})
+    for (int threads : {1, 2}) b->Args({size, threads});
+  b->ArgNames({"size", "threads"});
+}
+
 void BM_PhWholeImage(benchmark::State& state) {
-  Threads(static_cast<int>(state.range(0)));
-  const Setup& s = Get();
+  const Setup& s = Get(static_cast<int>(state.range(0)));
+  Threads(static_cast<int>(state.range(1)));
   int64_t votes = 0;
   int pixels = 0;
+  size_t peaks = 0;
   for (auto _ : state) {
     pano::WholeImageResult r = s.ph.Run(s.edges);
     votes = r.n_votes;
     pixels = r.n_edge_pixels;
+    peaks = r.peaks.size();
     benchmark::DoNotOptimize(r.peaks.data());
   }
   state.counters["edge_px"] = pixels;
   state.counters["votes"] = static_cast<double>(votes);
+  state.counters["peaks"] = static_cast<double>(peaks);
   state.counters["votes_per_s"] =
       benchmark::Counter(static_cast<double>(votes), benchmark::Counter::kIsIterationInvariantRate);
 }
-BENCHMARK(BM_PhWholeImage)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_PhWholeImage)->Apply(Sizes)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_HoughLines(benchmark::State& state) {
-  Threads();
-  const Setup& s = Get();
+  const Setup& s = Get(static_cast<int>(state.range(0)));
+  Threads(static_cast<int>(state.range(1)));
   std::vector<cv::Vec2f> lines;
   for (auto _ : state) {
     cv::HoughLines(s.edges.mask, lines, 1, CV_PI / 180, kHoughLinesThreshold);
@@ -83,31 +112,72 @@ void BM_HoughLines(benchmark::State& state) {
   state.counters["votes_per_s"] = benchmark::Counter(votes, benchmark::Counter::kIsIterationInvariantRate);
   state.counters["lines"] = static_cast<double>(lines.size());
 }
-BENCHMARK(BM_HoughLines)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_HoughLines)->Apply(Sizes)->Unit(benchmark::kMillisecond)->UseRealTime();
 
-// Both on the same edge image in the same loop: ratio of their total times.
+// Both on the same edge image in the same loop: ratio of their total times,
+// wall and process CPU (with 2 threads the CPU time counts both threads).
 void BM_Ratio(benchmark::State& state) {
-  Threads();
-  const Setup& s = Get();
+  const Setup& s = Get(static_cast<int>(state.range(0)));
+  Threads(static_cast<int>(state.range(1)));
   using Clock = std::chrono::steady_clock;
-  double t_ph = 0, t_hl = 0;
+  double t_ph = 0, t_hl = 0, c_ph = 0, c_hl = 0;
   std::vector<cv::Vec2f> lines;
   for (auto _ : state) {
+    const double ca = ProcessCpuSeconds();
     const auto a = Clock::now();
     pano::WholeImageResult r = s.ph.Run(s.edges);
     const auto b = Clock::now();
+    const double cb = ProcessCpuSeconds();
     cv::HoughLines(s.edges.mask, lines, 1, CV_PI / 180, kHoughLinesThreshold);
     const auto c = Clock::now();
+    const double cc = ProcessCpuSeconds();
     benchmark::DoNotOptimize(r.peaks.data());
     benchmark::DoNotOptimize(lines.data());
     t_ph += std::chrono::duration<double>(b - a).count();
     t_hl += std::chrono::duration<double>(c - b).count();
+    c_ph += cb - ca;
+    c_hl += cc - cb;
   }
   state.counters["ph_ms"] = 1e3 * t_ph / state.iterations();
   state.counters["houghlines_ms"] = 1e3 * t_hl / state.iterations();
-  state.counters["ratio_ph_over_houghlines"] = t_ph / t_hl;
+  state.counters["ratio"] = t_ph / t_hl;
+  state.counters["ph_cpu_ms"] = 1e3 * c_ph / state.iterations();
+  state.counters["houghlines_cpu_ms"] = 1e3 * c_hl / state.iterations();
+  state.counters["ratio_cpu"] = c_ph / c_hl;
 }
-BENCHMARK(BM_Ratio)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_Ratio)->Apply(Sizes)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// The PH transform's steps (records, voting, peaks), wall time per call.
+void BM_PhStages(benchmark::State& state) {
+  const Setup& s = Get(static_cast<int>(state.range(0)));
+  Threads(static_cast<int>(state.range(1)));
+  using Clock = std::chrono::steady_clock;
+  auto ms = [](Clock::time_point a, Clock::time_point b) {
+    return std::chrono::duration<double, std::milli>(b - a).count();
+  };
+  double t_prep = 0, t_vote = 0, t_fin = 0;
+  std::vector<pano::PhVoteRecord> records;
+  std::vector<int32_t> padded;
+  for (auto _ : state) {
+    pano::WholeImageResult r;
+    const auto a = Clock::now();
+    s.ph.Prepare(s.edges, &records, &r);
+    const auto b = Clock::now();
+    padded.assign(s.ph.PaddedSize(), 0);
+    s.ph.VoteCpu(records, padded.data());
+    const auto c = Clock::now();
+    s.ph.Finish(padded.data(), &r);
+    const auto d = Clock::now();
+    benchmark::DoNotOptimize(r.peaks.data());
+    t_prep += ms(a, b);
+    t_vote += ms(b, c);
+    t_fin += ms(c, d);
+  }
+  state.counters["prepare_ms"] = t_prep / state.iterations();
+  state.counters["vote_ms"] = t_vote / state.iterations();
+  state.counters["finish_ms"] = t_fin / state.iterations();
+}
+BENCHMARK(BM_PhStages)->Apply(Sizes)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // Edge map from the image (blur, Sobel, Canny): shared by both methods, not
 // part of the ratio.

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <random>
 #include <string>
 
 #include "panotrack/core/error.h"
@@ -15,6 +16,7 @@
 #include "hough_fixtures.h"
 #include "test_skip.h"
 #include "scene_render.h"
+#include "test_rng.h"
 
 namespace pano {
 namespace {
@@ -186,6 +188,123 @@ TEST_CASE("whole-image results are identical for 1, 2 and 4 threads", "[threads]
     CHECK(r1.peaks[i].votes == r4.peaks[i].votes);
   }
   CHECK(r1.vertical_histogram == r4.vertical_histogram);
+}
+
+// The straightforward vote of the records (one bin per record and theta_main
+// bin, R_main from the integer table, Eqn 7): what the optimised voting (16-
+// or 32-bit, theta-ordered, in parallel) must reproduce exactly.
+std::vector<int32_t> ReferenceVote(const PhWholeImage& ph, const std::vector<PhVoteRecord>& records) {
+  const int NT = ph.n_theta(), NR = ph.n_r();
+  std::vector<int32_t> acc(static_cast<size_t>(ph.options().heights.size()) * NT * NR, 0);
+  for (const PhVoteRecord& rec : records)
+    for (int j = 0; j < rec.count; ++j) {
+      const int32_t* a = ph.int_table().data() + rec.plane * ph.int_plane_size() + rec.offset + j;
+      const int32_t* b = a + ph.row_stride();
+      const int v = (*a * (256 - rec.t) + *b * rec.t) >> 16;
+      const int k = (rec.k_start + j) % NT;
+      if (v < NR) ++acc[(static_cast<size_t>(rec.plane) * NT + k) * NR + v];
+    }
+  return acc;
+}
+
+// The edge pixels the transform must see, by a dense raster scan: those in
+// the annulus with a non-zero gradient, in raster order (radius, azimuth in
+// single precision, as WholeImageResult keeps the voters').
+struct ScannedPixels {
+  std::vector<float> radius, azimuth;
+};
+ScannedPixels DenseScan(const Sensor& s, const WholeImageOptions& o, const EdgeMap& e) {
+  ScannedPixels out;
+  const double r_max = s.limb_radius() - 3.0;
+  for (int v = 0; v < e.mask.rows; ++v)
+    for (int u = 0; u < e.mask.cols; ++u) {
+      if (!e.mask.at<uint8_t>(v, u)) continue;
+      const double du = u - s.params.cx, dv = (v - s.params.cy) / s.params.aspect;
+      const float r = static_cast<float>(std::sqrt(du * du + dv * dv));
+      if (r < o.r_min || r > r_max) continue;
+      if (e.dx.at<int16_t>(v, u) == 0 && e.dy.at<int16_t>(v, u) == 0) continue;
+      double t = std::atan2(dv, du);
+      if (t < 0) t += 2 * M_PI;
+      out.radius.push_back(r);
+      out.azimuth.push_back(static_cast<float>(t));
+    }
+  return out;
+}
+
+// True if the voters are the scanned pixels' subsequence (raster order kept).
+bool VotersInScanOrder(const WholeImageResult& r, const ScannedPixels& scan) {
+  size_t i = 0;
+  for (size_t k = 0; k < r.voter_radius.size(); ++k) {
+    while (i < scan.radius.size() &&
+           (scan.radius[i] != r.voter_radius[k] || scan.azimuth[i] != r.voter_azimuth[k]))
+      ++i;
+    if (i == scan.radius.size()) return false;
+    ++i;
+  }
+  return true;
+}
+
+TEST_CASE("optimised whole-image voting equals the straightforward vote, any thread count",
+          "[reference_vote]") {
+  PANO_SEEDED_RNG(2026);
+  Fixture f;
+  f.options.parallel_min_votes = 0;  // the parallel voting and peak search too
+  f.ph = PhWholeImage::Build(*f.table, f.options);
+  // The rendered room (few records: 16-bit counts), and a dense random edge
+  // map (more than 2^15 records: 32-bit counts) with random gradients.
+  std::vector<EdgeMap> maps = {ComputeEdgeMap(test::RenderRoom(f.sensor, test::PaperRoom()))};
+  EdgeMap dense;
+  dense.mask = cv::Mat(f.sensor.image_height, f.sensor.image_width, CV_8U);
+  dense.dx = cv::Mat(dense.mask.size(), CV_16S);
+  dense.dy = cv::Mat(dense.mask.size(), CV_16S);
+  std::uniform_int_distribution<int> grad(-300, 300), pick(0, 99);
+  for (int v = 0; v < dense.mask.rows; ++v)
+    for (int u = 0; u < dense.mask.cols; ++u) {
+      dense.mask.at<uint8_t>(v, u) = pick(rng) < 90 ? 255 : 0;
+      dense.dx.at<int16_t>(v, u) = static_cast<int16_t>(grad(rng));
+      dense.dy.at<int16_t>(v, u) = static_cast<int16_t>(grad(rng));
+    }
+  maps.push_back(dense);
+  const int saved = omp_get_max_threads();
+  for (size_t m = 0; m < maps.size(); ++m) {
+    INFO("edge map " << m);
+    std::vector<PhVoteRecord> records;
+    WholeImageResult prepared;
+    f.ph.Prepare(maps[m], &records, &prepared);
+    const ScannedPixels scan = DenseScan(f.sensor, f.options, maps[m]);
+    CHECK(prepared.n_edge_pixels == static_cast<int>(scan.radius.size()));
+    CHECK(VotersInScanOrder(prepared, scan));
+    CHECK((m == 0 ? records.size() < 32768 : records.size() > 32768));
+    const std::vector<int32_t> reference = ReferenceVote(f.ph, records);
+    omp_set_num_threads(1);
+    const WholeImageResult r1 = f.ph.Run(maps[m]);
+    omp_set_num_threads(2);
+    const WholeImageResult r2 = f.ph.Run(maps[m]);
+    omp_set_num_threads(saved);
+    REQUIRE(r1.n_votes > 100000);
+    CHECK(r1.accumulator == reference);  // integer votes: tolerance zero
+    CHECK(r2.accumulator == reference);
+    REQUIRE(r1.peaks.size() == r2.peaks.size());
+    for (size_t i = 0; i < r1.peaks.size(); ++i) {
+      CHECK(r1.peaks[i].r_main == r2.peaks[i].r_main);
+      CHECK(r1.peaks[i].theta_main == r2.peaks[i].theta_main);
+      CHECK(r1.peaks[i].votes == r2.peaks[i].votes);
+    }
+    CHECK(r1.voter_radius == r2.voter_radius);
+    CHECK(r1.vertical_histogram == r2.vertical_histogram);
+    // The 32-bit steps the GPU path uses give the same peaks as Run.
+    std::vector<int32_t> padded(f.ph.PaddedSize(), 0);
+    f.ph.VoteCpu(records, padded.data());
+    f.ph.Finish(padded.data(), &prepared);
+    CHECK(prepared.accumulator == reference);
+    REQUIRE(prepared.peaks.size() == r1.peaks.size());
+    for (size_t i = 0; i < r1.peaks.size(); ++i) {
+      CHECK(prepared.peaks[i].r_main == r1.peaks[i].r_main);
+      CHECK(prepared.peaks[i].theta_main == r1.peaks[i].theta_main);
+    }
+    WARN("edge map " << m << ": " << scan.radius.size() << " edge pixels, " << records.size() << " records, "
+                     << r1.n_votes << " votes, " << r1.peaks.size() << " peaks");
+  }
 }
 
 TEST_CASE("GPU whole-image transform equals the CPU's (batch of frames)", "[gpu_matches_cpu]") {

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <sstream>
 
@@ -19,7 +20,10 @@ namespace pano {
 namespace {
 
 constexpr int32_t kInvalid = -1;
-constexpr int kPhiBins = 180;  // gradient angle to the radial, 1 degree bins over [-90, 90)
+constexpr int kPhiBins = 180;
+// Byte order, for the mask scan's bit arithmetic (big-endian machines take
+// the bytes of a word one by one).
+constexpr bool kLittleEndian = __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__;  // gradient angle to the radial, 1 degree bins over [-90, 90)
 
 std::string Num(double v) {
   std::ostringstream s;
@@ -128,11 +132,10 @@ void PhWholeImage::FillIntegerPlane(const PhTable& ph, double d_min, double d_ma
 }
 
 void PhWholeImage::FillOrientationRanges(const std::vector<unsigned char>& valid,
-                                         const std::vector<float>& psi, Plane* plane) const {
+                                         const std::vector<float>& psi, size_t plane) {
   const int W = width_, M = half_width_, NR = n_rows_;
   // Ranges of m per (row pair r0, r0+1) and gradient angle bin.
-  plane->range_lo.assign(static_cast<size_t>(NR) * kPhiBins, 1);
-  plane->range_hi.assign(static_cast<size_t>(NR) * kPhiBins, 0);
+  const size_t P = options_.heights.size();
   const double tol = options_.orientation_tolerance + 0.5 * M_PI / 180;
   // Arithmetic on the tables only (nothing throws).
 #pragma omp parallel for schedule(static)
@@ -155,8 +158,9 @@ void PhWholeImage::FillOrientationRanges(const std::vector<unsigned char>& valid
           hi = m;
         }
       }
-      plane->range_lo[static_cast<size_t>(i) * kPhiBins + f] = static_cast<int16_t>(lo);
-      plane->range_hi[static_cast<size_t>(i) * kPhiBins + f] = static_cast<int16_t>(hi);
+      VoteRange& range = ranges_[(static_cast<size_t>(i) * kPhiBins + f) * P + plane];
+      range.lo = static_cast<int16_t>(lo);
+      range.hi = static_cast<int16_t>(hi);
     }
   }
 }
@@ -178,28 +182,6 @@ void PhWholeImage::FillCurveTable(Plane* plane) const {
       }
 }
 
-void PhWholeImage::BuildPolarMaps(const Sensor& sensor) {
-  polar_w_ = sensor.image_width;
-  polar_h_ = sensor.image_height;
-  const size_t npx = static_cast<size_t>(polar_w_) * polar_h_;
-  polar_r_.resize(npx);
-  polar_t_.resize(npx);
-  polar_c_.resize(npx);
-  polar_s_.resize(npx);
-  for (int v = 0; v < polar_h_; ++v)
-    for (int u = 0; u < polar_w_; ++u) {
-      const double du = u - cx_, dv = (v - cy_) / aspect_;
-      const double R = std::sqrt(du * du + dv * dv);
-      double t = std::atan2(dv, du);
-      if (t < 0.0) t += 2.0 * M_PI;
-      const size_t i = static_cast<size_t>(v) * polar_w_ + u;
-      polar_r_[i] = static_cast<float>(R);
-      polar_t_[i] = static_cast<float>(t);
-      polar_c_[i] = static_cast<float>(R > 0 ? du / R : 1.0);
-      polar_s_[i] = static_cast<float>(R > 0 ? dv / R : 0.0);
-    }
-}
-
 PhWholeImage PhWholeImage::Build(const RadiusTable& table, const WholeImageOptions& options) {
   const std::string what = "Panoramic Hough whole-image";
   options.Check(what);
@@ -207,6 +189,7 @@ PhWholeImage PhWholeImage::Build(const RadiusTable& table, const WholeImageOptio
   PhWholeImage w;
   w.SetGeometry(table.sensor(), options);
   w.int_table_.assign(w.int_plane_size_ * options.heights.size(), kInvalid);
+  w.ranges_.assign(static_cast<size_t>(w.n_rows_) * kPhiBins * options.heights.size(), VoteRange{1, 0});
   PhTableOptions po;
   po.dtheta_max = std::min(89.0 * M_PI / 180, options.dtheta_max + 2.0 * w.theta_bin_);
   const double d_min = options.distance_min > 0.0 ? options.distance_min : table.ranges().d_min;
@@ -217,11 +200,10 @@ PhWholeImage PhWholeImage::Build(const RadiusTable& table, const WholeImageOptio
     Plane plane;
     plane.table = PhTable::Build(table, options.heights[p], po);
     w.FillIntegerPlane(plane.table, d_min, d_max, &w.int_table_[p * w.int_plane_size_], &valid, &psi);
-    w.FillOrientationRanges(valid, psi, &plane);
+    w.FillOrientationRanges(valid, psi, p);
     w.FillCurveTable(&plane);
     w.planes_.push_back(std::move(plane));
   }
-  w.BuildPolarMaps(table.sensor());
   return w;
 }
 
@@ -288,8 +270,7 @@ void PhWholeImage::AddVertical(const EdgePixel& e, double g_rad, const VoteScale
   res->vertical_r_max[kb] = std::max(res->vertical_r_max[kb], static_cast<float>(e.R));
 }
 
-bool PhWholeImage::AddRecords(const EdgePixel& e, double phi, const VoteScales& k,
-                              std::vector<PhVoteRecord>* records, WholeImageResult* res) const {
+bool PhWholeImage::LocateVotes(const EdgePixel& e, double phi, const VoteScales& k, PixelVotes* out) const {
   const int S = sub_steps_, W = width_, M = half_width_;
   const double fr = e.R * k.inv_q;
   int r0 = static_cast<int>(fr);
@@ -308,18 +289,30 @@ bool PhWholeImage::AddRecords(const EdgePixel& e, double phi, const VoteScales& 
     ++fl;
     s = 0;
   }
+  out->radius = static_cast<float>(e.R);
+  out->azimuth = static_cast<float>(e.theta);
+  out->ranges = (static_cast<size_t>(r0) * kPhiBins + fb) * planes_.size();
+  out->offset = static_cast<int32_t>((static_cast<size_t>(r0) * S + s) * W + M);
+  out->fl = fl;
+  out->t8 = static_cast<uint16_t>(t8);
+  return true;
+}
+
+bool PhWholeImage::AddRecords(const PixelVotes& pv, std::vector<PhVoteRecord>* records,
+                              WholeImageResult* res) const {
   bool voted = false;
-  for (size_t p = 0; p < planes_.size(); ++p) {
-    const size_t ri = static_cast<size_t>(r0) * kPhiBins + fb;
-    const int lo = planes_[p].range_lo[ri], hi = planes_[p].range_hi[ri];
+  const size_t P = planes_.size();
+  const VoteRange* ranges = &ranges_[pv.ranges];
+  for (size_t p = 0; p < P; ++p) {
+    const int lo = ranges[p].lo, hi = ranges[p].hi;
     if (lo > hi) continue;
     PhVoteRecord rec;
-    rec.offset = static_cast<int32_t>((static_cast<size_t>(r0) * S + s) * W + (lo + M));
-    int kt = (fl + lo) % n_theta_;
+    rec.offset = pv.offset + lo;
+    int kt = (pv.fl + lo) % n_theta_;
     if (kt < 0) kt += n_theta_;
     rec.k_start = static_cast<int16_t>(kt);
     rec.count = static_cast<int16_t>(hi - lo + 1);
-    rec.t = static_cast<uint16_t>(t8);
+    rec.t = pv.t8;
     rec.plane = static_cast<uint16_t>(p);
     records->push_back(rec);
     res->n_votes += rec.count;
@@ -328,7 +321,7 @@ bool PhWholeImage::AddRecords(const EdgePixel& e, double phi, const VoteScales& 
   return voted;
 }
 
-void PhWholeImage::AddEdgePixel(const EdgePixel& e, const VoteScales& k, std::vector<PhVoteRecord>* records,
+bool PhWholeImage::AddEdgePixel(const EdgePixel& e, const VoteScales& k, PixelVotes* pv,
                                 WholeImageResult* res) const {
   ++res->n_edge_pixels;
   // Gradient angle to the radial, modulo pi, in [-pi/2, pi/2).
@@ -337,10 +330,7 @@ void PhWholeImage::AddEdgePixel(const EdgePixel& e, const VoteScales& k, std::ve
   if (phi >= M_PI / 2) phi -= M_PI;
   if (phi < -M_PI / 2) phi += M_PI;
   AddVertical(e, g_rad, k, res);
-  if (AddRecords(e, phi, k, records, res)) {
-    res->voter_radius.push_back(static_cast<float>(e.R));
-    res->voter_azimuth.push_back(static_cast<float>(e.theta));
-  }
+  return LocateVotes(e, phi, k, pv);
 }
 
 void PhWholeImage::Prepare(const EdgeMap& edges, std::vector<PhVoteRecord>* records,
@@ -350,69 +340,144 @@ void PhWholeImage::Prepare(const EdgeMap& edges, std::vector<PhVoteRecord>* reco
   records->clear();
   const VoteScales k{1.0 / options_.r_row_step, 1.0 / theta_bin_,
                      std::cos(M_PI / 2 - options_.vertical_tolerance)};
-  const bool use_maps = edges.mask.cols == polar_w_ && edges.mask.rows == polar_h_;
+  // The sparse edge list first (raster order), then the pixels' work: the
+  // mask scan stays a tight loop, and the gradients of the pixels ahead can
+  // be fetched while one pixel is processed.
+  thread_local std::vector<uint32_t> list;  // v << 16 | u (CheckEdgeMap: both < 2^15)
+  list.clear();
+  const int cols = edges.mask.cols;
+  constexpr uint64_t kLow7 = 0x7F7F7F7F7F7F7F7FULL, kHigh = 0x8080808080808080ULL;
   for (int v = 0; v < edges.mask.rows; ++v) {
-    const uint8_t* mrow = edges.mask.ptr<uint8_t>(v);
-    const int16_t* gxr = edges.dx.ptr<int16_t>(v);
-    const int16_t* gyr = edges.dy.ptr<int16_t>(v);
     const double dv = (v - cy_) / aspect_;
-    const size_t prow = static_cast<size_t>(v) * polar_w_;
-    for (int u = 0; u < edges.mask.cols; ++u) {
-      if (!mrow[u]) continue;
-      EdgePixel e;
-      if (use_maps) {  // precomputed per-pixel polar coordinates
-        e.R = polar_r_[prow + u];
-        e.theta = polar_t_[prow + u];
-        e.cr = polar_c_[prow + u];
-        e.sr = polar_s_[prow + u];
-      } else {
-        const double du = u - cx_;
-        e.R = std::sqrt(du * du + dv * dv);
-        e.theta = std::atan2(dv, du);
-        if (e.theta < 0.0) e.theta += 2.0 * M_PI;
-        e.cr = e.R > 0 ? du / e.R : 1.0;
-        e.sr = e.R > 0 ? dv / e.R : 0.0;
+    // Only the columns that can lie inside the annulus's outer circle (one
+    // pixel of margin; the exact radius test follows).
+    if (std::abs(dv) > r_max_ + 1.0) continue;
+    const double half = std::sqrt(std::max(0.0, (r_max_ + 1.0) * (r_max_ + 1.0) - dv * dv));
+    const int u_begin = std::clamp(static_cast<int>(std::floor(cx_ - half)), 0, cols);
+    const int u_end = std::clamp(static_cast<int>(std::ceil(cx_ + half)) + 1, u_begin, cols);
+    const uint8_t* mrow = edges.mask.ptr<uint8_t>(v);
+    const uint32_t row_key = static_cast<uint32_t>(v) << 16;
+    // Edge pixels are sparse (about 1 %): eight mask bytes at a time, the
+    // non-zero bytes of a word found by bit arithmetic, in order.
+    int u = u_begin;
+    for (; u + 8 <= u_end; u += 8) {
+      uint64_t word;
+      std::memcpy(&word, mrow + u, sizeof(word));
+      if (word == 0) continue;
+      uint64_t nonzero = (((word & kLow7) + kLow7) | word) & kHigh;  // top bit of each non-zero byte
+      if (!kLittleEndian) {
+        for (int b = 0; b < 8; ++b)
+          if (mrow[u + b]) list.push_back(row_key | static_cast<uint32_t>(u + b));
+        continue;
       }
-      if (e.R < r_min_ || e.R > r_max_) continue;
-      e.gx = gxr[u];
-      e.gy = gyr[u] * aspect_;
-      e.gn = std::sqrt(e.gx * e.gx + e.gy * e.gy);
-      if (!(e.gn > 0.0)) continue;
-      AddEdgePixel(e, k, records, result);
+      while (nonzero) {
+        list.push_back(row_key | static_cast<uint32_t>(u + (__builtin_ctzll(nonzero) >> 3)));
+        nonzero &= nonzero - 1;
+      }
+    }
+    for (; u < u_end; ++u)
+      if (mrow[u]) list.push_back(row_key | static_cast<uint32_t>(u));
+  }
+  constexpr size_t kAhead = 8;
+  thread_local std::vector<PixelVotes> located;
+  located.clear();
+  for (size_t i = 0; i < list.size(); ++i) {
+    if (i + kAhead < list.size()) {
+      const int va = static_cast<int>(list[i + kAhead] >> 16), ua = static_cast<int>(list[i + kAhead] & 0xFFFF);
+      __builtin_prefetch(edges.dx.ptr<int16_t>(va) + ua);
+      __builtin_prefetch(edges.dy.ptr<int16_t>(va) + ua);
+    }
+    const int v = static_cast<int>(list[i] >> 16), u = static_cast<int>(list[i] & 0xFFFF);
+    // Polar coordinates in single precision (voter_radius / voter_azimuth
+    // keep them), computed only for edge pixels.
+    const double du = u - cx_, dv = (v - cy_) / aspect_;
+    const double r = std::sqrt(du * du + dv * dv);
+    EdgePixel e;
+    e.R = static_cast<float>(r);
+    if (e.R < r_min_ || e.R > r_max_) continue;
+    double t = std::atan2(dv, du);
+    if (t < 0.0) t += 2.0 * M_PI;
+    e.theta = static_cast<float>(t);
+    e.cr = static_cast<float>(r > 0 ? du / r : 1.0);
+    e.sr = static_cast<float>(r > 0 ? dv / r : 0.0);
+    e.gx = edges.dx.ptr<int16_t>(v)[u];
+    e.gy = edges.dy.ptr<int16_t>(v)[u] * aspect_;
+    e.gn = std::sqrt(e.gx * e.gx + e.gy * e.gy);
+    if (!(e.gn > 0.0)) continue;
+    PixelVotes pv;
+    if (AddEdgePixel(e, k, &pv, result)) located.push_back(pv);
+  }
+  // The records, in the same order; the orientation ranges of the pixels
+  // ahead are fetched meanwhile (the table is larger than the caches, and
+  // the gradient angle makes its accesses random).
+  for (size_t i = 0; i < located.size(); ++i) {
+    if (i + kAhead < located.size()) __builtin_prefetch(&ranges_[located[i + kAhead].ranges]);
+    if (AddRecords(located[i], records, result)) {
+      result->voter_radius.push_back(located[i].radius);
+      result->voter_azimuth.push_back(located[i].azimuth);
     }
   }
 }
 
 namespace {
-inline void VoteRecord(const PhVoteRecord& rec, const int32_t* table, size_t plane_size, int stride,
-                       int32_t* padded, size_t padded_plane, int n_r, int n_theta) {
+
+// One run of a record's votes: bins j = 0..n-1 of rows acc + j * cols, R_main
+// bin (Eqn 7) interpolated between the table rows a and b with 8-bit weights.
+// The bins are computed in chunks by a vectorisable loop (SIMD over theta),
+// then counted; every vote lands in its own theta row, so the counts never
+// collide within a run.
+template <typename T>
+inline void VoteRun(const int32_t* a, const int32_t* b, int w0, int w1, int n, T* acc, int cols, int n_r) {
+  constexpr int kChunk = 64;
+  int32_t idx[kChunk];
+  for (int j0 = 0; j0 < n; j0 += kChunk) {
+    const int m = std::min(kChunk, n - j0);
+    const int32_t* aj = a + j0;
+    const int32_t* bj = b + j0;
+    const int32_t row0 = j0 * cols;
+    for (int j = 0; j < m; ++j) {
+      int32_t v = (aj[j] * w0 + bj[j] * w1) >> 16;  // integer-exact, as on the GPU
+      v = v < n_r ? v : n_r;                        // column n_r collects out-of-range votes
+      idx[j] = row0 + j * cols + v;
+    }
+    for (int j = 0; j < m; ++j) acc[idx[j]] += 1;
+  }
+}
+
+template <typename T>
+inline void VoteRecord(const PhVoteRecord& rec, const int32_t* table, size_t plane_size, int stride, T* padded,
+                       size_t padded_plane, int n_r, int n_theta) {
   const int32_t* a = table + rec.plane * plane_size + rec.offset;
   const int32_t* b = a + stride;
   const int w1 = rec.t, w0 = 256 - w1;
   const int cols = n_r + 1;
-  int32_t* plane_acc = padded + rec.plane * padded_plane;
-  int32_t* acc = plane_acc + static_cast<size_t>(rec.k_start) * cols;
+  T* plane_acc = padded + rec.plane * padded_plane;
   const int n = rec.count;
   const int n1 = std::min(n, n_theta - rec.k_start);  // bins before theta_main wraps at 2 pi
-  for (int j = 0; j < n1; ++j) {
-    int v = (a[j] * w0 + b[j] * w1) >> 16;  // R_main bin (Eqn 7), integer-exact
-    v = v < n_r ? v : n_r;                   // column n_r collects out-of-range votes
-    acc[j * cols + v] += 1;
-  }
-  acc = plane_acc - static_cast<size_t>(n1) * cols;
-  for (int j = n1; j < n; ++j) {
-    int v = (a[j] * w0 + b[j] * w1) >> 16;
-    v = v < n_r ? v : n_r;
-    acc[j * cols + v] += 1;
-  }
+  VoteRun(a, b, w0, w1, n1, plane_acc + static_cast<size_t>(rec.k_start) * cols, cols, n_r);
+  if (n > n1) VoteRun(a + n1, b + n1, w0, w1, n - n1, plane_acc, cols, n_r);
 }
+
 }  // namespace
 
-void PhWholeImage::VoteCpu(const std::vector<PhVoteRecord>& records, int32_t* padded) const {
+template <typename T>
+void PhWholeImage::VoteInto(const std::vector<PhVoteRecord>& unsorted, T* padded) const {
   const size_t total = PaddedSize();
   const int stride = row_stride();
   int64_t votes = 0;
-  for (const PhVoteRecord& r : records) votes += r.count;
+  for (const PhVoteRecord& r : unsorted) votes += r.count;
+  // Vote in (plane, first theta bin) order rather than raster order: then
+  // consecutive records count into the same few hundred theta rows of one
+  // plane, which stay in cache. Integer sums do not depend on the order.
+  const int n_keys = static_cast<int>(planes_.size()) * n_theta_;
+  thread_local std::vector<int> start;
+  thread_local std::vector<PhVoteRecord> sorted;
+  std::vector<PhVoteRecord>& records = sorted;  // this thread's, also inside the parallel region
+  start.assign(n_keys + 1, 0);
+  for (const PhVoteRecord& r : unsorted) ++start[r.plane * n_theta_ + r.k_start + 1];
+  for (int i = 0; i < n_keys; ++i) start[i + 1] += start[i];
+  records.resize(unsorted.size());
+  for (const PhVoteRecord& r : unsorted) records[start[r.plane * n_theta_ + r.k_start]++] = r;
   const int n_threads = votes < options_.parallel_min_votes ? 1 : omp_get_max_threads();
   if (n_threads <= 1) {
     for (const PhVoteRecord& r : records)
@@ -423,25 +488,30 @@ void PhWholeImage::VoteCpu(const std::vector<PhVoteRecord>& records, int32_t* pa
   // afterwards: integer addition makes the result independent of the split.
   // Allocated before the region: nothing in it throws, and a team smaller
   // than asked for leaves its unused accumulators zero rather than empty.
-  std::vector<std::vector<int32_t>> local(n_threads - 1, std::vector<int32_t>(total, 0));
+  std::vector<std::vector<T>> local(n_threads - 1, std::vector<T>(total, 0));
 #pragma omp parallel num_threads(n_threads)
   {
     const int tid = omp_get_thread_num();
-    int32_t* acc = tid > 0 ? local[tid - 1].data() : padded;
+    T* acc = tid > 0 ? local[tid - 1].data() : padded;
 #pragma omp for schedule(static)
     for (long i = 0; i < static_cast<long>(records.size()); ++i)
       VoteRecord(records[i], int_table_.data(), int_plane_size_, stride, acc, PaddedPlaneSize(), n_r_,
                  n_theta_);
 #pragma omp for schedule(static)
     for (long i = 0; i < static_cast<long>(total); ++i) {
-      int32_t s = 0;
+      T s = 0;
       for (int t = 0; t + 1 < n_threads; ++t) s += local[t][i];
       padded[i] += s;
     }
   }
 }
 
-void PhWholeImage::CopyAccumulator(const int32_t* padded, WholeImageResult* res) const {
+void PhWholeImage::VoteCpu(const std::vector<PhVoteRecord>& records, int32_t* padded) const {
+  VoteInto(records, padded);
+}
+
+template <typename T>
+void PhWholeImage::CopyAccumulator(const T* padded, WholeImageResult* res) const {
   const int P = static_cast<int>(planes_.size()), NT = n_theta_, NR = n_r_, cols = NR + 1;
   if (!options_.keep_accumulator) {
     res->accumulator.clear();
@@ -456,12 +526,23 @@ void PhWholeImage::CopyAccumulator(const int32_t* padded, WholeImageResult* res)
 
 // True if bin (k, j) of plane g (value v) is the maximum of its +-nms_theta
 // (circular) x +-nms_r neighbourhood, the first in index order on ties.
-bool PhWholeImage::IsPeak(const int32_t* g, int k, int j, int32_t v) const {
+template <typename T>
+bool PhWholeImage::IsPeak(const T* g, int k, int j, int32_t v) const {
   const int NT = n_theta_, NR = n_r_, cols = NR + 1;
   const int a = options_.nms_theta, b = options_.nms_r;
+  // The nearest neighbours first: most candidates on a ridge fail there.
+  const T* row = g + static_cast<size_t>(k) * cols;
+  if ((j > 0 && b > 0 && row[j - 1] >= v) || (j + 1 < NR && b > 0 && row[j + 1] > v)) return false;
+  if (a > 0) {
+    const int kp = k + 1 < NT ? k + 1 : 0, km = k > 0 ? k - 1 : NT - 1;
+    const T up = g[static_cast<size_t>(kp) * cols + j], down = g[static_cast<size_t>(km) * cols + j];
+    if (up > v || (up == v && kp < k) || down > v || (down == v && km < k)) return false;
+  }
   for (int dk = -a; dk <= a; ++dk) {
-    const int kk = ((k + dk) % NT + NT) % NT;
-    const int32_t* orow = g + static_cast<size_t>(kk) * cols;
+    int kk = k + dk;  // circular in theta
+    while (kk < 0) kk += NT;
+    while (kk >= NT) kk -= NT;
+    const T* orow = g + static_cast<size_t>(kk) * cols;
     for (int dj = -b; dj <= b; ++dj) {
       const int jj = j + dj;
       if (jj < 0 || jj >= NR || (dk == 0 && dj == 0)) continue;
@@ -473,11 +554,12 @@ bool PhWholeImage::IsPeak(const int32_t* g, int k, int j, int32_t v) const {
   return true;
 }
 
-HorizontalPeak PhWholeImage::RefinedPeak(const int32_t* g, int p, int k, int j, int32_t v) const {
+template <typename T>
+HorizontalPeak PhWholeImage::RefinedPeak(const T* g, int p, int k, int j, int32_t v) const {
   const int NT = n_theta_, NR = n_r_, cols = NR + 1;
   double f[3][3], ox = 0, oy = 0;
   for (int dk = -1; dk <= 1; ++dk) {
-    const int32_t* orow = g + static_cast<size_t>(((k + dk) % NT + NT) % NT) * cols;
+    const T* orow = g + static_cast<size_t>(((k + dk) % NT + NT) % NT) * cols;
     for (int dj = -1; dj <= 1; ++dj) {
       const int jj = j + dj;
       f[dk + 1][dj + 1] = (jj >= 0 && jj < NR) ? orow[jj] : v;
@@ -493,33 +575,44 @@ HorizontalPeak PhWholeImage::RefinedPeak(const int32_t* g, int p, int k, int j, 
   return pk;
 }
 
-std::vector<HorizontalPeak> PhWholeImage::PlanePeaks(const int32_t* padded, int p) const {
+template <typename T>
+std::vector<HorizontalPeak> PhWholeImage::PlanePeaks(const T* padded, int p) const {
   const int NT = n_theta_, NR = n_r_, cols = NR + 1;
   const int32_t thr = options_.min_votes;
-  constexpr int kChunk = 16;
+  constexpr int kChunk = 32;
   std::vector<HorizontalPeak> peaks;
-  const int32_t* g = padded + p * PaddedPlaneSize();  // rows of cols ints
+  const T* g = padded + p * PaddedPlaneSize();  // rows of cols bins
   for (int k = 0; k < NT; ++k) {
-    const int32_t* row = g + static_cast<size_t>(k) * cols;
+    const T* row = g + static_cast<size_t>(k) * cols;
     for (int j0 = 0; j0 < NR; j0 += kChunk) {
       const int j1 = std::min(NR, j0 + kChunk);
-      int32_t mx = 0;
+      T mx = 0;
       for (int j = j0; j < j1; ++j) mx = std::max(mx, row[j]);  // vectorised skip
       if (mx < thr) continue;
+      // Candidates: at least thr and not beaten by a row neighbour (IsPeak's
+      // first test), flagged branch-free; the full test on those only.
+      uint8_t cand[kChunk];
+      for (int j = j0; j < j1; ++j) cand[j - j0] = row[j] >= thr;
+      if (options_.nms_r > 0) {
+        const int ja = std::max(j0, 1), jb = std::min(j1, NR - 1);
+        for (int j = ja; j < jb; ++j) cand[j - j0] &= (row[j - 1] < row[j]) & (row[j + 1] <= row[j]);
+      }
       for (int j = j0; j < j1; ++j)
-        if (row[j] >= thr && IsPeak(g, k, j, row[j])) peaks.push_back(RefinedPeak(g, p, k, j, row[j]));
+        if (cand[j - j0] && IsPeak(g, k, j, row[j])) peaks.push_back(RefinedPeak(g, p, k, j, row[j]));
     }
   }
   return peaks;
 }
 
-void PhWholeImage::FindHorizontalPeaks(const int32_t* padded, WholeImageResult* res) const {
+template <typename T>
+void PhWholeImage::FindHorizontalPeaks(const T* padded, WholeImageResult* res) const {
   // Local maxima with at least min_votes. Planes are independent: searched
-  // in parallel, their peaks joined in plane order afterwards, so the result
-  // is the sequential one for any thread count.
+  // in parallel (for large accumulators), their peaks joined in plane order
+  // afterwards, so the result is the sequential one for any thread count.
   const int P = static_cast<int>(planes_.size());
   std::vector<std::vector<HorizontalPeak>> plane_peaks(P);
-  ParallelFor(P, [&](int p) { plane_peaks[p] = PlanePeaks(padded, p); });
+  const bool parallel = static_cast<int64_t>(PaddedSize()) >= options_.parallel_min_votes;
+  ParallelFor(P, [&](int p) { plane_peaks[p] = PlanePeaks(padded, p); }, parallel);
   res->peaks.clear();
   for (const std::vector<HorizontalPeak>& pp : plane_peaks)
     res->peaks.insert(res->peaks.end(), pp.begin(), pp.end());
@@ -574,16 +667,20 @@ VerticalPeak PhWholeImage::VerticalPeakAt(const WholeImageResult& res, const std
   return vp;
 }
 
-void PhWholeImage::Finish(int32_t* padded, WholeImageResult* result) const {
+template <typename T>
+void PhWholeImage::FinishWith(const T* padded, WholeImageResult* result) const {
   CopyAccumulator(padded, result);
   FindHorizontalPeaks(padded, result);
   FindVerticalPeaks(result);
 }
 
+void PhWholeImage::Finish(int32_t* padded, WholeImageResult* result) const { FinishWith(padded, result); }
+
 // The voters bucketed by theta bin, each bucket sorted by radius (stable,
 // so deterministic): bucket k is order[start[k] .. start[k + 1]).
 struct PhWholeImage::VoterIndex {
   std::vector<int> start, order;
+  std::vector<float> radius;  // voter_radius[order[i]], contiguous for the searches
 };
 
 PhWholeImage::VoterIndex PhWholeImage::BucketVoters(const WholeImageResult& res) const {
@@ -604,10 +701,12 @@ PhWholeImage::VoterIndex PhWholeImage::BucketVoters(const WholeImageResult& res)
   for (int k = 0; k < NT; ++k)
     std::stable_sort(index.order.begin() + index.start[k], index.order.begin() + index.start[k + 1],
                      [&](int a, int b) { return res.voter_radius[a] < res.voter_radius[b]; });
+  index.radius.resize(n);
+  for (size_t i = 0; i < n; ++i) index.radius[i] = res.voter_radius[index.order[i]];
   return index;
 }
 
-void PhWholeImage::PeakSupport(const HorizontalPeak& pk, const WholeImageResult& res, const VoterIndex& index,
+void PhWholeImage::PeakSupport(const HorizontalPeak& pk, const VoterIndex& index,
                                const std::vector<unsigned char>& claimed, std::vector<int>* support) const {
   const int NT = n_theta_, M = half_width_, S = sub_steps_, W = width_;
   const double tol = options_.explain_tolerance;
@@ -628,20 +727,21 @@ void PhWholeImage::PeakSupport(const HorizontalPeak& pk, const WholeImageResult&
   const float tr = static_cast<float>(fr - r0);
   const float* c0 = &planes_[pk.plane].curve[(static_cast<size_t>(r0) * S + sub) * W + M];
   const float* c1 = c0 + static_cast<size_t>(S) * W;
+  const float* rad = index.radius.data();
   // Curve radius (Eqn 6) at the edges of each theta bin kc-M..kc+M.
   double r_prev = 0.0;
   bool ok_prev = false;
-  for (int d = -M; d <= M; ++d) {
+  int k = ((kc - M - 1) % NT + NT) % NT;  // theta bin between the edges d - 1 and d
+  for (int d = -M; d <= M; ++d, k = k + 1 < NT ? k + 1 : 0) {
     const double r = (1.0f - tr) * c0[d] + tr * c1[d];
     const bool ok = !std::isnan(r);
     if (ok && ok_prev) {
-      const int k = ((kc + d - 1) % NT + NT) % NT;
       const double lo = std::min(r, r_prev) - tol, hi = std::max(r, r_prev) + tol;
-      const auto end = index.order.begin() + index.start[k + 1];
-      auto first = std::lower_bound(index.order.begin() + index.start[k], end, lo,
-                                    [&](int a, double v) { return res.voter_radius[a] < v; });
-      for (auto it = first; it != end && res.voter_radius[*it] <= hi; ++it)
-        if (!claimed[*it]) support->push_back(*it);
+      const int e = index.start[k + 1];
+      const int first = static_cast<int>(
+          std::lower_bound(rad + index.start[k], rad + e, lo, [](float a, double v) { return a < v; }) - rad);
+      for (int i = first; i < e && rad[i] <= hi; ++i)
+        if (!claimed[index.order[i]]) support->push_back(index.order[i]);
     }
     r_prev = r;
     ok_prev = ok;
@@ -655,7 +755,7 @@ void PhWholeImage::ExplainAway(WholeImageResult* result) const {
   std::vector<int> support;
   std::vector<HorizontalPeak> kept;
   for (const HorizontalPeak& pk : res.peaks) {
-    PeakSupport(pk, res, index, claimed, &support);
+    PeakSupport(pk, index, claimed, &support);
     if (static_cast<int>(support.size()) < options_.min_votes) continue;
     for (int i : support) claimed[i] = 1;
     kept.push_back(pk);
@@ -667,10 +767,21 @@ WholeImageResult PhWholeImage::Run(const EdgeMap& edges) const {
   WholeImageResult res;
   thread_local std::vector<PhVoteRecord> records;
   Prepare(edges, &records, &res);
-  thread_local std::vector<int32_t> padded;
-  padded.assign(PaddedSize(), 0);
-  VoteCpu(records, padded.data());
-  Finish(padded.data(), &res);
+  // A record votes at most once in a bin (its bins lie in distinct theta
+  // rows), so no bin exceeds the number of records: with fewer than 2^15 of
+  // them 16-bit counts are exact, and the accumulator (zeroing, voting, peak
+  // search) takes half the memory. The result is the same either way.
+  if (records.size() <= static_cast<size_t>(std::numeric_limits<int16_t>::max())) {
+    thread_local std::vector<int16_t> padded16;
+    padded16.assign(PaddedSize(), 0);
+    VoteInto(records, padded16.data());
+    FinishWith(padded16.data(), &res);
+  } else {
+    thread_local std::vector<int32_t> padded;
+    padded.assign(PaddedSize(), 0);
+    VoteInto(records, padded.data());
+    FinishWith(padded.data(), &res);
+  }
   return res;
 }
 

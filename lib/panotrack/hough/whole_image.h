@@ -39,6 +39,16 @@
 // to theta_bin / sub_steps: the same records give bit-identical accumulators
 // on the CPU (any thread count: per-thread integer accumulators summed) and
 // on the GPU (integer atomicAdd), see whole_image_gpu.h.
+//
+// Speed (BENCHMARKS.md, "Panoramic Hough Transform"). The CPU path works on
+// the sparse list of edge pixels (the mask scanned eight bytes at a time
+// inside the annulus's outer circle), computes the polar coordinates of edge
+// pixels only, reads one cache line of orientation ranges per pixel (all
+// planes together, prefetched), votes in (plane, theta_main) order so that
+// the accumulator rows in use stay in cache, computes each run's R_main bins
+// in a vectorisable loop (SIMD over theta), and counts in 16 bits when no bin
+// can exceed 2^15 - 1. None of this changes a vote: the result is the plain
+// raster-order vote's, bit for bit (test hough/reference_vote).
 #pragma once
 
 #include <opencv2/core.hpp>
@@ -109,9 +119,10 @@ struct WholeImageOptions {
   double explain_tolerance = 1.5;
   // Fill WholeImageResult::accumulator (the peaks do not need it).
   bool keep_accumulator = true;
-  // The voting runs on OpenMP threads only above this many votes (below it
-  // the threads' start-up and the per-thread accumulators cost more than
-  // they save); the result is the same either way.
+  // The voting runs on OpenMP threads only above this many votes, and the
+  // peak search over the planes only above this many accumulator bins
+  // (below it the threads' start-up and the per-thread accumulators cost
+  // more than they save); the result is the same either way.
   int64_t parallel_min_votes = 1 << 20;
   // Vertical edges: pixels whose gradient is within vertical_tolerance of
   // tangential vote into a theta histogram (theta_bin bins); peaks of the
@@ -196,7 +207,6 @@ class PhWholeImage {
  private:
   struct Plane {
     PhTable table;
-    std::vector<int16_t> range_lo, range_hi;  // [row][phi bin]; lo > hi: none
     // PH^-1 (Eqn 6) for the explain-away step: [R_main row][sub step][d + M]
     // at dtheta = (d - s / sub_steps) theta_bin, NaN undefined.
     std::vector<float> curve;
@@ -212,31 +222,47 @@ class PhWholeImage {
                         std::vector<unsigned char>* valid, std::vector<float>* psi) const;
   // the m range each (row, gradient angle) votes for;
   void FillOrientationRanges(const std::vector<unsigned char>& valid, const std::vector<float>& psi,
-                             Plane* plane) const;
+                             size_t plane);
   // PH^-1 for the explain-away step;
   void FillCurveTable(Plane* plane) const;
-  // per-pixel polar coordinates of the sensor's image.
-  void BuildPolarMaps(const Sensor& sensor);
 
   // Prepare's steps.
   void CheckEdgeMap(const EdgeMap& edges) const;
   void ResetResult(WholeImageResult* res) const;
-  void AddEdgePixel(const EdgePixel& e, const VoteScales& k, std::vector<PhVoteRecord>* records,
-                    WholeImageResult* res) const;
+  // An edge pixel that votes: where its records read the tables.
+  struct PixelVotes {
+    float radius, azimuth;
+    size_t ranges;   // its orientation ranges in ranges_
+    int32_t offset;  // table offset of m = 0 at its R row and sub step
+    int fl;          // theta_main bin of m = 0
+    uint16_t t8;     // weight of the next R row
+  };
+  // The vertical histogram, and (true) where the pixel's votes go.
+  bool AddEdgePixel(const EdgePixel& e, const VoteScales& k, PixelVotes* pv, WholeImageResult* res) const;
   void AddVertical(const EdgePixel& e, double g_rad, const VoteScales& k, WholeImageResult* res) const;
-  bool AddRecords(const EdgePixel& e, double phi, const VoteScales& k, std::vector<PhVoteRecord>* records,
-                  WholeImageResult* res) const;
+  bool LocateVotes(const EdgePixel& e, double phi, const VoteScales& k, PixelVotes* out) const;
+  bool AddRecords(const PixelVotes& pv, std::vector<PhVoteRecord>* records, WholeImageResult* res) const;
 
-  // Finish's steps.
-  void CopyAccumulator(const int32_t* padded, WholeImageResult* res) const;
-  void FindHorizontalPeaks(const int32_t* padded, WholeImageResult* res) const;
-  std::vector<HorizontalPeak> PlanePeaks(const int32_t* padded, int p) const;
-  bool IsPeak(const int32_t* g, int k, int j, int32_t v) const;
-  HorizontalPeak RefinedPeak(const int32_t* g, int p, int k, int j, int32_t v) const;
+  // The voting and Finish's steps, for 32-bit (GPU, VoteCpu) and 16-bit
+  // (Run, when no bin can overflow) accumulators.
+  template <typename T>
+  void VoteInto(const std::vector<PhVoteRecord>& records, T* padded) const;
+  template <typename T>
+  void FinishWith(const T* padded, WholeImageResult* result) const;
+  template <typename T>
+  void CopyAccumulator(const T* padded, WholeImageResult* res) const;
+  template <typename T>
+  void FindHorizontalPeaks(const T* padded, WholeImageResult* res) const;
+  template <typename T>
+  std::vector<HorizontalPeak> PlanePeaks(const T* padded, int p) const;
+  template <typename T>
+  bool IsPeak(const T* g, int k, int j, int32_t v) const;
+  template <typename T>
+  HorizontalPeak RefinedPeak(const T* g, int p, int k, int j, int32_t v) const;
   // Explain-away: keep the peaks whose curve still has min_votes unclaimed voters.
   struct VoterIndex;
   VoterIndex BucketVoters(const WholeImageResult& res) const;
-  void PeakSupport(const HorizontalPeak& pk, const WholeImageResult& res, const VoterIndex& index,
+  void PeakSupport(const HorizontalPeak& pk, const VoterIndex& index,
                    const std::vector<unsigned char>& claimed, std::vector<int>* support) const;
   void ExplainAway(WholeImageResult* result) const;
   void FindVerticalPeaks(WholeImageResult* res) const;
@@ -249,10 +275,12 @@ class PhWholeImage {
   int n_rows_padded_ = 0;  // theta rows of the working accumulator (n_theta)
   std::vector<Plane> planes_;
   std::vector<int32_t> int_table_;  // [plane][R row][sub step][m + M], 1/256 bin
-  // Per-pixel polar coordinates for the sensor's image size (R, theta in
-  // [0, 2 pi), cos, sin), used when the edge map has that size.
-  int polar_w_ = 0, polar_h_ = 0;
-  std::vector<float> polar_r_, polar_t_, polar_c_, polar_s_;
+  // The m range each (R row, gradient angle bin) votes for in each plane
+  // (lo > hi: none), planes innermost: one edge pixel reads one cache line.
+  struct VoteRange {
+    int16_t lo, hi;
+  };
+  std::vector<VoteRange> ranges_;  // [R row][phi bin][plane]
   size_t int_plane_size_ = 0;
 };
 
