@@ -580,8 +580,8 @@ std::vector<CornerView> VisibleCorners(const Sensor& sensor, const Map& map, con
     } else if (r > 0.0) {
       // The limb of a rig with faults is no circle: the pixel margin_px
       // further out must still see the mirror.
-      const Eigen::Vector2d out = sensor.from_polar(r + margin_px, az);
-      if (!sensor.backproject(out, &o, &d)) continue;
+      const Eigen::Vector2d further = sensor.from_polar(r + margin_px, az);
+      if (!sensor.backproject(further, &o, &d)) continue;
     }
     if (!sensor.backproject(px, &o, &d)) continue;
     const Eigen::Vector3d ow = world_from_sensor(pose, map.sensor_height, o);
