@@ -174,7 +174,8 @@ struct RigFlags {
                           "Lens distortion k1,k2[,p1,p2[,k3]] (Brown, on normalised image coordinates)")
               ->delimiter(',')
               ->expected(2, 5)
-              ->type_name("K1,K2[,P1,P2[,K3]]"),
+              ->type_name("K1,K2[,P1,P2[,K3]]")
+              ->default_str(""),
           AddNumberList(app, "--sensor-tilt", &sensor_tilt, 2, "ax,ay (degrees)",
                         "Rig fault: the mirror's axis tilted from the robot's vertical, about x then y (degrees)")})
       o->group("Rig faults");

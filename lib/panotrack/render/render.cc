@@ -110,15 +110,34 @@ RayTable::RayTable(const Sensor& sensor, int supersample, double camera_radius_p
   const SensorParams<double>& p = sensor.params;
   const bool aligned = sensor.aligned();
   const GeneralSensorParams<double> general = sensor.general();
+  // Quick-reject radius: the aligned limb, or for a rig with faults the
+  // mirror's edge found by bisection along 720 azimuths (it is no circle
+  // about (cx, cy) then), plus a margin.
+  double reject = limb;
+  if (!aligned) {
+    reject = 0.0;
+    const double far = 2.0 * limb + std::hypot(W, H);
+    for (int k = 0; k < 720; ++k) {
+      const double az = 2.0 * M_PI * k / 720.0;
+      double lo = 0.0, hi = far;
+      for (int it = 0; it < 40 && hi - lo > 0.01; ++it) {
+        const double mid = 0.5 * (lo + hi);
+        double o[3], d[3];
+        const Eigen::Vector2d px = sensor.from_polar(mid, az);
+        if (pano::backproject_general(general, px.x(), px.y(), o, d)) lo = mid; else hi = mid;
+      }
+      reject = std::max(reject, hi);
+    }
+    reject += 2.0;  // the edge between sampled azimuths
+  }
   std::vector<double> row_miss(static_cast<size_t>(H), 0.0);
   // Rows in parallel; an exception (memory) leaves the loop.
   ParallelFor(H, [&](int v) {
     std::vector<Ray>& row = rows[static_cast<size_t>(v)];
     for (int u = 0; u < W; ++u) {
-      // Quick reject: the pixel's nearest point is beyond the limb (the
-      // aligned limb; a rig with faults shifts and bends it).
+      // Quick reject: the pixel's nearest point is beyond the mirror's edge.
       const double du = u - p.cx, dv = (v - p.cy) / p.aspect;
-      if (aligned && std::hypot(du, dv) > limb + 2.0 / std::min(1.0, p.aspect)) continue;
+      if (std::hypot(du, dv) > reject + 2.0 / std::min(1.0, p.aspect)) continue;
       int n = 0;
       for (int j = 0; j < s; ++j) {
         for (int i = 0; i < s; ++i) {

@@ -58,8 +58,8 @@ void Sensor::Check(const std::string& what) const {
     if (!std::isfinite(v)) fail("faults", "not a finite number (NaN or infinity)");
   const double kMaxTilt = 0.5;  // radians: beyond it the model of a small fault no longer describes the rig
   for (int i = 0; i < 2; ++i) {
-    if (!(std::abs(f.camera_tilt[i]) <= kMaxTilt)) fail("camera_tilt", "expected angles within +-0.5 rad");
-    if (!(std::abs(f.sensor_tilt[i]) <= kMaxTilt)) fail("sensor_tilt", "expected angles within +-0.5 rad");
+    if (!(std::abs(f.camera_tilt[i]) <= kMaxTilt)) fail("camera_tilt", "expected angles within +-0.5 rad (28.6 degrees)");
+    if (!(std::abs(f.sensor_tilt[i]) <= kMaxTilt)) fail("sensor_tilt", "expected angles within +-0.5 rad (28.6 degrees)");
   }
   if (!(std::hypot(f.mirror_offset[0], f.mirror_offset[1]) < p.curvature_radius))
     fail("mirror_offset", "expected an offset smaller than the mirror's radius");
