@@ -4,6 +4,7 @@
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
+#include <type_traits>
 
 #include "panotrack/core/error.h"
 #include "panotrack/render/split_mix.h"
@@ -457,45 +458,53 @@ void Renderer::Accumulate(const Pose2& pose, double gain, const std::vector<Surf
   const bool generic = !f.generic.empty();
   const bool miss = table.max_axis_miss() > 0.0;
   const double H = sensor_height_;
-  // Rows in parallel; an exception leaves the loop.
-  ParallelFor(Hh, [&](int v) {
-    float* row = sum->ptr<float>(v);
-    for (int u = 0; u < W; ++u) {
-      const int b = starts[static_cast<size_t>(v) * W + u], e = starts[static_cast<size_t>(v) * W + u + 1];
-      if (b == e) continue;
-      float acc = 0.0f;
-      for (int k = b; k < e; ++k) {
-        const RayTable::Ray& ray = rays[static_cast<size_t>(k)];
-        TraceResult t = miss ? TraceRay<true>(f, f.cands, ray, options_.background)
-                             : TraceRay<false>(f, f.cands, ray, options_.background);
-        // The hit's horizontal offset across the ray's azimuth (0 when aligned).
-        const double ex = -ray.e * t.wy, ey = ray.e * t.wx;
-        if (generic) {
-          const Eigen::Vector3d o(pose.x + ray.ps * t.wx + ex, pose.y + ray.ps * t.wy + ey, H + ray.pz);
-          const Eigen::Vector3d d(ray.ds * t.wx, ray.ds * t.wy, ray.dz);
-          const double max_t = t.id >= 0 && ray.ds > 0 ? (t.r - ray.ps) / ray.ds : std::numeric_limits<double>::infinity();
-          const RayHit h = scene_.Intersect(o, d, max_t);
-          if (h.hit()) {
-            t.shade = h.shade;
-            t.id = h.surface;
-            t.r = ray.ps + h.t * ray.ds;
-            t.z = ray.pz + h.t * ray.dz;
+  // The loop compiled twice, for rays that miss the axis (a rig with faults)
+  // and for meridian rays, so that the aligned loop has no offset terms.
+  auto trace_rows = [&](auto miss_tag) {
+    constexpr bool kMiss = decltype(miss_tag)::value;
+    // Rows in parallel; an exception leaves the loop.
+    ParallelFor(Hh, [&](int v) {
+      float* row = sum->ptr<float>(v);
+      for (int u = 0; u < W; ++u) {
+        const int b = starts[static_cast<size_t>(v) * W + u], e = starts[static_cast<size_t>(v) * W + u + 1];
+        if (b == e) continue;
+        float acc = 0.0f;
+        for (int k = b; k < e; ++k) {
+          const RayTable::Ray& ray = rays[static_cast<size_t>(k)];
+          TraceResult t = TraceRay<kMiss>(f, f.cands, ray, options_.background);
+          // The hit's horizontal offset across the ray's azimuth (0 when aligned).
+          const double ex = kMiss ? -ray.e * t.wy : 0.0, ey = kMiss ? ray.e * t.wx : 0.0;
+          if (generic) {
+            const Eigen::Vector3d o(pose.x + ray.ps * t.wx + ex, pose.y + ray.ps * t.wy + ey, H + ray.pz);
+            const Eigen::Vector3d d(ray.ds * t.wx, ray.ds * t.wy, ray.dz);
+            const double max_t = t.id >= 0 && ray.ds > 0 ? (t.r - ray.ps) / ray.ds : std::numeric_limits<double>::infinity();
+            const RayHit h = scene_.Intersect(o, d, max_t);
+            if (h.hit()) {
+              t.shade = h.shade;
+              t.id = h.surface;
+              t.r = ray.ps + h.t * ray.ds;
+              t.z = ray.pz + h.t * ray.dz;
+            }
           }
+          double val = t.shade * f.gain;
+          if (gradient && t.id >= 0) {
+            const double x = pose.x + t.r * t.wx + ex, y = pose.y + t.r * t.wy + ey;
+            val *= std::max(0.0, 1.0 + f.gx * (x - f.cx) + f.gy * (y - f.cy));
+          }
+          if (texture && t.id >= 0) {
+            const Eigen::Vector3d w(pose.x + t.r * t.wx + ex, pose.y + t.r * t.wy + ey, H + t.z);
+            val *= 1.0 + options_.texture * SurfaceTexture(w, texture_wavelength_);
+          }
+          acc += static_cast<float>(std::clamp(val, 0.0, 1.0));
         }
-        double val = t.shade * f.gain;
-        if (gradient && t.id >= 0) {
-          const double x = pose.x + t.r * t.wx + ex, y = pose.y + t.r * t.wy + ey;
-          val *= std::max(0.0, 1.0 + f.gx * (x - f.cx) + f.gy * (y - f.cy));
-        }
-        if (texture && t.id >= 0) {
-          const Eigen::Vector3d w(pose.x + t.r * t.wx + ex, pose.y + t.r * t.wy + ey, H + t.z);
-          val *= 1.0 + options_.texture * SurfaceTexture(w, texture_wavelength_);
-        }
-        acc += static_cast<float>(std::clamp(val, 0.0, 1.0));
+        row[u] += 255.0f * acc * inv_n;
       }
-      row[u] += 255.0f * acc * inv_n;
-    }
-  });
+    });
+  };
+  if (miss)
+    trace_rows(std::true_type());
+  else
+    trace_rows(std::false_type());
 }
 
 cv::Mat Renderer::SurfaceIds(const Pose2& pose, const std::vector<Surface>& extra) const {
