@@ -158,6 +158,58 @@ struct RenderFlags {
   }
 };
 
+// Faults of a real rig (sensor/general_model.h) set on the sensor being
+// rendered; each replaces that fault of the preset or calibration file.
+struct RigFlags {
+  std::vector<double> decentre, camera_tilt, distortion, sensor_tilt;
+
+  void Add(CLI::App* app) {
+    for (CLI::Option* o :
+         {AddNumberList(app, "--decentre", &decentre, 2, "dx,dy (map units)",
+                        "Rig fault: the mirror's axis (a sphere's centre) off the pinhole by dx,dy in the mirror's "
+                        "frame (map units; paper-real: cm)"),
+          AddNumberList(app, "--camera-tilt", &camera_tilt, 2, "ax,ay (degrees)",
+                        "Rig fault: the camera turned relative to the mirror, about x then y (degrees)"),
+          app->add_option("--distortion", distortion,
+                          "Lens distortion k1,k2[,p1,p2[,k3]] (Brown, on normalised image coordinates)")
+              ->delimiter(',')
+              ->expected(2, 5)
+              ->type_name("K1,K2[,P1,P2[,K3]]")
+              ->default_str(""),
+          AddNumberList(app, "--sensor-tilt", &sensor_tilt, 2, "ax,ay (degrees)",
+                        "Rig fault: the mirror's axis tilted from the robot's vertical, about x then y (degrees)")})
+      o->group("Rig faults");
+  }
+  void Apply(pano::Sensor* s) const {
+    const double deg = M_PI / 180.0;
+    pano::RigFaults<double>& f = s->faults;
+    if (!decentre.empty()) {
+      f.mirror_offset[0] = decentre[0];
+      f.mirror_offset[1] = decentre[1];
+    }
+    if (!camera_tilt.empty()) {
+      f.camera_tilt[0] = camera_tilt[0] * deg;
+      f.camera_tilt[1] = camera_tilt[1] * deg;
+    }
+    if (!distortion.empty()) {
+      if (distortion.size() == 3)
+        throw pano::Error("--distortion: expected k1,k2 or k1,k2,p1,p2 or k1,k2,p1,p2,k3");
+      for (double v : distortion)
+        if (!std::isfinite(v)) throw pano::Error("--distortion: expected finite numbers");
+      s->params.k1 = distortion[0];
+      s->params.k2 = distortion[1];
+      f.p1 = distortion.size() >= 4 ? distortion[2] : 0.0;
+      f.p2 = distortion.size() >= 4 ? distortion[3] : 0.0;
+      f.k3 = distortion.size() == 5 ? distortion[4] : 0.0;
+    }
+    if (!sensor_tilt.empty()) {
+      f.sensor_tilt[0] = sensor_tilt[0] * deg;
+      f.sensor_tilt[1] = sensor_tilt[1] * deg;
+    }
+    s->Check("rig faults");
+  }
+};
+
 // Options not yet under a heading (but help) go under "Input".
 void GroupInputs(CLI::App* app) {
   for (CLI::Option* o : app->get_options({}))
@@ -182,6 +234,7 @@ struct StillArgs {
   std::vector<double> pose;
   int frame_index = 0;
   RenderFlags flags;
+  RigFlags rig;
   CommonFlags common;
 };
 
@@ -198,6 +251,7 @@ CLI::App* AddStill(CLI::App* app, StillArgs* a) {
   GroupInputs(still);
   a->common.Add(still, "Replace an existing output file");
   a->flags.Add(still, true);
+  a->rig.Add(still);
   return still;
 }
 
@@ -233,6 +287,7 @@ void RunStill(const StillArgs& a) {
   pano::RenderOptions ro;
   pano::CheckPlannedOutputs({{"--map", a.map_path}, {"--calib", a.calib_path}}, {{"-o", a.out}}, a.common.force);
   StillScene(a, &sensor, &map, &pose, &ro);
+  a.rig.Apply(&sensor);
   a.flags.Apply(&ro, true);
   ro.Check("options");
   pano::WritePng(a.out, pano::RenderStill(sensor, map, pose, ro));
@@ -244,6 +299,7 @@ struct SequenceArgs {
   bool frames = false, no_video = false;
   CLI::Option* o_fps = nullptr;
   RenderFlags flags;
+  RigFlags rig;
   CommonFlags common;
 };
 
@@ -271,6 +327,7 @@ CLI::App* AddSequence(CLI::App* app, SequenceArgs* a) {
   GroupInputs(seq);
   a->common.Add(seq, "Replace an existing output folder");
   a->flags.Add(seq, true, true);
+  a->rig.Add(seq);
   return seq;
 }
 
@@ -290,6 +347,7 @@ pano::SequenceCase SequenceCaseOf(const SequenceArgs& a) {
 
 void RunSequence(const SequenceArgs& a) {
   pano::SequenceCase c = SequenceCaseOf(a);
+  a.rig.Apply(&c.calib.sensor);
   a.flags.Apply(&c.options, true);
   c.options.Check("options");
   pano::SequenceWriteOptions wo;
@@ -304,13 +362,14 @@ void RunSequence(const SequenceArgs& a) {
 }
 
 struct TargetsArgs {
-  std::string calib_path, poses_path, out;
+  std::string calib_path, preset, poses_path, out;
   std::vector<double> board;
   int auto_n = 0;
   double charuco_marker = 0.0, min_visible = 1.0;  // ChArUco: marker side (0: chessboard)
   std::string dictionary = "DICT_4X4_50";
   CLI::Option *o_poses = nullptr, *o_auto = nullptr;
   RenderFlags flags;
+  RigFlags rig;
   CommonFlags common;
 };
 
@@ -320,8 +379,10 @@ CLI::App* AddTargets(CLI::App* app, TargetsArgs* a) {
       "Render chessboard calibration images into a folder. Writes DIR/cal_NNN.png, DIR/targets.yaml "
       "(known poses, spec section 6), DIR/targets_unknown.yaml (no poses), DIR/truth.yaml (the "
       "calibration used).");
-  tg->add_option("--calib", a->calib_path, "Calibration file of the sensor to render (YAML, spec section 3)")
-      ->required();
+  CLI::Option* o_calib =
+      tg->add_option("--calib", a->calib_path, "Calibration file of the sensor to render (YAML, spec section 3)");
+  tg->add_option("--preset", a->preset, "Render the sensor of this preset (e.g. faulty-rig) instead of --calib")
+      ->excludes(o_calib);
   AddNumberList(tg, "--board", &a->board, 3, "cols,rows,square",
                 "cols,rows,square: inner corners along x and y, square size (map units)")
       ->required();
@@ -349,6 +410,7 @@ CLI::App* AddTargets(CLI::App* app, TargetsArgs* a) {
   GroupInputs(tg);
   a->common.Add(tg, "Replace an existing output folder");
   a->flags.Add(tg, false);
+  a->rig.Add(tg);
   return tg;
 }
 
@@ -384,7 +446,9 @@ std::vector<pano::BoardPose> BoardPosesOf(const TargetsArgs& a, const pano::Sens
 }
 
 void RunTargets(const TargetsArgs& a) {
-  const pano::Calibration calib = pano::ReadCalibration(a.calib_path);
+  if (a.calib_path.empty() && a.preset.empty()) throw pano::Error("--calib: required (or give --preset)");
+  pano::Calibration calib = a.preset.empty() ? pano::ReadCalibration(a.calib_path) : pano::MakePreset(a.preset).calib;
+  a.rig.Apply(&calib.sensor);
   pano::TargetBoard board = BoardOf(a.board);
   if (a.charuco_marker != 0.0) {
     board.type = "charuco";

@@ -16,6 +16,7 @@ const char* const kKnownKeys[] = {"model", "units", "image_width", "image_height
                                   "cy", "aspect", "azimuth_offset", "k1", "k2", "rim_radius",
                                   "mirror_radius", "mirror_distance", "curvature_radius",
                                   "conic_constant", "vertex_distance", "lut",
+                                  "mirror_offset", "camera_tilt", "sensor_tilt", "p1", "p2", "k3",
                                   "images", "images_not_found", "images_used", "images_total",
                                   "software", "command_line"};
 
@@ -127,6 +128,20 @@ Calibration ParseCalibration(const std::string& path, const YAML::Node& n) {
     p.conic_constant = r.Double(n, "conic_constant", "conic_constant");
     p.vertex_distance = r.Double(n, "vertex_distance", "vertex_distance");
   }
+  // Faults of a real rig (all optional; absent: an aligned rig).
+  RigFaults<double>& f = s.faults;
+  auto pair = [&](const char* key, double* out) {
+    if (!r.Has(n, key)) return;
+    const std::array<double, 2> v = r.Vector<2>(n, key, key);
+    out[0] = v[0];
+    out[1] = v[1];
+  };
+  pair("mirror_offset", f.mirror_offset);
+  pair("camera_tilt", f.camera_tilt);
+  pair("sensor_tilt", f.sensor_tilt);
+  f.p1 = r.Double(n, "p1", "p1", 0.0);
+  f.p2 = r.Double(n, "p2", "p2", 0.0);
+  f.k3 = r.Double(n, "k3", "k3", 0.0);
   s.Check(path);
   if (r.Has(n, "lut")) {
     c.lut = r.String(n, "lut", "lut");
@@ -206,6 +221,23 @@ std::string CalibrationToYaml(const Calibration& c) {
     w.Key("k2").Double(p.k2);
   }
   if (p.rim_radius > 0.0) w.Key("rim_radius").Double(p.rim_radius);
+  // The faults of a real rig, only when present (an aligned rig's file is unchanged).
+  const RigFaults<double>& f = s.faults;
+  if (f.mirror_offset[0] != 0.0 || f.mirror_offset[1] != 0.0)
+    w.Key("mirror_offset").Numbers({f.mirror_offset[0], f.mirror_offset[1]});
+  if (f.camera_tilt[0] != 0.0 || f.camera_tilt[1] != 0.0)
+    w.Key("camera_tilt").Numbers({f.camera_tilt[0], f.camera_tilt[1]});
+  if (f.p1 != 0.0 || f.p2 != 0.0 || f.k3 != 0.0) {
+    if (p.k1 == 0.0 && p.k2 == 0.0) {
+      w.Key("k1").Double(p.k1);
+      w.Key("k2").Double(p.k2);
+    }
+    w.Key("p1").Double(f.p1);
+    w.Key("p2").Double(f.p2);
+    w.Key("k3").Double(f.k3);
+  }
+  if (f.sensor_tilt[0] != 0.0 || f.sensor_tilt[1] != 0.0)
+    w.Key("sensor_tilt").Numbers({f.sensor_tilt[0], f.sensor_tilt[1]});
   if (!c.lut.empty()) w.Key("lut").String(c.lut);
   for (const auto& kv : c.extras) w.Key(kv.first).Double(kv.second);
   WriteImageResults(c, &w);

@@ -402,6 +402,29 @@ SequenceCase LongRunBlur() {
   return c;
 }
 
+// The paper-real case seen through a rig built as real rigs are: the sphere's
+// centre 1.4 mm off the camera's axis, the camera tilted 0.6 degrees, lens
+// distortion k1 -0.03 k2 0.005, the mirror's axis 0.4 degrees off the
+// vertical; `scale` multiplies every fault. calib.yaml carries them.
+SequenceCase FaultyRig(double scale) {
+  SequenceCase c = PaperReal();
+  const bool twice = scale == 2.0;
+  c.name = twice ? "faulty-rig-2x" : "faulty-rig";
+  c.description = twice ? "faulty-rig with every fault doubled: sphere centre 2.8 mm off axis, camera tilted "
+                          "1.2 deg, k1 -0.06 k2 0.01, sensor tilted 0.8 deg"
+                        : "paper-real through an imperfect rig: sphere centre 1.4 mm off axis, camera tilted "
+                          "0.6 deg, k1 -0.03 k2 0.005, sensor tilted 0.4 deg";
+  Sensor& s = c.calib.sensor;
+  const double deg = M_PI / 180.0;
+  s.faults.mirror_offset[0] = 0.14 * scale;  // cm
+  s.faults.camera_tilt[0] = 0.6 * deg * scale;
+  s.params.k1 = -0.03 * scale;
+  s.params.k2 = 0.005 * scale;
+  s.faults.sensor_tilt[0] = 0.4 * deg * scale;
+  c.calib.comment = "The seed paper's real sensor with the faults of preset '" + c.name + "'.";
+  return c;
+}
+
 }  // namespace
 
 Calibration PaperRealCalibration() {
@@ -418,7 +441,8 @@ Calibration PaperSyntheticCalibration() {
 
 std::vector<std::string> PresetNames() {
   return {"paper-synthetic", "paper-real",      "cluttered", "kidnap",       "fast-turns",
-          "motion-blur",     "real-conditions", "long-run",  "long-run-blur"};
+          "motion-blur",     "real-conditions", "long-run",  "long-run-blur",
+          "faulty-rig",      "faulty-rig-2x"};
 }
 
 SequenceCase MakePreset(const std::string& name) {
@@ -432,6 +456,8 @@ SequenceCase MakePreset(const std::string& name) {
   else if (name == "real-conditions") c = RealConditions();
   else if (name == "long-run") c = LongRun();
   else if (name == "long-run-blur") c = LongRunBlur();
+  else if (name == "faulty-rig") c = FaultyRig(1.0);
+  else if (name == "faulty-rig-2x") c = FaultyRig(2.0);
   else {
     std::string list;
     for (const std::string& n : PresetNames()) list += (list.empty() ? "" : ", ") + n;

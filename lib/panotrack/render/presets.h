@@ -24,7 +24,8 @@ struct SequenceCase {
 };
 
 // Names of the built-in presets: paper-synthetic, paper-real, cluttered, kidnap,
-// fast-turns, motion-blur, real-conditions, long-run, long-run-blur.
+// fast-turns, motion-blur, real-conditions, long-run, long-run-blur, faulty-rig,
+// faulty-rig-2x.
 std::vector<std::string> PresetNames();
 // Throws pano::Error "preset 'x': unknown (expected one of ...)".
 SequenceCase MakePreset(const std::string& name);

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
+#include <type_traits>
 
 #include "panotrack/core/error.h"
 #include "panotrack/render/split_mix.h"
@@ -108,13 +109,36 @@ RayTable::RayTable(const Sensor& sensor, int supersample, double camera_radius_p
   std::vector<std::vector<Ray>> rows(static_cast<size_t>(H));
   std::vector<int> counts(static_cast<size_t>(W) * H, 0);
   const SensorParams<double>& p = sensor.params;
+  const bool aligned = sensor.aligned();
+  const GeneralSensorParams<double> general = sensor.general();
+  // Quick-reject radius: the aligned limb, or for a rig with faults the
+  // mirror's edge found by bisection along 720 azimuths (it is no circle
+  // about (cx, cy) then), plus a margin.
+  double reject = limb;
+  if (!aligned) {
+    reject = 0.0;
+    const double far = 2.0 * limb + std::hypot(W, H);
+    for (int k = 0; k < 720; ++k) {
+      const double az = 2.0 * M_PI * k / 720.0;
+      double lo = 0.0, hi = far;
+      for (int it = 0; it < 40 && hi - lo > 0.01; ++it) {
+        const double mid = 0.5 * (lo + hi);
+        double o[3], d[3];
+        const Eigen::Vector2d px = sensor.from_polar(mid, az);
+        if (pano::backproject_general(general, px.x(), px.y(), o, d)) lo = mid; else hi = mid;
+      }
+      reject = std::max(reject, hi);
+    }
+    reject += 2.0;  // the edge between sampled azimuths
+  }
+  std::vector<double> row_miss(static_cast<size_t>(H), 0.0);
   // Rows in parallel; an exception (memory) leaves the loop.
   ParallelFor(H, [&](int v) {
     std::vector<Ray>& row = rows[static_cast<size_t>(v)];
     for (int u = 0; u < W; ++u) {
-      // Quick reject: the pixel's nearest point is beyond the limb.
+      // Quick reject: the pixel's nearest point is beyond the mirror's edge.
       const double du = u - p.cx, dv = (v - p.cy) / p.aspect;
-      if (std::hypot(du, dv) > limb + 2.0 / std::min(1.0, p.aspect)) continue;
+      if (std::hypot(du, dv) > reject + 2.0 / std::min(1.0, p.aspect)) continue;
       int n = 0;
       for (int j = 0; j < s; ++j) {
         for (int i = 0; i < s; ++i) {
@@ -122,11 +146,15 @@ RayTable::RayTable(const Sensor& sensor, int supersample, double camera_radius_p
           const double r = std::hypot(su - p.cx, (sv - p.cy) / p.aspect);
           if (r < camera_radius_px) continue;
           double o[3], d[3];
-          if (!pano::backproject(p, su, sv, o, d)) continue;
+          if (aligned ? !pano::backproject(p, su, sv, o, d) : !pano::backproject_general(general, su, sv, o, d))
+            continue;
           const double hd = std::hypot(d[0], d[1]);
           const double phi = hd > 0.0 ? std::atan2(d[1], d[0]) : std::atan2(o[1], o[0]);
           const double c = std::cos(phi), sn = std::sin(phi);
           Ray ray;
+          // Aligned: exactly 0 (the ray lies in its meridian plane).
+          ray.e = aligned ? 0.0f : static_cast<float>(o[1] * c - o[0] * sn);
+          row_miss[static_cast<size_t>(v)] = std::max(row_miss[static_cast<size_t>(v)], std::abs(static_cast<double>(ray.e)));
           ray.phi = static_cast<float>(phi);
           ray.c = static_cast<float>(c);
           ray.s = static_cast<float>(sn);
@@ -141,6 +169,7 @@ RayTable::RayTable(const Sensor& sensor, int supersample, double camera_radius_p
       counts[static_cast<size_t>(v) * W + u] = n;
     }
   });
+  for (double m : row_miss) max_axis_miss_ = std::max(max_axis_miss_, m);
   size_t total = 0;
   for (const auto& r : rows) total += r.size();
   rays_.reserve(total);
@@ -191,6 +220,7 @@ Renderer::Renderer(const Sensor& sensor, const Scene& scene, double sensor_heigh
       options_(options),
       table_(Checked(sensor, options), options.supersample, options.camera_radius_px),
       centre_table_(sensor, 1, options.camera_radius_px) {
+  axis_miss_ = std::max(table_.max_axis_miss(), centre_table_.max_axis_miss());
   const Eigen::Vector3d extent = scene.max() - scene.min();
   texture_wavelength_ = std::max(1e-6, 0.06 * std::max(extent.x(), extent.y()));
 }
@@ -214,6 +244,15 @@ void Renderer::BuildFrame(const Pose2& pose, const std::vector<Surface>& extra, 
     const long last = static_cast<long>(std::floor((a0 + width) * to_bin)) + 1;
     for (long b = first; b <= last && b - first < kBins; ++b)
       bins[static_cast<size_t>(((b % kBins) + kBins) % kBins)].push_back(item);
+  };
+  // Rays that miss the axis by up to axis_miss_ (a rig with faults) meet a
+  // surface at least `distance` away within asin(axis_miss_ / distance) of
+  // their own azimuth: widen its interval by that (all bins when too near).
+  auto mark_widened = [&](double a_start, double width, double distance, int item) {
+    if (axis_miss_ <= 0.0) return mark(a_start, width, item);
+    if (!(distance > axis_miss_ * 1.01)) return mark(0.0, 2.0 * M_PI, item);
+    const double margin = std::asin(axis_miss_ / distance) + 1e-6;
+    mark(a_start - margin, width + 2.0 * margin, item);
   };
   // Angular interval [start, start + width] covering 2D points seen from P.
   auto interval = [&](const std::vector<Eigen::Vector2d>& pts, double* start, double* width) {
@@ -259,7 +298,7 @@ void Renderer::BuildFrame(const Pose2& pose, const std::vector<Surface>& extra, 
       double st, w;
       interval({corner, corner + e}, &st, &w);
       f->cands.push_back(c);
-      mark(st, w, static_cast<int>(f->cands.size()) - 1);
+      mark_widened(st, w, SegmentDistance(P, corner, corner + e), static_cast<int>(f->cands.size()) - 1);
     } else if (a_flat && b_flat) {
       c.type = 1;
       const Eigen::Vector2d ea = s.edge_a.head<2>(), eb = s.edge_b.head<2>();
@@ -282,7 +321,10 @@ void Renderer::BuildFrame(const Pose2& pose, const std::vector<Surface>& extra, 
       } else {
         double st, w;
         interval({corner, corner + ea, corner + eb, corner + ea + eb}, &st, &w);
-        mark(st, w, item);
+        const double distance = std::min({SegmentDistance(P, corner, corner + ea), SegmentDistance(P, corner, corner + eb),
+                                          SegmentDistance(P, corner + ea, corner + ea + eb),
+                                          SegmentDistance(P, corner + eb, corner + ea + eb)});
+        mark_widened(st, w, distance, item);
       }
     } else {
       if (i >= n_scene) throw Error("renderer: extra surface '" + s.name + "' is neither vertical nor horizontal");
@@ -321,7 +363,9 @@ struct TraceResult {
   double z;  // height of the hit relative to the pinhole
 };
 
-template <typename Frame, typename Cand, typename Ray>
+// kMiss: the ray may miss the axis (ray.e != 0, a rig with faults); the
+// aligned case compiles without those terms.
+template <bool kMiss, typename Frame, typename Cand, typename Ray>
 inline TraceResult TraceRay(const Frame& f, const std::vector<Cand>& cands, const Ray& ray,
                             double background) {
   const double c = ray.c, s = ray.s;
@@ -339,10 +383,11 @@ inline TraceResult TraceRay(const Frame& f, const std::vector<Cand>& cands, cons
     const Cand& q = cands[static_cast<size_t>(*it)];
     if (q.type == 0) {
       const double cw = wx * q.e1 - wy * q.e0;
-      const double r = q.h / cw;
+      // The ray P + e (-wy, wx) + r (wx, wy) meets the wall's line A + lam E.
+      const double r = kMiss ? (q.h + ray.e * (wx * q.e0 + wy * q.e1)) / cw : q.h / cw;
       const double key = r + q.bias;
       if (!(r > ps) || !(key < best)) continue;
-      const double lam = (q.a0 * wy - q.a1 * wx) / cw;
+      const double lam = kMiss ? (q.a0 * wy - q.a1 * wx + ray.e) / cw : (q.a0 * wy - q.a1 * wx) / cw;
       if (lam < 0.0 || lam > 1.0) continue;
       const double z = pz + (r - ps) * kz;
       if (!(z >= q.zlo && z <= q.zhi)) continue;
@@ -357,7 +402,11 @@ inline TraceResult TraceRay(const Frame& f, const std::vector<Cand>& cands, cons
       const double r = ps + dzr * ds / dz;
       const double key = r + q.bias;
       if (!(key < best)) continue;
-      const double x = r * wx - q.a0, y = r * wy - q.a1;
+      double x = r * wx - q.a0, y = r * wy - q.a1;
+      if (kMiss) {
+        x -= ray.e * wy;
+        y += ray.e * wx;
+      }
       const double al = q.e0 * x + q.e1 * y, be = q.u0 * x + q.u1 * y;
       if (al < 0.0 || al > 1.0 || be < 0.0 || be > 1.0) continue;
       best = key;
@@ -407,43 +456,55 @@ void Renderer::Accumulate(const Pose2& pose, double gain, const std::vector<Surf
   const bool gradient = options_.gradient > 0.0;
   const bool texture = options_.texture > 0.0;
   const bool generic = !f.generic.empty();
+  const bool miss = table.max_axis_miss() > 0.0;
   const double H = sensor_height_;
-  // Rows in parallel; an exception leaves the loop.
-  ParallelFor(Hh, [&](int v) {
-    float* row = sum->ptr<float>(v);
-    for (int u = 0; u < W; ++u) {
-      const int b = starts[static_cast<size_t>(v) * W + u], e = starts[static_cast<size_t>(v) * W + u + 1];
-      if (b == e) continue;
-      float acc = 0.0f;
-      for (int k = b; k < e; ++k) {
-        const RayTable::Ray& ray = rays[static_cast<size_t>(k)];
-        TraceResult t = TraceRay(f, f.cands, ray, options_.background);
-        if (generic) {
-          const Eigen::Vector3d o(pose.x + ray.ps * t.wx, pose.y + ray.ps * t.wy, H + ray.pz);
-          const Eigen::Vector3d d(ray.ds * t.wx, ray.ds * t.wy, ray.dz);
-          const double max_t = t.id >= 0 && ray.ds > 0 ? (t.r - ray.ps) / ray.ds : std::numeric_limits<double>::infinity();
-          const RayHit h = scene_.Intersect(o, d, max_t);
-          if (h.hit()) {
-            t.shade = h.shade;
-            t.id = h.surface;
-            t.r = ray.ps + h.t * ray.ds;
-            t.z = ray.pz + h.t * ray.dz;
+  // The loop compiled twice, for rays that miss the axis (a rig with faults)
+  // and for meridian rays, so that the aligned loop has no offset terms.
+  auto trace_rows = [&](auto miss_tag) {
+    constexpr bool kMiss = decltype(miss_tag)::value;
+    // Rows in parallel; an exception leaves the loop.
+    ParallelFor(Hh, [&](int v) {
+      float* row = sum->ptr<float>(v);
+      for (int u = 0; u < W; ++u) {
+        const int b = starts[static_cast<size_t>(v) * W + u], e = starts[static_cast<size_t>(v) * W + u + 1];
+        if (b == e) continue;
+        float acc = 0.0f;
+        for (int k = b; k < e; ++k) {
+          const RayTable::Ray& ray = rays[static_cast<size_t>(k)];
+          TraceResult t = TraceRay<kMiss>(f, f.cands, ray, options_.background);
+          // The hit's horizontal offset across the ray's azimuth (0 when aligned).
+          const double ex = kMiss ? -ray.e * t.wy : 0.0, ey = kMiss ? ray.e * t.wx : 0.0;
+          if (generic) {
+            const Eigen::Vector3d o(pose.x + ray.ps * t.wx + ex, pose.y + ray.ps * t.wy + ey, H + ray.pz);
+            const Eigen::Vector3d d(ray.ds * t.wx, ray.ds * t.wy, ray.dz);
+            const double max_t = t.id >= 0 && ray.ds > 0 ? (t.r - ray.ps) / ray.ds : std::numeric_limits<double>::infinity();
+            const RayHit h = scene_.Intersect(o, d, max_t);
+            if (h.hit()) {
+              t.shade = h.shade;
+              t.id = h.surface;
+              t.r = ray.ps + h.t * ray.ds;
+              t.z = ray.pz + h.t * ray.dz;
+            }
           }
+          double val = t.shade * f.gain;
+          if (gradient && t.id >= 0) {
+            const double x = pose.x + t.r * t.wx + ex, y = pose.y + t.r * t.wy + ey;
+            val *= std::max(0.0, 1.0 + f.gx * (x - f.cx) + f.gy * (y - f.cy));
+          }
+          if (texture && t.id >= 0) {
+            const Eigen::Vector3d w(pose.x + t.r * t.wx + ex, pose.y + t.r * t.wy + ey, H + t.z);
+            val *= 1.0 + options_.texture * SurfaceTexture(w, texture_wavelength_);
+          }
+          acc += static_cast<float>(std::clamp(val, 0.0, 1.0));
         }
-        double val = t.shade * f.gain;
-        if (gradient && t.id >= 0) {
-          const double x = pose.x + t.r * t.wx, y = pose.y + t.r * t.wy;
-          val *= std::max(0.0, 1.0 + f.gx * (x - f.cx) + f.gy * (y - f.cy));
-        }
-        if (texture && t.id >= 0) {
-          const Eigen::Vector3d w(pose.x + t.r * t.wx, pose.y + t.r * t.wy, H + t.z);
-          val *= 1.0 + options_.texture * SurfaceTexture(w, texture_wavelength_);
-        }
-        acc += static_cast<float>(std::clamp(val, 0.0, 1.0));
+        row[u] += 255.0f * acc * inv_n;
       }
-      row[u] += 255.0f * acc * inv_n;
-    }
-  });
+    });
+  };
+  if (miss)
+    trace_rows(std::true_type());
+  else
+    trace_rows(std::false_type());
 }
 
 cv::Mat Renderer::SurfaceIds(const Pose2& pose, const std::vector<Surface>& extra) const {
@@ -454,14 +515,17 @@ cv::Mat Renderer::SurfaceIds(const Pose2& pose, const std::vector<Surface>& extr
   cv::Mat ids(Hh, W, CV_32SC1, cv::Scalar(-1));
   const auto& rays = centre_table_.rays();
   const auto& starts = centre_table_.starts();
+  const bool miss = centre_table_.max_axis_miss() > 0.0;
   for (int v = 0; v < Hh; ++v) {
     for (int u = 0; u < W; ++u) {
       const int b = starts[static_cast<size_t>(v) * W + u], e = starts[static_cast<size_t>(v) * W + u + 1];
       if (b == e) continue;
       const RayTable::Ray& ray = rays[static_cast<size_t>(b)];
-      TraceResult t = TraceRay(f, f.cands, ray, options_.background);
+      TraceResult t = miss ? TraceRay<true>(f, f.cands, ray, options_.background)
+                           : TraceRay<false>(f, f.cands, ray, options_.background);
       if (!f.generic.empty()) {
-        const Eigen::Vector3d o(pose.x + ray.ps * t.wx, pose.y + ray.ps * t.wy, sensor_height_ + ray.pz);
+        const Eigen::Vector3d o(pose.x + ray.ps * t.wx - ray.e * t.wy, pose.y + ray.ps * t.wy + ray.e * t.wx,
+                                sensor_height_ + ray.pz);
         const Eigen::Vector3d d(ray.ds * t.wx, ray.ds * t.wy, ray.dz);
         const double max_t = t.id >= 0 && ray.ds > 0 ? (t.r - ray.ps) / ray.ds : std::numeric_limits<double>::infinity();
         const RayHit h = scene_.Intersect(o, d, max_t);
@@ -538,8 +602,15 @@ std::vector<CornerView> VisibleCorners(const Sensor& sensor, const Map& map, con
     if (!sensor.project(ps, &px) || !sensor.inside_image(px, margin_px)) continue;
     double r, az;
     sensor.to_polar(px.x(), px.y(), &r, &az);
-    if (r > limb - margin_px) continue;
     Eigen::Vector3d o, d;
+    if (sensor.aligned()) {
+      if (r > limb - margin_px) continue;
+    } else if (r > 0.0) {
+      // The limb of a rig with faults is no circle: the pixel margin_px
+      // further out must still see the mirror.
+      const Eigen::Vector2d further = sensor.from_polar(r + margin_px, az);
+      if (!sensor.backproject(further, &o, &d)) continue;
+    }
     if (!sensor.backproject(px, &o, &d)) continue;
     const Eigen::Vector3d ow = world_from_sensor(pose, map.sensor_height, o);
     if (scene.Occluded(ow, c.world, 1e-6 + 1e-9 * (c.world - ow).norm())) continue;

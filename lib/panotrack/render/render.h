@@ -1,6 +1,7 @@
 // panosim's ray tracer: for each pixel (s x s subsamples) the camera ray, its
-// reflection in the mirror (pano::backproject, closed form) and the first
-// scene surface it meets. Pixels that miss the mirror are black.
+// reflection in the mirror (Sensor::backproject, closed form; the general
+// model of sensor/general_model.h for a rig with faults) and the first scene
+// surface it meets. Pixels that miss the mirror are black.
 //
 // Intensity: value = 255 * clamp(shade * illumination), then optional 3 x 3
 // box blur (optics), Gaussian noise (sensor) and rounding to 8 bits.
@@ -54,20 +55,26 @@ void CheckPose(const Map& map, const Pose2& pose, const std::string& what,
 class RayTable {
  public:
   RayTable(const Sensor& sensor, int supersample, double camera_radius_px = 0.0);
-  struct Ray {  // meridian form: origin (ps cos phi, ps sin phi, pz), direction (ds cos phi, ds sin phi, dz)
-    float phi, c, s, ps, pz, ds, dz;
+  // Direction azimuth phi (c, s = its cosine and sine); origin
+  // (ps c - e s, ps s + e c, pz), direction (ds c, ds s, dz). e, the ray's
+  // horizontal miss of the axis, is 0 for an aligned sensor (meridian rays).
+  struct Ray {
+    float phi, c, s, ps, pz, ds, dz, e;
   };
   const Sensor& sensor() const { return sensor_; }
   int supersample() const { return ss_; }
   // Rays of pixel (u, v): rays()[start(u, v) .. start(u, v + 1)).
   const std::vector<Ray>& rays() const { return rays_; }
   const std::vector<int>& starts() const { return starts_; }  // width * height + 1 entries
+  // Largest |e| over the rays: 0 for an aligned sensor.
+  double max_axis_miss() const { return max_axis_miss_; }
 
  private:
   Sensor sensor_;
   int ss_;
   std::vector<Ray> rays_;
   std::vector<int> starts_;
+  double max_axis_miss_ = 0.0;
 };
 
 // World-fixed texture pattern t(p) in [-1, 1]: a few sines of the world point
@@ -107,6 +114,7 @@ class Renderer {
   RenderOptions options_;
   RayTable table_;
   RayTable centre_table_;  // one ray per pixel, for SurfaceIds and fast sub-frames
+  double axis_miss_ = 0.0;  // largest |e| of both tables: widens the azimuth bins' candidate lists
   double texture_wavelength_ = 1.0;
 };
 

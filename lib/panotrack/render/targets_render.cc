@@ -198,7 +198,7 @@ cv::Mat RenderBoard(const RayTable& table, const TargetBoard& board, const Board
       float sum = 0.0f;
       for (int k = b; k < e; ++k) {
         const RayTable::Ray& r = rays[static_cast<size_t>(k)];
-        const Eigen::Vector3d o(r.ps * r.c, r.ps * r.s, r.pz), d(r.ds * r.c, r.ds * r.s, r.dz);
+        const Eigen::Vector3d o(r.ps * r.c - r.e * r.s, r.ps * r.s + r.e * r.c, r.pz), d(r.ds * r.c, r.ds * r.s, r.dz);
         double shade = bg;
         const double den = n.dot(d);
         if (den != 0.0) {

@@ -51,6 +51,18 @@ void Sensor::Check(const std::string& what) const {
          model == MirrorModel::kSphere
              ? "expected mirror_distance > mirror_radius (the mirror must not reach the pinhole)"
              : "expected the mirror's vertex above the pinhole");
+  const RigFaults<double>& f = faults;
+  const double fault_vals[] = {f.mirror_offset[0], f.mirror_offset[1], f.camera_tilt[0], f.camera_tilt[1],
+                               f.p1, f.p2, f.k3, f.sensor_tilt[0], f.sensor_tilt[1]};
+  for (double v : fault_vals)
+    if (!std::isfinite(v)) fail("faults", "not a finite number (NaN or infinity)");
+  const double kMaxTilt = 0.5;  // radians: beyond it the model of a small fault no longer describes the rig
+  for (int i = 0; i < 2; ++i) {
+    if (!(std::abs(f.camera_tilt[i]) <= kMaxTilt)) fail("camera_tilt", "expected angles within +-0.5 rad (28.6 degrees)");
+    if (!(std::abs(f.sensor_tilt[i]) <= kMaxTilt)) fail("sensor_tilt", "expected angles within +-0.5 rad (28.6 degrees)");
+  }
+  if (!(std::hypot(f.mirror_offset[0], f.mirror_offset[1]) < p.curvature_radius))
+    fail("mirror_offset", "expected an offset smaller than the mirror's radius");
   if (p.rim_radius < 0.0) fail("rim_radius", "expected a non-negative rim radius");
   const double m_max = max_normalized_radius(p);
   if (!std::isfinite(m_max) || !(m_max > 0.0))
@@ -59,14 +71,19 @@ void Sensor::Check(const std::string& what) const {
 
 bool Sensor::project(const Eigen::Vector3d& ps, Eigen::Vector2d* pixel) const {
   double u, v;
-  if (!pano::project(params, ps.data(), &u, &v)) return false;
+  if (aligned()) {
+    if (!pano::project(params, ps.data(), &u, &v)) return false;
+  } else if (!pano::project_general(general(), ps.data(), &u, &v)) {
+    return false;
+  }
   *pixel = {u, v};
   return true;
 }
 
 bool Sensor::backproject(const Eigen::Vector2d& pixel, Eigen::Vector3d* origin,
                          Eigen::Vector3d* direction) const {
-  return pano::backproject(params, pixel.x(), pixel.y(), origin->data(), direction->data());
+  if (aligned()) return pano::backproject(params, pixel.x(), pixel.y(), origin->data(), direction->data());
+  return pano::backproject_general(general(), pixel.x(), pixel.y(), origin->data(), direction->data());
 }
 
 bool Sensor::image_radius(double D, double Z, double* radius) const {

@@ -7,6 +7,7 @@
 
 #include "panotrack/core/angles.h"
 #include "panotrack/sensor/catadioptric.h"
+#include "panotrack/sensor/general_model.h"
 
 namespace pano {
 
@@ -35,6 +36,14 @@ struct Sensor {
   int image_width = 0;
   int image_height = 0;
   SensorParams<double> params;
+  // Faults of a real rig (general_model.h); all zero for an aligned one.
+  // project and backproject account for them; the meridian helpers
+  // (image_radius, inverse_image_radius, limb_radius, polar forms) describe
+  // the aligned model only.
+  RigFaults<double> faults;
+
+  bool aligned() const { return faults.IsZero(); }
+  GeneralSensorParams<double> general() const { return {params, faults}; }
 
   // The sphere's own parameters (spec section 2), valid for kSphere.
   double mirror_radius() const { return params.curvature_radius; }
