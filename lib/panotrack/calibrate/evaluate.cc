@@ -177,7 +177,9 @@ EvaluationResult EvaluateCalibration(const TargetSet& targets, const std::vector
                 ", the calibration's " + std::to_string(sensor.image_width) + "x" +
                 std::to_string(sensor.image_height));
   if (det.views.empty())
-    throw Error("no board found in any of the " + std::to_string(targets.images.size()) + " images");
+    throw Error(targets.images.size() == 1
+                    ? std::string("no board found in the image")
+                    : "no board found in any of the " + std::to_string(targets.images.size()) + " images");
 
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<BoardView> views = det.views;
