@@ -6,15 +6,32 @@
 // and prints each one's Euclidean RMS reprojection error over all corners
 // (rigid board poses), plus the full `Calibrate` pipeline (with the unwarped
 // retry of images without a board) and its time.
+//
+// Then a 5-fold cross-validation on the same corners: each model is fitted to
+// 4/5 of the boards, only the held-out boards' poses are fitted through it
+// (panotrack: FitBoardPose, the pose fit of `panocalib evaluate`; omnidir: a
+// Ceres pose fit through Mei's projection, scored by cv::omnidir::projectPoints)
+// and the held-out corners are scored (Euclidean RMS in pixels).
+//   calibrate_compare TARGETS.yaml [--cv-only]
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+
+#include <Eigen/Dense>
+#include <Eigen/Geometry>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/ccalib/omnidir.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <exception>
+#include <string>
 
 #include "panotrack/calibrate/calibrate.h"
+#include "panotrack/calibrate/evaluate.h"
+#include "panotrack/calibrate/internal.h"
 #include "panotrack/calibrate/omnidir_peer.h"
 #include "panotrack/io/targets.h"
 
@@ -38,13 +55,336 @@ double OmnidirRms(const std::vector<pano::BoardView>& views, const pano::TargetB
   return f.rms_px;
 }
 
+
+// Mei's unified projection as cv::omnidir::projectPoints computes it: the
+// point on the unit sphere, shifted by xi, k1 k2 p1 p2 distortion, the camera
+// matrix with skew.
+struct OmnidirIntrinsics {
+  double fx, fy, s, cx, cy, xi, k1, k2, p1, p2;
+  explicit OmnidirIntrinsics(const pano::OmnidirFit& f)
+      : fx(f.K.at<double>(0, 0)), fy(f.K.at<double>(1, 1)), s(f.K.at<double>(0, 1)), cx(f.K.at<double>(0, 2)),
+        cy(f.K.at<double>(1, 2)), xi(f.xi.at<double>(0)), k1(f.D.at<double>(0)), k2(f.D.at<double>(1)),
+        p1(f.D.at<double>(2)), p2(f.D.at<double>(3)) {}
+};
+
+struct OmnidirCornerCost {
+  OmnidirCornerCost(const OmnidirIntrinsics& k, const Eigen::Vector3d& X, const Eigen::Vector2d& obs)
+      : k(k), X(X), obs(obs) {}
+  template <typename T>
+  bool operator()(const T* pose, T* r) const {
+    const T Xb[3] = {T(X.x()), T(X.y()), T(X.z())};
+    T Xc[3];
+    ceres::AngleAxisRotatePoint(pose, Xb, Xc);
+    for (int i = 0; i < 3; ++i) Xc[i] += pose[3 + i];
+    const T n = ceres::sqrt(Xc[0] * Xc[0] + Xc[1] * Xc[1] + Xc[2] * Xc[2]);
+    const T zs = Xc[2] / n + T(k.xi);
+    const T x = Xc[0] / n / zs, y = Xc[1] / n / zs;
+    const T r2 = x * x + y * y, r4 = r2 * r2;
+    const T radial = T(1) + T(k.k1) * r2 + T(k.k2) * r4;
+    const T xd = x * radial + T(2 * k.p1) * x * y + T(k.p2) * (r2 + T(2) * x * x);
+    const T yd = y * radial + T(k.p1) * (r2 + T(2) * y * y) + T(2 * k.p2) * x * y;
+    r[0] = T(k.fx) * xd + T(k.s) * yd + T(k.cx) - T(obs.x());
+    r[1] = T(k.fy) * yd + T(k.cy) - T(obs.y());
+    return true;
+  }
+  OmnidirIntrinsics k;
+  Eigen::Vector3d X;
+  Eigen::Vector2d obs;
+};
+
+// The unit ray of a pixel through Mei's model (distortion undone by
+// fixed-point iteration, then lifted onto the sphere).
+Eigen::Vector3d OmnidirRay(const OmnidirIntrinsics& k, const Eigen::Vector2d& px) {
+  const double yd = (px.y() - k.cy) / k.fy, xd = (px.x() - k.cx - k.s * yd) / k.fx;
+  double x = xd, y = yd;
+  for (int i = 0; i < 50; ++i) {
+    const double r2 = x * x + y * y, radial = 1 + k.k1 * r2 + k.k2 * r2 * r2;
+    const double dx = 2 * k.p1 * x * y + k.p2 * (r2 + 2 * x * x), dy = k.p1 * (r2 + 2 * y * y) + 2 * k.p2 * x * y;
+    x = (xd - dx) / radial;
+    y = (yd - dy) / radial;
+  }
+  const double r2 = x * x + y * y;
+  const double lambda = (k.xi + std::sqrt(1 + (1 - k.xi * k.xi) * r2)) / (1 + r2);
+  return Eigen::Vector3d(lambda * x, lambda * y, lambda - k.xi).normalized();
+}
+
+// A held-out board's pose through fixed omnidir intrinsics: a homography from
+// the corners' rays (DLT: ray x H [X Y 1] = 0), then Ceres on the pixel
+// error (least squares, omnidir's own objective). Adds the squared errors
+// of its corners (cv::omnidir::projectPoints) to *s2 and their count to *n.
+bool OmnidirHeldOut(const pano::OmnidirFit& f, const pano::BoardView& v, const std::vector<Eigen::Vector3d>& pts,
+                    double* s2, size_t* n) {
+  const OmnidirIntrinsics k(f);
+  const int m = static_cast<int>(v.corners.size());
+  Eigen::MatrixXd A(2 * m, 9);
+  for (int j = 0; j < m; ++j) {
+    const Eigen::Vector3d b = OmnidirRay(k, v.corners[j]);
+    const Eigen::Vector3d p(pts[v.PointId(j)].x(), pts[v.PointId(j)].y(), 1.0);
+    // Rows of [b]_x (I kron p^T): b x (H p) = 0, two independent rows.
+    A.row(2 * j) << 0, 0, 0, -b.z() * p.transpose(), b.y() * p.transpose();
+    A.row(2 * j + 1) << b.z() * p.transpose(), 0, 0, 0, -b.x() * p.transpose();
+  }
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeFullV);
+  const Eigen::VectorXd h = svd.matrixV().col(8);
+  Eigen::Matrix3d H;
+  H << h(0), h(1), h(2), h(3), h(4), h(5), h(6), h(7), h(8);
+  double scale = 2.0 / (H.col(0).norm() + H.col(1).norm());
+  // In front of the camera along the rays.
+  const Eigen::Vector3d p0(pts[v.PointId(0)].x(), pts[v.PointId(0)].y(), 1.0);
+  if (OmnidirRay(k, v.corners[0]).dot(H * p0) < 0) scale = -scale;
+  Eigen::Matrix3d M;
+  M.col(0) = scale * H.col(0);
+  M.col(1) = scale * H.col(1);
+  M.col(2) = M.col(0).cross(M.col(1));
+  Eigen::JacobiSVD<Eigen::Matrix3d> rs(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d R = rs.matrixU() * rs.matrixV().transpose();
+  if (R.determinant() < 0) R = -R;
+  const Eigen::AngleAxisd aa(R);
+  double pose[6];
+  for (int i = 0; i < 3; ++i) pose[i] = aa.angle() * aa.axis()(i);
+  for (int i = 0; i < 3; ++i) pose[3 + i] = scale * H(i, 2);
+  ceres::Problem problem;
+  for (int j = 0; j < m; ++j)
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<OmnidirCornerCost, 2, 6>(
+                                 new OmnidirCornerCost(k, pts[v.PointId(j)], v.corners[j])),
+                             nullptr, pose);
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.max_num_iterations = 200;
+  so.logging_type = ceres::SILENT;
+  ceres::Solver::Summary sum;
+  ceres::Solve(so, &problem, &sum);
+  if (sum.termination_type == ceres::FAILURE) return false;
+  cv::Mat obj(m, 1, CV_64FC3), proj;
+  for (int j = 0; j < m; ++j) obj.at<cv::Vec3d>(j) = cv::Vec3d(pts[v.PointId(j)].x(), pts[v.PointId(j)].y(), 0.0);
+  cv::omnidir::projectPoints(obj, proj, cv::Vec3d(pose[0], pose[1], pose[2]), cv::Vec3d(pose[3], pose[4], pose[5]),
+                             f.K, f.xi.at<double>(0), f.D);
+  for (int j = 0; j < m; ++j) {
+    const cv::Vec2d d = proj.at<cv::Vec2d>(j) - cv::Vec2d(v.corners[j].x(), v.corners[j].y());
+    *s2 += d.dot(d);
+    ++*n;
+  }
+  return true;
+}
+
+// Pooled figures of one method over the folds.
+struct CvScore {
+  double train_s2 = 0, held_s2 = 0;
+  size_t train_n = 0, held_n = 0;
+  int failed_boards = 0;
+  std::vector<double> fold_train, fold_held;
+  void AddFold(double train_rms, size_t train_corners, double held_s2_fold, size_t held_n_fold) {
+    train_s2 += train_rms * train_rms * train_corners;
+    train_n += train_corners;
+    held_s2 += held_s2_fold;
+    held_n += held_n_fold;
+    fold_train.push_back(train_rms);
+    fold_held.push_back(held_n_fold ? std::sqrt(held_s2_fold / held_n_fold) : NAN);
+  }
+  double Train() const { return train_n ? std::sqrt(train_s2 / train_n) : NAN; }
+  double Held() const { return held_n ? std::sqrt(held_s2 / held_n) : NAN; }
+};
+
+size_t CornerCount(const std::vector<pano::BoardView>& views) {
+  size_t n = 0;
+  for (const pano::BoardView& v : views) n += v.corners.size();
+  return n;
+}
+
+// The image radius (pixels from the centre) at which a far point at
+// `elevation` (radians) appears: the mapping, whatever the parameters.
+double RadiusAtElevation(const pano::Sensor& s, double elevation) {
+  const double far = 1e4 * s.params.vertex_distance;
+  Eigen::Vector2d px;
+  if (!s.project(Eigen::Vector3d(far * std::cos(elevation), 0.0, far * std::sin(elevation)), &px)) return NAN;
+  return std::hypot(px.x() - s.params.cx, px.y() - s.params.cy);
+}
+
+
+// The gauge experiment: the conic refitted to the same boards with its focal
+// length held at `focal` (every other parameter and the poses free), reached
+// from the free fit in small steps along the valley. Returns the sensor and
+// its training RMS (pixels, every corner alike).
+pano::Sensor FitWithFocalHeld(const std::vector<pano::BoardView>& views, const pano::TargetBoard& board,
+                              const pano::CalibrationResult& free_fit, double focal,
+                              const pano::CalibrateOptions& options, double* train_rms) {
+  using namespace pano::calib_internal;
+  const std::vector<Eigen::Vector3d> pts = pano::BoardPoints(board);
+  pano::Sensor sensor = free_fit.calib.sensor;
+  const double cap = CapRadiusPx(sensor.image_width, sensor.image_height);
+  std::array<double, kNumSensor> s = BlockFromParams(sensor.params);
+  std::vector<std::array<double, 6>> poses;
+  for (const pano::BoardView& v : free_fit.views) poses.push_back(PackPose(v));
+  std::vector<int> fixed = FixedSensorIndices(false, options);
+  fixed.push_back(kFocal);
+  std::sort(fixed.begin(), fixed.end());
+  const double f0 = s[kFocal];
+  const int steps = 12;
+  for (int step = 1; step <= steps; ++step) {
+    // Geometric steps: the mirror follows the focal length along the valley.
+    const double scale = std::pow(focal / f0, static_cast<double>(step) / steps) / (s[kFocal] / f0);
+    s[kFocal] *= scale;
+    ceres::Problem problem;
+    problem.AddParameterBlock(s.data(), kNumSensor);
+    problem.SetManifold(s.data(), new ceres::SubsetManifold(kNumSensor, fixed));
+    for (size_t i = 0; i < views.size(); ++i) {
+      const std::vector<Eigen::Matrix2d> w = pano::CornerWeights(views[i], board, options.full_weight_px);
+      for (size_t j = 0; j < views[i].corners.size(); ++j) {
+        CornerCost probe(pts[views[i].PointId(j)], views[i].corners[j], cap);
+        double r[2];
+        if (!probe(s.data(), poses[i].data(), r)) continue;
+        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CornerCost, 2, kNumSensor, 6>(
+                                     new CornerCost(pts[views[i].PointId(j)], views[i].corners[j], cap, w[j])),
+                                 options.huber_px > 0 ? new ceres::HuberLoss(options.huber_px) : nullptr, s.data(),
+                                 poses[i].data());
+      }
+    }
+    ceres::Solver::Options so;
+    so.linear_solver_type = ceres::DENSE_SCHUR;
+    so.max_num_iterations = step == steps ? 200 : 30;
+    so.logging_type = ceres::SILENT;
+    so.num_threads = 2;
+    ceres::Solver::Summary sum;
+    ceres::Solve(so, &problem, &sum);
+  }
+  double s2 = 0;
+  size_t n = 0;
+  for (size_t i = 0; i < views.size(); ++i)
+    for (size_t j = 0; j < views[i].corners.size(); ++j) {
+      CornerCost c(pts[views[i].PointId(j)], views[i].corners[j], cap);
+      double r[2];
+      if (!c(s.data(), poses[i].data(), r)) continue;
+      s2 += r[0] * r[0] + r[1] * r[1];
+      ++n;
+    }
+  *train_rms = n ? std::sqrt(s2 / n) : NAN;
+  sensor.params = ParamsFromBlock(s.data());
+  SetRimForImage(&sensor);
+  return sensor;
+}
+
+void CrossValidate(const std::vector<pano::BoardView>& views, const pano::TargetBoard& board, int W, int H,
+                   const std::string& units, int folds, bool gauge) {
+  const std::vector<Eigen::Vector3d> pts = pano::BoardPoints(board);
+  pano::CalibrateOptions conic, sphere, conic_ls;
+  conic.model = pano::MirrorModel::kConic;
+  conic_ls = conic;
+  conic_ls.huber_px = 0.0;
+  conic_ls.full_weight_px = 0.0;
+  struct Method {
+    const char* name;
+    const pano::CalibrateOptions* options;  // null: omnidir
+    CvScore score;
+  };
+  std::vector<Method> methods = {{"panotrack conic (k1,k2)", &conic, {}},
+                                 {"panotrack conic, least sq.", &conic_ls, {}},
+                                 {"panotrack sphere", &sphere, {}},
+                                 {"OpenCV omnidir (Mei)", nullptr, {}}};
+  std::printf("\n%d-fold cross-validation on the same %zu raw-detected boards (board k held out in fold k mod %d; "
+              "held-out boards: only their pose fitted):\n",
+              folds, views.size(), folds);
+  std::printf("  conic per fold: focal_px, curvature_radius, conic_constant, vertex_distance | image radius at "
+              "elevation -30, 0, +30 deg\n");
+  std::vector<double> focals, r0s;
+  std::vector<pano::CalibrationResult> conic_fits;
+  std::vector<std::vector<pano::BoardView>> trains, helds;
+  for (int fold = 0; fold < folds; ++fold) {
+    std::vector<pano::BoardView> train, held;
+    for (size_t i = 0; i < views.size(); ++i) (static_cast<int>(i) % folds == fold ? held : train).push_back(views[i]);
+    if (held.empty()) continue;
+    trains.push_back(train);
+    helds.push_back(held);
+    for (Method& m : methods) {
+      double s2 = 0;
+      size_t n = 0;
+      if (m.options) {
+        const pano::CalibrationResult r = pano::CalibrateViews(train, board, W, H, units, *m.options);
+        pano::EvaluateOptions eo;
+        eo.huber_px = m.options->huber_px;
+        eo.full_weight_px = m.options->full_weight_px;
+        for (const pano::BoardView& v : held) {
+          const pano::BoardPoseFit f = pano::FitBoardPose(v, board, r.calib.sensor, eo);
+          if (!f.ok) {
+            ++m.score.failed_boards;
+            continue;
+          }
+          s2 += f.rms_px * f.rms_px * f.corners_used;
+          n += static_cast<size_t>(f.corners_used);
+        }
+        m.score.AddFold(r.rms_px, CornerCount(train), s2, n);
+        if (m.options == &conic) {
+          const pano::SensorParams<double>& p = r.calib.sensor.params;
+          const double r0 = RadiusAtElevation(r.calib.sensor, 0.0);
+          focals.push_back(p.focal_px);
+          conic_fits.push_back(r);
+          r0s.push_back(r0);
+          std::printf("  fold %d: focal %8.2f  R %9.4f  K %8.4f  vertex %9.4f | %.3f %.3f %.3f px\n", fold,
+                      p.focal_px, p.curvature_radius, p.conic_constant, p.vertex_distance,
+                      RadiusAtElevation(r.calib.sensor, -M_PI / 6), r0, RadiusAtElevation(r.calib.sensor, M_PI / 6));
+        }
+      } else {
+        const pano::OmnidirFit f = pano::FitOmnidir(train, board, cv::Size(W, H));
+        for (const pano::BoardView& v : held)
+          if (!OmnidirHeldOut(f, v, pts, &s2, &n)) ++m.score.failed_boards;
+        // omnidir's training RMS is over the boards it kept.
+        m.score.AddFold(f.rms_px, CornerCount(train) * f.images_used / train.size(), s2, n);
+      }
+    }
+  }
+  std::printf("  %-28s %10s %10s   per fold held-out\n", "", "train RMS", "held-out");
+  for (const Method& m : methods) {
+    std::printf("  %-28s %8.4f px %8.4f px  ", m.name, m.score.Train(), m.score.Held());
+    for (double h : m.score.fold_held) std::printf(" %.3f", h);
+    if (m.score.failed_boards) std::printf("  (%d held-out boards not fitted)", m.score.failed_boards);
+    std::printf("\n");
+  }
+  if (!focals.empty()) {
+    const auto [fmin, fmax] = std::minmax_element(focals.begin(), focals.end());
+    const auto [rmin, rmax] = std::minmax_element(r0s.begin(), r0s.end());
+    std::printf("  conic focal over the folds: %.1f .. %.1f px (spread %.1f %%); image radius of the horizon "
+                "%.3f .. %.3f px (spread %.3f px)\n",
+                *fmin, *fmax, 100.0 * (*fmax / *fmin - 1.0), *rmin, *rmax, *rmax - *rmin);
+  }
+  const double best = std::min({methods[0].score.Held(), methods[1].score.Held(), methods[2].score.Held()});
+  std::printf("  best panotrack held-out / omnidir held-out: %.3f\n", best / methods[3].score.Held());
+  if (focals.empty() || !gauge) return;
+
+  // Gauge: every fold's conic with the focal length held at the folds' median.
+  std::vector<double> sorted = focals;
+  std::sort(sorted.begin(), sorted.end());
+  const double f_held = sorted[sorted.size() / 2];
+  CvScore held_focal;
+  std::printf("  conic with the focal held at %.2f px (the folds' median), the rest refitted:\n", f_held);
+  for (size_t k = 0; k < conic_fits.size(); ++k) {
+    double train_rms = NAN;
+    const pano::Sensor sensor = FitWithFocalHeld(trains[k], board, conic_fits[k], f_held, conic, &train_rms);
+    double s2 = 0;
+    size_t n = 0;
+    pano::EvaluateOptions eo;
+    for (const pano::BoardView& v : helds[k]) {
+      const pano::BoardPoseFit f = pano::FitBoardPose(v, board, sensor, eo);
+      if (!f.ok) continue;
+      s2 += f.rms_px * f.rms_px * f.corners_used;
+      n += static_cast<size_t>(f.corners_used);
+    }
+    held_focal.AddFold(train_rms, CornerCount(trains[k]), s2, n);
+    const pano::SensorParams<double>& p = sensor.params;
+    std::printf("  fold %zu: R %9.4f  K %8.4f  vertex %9.4f | horizon %.3f px | train %.4f (free %.4f) held-out "
+                "%.4f (free %.4f) px\n",
+                k, p.curvature_radius, p.conic_constant, p.vertex_distance, RadiusAtElevation(sensor, 0.0),
+                train_rms, conic_fits[k].rms_px, held_focal.fold_held.back(), methods[0].score.fold_held[k]);
+  }
+  std::printf("  %-28s %8.4f px %8.4f px\n", "conic, focal held", held_focal.Train(), held_focal.Held());
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc < 2) {
-    std::fprintf(stderr, "usage: calibrate_compare TARGETS.yaml\n");
+  if (argc < 2 || (argc == 3 && std::strcmp(argv[2], "--cv-only") != 0) || argc > 3) {
+    std::fprintf(stderr, "usage: calibrate_compare TARGETS.yaml [--cv-only]\n");
     return 2;
   }
+  const bool cv_only = argc == 3;
   try {
     const pano::TargetSet t = pano::ReadTargets(argv[1]);
     const std::vector<cv::Mat> images = pano::LoadTargetImages(t);
@@ -54,6 +394,10 @@ int main(int argc, char** argv) {
     const int W = det.image_width, H = det.image_height;
     std::printf("%s: %zu images, board found in %zu by findChessboardCornersSB on the raw image (%.2f s)\n",
                 argv[1], t.images.size(), det.views.size(), det.seconds);
+    if (cv_only) {
+      CrossValidate(det.views, t.board, W, H, t.units, 5, true);
+      return 0;
+    }
 
     auto t0 = std::chrono::steady_clock::now();
     const pano::CalibrationResult rc = pano::CalibrateViews(det.views, t.board, W, H, t.units, conic);
@@ -117,6 +461,7 @@ int main(int argc, char** argv) {
       std::printf("  panotrack sphere          RMS %.4f px\n", rs2.rms_px);
       std::printf("  OpenCV omnidir (Mei)      RMS %.4f px  (%d boards kept)\n", omni2, u3);
     }
+    CrossValidate(det.views, t.board, W, H, t.units, 5, true);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "calibrate_compare: %s\n", e.what());
     return 1;

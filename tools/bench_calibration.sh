@@ -7,7 +7,11 @@
 #      1 %, RMS 0.3 px; twice those with unknown poses);
 #   2. real: panotrack's conic and sphere models against OpenCV's
 #      cv::omnidir::calibrate on the same corners (calibrate_compare), and the
-#      wall time of whole `panocalib calibrate` runs on the 15 miniomni images.
+#      wall time of whole `panocalib calibrate` runs on the 15 miniomni images;
+#   3. held-out: calibrate_compare's 5-fold cross-validation on the same
+#      corners (each model fitted to 4/5 of the boards, only the held-out
+#      boards' poses fitted through it; training and held-out RMS, the conic's
+#      focal length per fold, the conic refitted with its focal held).
 #   tools/bench_calibration.sh [BUILD_DIR] [TARGETS.yaml] [N_IMAGES] [SEEDS]
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -50,7 +54,7 @@ for seed in $seeds; do
 done
 
 echo
-echo "== real: same corners: conic, sphere, OpenCV omnidir"
+echo "== real: same corners: conic, sphere, OpenCV omnidir; then 5-fold cross-validation"
 "$build/bin/calibrate_compare" "$targets" | grep -v "^  [a-zA-Z0-9_]*\.\(png\|jpg\) \|^  omnidir:"
 for model in conic sphere; do
   echo "== panocalib calibrate --model $model (whole pipeline, wall time)"

@@ -14,6 +14,8 @@ void AddProjectCommands(CLI::App& app);
 void AddLutCommand(CLI::App& app);
 // calibrate: fit the sensor to chessboard images (lib/panotrack/calibrate).
 void AddCalibrateCommand(CLI::App& app);
+// evaluate: a fixed calibration's reprojection error on other images.
+void AddEvaluateCommand(CLI::App& app);
 // unwarp: a panorama or perspective view of a raw image (lib/panotrack/unwarp).
 void AddUnwarpCommand(CLI::App& app);
 // export: the calibration in OpenCV's terms (camera matrix, cv::omnidir model).

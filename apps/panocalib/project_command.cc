@@ -4,6 +4,7 @@
 #include <string>
 
 #include "commands.h"
+#include "panotrack/calibrate/batch_projection.h"
 #include "panotrack/core/error.h"
 #include "panotrack/core/output_check.h"
 #include "panotrack/io/calibration.h"
@@ -28,25 +29,61 @@ CLI::Option* AddNumbers(CLI::App* app, const std::string& name, std::vector<doub
                        ? std::string()
                        : "'" + v + "' is not a finite number";
           },
-          "NUMBER"))
-      ->required();
+          "NUMBER"));
+}
+
+// Exactly one of the single-input option and the batch file.
+void RequireOne(const CLI::Option* single, const CLI::Option* batch) {
+  if (single->count() == 0 && batch->count() == 0)
+    throw Error(single->get_name() + " or " + batch->get_name() + ": one is required");
+}
+
+// The batch form: checks the output, runs the library's file form, notes
+// the nan lines on stderr.
+struct BatchOpts {
+  std::string input, out;
+  bool force = false;
+};
+void AddBatchOptions(CLI::App* cmd, BatchOpts& b, const std::string& name, const std::string& help,
+                     CLI::Option* single) {
+  CLI::Option* in = cmd->add_option(name, b.input, help)->excludes(single);
+  cmd->add_option("-o,--output", b.out, "Write the batch's lines here instead of standard output (atomically)")
+      ->needs(in);
+  cmd->add_flag("--force", b.force, "Replace an existing -o file")->needs(in);
 }
 
 }  // namespace
+
 
 void AddProjectCommands(CLI::App& app) {
   auto calib = std::make_shared<std::string>();
   auto quiet = std::make_shared<bool>(false);
   auto point = std::make_shared<std::vector<double>>();
   auto pixel = std::make_shared<std::vector<double>>();
+  auto points = std::make_shared<BatchOpts>();
   CLI::App* proj = app.add_subcommand(
       "project",
       "Print the pixel 'u v' at which a point of the sensor frame appears, or 'not visible'. The "
-      "sensor frame: x forward, y left, z up from the pinhole, in the calibration's units.");
+      "sensor frame: x forward, y left, z up from the pinhole, in the calibration's units. With "
+      "--points: one 'u v' line per point of the file, 'nan nan' for a point that is not visible or "
+      "falls outside the image (counted on stderr).");
   proj->add_option("--calib", *calib, "Calibration YAML")->required();
-  AddNumbers(proj, "--point", *point, 3, "x,y,z in the sensor frame");
-  proj->add_flag("-q,--quiet", *quiet, "No note when the pixel lies outside the image");
-  proj->callback([calib, point, quiet]() {
+  CLI::Option* point_opt = AddNumbers(proj, "--point", *point, 3, "x,y,z in the sensor frame");
+  AddBatchOptions(proj, *points, "--points",
+                  "File of points, one 'x y z' or 'x,y,z' a line ('#' comments, an optional header line; "
+                  "- reads standard input)",
+                  point_opt);
+  proj->add_flag("-q,--quiet", *quiet, "No note when the pixel lies outside the image, or on nan lines");
+  proj->callback([calib, point, points, quiet, point_opt, proj]() {
+    RequireOne(point_opt, proj->get_option("--points"));
+    if (!points->input.empty()) {
+      CheckPlannedOutputs({{"--calib", *calib}, {"--points", points->input}}, {{"-o", points->out}}, points->force);
+      const Calibration c = ReadCalibration(*calib);
+      const BatchProjection b = ProjectPointsFile(c.sensor, points->input, points->out);
+      const std::string note = BatchNote(b, false);
+      if (!*quiet && !note.empty()) std::fprintf(stderr, "panocalib: note: %s\n", note.c_str());
+      return;
+    }
     const Calibration c = ReadCalibration(*calib);
     const std::vector<double>& p = *point;
     Eigen::Vector2d px;
@@ -54,21 +91,40 @@ void AddProjectCommands(CLI::App& app) {
       std::printf("not visible\n");
       return;
     }
-    std::printf("%.6f %.6f\n", px.x(), px.y());
+    std::printf("%s\n", FormatPixel(px).c_str());
     if (!*quiet && !c.sensor.inside_image(px))
       std::fprintf(stderr, "panocalib: note: the pixel lies outside the %dx%d image\n",
                    c.sensor.image_width, c.sensor.image_height);
   });
 
   auto calib2 = std::make_shared<std::string>();
+  auto quiet2 = std::make_shared<bool>(false);
+  auto pixels = std::make_shared<BatchOpts>();
   CLI::App* back = app.add_subcommand(
       "backproject",
       "Print the reflected ray of a pixel, or 'no mirror'. The ray: its origin on the mirror and its "
       "unit direction in the sensor frame ('ox oy oz dx dy dz'); 'no mirror' outside the mirror's "
-      "visible disc.");
+      "visible disc. With --pixels: one such line per pixel of the file, six 'nan' for a pixel off the "
+      "mirror or outside the image (counted on stderr).");
   back->add_option("--calib", *calib2, "Calibration YAML")->required();
-  AddNumbers(back, "--pixel", *pixel, 2, "u,v (column, row; origin at the top-left pixel's centre)");
-  back->callback([calib2, pixel]() {
+  CLI::Option* pixel_opt =
+      AddNumbers(back, "--pixel", *pixel, 2, "u,v (column, row; origin at the top-left pixel's centre)");
+  AddBatchOptions(back, *pixels, "--pixels",
+                  "File of pixels, one 'u v' or 'u,v' a line ('#' comments, an optional header line; "
+                  "- reads standard input)",
+                  pixel_opt);
+  back->add_flag("-q,--quiet", *quiet2, "No note on nan lines (--pixels)");
+  back->callback([calib2, pixel, pixels, quiet2, pixel_opt, back]() {
+    RequireOne(pixel_opt, back->get_option("--pixels"));
+    if (!pixels->input.empty()) {
+      CheckPlannedOutputs({{"--calib", *calib2}, {"--pixels", pixels->input}}, {{"-o", pixels->out}},
+                          pixels->force);
+      const Calibration c = ReadCalibration(*calib2);
+      const BatchProjection b = BackprojectPixelsFile(c.sensor, pixels->input, pixels->out);
+      const std::string note = BatchNote(b, true);
+      if (!*quiet2 && !note.empty()) std::fprintf(stderr, "panocalib: note: %s\n", note.c_str());
+      return;
+    }
     const Calibration c = ReadCalibration(*calib2);
     const std::vector<double>& p = *pixel;
     Eigen::Vector3d o, d;
@@ -76,7 +132,7 @@ void AddProjectCommands(CLI::App& app) {
       std::printf("no mirror\n");
       return;
     }
-    std::printf("%.9f %.9f %.9f %.9f %.9f %.9f\n", o.x(), o.y(), o.z(), d.x(), d.y(), d.z());
+    std::printf("%s\n", FormatRay(o, d).c_str());
   });
 }
 

@@ -1,0 +1,88 @@
+// panocalib evaluate: the reprojection error of a fixed calibration on other
+// images (only each board's pose fitted).
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "commands.h"
+#include "panotrack/calibrate/calibrate.h"
+#include "panotrack/calibrate/evaluate.h"
+#include "panotrack/core/atomic_file.h"
+#include "panotrack/core/command_line.h"
+#include "panotrack/core/error.h"
+#include "panotrack/core/output_check.h"
+#include "panotrack/io/calibration.h"
+#include "panotrack/io/targets.h"
+
+namespace pano::app {
+
+void AddEvaluateCommand(CLI::App& app) {
+  struct Opts {
+    std::string calib, targets, summary_json;
+    std::string board, dictionary = "DICT_4X4_50", units = TargetSet().units;
+    double square = 0.0, marker = 0.0;
+    int every = 0;
+    EvaluateOptions eval;
+    bool no_refine = false, force = false, quiet = false;
+  };
+  auto o = std::make_shared<Opts>();
+  CLI::App* cmd = app.add_subcommand(
+      "evaluate",
+      "Check a calibration on images it was not fitted to: detect the board in each image, fit only "
+      "the board's pose through the calibration (which stays fixed) and print each image's corners, "
+      "RMS and largest reprojection error, then the RMS over all corners. Run it on held-out images "
+      "before trusting a calibration: an RMS well above the calibration's own says it fits only its "
+      "images. Fails (exit 1) when no image shows the board.");
+  cmd->add_option("--calib", o->calib, "Calibration YAML (not changed)")->required();
+  cmd->add_option("targets", o->targets,
+                  "Target file (.yaml/.yml; known board poses are not used), or a folder of images or a "
+                  "video with --board and --square, as for calibrate")
+      ->required();
+  CLI::Option* board_opt = cmd->add_option(
+      "--board", o->board, "Board for a folder or video: COLSxROWS inner corners, or charuco:COLSxROWS");
+  cmd->add_option("--square", o->square, "Square side in the calibration's units (with --board)")->needs(board_opt);
+  cmd->add_option("--marker", o->marker, "ChArUco marker side (with --board charuco:...)")->needs(board_opt);
+  cmd->add_option("--dictionary", o->dictionary, "ChArUco: OpenCV's ArUco dictionary")->needs(board_opt);
+  cmd->add_option("--units", o->units, "Units of --square (with --board)")->needs(board_opt);
+  cmd->add_option("--every", o->every, "Video: take every N-th frame (0: about 30 frames)")->needs(board_opt);
+  cmd->add_option("--huber", o->eval.huber_px, "Huber loss threshold of the pose fit in pixels (0: least squares)");
+  cmd->add_option("--full-weight", o->eval.full_weight_px,
+                  "Corner weights of the pose fit, as for calibrate (0: uniform)");
+  cmd->add_flag("--no-refine", o->no_refine,
+                "Score the detector's corners as found (default: located again through the model, as "
+                "calibrate does before its final fit)");
+  cmd->add_option("-j,--jobs,--threads", o->eval.num_threads, "Threads for the image searches (0: every core)");
+  cmd->add_option("--summary-json", o->summary_json,
+                  "Also write the figures (per image and overall) as JSON; - writes it to standard output");
+  cmd->add_flag("--force", o->force, "Replace an existing --summary-json file");
+  cmd->add_flag("-q,--quiet", o->quiet, "No per-image lines or summary (errors still on stderr)");
+  cmd->add_flag("-v,--verbose", o->eval.verbose, "Print the pose fits' reports and the libraries' warnings");
+  cmd->parse_complete_callback([o]() {
+    CheckPlannedOutputs({{"--calib", o->calib}, {"", o->targets}}, {{"--summary-json", o->summary_json}}, o->force);
+  });
+  cmd->callback([o]() {
+    EvaluateOptions opt = o->eval;
+    if (o->no_refine) opt.refine_passes = 0;
+    opt.Check();
+    TargetInputBoard input;
+    input.board_given = !o->board.empty();
+    if (input.board_given) {
+      if (!(o->square > 0.0)) throw Error("--square: required with --board (the square side, calibration units)");
+      input.board = ParseBoardSpec(o->board, o->square, o->marker, o->dictionary);
+      input.units = o->units;
+      input.every = o->every;
+    }
+    const Calibration calib = ReadCalibration(o->calib);
+    const TargetSet targets = ReadTargetInput(o->targets, input);
+    const std::vector<cv::Mat> images = LoadTargetImages(targets);
+    const EvaluationResult r = EvaluateCalibration(targets, images, calib, opt);
+    if (!o->summary_json.empty())
+      WriteFileOrStdout(o->summary_json, EvaluationSummaryJson(r, CommandLine()), "--summary-json");
+    if (o->quiet) return;
+    std::FILE* text = o->summary_json == "-" ? stderr : stdout;
+    std::fprintf(text, "%s", EvaluationSummary(r).c_str());
+    for (const std::string& w : r.warnings) std::fprintf(stderr, "panocalib: warning: %s\n", w.c_str());
+  });
+}
+
+}  // namespace pano::app
