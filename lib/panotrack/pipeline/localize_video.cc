@@ -143,7 +143,9 @@ std::optional<OdometryIncrement> OdometryBetween(const std::vector<OdometrySampl
 std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res, const VideoRunOptions& opt,
                                  FrameSource* source, VideoSummary* sum, std::vector<PoseRow>* smoothed_rows) {
   const Sensor& s = res.calib.sensor;
-  Localizer loc(res.calib, res.map, res.table, opt.localizer, res.ph_tables);
+  const TrackingTables tables =
+      res.pending_tables.valid() ? res.pending_tables.get() : TrackingTables{res.table, res.ph_tables};
+  Localizer loc(res.calib, res.map, tables.table, opt.localizer, tables.ph_tables);
   if (job.init)
     loc.Reset(*job.init, /*hint=*/true);
   else
