@@ -158,8 +158,8 @@ function(pano_add_test)
   endif()
   set_tests_properties(${ARG_FOLDER}/${ARG_NAME} PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT}
     SKIP_RETURN_CODE 77
-      # panoloc's table cache inside the build tree, not in the user's home
-      ENVIRONMENT "PANO_BIN_DIR=${PROJECT_BINARY_DIR}/bin;XDG_CACHE_HOME=${PROJECT_BINARY_DIR}/test-cache")
+    # panoloc's table cache inside the build tree, not in the user's home
+    ENVIRONMENT "PANO_BIN_DIR=${PROJECT_BINARY_DIR}/bin;XDG_CACHE_HOME=${PROJECT_BINARY_DIR}/test-cache")
 endfunction()
 
 # pano_add_test_suite(FOLDER sensor SRCS a_test.cc b_test.cc DEPS ... TAGS round_trip jet)
