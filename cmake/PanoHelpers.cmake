@@ -157,7 +157,9 @@ function(pano_add_test)
     set(ARG_TIMEOUT 300)
   endif()
   set_tests_properties(${ARG_FOLDER}/${ARG_NAME} PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT}
-    SKIP_RETURN_CODE 77 ENVIRONMENT "PANO_BIN_DIR=${PROJECT_BINARY_DIR}/bin")
+    SKIP_RETURN_CODE 77
+    # panoloc's table cache inside the build tree, not in the user's home
+    ENVIRONMENT "PANO_BIN_DIR=${PROJECT_BINARY_DIR}/bin;XDG_CACHE_HOME=${PROJECT_BINARY_DIR}/test-cache")
 endfunction()
 
 # pano_add_test_suite(FOLDER sensor SRCS a_test.cc b_test.cc DEPS ... TAGS round_trip jet)
@@ -178,6 +180,8 @@ function(pano_add_test_suite)
   foreach(tag ${ARG_TAGS})
     add_test(NAME ${ARG_FOLDER}/${tag} COMMAND ${target} "[${tag}]" --warn NoTests)
     set_tests_properties(${ARG_FOLDER}/${tag} PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT}
-      SKIP_RETURN_CODE 77 ENVIRONMENT "PANO_BIN_DIR=${PROJECT_BINARY_DIR}/bin")
+      SKIP_RETURN_CODE 77
+      # panoloc's table cache inside the build tree, not in the user's home
+      ENVIRONMENT "PANO_BIN_DIR=${PROJECT_BINARY_DIR}/bin;XDG_CACHE_HOME=${PROJECT_BINARY_DIR}/test-cache")
   endforeach()
 endfunction()

@@ -179,13 +179,22 @@ int main(int argc, char** argv) {
                  "this fraction of the distance to its landmarks; 0: no bound")
       ->check(CLI::Range(0.0, 1.0))
       ->group(tracking);
+  std::string table_cache;
+  bool no_table_cache = false;
+  app.add_option("--table-cache", table_cache,
+                 "Folder where the E(D,Z) lookup tables built for a calibration and map are kept between runs "
+                 "(default: $XDG_CACHE_HOME/panotrack, else ~/.cache/panotrack)")
+      ->default_str("")
+      ->group(run);
+  app.add_flag("--no-table-cache", no_table_cache, "Build the lookup table on every run; read and write no cache")
+      ->group(run);
   app.add_option("-j,--jobs", o.jobs, "Inputs processed in parallel (0: as many as --threads allows)")
       ->group(run);
   app.add_option("--threads", o.num_threads, "Threads of the whole run (0: all cores)")->group(run);
   app.add_flag("-q,--quiet", o.quiet, "No progress line, notes or summary (errors still on stderr)")
       ->group(run);
   app.add_flag("-v,--verbose", verbose,
-               "The decoding libraries' (FFmpeg, OpenCV) messages and the run's timing")
+               "The decoding libraries' (FFmpeg, OpenCV) messages, the table cache's use and the run's timing")
       ->group(run);
   app.set_version_flag("--version", "panoloc " PANO_VERSION, "Print the version and exit")->group(run);
   app.set_help_flag("-h,--help", "Print this help and exit")->group(run);
@@ -198,6 +207,10 @@ int main(int argc, char** argv) {
   try {
     const auto t0 = std::chrono::steady_clock::now();
     if (smooth_lag->count() > 0) o.smooth = true;
+    if (no_table_cache && !table_cache.empty())
+      throw pano::Error("--table-cache and --no-table-cache: give one of them, not both");
+    o.table_cache_dir = no_table_cache ? "" : table_cache.empty() ? pano::DefaultTableCacheDir() : table_cache;
+    o.verbose = verbose;
     if (!init.empty()) o.init = pano::Pose2{init[0], init[1], init[2]};
     o.localizer.method = method == "vertex" ? pano::TrackingMethod::kVertex : pano::TrackingMethod::kJunction;
     o.cancel = &g_cancel;

@@ -17,7 +17,7 @@ namespace pano {
 namespace {
 
 constexpr char kMagic[8] = {'P', 'A', 'N', 'O', 'L', 'U', 'T', '\0'};
-constexpr uint32_t kVersion = 1;
+constexpr uint32_t kVersion = kRadiusTableFormatVersion;
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 constexpr uint64_t kFnvBasis = 1469598103934665603ULL;

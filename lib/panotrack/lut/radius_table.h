@@ -15,6 +15,9 @@ namespace pano {
 
 struct Map;
 
+// Version of the lookup table file format (RadiusTable::Save / Load).
+constexpr unsigned kRadiusTableFormatVersion = 1;
+
 struct LutRanges {
   double d_min = 0.0;  // horizontal distance range
   double d_max = 0.0;

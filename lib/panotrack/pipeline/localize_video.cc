@@ -8,6 +8,7 @@
 #include <deque>
 #include <opencv2/core.hpp>
 #include <optional>
+#include <utility>
 
 #include "panotrack/core/error.h"
 #include "panotrack/io/pose_csv.h"
@@ -70,8 +71,11 @@ double FrameTime(int frame, double timestamp, double override_fps, double input_
 // their frame's state (`lag` frames later), then written in frame order.
 class SmoothedCsv {
  public:
-  SmoothedCsv(const std::string& path, const FixedLagSmootherOptions& options)
-      : csv_(path, {"std_x", "std_y", "std_theta", "quality"}, PoseCsvStaging::kPartial), smoother_(options) {}
+  // `keep_rows`: also keep the rows written, without their trailing columns
+  // (for the accuracy summary); else memory stays flat however long the input.
+  SmoothedCsv(const std::string& path, const FixedLagSmootherOptions& options, bool keep_rows)
+      : csv_(path, {"std_x", "std_y", "std_theta", "quality"}, PoseCsvStaging::kPartial), smoother_(options),
+        keep_rows_(keep_rows) {}
 
   void Add(const FrameResult& fr) {
     pending_.push_back({fr.row, fr.has_motion_step});
@@ -111,7 +115,10 @@ class SmoothedCsv {
   void WriteReady() {
     while (!pending_.empty() && !pending_.front().awaits_state) {
       csv_.Write(pending_.front().row);
-      rows_.push_back(pending_.front().row);
+      if (keep_rows_) {
+        rows_.push_back(std::move(pending_.front().row));
+        rows_.back().extra = std::vector<double>();
+      }
       pending_.pop_front();
     }
   }
@@ -119,6 +126,7 @@ class SmoothedCsv {
   PoseCsvWriter csv_;
   FixedLagSmoother smoother_;
   std::deque<Pending> pending_;
+  bool keep_rows_;
   std::vector<PoseRow> rows_;
 };
 
@@ -137,13 +145,18 @@ std::optional<OdometryIncrement> OdometryBetween(const std::vector<OdometrySampl
   return Between(samples, std::clamp(t0, first, last), std::clamp(t1, first, last), options);
 }
 
-// The per-frame loop; fills the counts of `sum` and returns its rows (the
-// smoothed CSV's in `smoothed_rows`, when the job asks for one). A
-// decode error or a frame of another size ends the input as incomplete.
+// The per-frame loop; fills the counts of `sum` and returns the rows that
+// the plot and the accuracy summary need (the smoothed CSV's in
+// `smoothed_rows`, when the job asks for one and its accuracy): none when
+// the job has neither, so that memory stays flat over long inputs; without
+// their trailing columns when only the accuracy needs them. A decode error
+// or a frame of another size ends the input as incomplete.
 std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res, const VideoRunOptions& opt,
                                  FrameSource* source, VideoSummary* sum, std::vector<PoseRow>* smoothed_rows) {
   const Sensor& s = res.calib.sensor;
-  Localizer loc(res.calib, res.map, res.table, opt.localizer, res.ph_tables);
+  const TrackingTables tables =
+      res.pending_tables.valid() ? res.pending_tables.get() : TrackingTables{res.table, res.ph_tables};
+  Localizer loc(res.calib, res.map, tables.table, opt.localizer, tables.ph_tables);
   if (job.init)
     loc.Reset(*job.init, /*hint=*/true);
   else
@@ -153,10 +166,12 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
     dbg.emplace(job.debug_video, cv::Size(s.image_width, s.image_height), source->fps() > 0 ? source->fps() : 10.0);
   PoseCsvWriter csv(job.output, {"std_x", "std_y", "std_theta", "quality"}, PoseCsvStaging::kPartial);
   std::optional<SmoothedCsv> smoothed;
-  if (!job.smoothed_output.empty()) smoothed.emplace(job.smoothed_output, opt.smoother);
+  if (!job.smoothed_output.empty()) smoothed.emplace(job.smoothed_output, opt.smoother, !job.gt.empty());
   std::optional<TumWriter> tum;
   if (!job.tum.empty()) tum.emplace(job.tum, opt.tum, PoseCsvStaging::kPartial);
   std::vector<PoseRow> rows;
+  const bool keep_rows = !job.plot.empty() || !job.gt.empty();
+  const bool keep_std = !job.plot.empty();  // the plot draws the standard deviations
   double previous_time = 0.0;
   cv::Mat grey;
   sum->end = VideoEnd::kDone;
@@ -190,7 +205,10 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
     csv.Write(fr.row);
     if (smoothed) smoothed->Add(fr);
     if (tum) tum->Write(fr.row);
-    rows.push_back(fr.row);
+    if (keep_rows) {
+      rows.push_back(fr.row);
+      if (!keep_std) rows.back().extra = std::vector<double>();
+    }
     ++sum->frames;
     sum->n_ok += fr.row.status == PoseStatus::kOk;
     sum->n_lost += fr.row.status == PoseStatus::kLost;

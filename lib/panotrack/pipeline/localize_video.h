@@ -4,6 +4,7 @@
 #pragma once
 
 #include <atomic>
+#include <future>
 #include <memory>
 #include <optional>
 #include <string>
@@ -39,6 +40,11 @@ struct VideoJob {
   std::string tum;
 };
 
+struct TrackingTables {
+  std::shared_ptr<const RadiusTable> table;
+  std::shared_ptr<PhTableCache> ph_tables;  // null: each localiser builds its own
+};
+
 // Loaded once and shared, read-only, by every input of a run.
 struct SharedResources {
   Calibration calib;
@@ -46,6 +52,10 @@ struct SharedResources {
   Map map;
   std::shared_ptr<const RadiusTable> table;
   std::shared_ptr<PhTableCache> ph_tables;  // null: each localiser builds its own
+  // Instead of `table` and `ph_tables`: tables still being loaded or built.
+  // LocalizeVideo waits for them once its input is open and decoding, so
+  // that a table build overlaps the decoder's start.
+  std::shared_future<TrackingTables> pending_tables;
 };
 
 // How each input is processed.

@@ -6,6 +6,7 @@
 #include <condition_variable>
 #include <cstdio>
 #include <filesystem>
+#include <future>
 #include <mutex>
 #include <thread>
 
@@ -61,7 +62,8 @@ void PanolocOptions::Check() const {
   localizer.Check();
 }
 
-std::shared_ptr<const RadiusTable> TableForMap(const Calibration& calib, const Map& map, bool quiet) {
+std::shared_ptr<const RadiusTable> TableForMap(const Calibration& calib, const Map& map, bool quiet,
+                                               const TableCacheOptions& cache) {
   const LutRanges need = RangesForMap(map, calib.sensor);
   if (!calib.lut_resolved.empty()) {
     try {
@@ -74,7 +76,7 @@ std::shared_ptr<const RadiusTable> TableForMap(const Calibration& calib, const M
       if (!quiet) std::fprintf(stderr, "panoloc: note: %s; building a table instead\n", e.what());
     }
   }
-  return std::make_shared<RadiusTable>(RadiusTable::Build(calib.sensor, need));
+  return std::make_shared<RadiusTable>(LoadOrBuildRadiusTable(calib.sensor, need, LutSize(), cache));
 }
 
 std::string SmoothedOutputPath(const std::string& output) {
@@ -267,7 +269,9 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
     for (PlannedJob& p : jobs) p.job.odometry = samples;
   }
   if (!opt.out_dir.empty()) fs::create_directories(opt.out_dir);
-  res.table = TableForMap(res.calib, res.map, opt.quiet);
+  // What the table build would refuse, refused here, before any input starts.
+  res.calib.sensor.Check(opt.calib_path);
+  RangesForMap(res.map, res.calib.sensor).Check(opt.map_path + ": lookup table ranges");
   const int threads = opt.num_threads > 0 ? opt.num_threads
                                           : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   const int n_jobs = std::clamp(opt.jobs > 0 ? opt.jobs : threads, 1, static_cast<int>(jobs.size()));
@@ -277,9 +281,21 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
   // a decoding thread of its own: leave it a core, since OpenMP's spinning
   // barriers collapse when the cores are oversubscribed.
   if (run.localizer.num_threads == 0) run.localizer.num_threads = std::max(1, threads / n_jobs - 1);
-  // One set of PH tables for every input (they depend on the sensor and the
-  // map's edge heights only).
-  res.ph_tables = MakeTrackingPhTables(res.table, run.localizer.num_threads);
+  // The E(D,Z) table (from the cache, or built) and one set of PH tables for
+  // every input (they depend on the sensor and the map's edge heights only),
+  // made while the inputs open and start decoding (LocalizeVideo waits).
+  TableCacheOptions cache;
+  cache.dir = opt.table_cache_dir;
+  if (!opt.quiet) cache.on_note = [](const std::string& s) { std::fprintf(stderr, "panoloc: note: %s\n", s.c_str()); };
+  if (!opt.quiet && opt.verbose)
+    cache.on_trace = [](const std::string& s) { std::fprintf(stderr, "panoloc: %s\n", s.c_str()); };
+  const int ph_threads = run.localizer.num_threads;
+  res.pending_tables = std::async(std::launch::async, [&res, &opt, cache, ph_threads] {
+                         TrackingTables t;
+                         t.table = TableForMap(res.calib, res.map, opt.quiet, cache);
+                         t.ph_tables = MakeTrackingPhTables(t.table, ph_threads);
+                         return t;
+                       }).share();
   run.fps = opt.fps;
   run.cancel = opt.cancel;
   run.quiet = opt.quiet;

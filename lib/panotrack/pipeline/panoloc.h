@@ -12,6 +12,7 @@
 
 #include "panotrack/io/pose_csv.h"
 #include "panotrack/io/tum.h"
+#include "panotrack/lut/table_cache.h"
 #include "panotrack/pipeline/accuracy.h"
 #include "panotrack/pipeline/localize_video.h"
 #include "panotrack/track/localizer.h"
@@ -40,6 +41,11 @@ struct PanolocOptions {
   int jobs = 0;                      // inputs processed at once; 0: as many as the threads allow
   int num_threads = 0;               // threads of the whole run; 0: all cores
   bool quiet = false;                // no notes on stderr
+  // Folder of the E(D,Z) table cache (lut/table_cache.h): the table the map
+  // needs is loaded from there, or built and stored there. Empty: built on
+  // every run. panoloc passes DefaultTableCacheDir() unless --no-table-cache.
+  std::string table_cache_dir;
+  bool verbose = false;              // also notes on the table cache's hits and misses
   // Replace existing output files. Otherwise RunPanoloc refuses, before any
   // work, to start when a planned output (pose CSVs, smoothed CSVs, TUM file,
   // debug video, plot, summary JSON) is an existing file (--force).
@@ -80,8 +86,10 @@ struct PanolocOptions {
 std::vector<VideoSummary> RunPanoloc(const PanolocOptions& options);
 
 // Loads the calibration's lookup table when it exists, matches and covers
-// the map; otherwise builds one (a note on stderr says why).
-std::shared_ptr<const RadiusTable> TableForMap(const Calibration& calib, const Map& map, bool quiet);
+// the map; otherwise builds one (a note on stderr says why), through the
+// table cache when `cache.dir` is set.
+std::shared_ptr<const RadiusTable> TableForMap(const Calibration& calib, const Map& map, bool quiet,
+                                               const TableCacheOptions& cache = TableCacheOptions());
 
 // `<output stem>.smoothed.csv` beside a pose CSV (out.csv -> out.smoothed.csv).
 std::string SmoothedOutputPath(const std::string& output);
