@@ -15,7 +15,7 @@ namespace pano {
 
 void MapCheckOptions::Check() const {
   prediction.Check();
-  if (!(search_px > 0) || !(sample_spacing_px > 0) || !(corner_gap_px >= 0) || max_samples < 3)
+  if (!(search_px > 0) || !(min_window_px > 0) || !(sample_spacing_px > 0) || !(corner_gap_px >= 0) || max_samples < 3)
     throw Error("map check: search_px, sample spacing and max_samples (>= 3) must be positive");
   if (!(min_step > 0)) throw Error("map check: min_step: expected > 0 grey levels");
   if (!(min_sample_fraction > 0 && min_sample_fraction <= 1))
@@ -153,8 +153,25 @@ FrameCheck FrameChecker::Measure(const cv::Mat& grey, int frame, const Pose2& po
   fc.pose = pose;
   const std::vector<PredictedLandmark> predicted =
       PredictLandmarks(landmarks_, map_, scene_, s, *table_, pose, opt_.prediction);
+  // The mirror's vertex approximates where the scene is seen from (as in PredictLandmarks).
+  const Eigen::Vector3d eye(pose.x, pose.y, map_.sensor_height + s.params.vertex_distance);
   std::vector<int> slot(edges_.size(), -1);  // this frame's measurement of each edge
   std::vector<std::vector<double>> radial(edges_.size());
+  // Each vertical edge is searched no further than 0.45 of the way to the
+  // nearest other predicted vertical edge beside it: a window holding two
+  // edges (a rectangle seen at a grazing angle, two neighbours) measures
+  // whichever is stronger.
+  auto window_px = [&](const PredictedLandmark& p) {
+    const int e = edge_of_landmark_[p.index];
+    const double lo = std::min(p.corner_radius, p.v_radius), hi = std::max(p.corner_radius, p.v_radius);
+    double half = opt_.search_px;
+    for (const PredictedLandmark& q : predicted) {
+      if (edge_of_landmark_[q.index] == e) continue;
+      if (std::max(q.corner_radius, q.v_radius) < lo || std::min(q.corner_radius, q.v_radius) > hi) continue;
+      half = std::min(half, 0.45 * std::abs(wrap_angle(q.azimuth - p.azimuth)) * p.corner_radius);
+    }
+    return half;
+  };
   for (const PredictedLandmark& p : predicted) {
     const int e = edge_of_landmark_[p.index];
     const Landmark& l = *p.landmark;
@@ -170,21 +187,37 @@ FrameCheck FrameChecker::Measure(const cv::Mat& grey, int frame, const Pose2& po
       m.distance = p.distance;
       m.corner_px = p.corner_px;
       m.v_end_px = s.from_polar(p.v_radius, p.azimuth);
-      const int direction = p.v_radius > p.corner_radius ? 1 : -1;
+      const double half = window_px(p);
+      if (half < opt_.min_window_px) continue;  // too close to another edge to tell them apart
       const double len = std::abs(p.v_radius - p.corner_radius);
       const double spacing = std::max(opt_.sample_spacing_px, (len - 2 * opt_.corner_gap_px) / opt_.max_samples);
       const double cs = std::cos(p.azimuth), sn = std::sin(p.azimuth), a = s.params.aspect;
       const Eigen::Vector2d tangent(-sn, a * cs);
       std::vector<Step> steps;
       int attempted = 0;
-      for (double d = opt_.corner_gap_px; d < len - opt_.corner_gap_px && attempted < opt_.max_samples;
-           d += spacing) {
+      // Points of the edge in the world, `spacing` apart in the image, on
+      // the part of it the map leaves in sight (a nearer surface may hide
+      // part of an edge whose corner is seen).
+      const Eigen::Vector3d v = sensor_from_world(pose, map_.sensor_height, l.v_end);
+      double last_r = p.corner_radius;
+      constexpr int kHeights = 400;
+      for (int k = 1; k < kHeights && attempted < opt_.max_samples; ++k) {
+        const double f = double(k) / kHeights;
+        double r;
+        if (!table_->radius(p.distance, c.z() + f * (v.z() - c.z()), &r)) continue;
+        if (std::abs(r - p.corner_radius) < opt_.corner_gap_px || std::abs(r - last_r) < spacing) continue;
+        if ((r - p.v_radius) * (p.corner_radius - p.v_radius) <= 0 || std::abs(r - p.v_radius) < opt_.corner_gap_px)
+          break;  // past the usable end of the edge
+        last_r = r;
+        if (scene_.Occluded(eye, l.corner + f * (l.v_end - l.corner), 1e-3 * (l.corner - eye).norm() + 1e-6))
+          continue;
         ++attempted;
         Step st;
-        if (StrongestStep(grey, s.from_polar(p.corner_radius + direction * d, p.azimuth), tangent, opt_.search_px,
-                          opt_.min_step, &st))
+        if (StrongestStep(grey, s.from_polar(r, p.azimuth), tangent, half, opt_.min_step, &st))
           steps.push_back(st);
       }
+      // Too little of the edge in sight to judge it in this frame.
+      if (attempted < 3) continue;
       int polarity = 0;
       const std::vector<int> in = AgreeingSteps(steps, attempted, opt_.min_sample_fraction, &polarity);
       if (!in.empty()) {
@@ -203,6 +236,7 @@ FrameCheck FrameChecker::Measure(const cv::Mat& grey, int frame, const Pose2& po
     }
     // The horizontal edge at this corner: radial samples at azimuths along
     // its nearer half, each centred on the edge's predicted radius there.
+    if (slot[e] < 0) continue;
     EdgeFrameMeasurement& m = fc.edges[slot[e]];
     const Eigen::Vector3d dir = h - c;
     std::vector<Eigen::Vector2d> curve;
@@ -229,6 +263,8 @@ FrameCheck FrameChecker::Measure(const cv::Mat& grey, int frame, const Pose2& po
       const Eigen::Vector3d q = c + t * dir;
       double r;
       if (!table_->radius(q.head<2>().norm(), q.z(), &r)) continue;
+      const Eigen::Vector3d world = l.corner + t * (l.h_end - l.corner);
+      if (scene_.Occluded(eye, world, 1e-3 * (world - eye).norm() + 1e-6)) continue;
       ++attempted;
       const double ca = std::cos(az), sa = std::sin(az);
       Step st;
@@ -361,6 +397,7 @@ MapCheckReport SummarizeMapCheck(const Map& map, std::vector<EdgeCheck> edges,
       }
     }
   }
+  rep.min_visible_frames = std::max(1, std::min(options.min_visible_frames, rep.frames_with_pose));
   auto mean_std = [](const std::vector<double>& v, double* mean, double* sd) {
     *mean = *sd = 0.0;
     if (v.empty()) return;
@@ -380,7 +417,7 @@ MapCheckReport SummarizeMapCheck(const Map& map, std::vector<EdgeCheck> edges,
     double unused;
     mean_std(distances[i], &e.mean_distance, &unused);
     e.beyond_shade = map.room.present ? map.room.wall_shade : 0.5;
-    if (e.visible < options.min_visible_frames) continue;
+    if (e.visible < rep.min_visible_frames) continue;
     if (e.found_fraction < options.min_found_fraction) {
       e.findings.push_back(MapFinding::kNeverFound);
       continue;
@@ -403,7 +440,7 @@ MapCheckReport SummarizeMapCheck(const Map& map, std::vector<EdgeCheck> edges,
       const EdgeCheck* first = nullptr;
       for (const EdgeCheck& e : edges) {
         if (e.object != object) continue;
-        judged += e.visible >= options.min_visible_frames;
+        judged += e.visible >= rep.min_visible_frames;
         if (std::find(e.findings.begin(), e.findings.end(), kind) == e.findings.end()) continue;
         ++hit;
         if (!first) first = &e;
@@ -469,7 +506,7 @@ std::string FormatMapCheckTable(const MapCheckReport& report) {
                   e.residual_frames ? Fixed(e.mean_residual_deg, 3).c_str() : "-",
                   e.residual_frames > 1 ? Fixed(e.std_residual_deg, 3).c_str() : "-",
                   e.radial_found ? Fixed(e.mean_radial_px, 2).c_str() : "-",
-                  judged ? Fixed(e.mean_distance, 1).c_str() : "-", EdgeStatus(e, 3).c_str());
+                  judged ? Fixed(e.mean_distance, 1).c_str() : "-", EdgeStatus(e, report.min_visible_frames).c_str());
     out += line;
   }
   std::snprintf(line, sizeof line, "%d frames, %d with a pose, %d with landmarks in view; %zu finding%s\n",

@@ -39,6 +39,10 @@ struct MapCheckOptions {
   // predicted edge: a corner mis-measured by more than this at its image
   // radius reads as not found.
   double search_px = 12.0;
+  // ... but no further than 0.45 of the way to the nearest other predicted
+  // vertical edge; an edge with less than this (px) either side is not
+  // judged in that frame.
+  double min_window_px = 2.5;
   double min_step = 10.0;          // grey levels: the weakest edge counted
   double sample_spacing_px = 3.0;  // between the samples along an edge
   double corner_gap_px = 3.0;      // samples start this far from the corner
@@ -46,8 +50,8 @@ struct MapCheckOptions {
   // An edge is found when at least this fraction of its samples (and 3)
   // show a step within 1.5 px of their median offset.
   double min_sample_fraction = 0.5;
-  // Findings. An edge in view on fewer than min_visible_frames frames is
-  // not judged.
+  // Findings. An edge in view on fewer than min_visible_frames frames (or
+  // than all the frames with a pose, when fewer) is not judged.
   int min_visible_frames = 3;
   double min_found_fraction = 0.5;     // below: "never found"
   double min_polarity_agreement = 0.5; // below (of the frames found): "wrong polarity"
@@ -123,6 +127,9 @@ struct MapCheckReport {
   int frames = 0;
   int frames_with_pose = 0;
   int frames_with_landmarks = 0;  // frames with at least one edge predicted in view
+  // Edges in view on fewer frames are not judged: the option, or every
+  // frame with a pose when there are fewer (a single image).
+  int min_visible_frames = 1;
   std::string units;
 };
 
@@ -172,7 +179,7 @@ void WriteMapCheckCsv(const std::string& path, const MapCheckReport& report);
 // status: green fine, red never found, magenta wrong polarity, orange
 // biased, grey not judged; a cross where found this frame.
 cv::Mat DrawMapCheck(const cv::Mat& grey, const FrameCheck& fc, const MapCheckReport& report,
-                     const Sensor& sensor, int min_visible_frames);
+                     const Sensor& sensor);
 
 // The whole command.
 struct MapCheckJob {

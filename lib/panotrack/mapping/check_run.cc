@@ -104,7 +104,8 @@ cv::Point ToPoint(const Eigen::Vector2d& p) { return cv::Point(int(std::lround(p
 }  // namespace
 
 cv::Mat DrawMapCheck(const cv::Mat& grey, const FrameCheck& fc, const MapCheckReport& report,
-                     const Sensor& sensor, int min_visible_frames) {
+                     const Sensor& sensor) {
+  const int min_visible_frames = report.min_visible_frames;
   cv::Mat out;
   cv::cvtColor(grey, out, cv::COLOR_GRAY2BGR);
   // Findings drawn last, over the edges that are fine.
@@ -251,7 +252,7 @@ MapCheckReport RunMapCheck(const MapCheckJob& job) {
     if (IsImageOutput(job.overlay)) {
       std::vector<uchar> png;
       const std::string ext = fs::path(job.overlay).extension().string();
-      if (!cv::imencode(ext, DrawMapCheck(best_grey, checks[best], report, s, job.options.min_visible_frames), png))
+      if (!cv::imencode(ext, DrawMapCheck(best_grey, checks[best], report, s), png))
         throw Error(job.overlay + ": cannot encode the overlay");
       WriteFileAtomic(job.overlay, std::string(png.begin(), png.end()));
     } else {
@@ -266,7 +267,7 @@ MapCheckReport RunMapCheck(const MapCheckJob& job) {
         throw Error(job.overlay + ": cannot open a video writer");
       double t;
       for (int frame = 0; frame < n && again.Read(&grey, &t); ++frame)
-        writer.write(DrawMapCheck(grey, checks[frame], report, s, job.options.min_visible_frames));
+        writer.write(DrawMapCheck(grey, checks[frame], report, s));
       writer.release();
       file.Commit();
     }
