@@ -44,7 +44,7 @@ void AddCheckCommand(CLI::App& app) {
   cmd->add_option("--pose", o->pose, "The camera's pose x,y,theta (map units, radians) for every frame");
   cmd->add_option("--poses", o->job.poses_path,
                   "Pose CSV with one row per frame (panoloc's output or panosim's gt.csv); lost rows are skipped");
-  cmd->add_option("-o,--overlay", o->job.overlay,
+  cmd->add_option("-o,--output", o->job.overlay,
                   "Predicted edges drawn on the frames, coloured by status: .png/.jpg (the frame with the most "
                   "edges in view) or a video such as .mp4 (every frame)");
   cmd->add_option("--report", o->job.report_csv, "Per-edge figures as CSV");
