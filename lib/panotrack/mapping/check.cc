@@ -56,6 +56,7 @@ struct Step {
   double offset_px = 0.0;  // from the centre of the sample, along it
   int polarity = 0;        // +1: brighter along the sample's direction
   Eigen::Vector2d px{0, 0};
+  double before = 0.0, after = 0.0;  // mean grey at the sample's two ends
 };
 
 // The strongest step of either polarity on a linear sample through `centre`
@@ -80,6 +81,8 @@ bool StrongestStep(const cv::Mat& grey, const Eigen::Vector2d& centre, const Eig
   if (std::abs(out->offset_px) > half) return false;
   out->polarity = use_rise ? 1 : -1;
   out->px = start + e.location * kSampleStep * dir;
+  out->before = (profile[0] + profile[1] + profile[2]) / 3.0;
+  out->after = (profile[n - 1] + profile[n - 2] + profile[n - 3]) / 3.0;
   return true;
 }
 
@@ -112,8 +115,7 @@ double Median(std::vector<double> v) {
 
 }  // namespace
 
-std::vector<EdgeCheck> MapEdges(const Map& map, const std::vector<Landmark>& landmarks,
-                                std::vector<int>* edge_of_landmark) {
+std::vector<EdgeCheck> MapEdges(const std::vector<Landmark>& landmarks, std::vector<int>* edge_of_landmark) {
   std::vector<EdgeCheck> edges;
   std::map<std::string, int> index;
   edge_of_landmark->assign(landmarks.size(), -1);
@@ -133,7 +135,6 @@ std::vector<EdgeCheck> MapEdges(const Map& map, const std::vector<Landmark>& lan
     }
     (*edge_of_landmark)[i] = it->second;
   }
-  (void)map;
   return edges;
 }
 
@@ -142,7 +143,7 @@ FrameChecker::FrameChecker(const Calibration& calib, const Map& map, std::shared
     : calib_(calib), map_(map), scene_(Scene::FromMap(map, false)), table_(std::move(table)), opt_(options) {
   opt_.Check();
   landmarks_ = LandmarksFromMap(map_);
-  edges_ = MapEdges(map_, landmarks_, &edge_of_landmark_);
+  edges_ = MapEdges(landmarks_, &edge_of_landmark_);
 }
 
 FrameCheck FrameChecker::Measure(const cv::Mat& grey, int frame, const Pose2& pose) const {
@@ -187,6 +188,15 @@ FrameCheck FrameChecker::Measure(const cv::Mat& grey, int frame, const Pose2& po
       m.distance = p.distance;
       m.corner_px = p.corner_px;
       m.v_end_px = s.from_polar(p.v_radius, p.azimuth);
+      {
+        // What the map shows just beyond the vertical edge (as PredictLandmarks
+        // judges its polarity), for the shade a wrong polarity suggests.
+        const double dist3 = (l.corner - eye).norm();
+        const Eigen::Vector3d target = l.corner + std::max(0.01 * dist3, 0.5) * (l.corner - l.h_end).normalized() +
+                                       0.5 * (l.v_end - l.corner);
+        const RayHit hit = scene_.Intersect(eye, (target - eye).normalized());
+        m.beyond_shade = hit.hit() ? hit.shade : 0.0;
+      }
       const double half = window_px(p);
       if (half < opt_.min_window_px) continue;  // too close to another edge to tell them apart
       const double len = std::abs(p.v_radius - p.corner_radius);
@@ -230,6 +240,15 @@ FrameCheck FrameChecker::Measure(const cv::Mat& grey, int frame, const Pose2& po
           sum += wrap_angle(az - p.azimuth);
         }
         m.measured_azimuth = wrap_angle(p.azimuth + sum / in.size());
+        // The face's brightness against what lies beyond, at both ends of
+        // the samples (increasing azimuth is "after").
+        std::vector<double> ratios;
+        for (int i : in) {
+          const double inside = p.inside_azimuth_sign > 0 ? steps[i].after : steps[i].before;
+          const double outside = p.inside_azimuth_sign > 0 ? steps[i].before : steps[i].after;
+          if (outside > 1.0) ratios.push_back(inside / outside);
+        }
+        if (!ratios.empty()) m.brightness_ratio = Median(ratios);
       }
       slot[e] = static_cast<int>(fc.edges.size());
       fc.edges.push_back(m);
@@ -345,9 +364,11 @@ std::string Fixed(double v, int decimals) {
   return buf;
 }
 
-// The shade that gives the contrast seen: the map's face mirrored about what
-// lies beyond it (the same contrast, the other sign).
+// The shade seen (the face's brightness against what lies beyond, times
+// the map's shade there); without it, the map's mirrored about what lies
+// beyond (the same contrast, the other sign).
 double SuggestedShade(const EdgeCheck& e) {
+  if (e.seen_shade >= 0) return std::clamp(e.seen_shade, 0.02, 0.98);
   return std::clamp(2.0 * e.beyond_shade - e.shade, 0.05, 0.95);
 }
 
@@ -372,7 +393,8 @@ MapCheckReport SummarizeMapCheck(const Map& map, std::vector<EdgeCheck> edges,
   MapCheckReport rep;
   rep.units = map.units;
   rep.frames = static_cast<int>(frames.size());
-  std::vector<std::vector<double>> residuals(edges.size()), radials(edges.size()), distances(edges.size());
+  std::vector<std::vector<double>> residuals(edges.size()), radials(edges.size()), distances(edges.size()),
+      beyond(edges.size()), ratios(edges.size());
   // Each edge's polarity as seen on most frames: a frame whose step has the
   // other sign found something else (a neighbouring edge) and gives no residual.
   std::vector<int> polarity_balance(edges.size(), 0);
@@ -386,11 +408,13 @@ MapCheckReport SummarizeMapCheck(const Map& map, std::vector<EdgeCheck> edges,
       EdgeCheck& e = edges[m.edge];
       ++e.visible;
       distances[m.edge].push_back(m.distance);
+      beyond[m.edge].push_back(m.beyond_shade);
       if (!m.found) continue;
       ++e.found;
       e.polarity_agree += m.measured_polarity == m.expected_polarity;
       const int usual = polarity_balance[m.edge] >= 0 ? 1 : -1;
       if (m.has_residual && m.measured_polarity == usual) residuals[m.edge].push_back(m.bearing_residual * kDeg);
+      if (m.brightness_ratio > 0) ratios[m.edge].push_back(m.brightness_ratio);
       if (m.horizontal_found) {
         ++e.radial_found;
         radials[m.edge].push_back(m.radial_residual_px);
@@ -416,7 +440,8 @@ MapCheckReport SummarizeMapCheck(const Map& map, std::vector<EdgeCheck> edges,
     mean_std(radials[i], &e.mean_radial_px, &e.std_radial_px);
     double unused;
     mean_std(distances[i], &e.mean_distance, &unused);
-    e.beyond_shade = map.room.present ? map.room.wall_shade : 0.5;
+    mean_std(beyond[i], &e.beyond_shade, &unused);
+    if (!ratios[i].empty()) e.seen_shade = std::clamp(Median(ratios[i]) * e.beyond_shade, 0.0, 1.0);
     if (e.visible < rep.min_visible_frames) continue;
     if (e.found_fraction < options.min_found_fraction) {
       e.findings.push_back(MapFinding::kNeverFound);

@@ -79,6 +79,8 @@ struct EdgeFrameMeasurement {
   bool horizontal_found = false;
   double radial_residual_px = 0; // horizontal edge: measured - predicted image radius
   double distance = 0;           // horizontal distance to the corner (map units)
+  double beyond_shade = 0;       // the map's shade seen just beyond the vertical edge
+  double brightness_ratio = -1;  // the face's grey over the grey beyond it (-1: unknown)
   // For the overlay: the predicted edges (image points): the vertical one
   // and the horizontal one at each corner in view.
   Eigen::Vector2d corner_px{0, 0}, v_end_px{0, 0};
@@ -110,7 +112,10 @@ struct EdgeCheck {
   double mean_residual_deg = 0.0, std_residual_deg = 0.0;
   double mean_radial_px = 0.0, std_radial_px = 0.0;
   double mean_distance = 0.0;           // map units
-  double beyond_shade = 0.0;            // mean shade the map puts beyond the edge
+  double beyond_shade = 0.0;            // mean shade the map puts just beyond the edge
+  // The face's shade as seen: its brightness against what lies beyond,
+  // times beyond_shade (-1: never found).
+  double seen_shade = -1.0;
   std::vector<MapFinding> findings;
 };
 
@@ -135,8 +140,7 @@ struct MapCheckReport {
 
 // The map's vertical edges (one per rectangle end, one per box corner), in
 // map order, and the index of each landmark's edge.
-std::vector<EdgeCheck> MapEdges(const Map& map, const std::vector<Landmark>& landmarks,
-                                std::vector<int>* edge_of_landmark);
+std::vector<EdgeCheck> MapEdges(const std::vector<Landmark>& landmarks, std::vector<int>* edge_of_landmark);
 
 // Measures one grey frame from `pose`. Fills the predicted and measured
 // edges (no residuals yet: SetResiduals).

@@ -140,15 +140,15 @@ cv::Mat DrawMapCheck(const cv::Mat& grey, const FrameCheck& fc, const MapCheckRe
 void WriteMapCheckCsv(const std::string& path, const MapCheckReport& report) {
   std::string text =
       "edge,object,x,y,visible,found,found_fraction,polarity_fraction,residual_frames,mean_bearing_deg,"
-      "std_bearing_deg,mean_radial_px,std_radial_px,mean_distance,findings\n";
+      "std_bearing_deg,mean_radial_px,std_radial_px,mean_distance,map_shade,seen_shade,findings\n";
   char line[512];
   for (const EdgeCheck& e : report.edges) {
     std::string findings;
     for (MapFinding f : e.findings) findings += (findings.empty() ? "" : ";") + std::string(map_finding_name(f));
-    std::snprintf(line, sizeof line, "%s,%s,%.6g,%.6g,%d,%d,%.4f,%.4f,%d,%.4f,%.4f,%.3f,%.3f,%.2f,%s\n",
+    std::snprintf(line, sizeof line, "%s,%s,%.6g,%.6g,%d,%d,%.4f,%.4f,%d,%.4f,%.4f,%.3f,%.3f,%.2f,%.3f,%.3f,%s\n",
                   e.id.c_str(), e.object.c_str(), e.position.x(), e.position.y(), e.visible, e.found,
                   e.found_fraction, e.polarity_fraction, e.residual_frames, e.mean_residual_deg, e.std_residual_deg,
-                  e.mean_radial_px, e.std_radial_px, e.mean_distance, findings.c_str());
+                  e.mean_radial_px, e.std_radial_px, e.mean_distance, e.shade, e.seen_shade, findings.c_str());
     text += line;
   }
   WriteFileAtomic(path, text);
