@@ -6,4 +6,9 @@
 
 #include "subcommand_main.h"
 
-namespace pano::app {}  // namespace pano::app
+namespace pano::app {
+
+// check: the map against video of the room (lib/panotrack/mapping/check.h).
+void AddCheckCommand(CLI::App& app);
+
+}  // namespace pano::app

@@ -28,7 +28,7 @@ std::string ReadText(const std::string& path) {
 
 TEST_CASE("--version, --help with exit codes and the shared options, --force for existing outputs",
           "[conventions]") {
-  for (const std::string tool : {"panoloc", "panocalib", "panosim"}) {
+  for (const std::string tool : {"panoloc", "panocalib", "panosim", "panomap"}) {
     INFO(tool);
     Run r = Exec(tool + " --version");
     CHECK(r.code == 0);
@@ -51,7 +51,8 @@ TEST_CASE("--version, --help with exit codes and the shared options, --force for
       {"panocalib project", {"-q,--quiet"}},
       {"panosim still", {"-o,--output", "--force", "-j,--jobs", "-q,--quiet", "-v,--verbose"}},
       {"panosim sequence", {"-o,--output", "--force", "-j,--jobs", "-q,--quiet", "-v,--verbose"}},
-      {"panosim targets", {"-o,--output", "--force", "-j,--jobs", "-q,--quiet", "-v,--verbose"}}};
+      {"panosim targets", {"-o,--output", "--force", "-j,--jobs", "-q,--quiet", "-v,--verbose"}},
+      {"panomap check", {"-o,--output", "--force", "-q,--quiet", "-v,--verbose"}}};
   for (const auto& [command, options] : subcommands) {
     INFO(command);
     r = Exec(command + " --help");

@@ -1,0 +1,73 @@
+// panomap check: the map against video of the room (lib/panotrack/mapping).
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "commands.h"
+#include "panotrack/core/error.h"
+#include "panotrack/mapping/check.h"
+
+namespace pano::app {
+
+namespace {
+
+Pose2 ParsePose(const std::string& text) {
+  Pose2 p;
+  char tail = 0;
+  if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &p.x, &p.y, &p.theta, &tail) != 3)
+    throw Error("--pose: expected x,y,theta (map units, radians), got '" + text + "'");
+  return p;
+}
+
+}  // namespace
+
+void AddCheckCommand(CLI::App& app) {
+  struct Opts {
+    MapCheckJob job;
+    std::string pose;
+    bool quiet = false;
+  };
+  auto o = std::make_shared<Opts>();
+  CLI::App* cmd = app.add_subcommand(
+      "check",
+      "Check a map against video (or an image) of the room. Each frame's landmarks are predicted from its pose "
+      "(--pose, --poses, or else localised with the map) and looked for near their predicted edges. Prints, per "
+      "vertical edge of the map, how often it was in view and found, whether its step has the polarity the map's "
+      "shades imply, and its bearing residual (measured minus predicted, degrees); then the findings: never "
+      "found (not in the room, or moved), wrong polarity (shade inverted), biased (corner mis-measured). Without "
+      "poses, each object's residuals are measured from the pose solved from the other objects' bearings, so a "
+      "mis-measured corner cannot pull the pose. Findings are results: the exit status is 0 once the map was "
+      "checked.");
+  cmd->add_option("--map", o->job.map_path, "Map YAML to check")->required();
+  cmd->add_option("--calib", o->job.calib_path, "Calibration YAML of the camera")->required();
+  cmd->add_option("input", o->job.input, "Video, image folder, printf pattern or one image")->required();
+  cmd->add_option("--pose", o->pose, "The camera's pose x,y,theta (map units, radians) for every frame");
+  cmd->add_option("--poses", o->job.poses_path,
+                  "Pose CSV with one row per frame (panoloc's output or panosim's gt.csv); lost rows are skipped");
+  cmd->add_option("-o,--output", o->job.overlay,
+                  "Predicted edges drawn on the frames, coloured by status: .png/.jpg (the frame with the most "
+                  "edges in view) or a video such as .mp4 (every frame)");
+  cmd->add_option("--report", o->job.report_csv, "Per-edge figures as CSV");
+  cmd->add_option("--search", o->job.options.search_px, "Half-width (px) searched across each predicted edge")
+      ->capture_default_str();
+  cmd->add_option("--min-found", o->job.options.min_found_fraction,
+                  "Edges found in fewer than this fraction of the frames that show them are 'never found'")
+      ->capture_default_str();
+  cmd->add_option("--bias-floor", o->job.options.bias_floor_deg,
+                  "Smallest mean bearing residual (degrees) reported as biased")
+      ->capture_default_str();
+  cmd->add_flag("--force", o->job.overwrite, "Replace existing output files");
+  cmd->add_flag("-q,--quiet", o->quiet, "Print only the findings");
+  cmd->add_flag("-v,--verbose", "Print the libraries' logs");
+  cmd->callback([o]() {
+    if (!o->pose.empty()) o->job.pose = ParsePose(o->pose);
+    const MapCheckReport report = RunMapCheck(o->job);
+    if (o->quiet) {
+      for (const ObjectFinding& f : report.findings) std::printf("%s\n", f.message.c_str());
+    } else {
+      std::fputs(FormatMapCheckTable(report).c_str(), stdout);
+    }
+  });
+}
+
+}  // namespace pano::app

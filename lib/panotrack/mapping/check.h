@@ -1,0 +1,206 @@
+// Checking a room's landmark map against what the camera sees (panomap check).
+//
+// For each frame, every landmark the map predicts in view (track/landmarks.h)
+// is looked for in a window around its predicted edges, with either polarity:
+// the vertical edge (its image azimuth: the bearing the localiser uses) and
+// the horizontal edge (its image radius). Over the run each vertical edge of
+// the map (a rectangle's "from" or "to" end, a box's corner) gathers how
+// often it was in view and found, whether its step had the polarity the
+// map's shades imply, and the mean and spread of its bearing residual.
+// Those figures become findings: never found (not in the room, or moved far),
+// wrong polarity (shade inverted), biased (corner mis-measured).
+//
+// The residuals are measured from the frame's pose: a given one (ground
+// truth, a pose CSV) or one solved from the bearings of every other map
+// object's edges in that frame (the object held out), so that a
+// mis-measured landmark cannot pull the pose towards itself.
+#pragma once
+
+#include <Eigen/Core>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "panotrack/lut/radius_table.h"
+#include "panotrack/scene/map.h"
+#include "panotrack/scene/scene.h"
+#include "panotrack/sensor/calibration.h"
+#include "panotrack/sensor/sensor.h"
+#include "panotrack/track/landmarks.h"
+
+namespace pano {
+
+struct MapCheckOptions {
+  PredictionOptions prediction;
+  // Half-width (px, across the edge) of the window searched around each
+  // predicted edge: a corner mis-measured by more than this at its image
+  // radius reads as not found.
+  double search_px = 12.0;
+  // ... but no further than 0.45 of the way to the nearest other predicted
+  // vertical edge; an edge with less than this (px) either side is not
+  // judged in that frame.
+  double min_window_px = 2.5;
+  double min_step = 10.0;          // grey levels: the weakest edge counted
+  double sample_spacing_px = 3.0;  // between the samples along an edge
+  double corner_gap_px = 3.0;      // samples start this far from the corner
+  int max_samples = 24;            // per edge
+  // An edge is found when at least this fraction of its samples (and 3)
+  // show a step within 1.5 px of their median offset.
+  double min_sample_fraction = 0.5;
+  // Findings. An edge in view on fewer than min_visible_frames frames (or
+  // than all the frames with a pose, when fewer) is not judged.
+  int min_visible_frames = 3;
+  double min_found_fraction = 0.5;     // below: "never found"
+  double min_polarity_agreement = 0.5; // below (of the frames found): "wrong polarity"
+  // Biased: |mean residual| > bias_sigmas * std / sqrt(n) and > bias_floor_deg.
+  double bias_sigmas = 4.0;
+  double bias_floor_deg = 0.1;
+  int min_found_frames_for_bias = 3;
+  // Self-localised poses: bearings further than this from a held-out solve
+  // are left out of it (radians).
+  double hold_out_outlier = 1.0 * M_PI / 180;
+  void Check() const;
+};
+
+// One vertical edge of the map, as measured in one frame.
+struct EdgeFrameMeasurement {
+  int edge = -1;                 // into MapCheckReport::edges
+  int landmark = -1;             // the corner predicted (into the landmark list)
+  bool found = false;
+  int expected_polarity = 0;     // +1: the face brighter than beyond it (map)
+  int measured_polarity = 0;     // the same, seen; 0 when not found
+  double predicted_azimuth = 0;  // image azimuth (radians)
+  double measured_azimuth = 0;
+  bool has_residual = false;     // found, and a pose to measure the residual from
+  double bearing_residual = 0;   // measured - predicted (radians)
+  bool horizontal_found = false;
+  double radial_residual_px = 0; // horizontal edge: measured - predicted image radius
+  double distance = 0;           // horizontal distance to the corner (map units)
+  double beyond_shade = 0;       // the map's shade seen just beyond the vertical edge
+  double brightness_ratio = -1;  // the face's grey over the grey beyond it (-1: unknown)
+  // For the overlay: the predicted edges (image points): the vertical one
+  // and the horizontal one at each corner in view.
+  Eigen::Vector2d corner_px{0, 0}, v_end_px{0, 0};
+  std::vector<std::vector<Eigen::Vector2d>> h_curves;
+};
+
+struct FrameCheck {
+  int frame = 0;
+  bool has_pose = false;  // false: lost (nothing predicted)
+  Pose2 pose;
+  std::vector<EdgeFrameMeasurement> edges;
+};
+
+enum class MapFinding { kNeverFound, kWrongPolarity, kBiased };
+const char* map_finding_name(MapFinding f);
+
+// One vertical edge of the map over the run.
+struct EdgeCheck {
+  std::string object;  // the map rectangle's or box's id
+  std::string id;      // "<object>/from", "<object>/to", "<box>/x0y1"
+  bool box = false;
+  Eigen::Vector2d position{0, 0};  // world (x, y) of the edge
+  double shade = 0.0;              // the map's shade of its object
+  int visible = 0, found = 0;      // frames predicted in view, found
+  int polarity_agree = 0;          // of the frames found
+  int radial_found = 0;
+  double found_fraction = 0.0, polarity_fraction = 0.0;
+  int residual_frames = 0;              // frames with a residual (found, with a pose)
+  double mean_residual_deg = 0.0, std_residual_deg = 0.0;
+  double mean_radial_px = 0.0, std_radial_px = 0.0;
+  double mean_distance = 0.0;           // map units
+  double beyond_shade = 0.0;            // mean shade the map puts just beyond the edge
+  // The face's shade as seen: its brightness against what lies beyond,
+  // times beyond_shade (-1: never found).
+  double seen_shade = -1.0;
+  std::vector<MapFinding> findings;
+};
+
+// One finding per map object (rectangle or box), in words.
+struct ObjectFinding {
+  std::string object;
+  MapFinding kind = MapFinding::kNeverFound;
+  std::string message;
+};
+
+struct MapCheckReport {
+  std::vector<EdgeCheck> edges;
+  std::vector<ObjectFinding> findings;
+  int frames = 0;
+  int frames_with_pose = 0;
+  int frames_with_landmarks = 0;  // frames with at least one edge predicted in view
+  // Edges in view on fewer frames are not judged: the option, or every
+  // frame with a pose when there are fewer (a single image).
+  int min_visible_frames = 1;
+  std::string units;
+};
+
+// The map's vertical edges (one per rectangle end, one per box corner), in
+// map order, and the index of each landmark's edge.
+std::vector<EdgeCheck> MapEdges(const std::vector<Landmark>& landmarks, std::vector<int>* edge_of_landmark);
+
+// Measures one grey frame from `pose`. Fills the predicted and measured
+// edges (no residuals yet: SetResiduals).
+class FrameChecker {
+ public:
+  FrameChecker(const Calibration& calib, const Map& map, std::shared_ptr<const RadiusTable> table,
+               const MapCheckOptions& options);
+  const std::vector<EdgeCheck>& edges() const { return edges_; }
+  const std::vector<Landmark>& landmarks() const { return landmarks_; }
+  // Predicts from `pose` and measures each edge in view.
+  FrameCheck Measure(const cv::Mat& grey, int frame, const Pose2& pose) const;
+  // Bearing residuals from the frame's own pose (given poses).
+  void SetResiduals(FrameCheck* fc) const;
+  // Bearing residuals of each object's edges from the pose solved from the
+  // other objects' bearings (self-localised poses); an object whose held-out
+  // solve fails gets no residuals in this frame.
+  void SetHeldOutResiduals(FrameCheck* fc) const;
+
+ private:
+  Calibration calib_;
+  Map map_;
+  Scene scene_;
+  std::shared_ptr<const RadiusTable> table_;
+  MapCheckOptions opt_;
+  std::vector<Landmark> landmarks_;
+  std::vector<EdgeCheck> edges_;
+  std::vector<int> edge_of_landmark_;
+};
+
+// The run's figures and findings from its frames.
+MapCheckReport SummarizeMapCheck(const Map& map, std::vector<EdgeCheck> edges,
+                                 const std::vector<FrameCheck>& frames, const MapCheckOptions& options);
+
+// The table panomap check prints (one row per edge), and its findings.
+std::string FormatMapCheckTable(const MapCheckReport& report);
+// The per-edge CSV (--report).
+void WriteMapCheckCsv(const std::string& path, const MapCheckReport& report);
+
+// The frame with the predicted edges drawn, coloured by their edge's
+// status: green fine, red never found, magenta wrong polarity, orange
+// biased, grey not judged; a cross where found this frame.
+cv::Mat DrawMapCheck(const cv::Mat& grey, const FrameCheck& fc, const MapCheckReport& report,
+                     const Sensor& sensor);
+
+// The whole command.
+struct MapCheckJob {
+  std::string map_path, calib_path, input;
+  std::optional<Pose2> pose;  // one pose for every frame
+  std::string poses_path;     // pose CSV, one row per frame; empty: none
+  // .png/.jpg (the frame with the most edges in view) or a video (every
+  // frame); empty: none.
+  std::string overlay;
+  std::string report_csv;     // empty: none
+  MapCheckOptions options;
+  bool overwrite = false;     // replace existing outputs (--force)
+  void Check() const;
+};
+
+// Runs the check. Throws pano::Error for bad inputs, a poses CSV that does
+// not match the input's frames, and when no landmark is in view in any frame.
+MapCheckReport RunMapCheck(const MapCheckJob& job);
+
+}  // namespace pano
