@@ -6,4 +6,9 @@
 
 #include "subcommand_main.h"
 
-namespace pano::app {}  // namespace pano::app
+namespace pano::app {
+
+// refine: bundle-adjust the map's rectangles against tracked video (lib/panotrack/mapping/refine.h).
+void AddRefineCommand(CLI::App& app);
+
+}  // namespace pano::app

@@ -23,6 +23,7 @@ int main(int argc, char** argv) {
   app.set_help_flag("-h,--help", "Print this help and exit");
   // Subcommands made from here on show every option's default.
   app.option_defaults()->always_capture_default();
+  pano::app::AddRefineCommand(app);
   pano::app::SplitDescriptions(app, exit_codes);
   return pano::app::RunSubcommandApp(app, "panomap", argc, argv);
 }
