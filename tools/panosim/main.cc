@@ -259,7 +259,8 @@ CLI::App* AddSequence(CLI::App* app, SequenceArgs* a) {
       "--frames.");
   seq->add_option("--preset", a->preset,
                   "Built-in case (panosim presets lists them): paper-synthetic, paper-real, cluttered, kidnap, "
-                  "fast-turns, motion-blur, real-conditions, long-run, long-run-blur; the options below apply on top");
+                  "fast-turns, motion-blur, real-conditions, long-run, long-run-blur, paper-real-map-error, "
+                  "paper-synthetic-map-error; the options below apply on top");
   seq->add_option("--map", a->map_path, "Map file (YAML, spec section 4)");
   seq->add_option("--calib", a->calib_path, "Calibration file (YAML, spec section 3)");
   seq->add_option(
