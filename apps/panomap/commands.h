@@ -10,5 +10,7 @@ namespace pano::app {
 
 // check: the map against video of the room (lib/panotrack/mapping/check.h).
 void AddCheckCommand(CLI::App& app);
+// refine: bundle-adjust the map's rectangles against tracked video (lib/panotrack/mapping/refine.h).
+void AddRefineCommand(CLI::App& app);
 
 }  // namespace pano::app

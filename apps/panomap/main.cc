@@ -24,6 +24,7 @@ int main(int argc, char** argv) {
   // Subcommands made from here on show every option's default.
   app.option_defaults()->always_capture_default();
   pano::app::AddCheckCommand(app);
+  pano::app::AddRefineCommand(app);
   pano::app::SplitDescriptions(app, exit_codes);
   return pano::app::RunSubcommandApp(app, "panomap", argc, argv);
 }

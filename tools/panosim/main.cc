@@ -298,6 +298,9 @@ struct SequenceArgs {
   double fps = 10.0;
   bool frames = false, no_video = false;
   CLI::Option* o_fps = nullptr;
+  double map_sigma = 0.0;
+  uint64_t map_seed = 1;
+  CLI::Option *o_map_sigma = nullptr, *o_map_seed = nullptr;
   RenderFlags flags;
   RigFlags rig;
   CommonFlags common;
@@ -312,7 +315,8 @@ CLI::App* AddSequence(CLI::App* app, SequenceArgs* a) {
       "--frames.");
   seq->add_option("--preset", a->preset,
                   "Built-in case (panosim presets lists them): paper-synthetic, paper-real, cluttered, kidnap, "
-                  "fast-turns, motion-blur, real-conditions, long-run, long-run-blur; the options below apply on top");
+                  "fast-turns, motion-blur, real-conditions, long-run, long-run-blur, paper-real-map-error, "
+                  "paper-synthetic-map-error; the options below apply on top");
   seq->add_option("--map", a->map_path, "Map file (YAML, spec section 4)");
   seq->add_option("--calib", a->calib_path, "Calibration file (YAML, spec section 3)");
   seq->add_option(
@@ -324,6 +328,12 @@ CLI::App* AddSequence(CLI::App* app, SequenceArgs* a) {
       ->group("Output");
   seq->add_flag("--frames", a->frames, "Also write lossless DIR/frames/frame_%04d.png")->group("Output");
   seq->add_flag("--no-video", a->no_video, "Do not write video.mp4 (needs --frames)")->group("Output");
+  a->o_map_sigma = seq->add_option("--map-sigma", a->map_sigma,
+                                   "Survey error of map.yaml: every rectangle's end points (x, y) and heights "
+                                   "moved by Gaussian errors of this sigma (map units); the true map is then "
+                                   "written as map_true.yaml. Default: the preset's (0 for most)")
+                       ->check(CLI::NonNegativeNumber);
+  a->o_map_seed = seq->add_option("--map-seed", a->map_seed, "Seed of the --map-sigma errors")->default_val(1);
   GroupInputs(seq);
   a->common.Add(seq, "Replace an existing output folder");
   a->flags.Add(seq, true, true);
@@ -348,6 +358,8 @@ pano::SequenceCase SequenceCaseOf(const SequenceArgs& a) {
 void RunSequence(const SequenceArgs& a) {
   pano::SequenceCase c = SequenceCaseOf(a);
   a.rig.Apply(&c.calib.sensor);
+  if (a.o_map_sigma->count()) c.map_sigma = a.map_sigma;
+  if (a.o_map_seed->count()) c.map_seed = a.map_seed;
   a.flags.Apply(&c.options, true);
   c.options.Check("options");
   pano::SequenceWriteOptions wo;

@@ -439,10 +439,59 @@ Calibration PaperSyntheticCalibration() {
                          "radius 157.2 px.");
 }
 
+namespace {
+
+// 300 poses around an ellipse (centre c, semi-axes a, b), 1.6 turns, heading
+// along the path plus a slow wiggle of `wiggle` radians.
+std::vector<Pose2> EllipseLoop(Eigen::Vector2d c, double a, double b, double wiggle) {
+  const int n = 300;
+  std::vector<Pose2> out;
+  for (int i = 0; i < n; ++i) {
+    const double u = 2.0 * M_PI * 1.6 * i / n;
+    const double heading = std::atan2(b * std::cos(u), -a * std::sin(u));
+    out.push_back({c.x() + a * std::cos(u), c.y() + b * std::sin(u),
+                   wrap_angle(heading + wiggle * std::sin(2.0 * M_PI * i / 75.0))});
+  }
+  return out;
+}
+
+// The map-refinement cases (panomap refine): map.yaml is the room as a
+// survey with 1 map unit of error per coordinate measured it, map_true.yaml
+// the room rendered.
+SequenceCase PaperRealMapError() {
+  SequenceCase c = PaperReal();
+  c.name = "paper-real-map-error";
+  c.description =
+      "The paper-real room and sensor (noise 3, 3x3 blur), 300 frames around an ellipse; map.yaml "
+      "has every rectangle's end points and heights off by sigma 1 cm (map_true.yaml: the truth)";
+  c.poses = EllipseLoop({120, 80}, 55, 30, 20.0 * M_PI / 180);
+  c.fps = 10.0;
+  c.options.seed = 301;
+  c.map_sigma = 1.0;
+  c.map_seed = 7;
+  return c;
+}
+
+SequenceCase PaperSyntheticMapError() {
+  SequenceCase c = PaperSynthetic();
+  c.name = "paper-synthetic-map-error";
+  c.description =
+      "The paper-synthetic room and sensor, 300 frames around an ellipse; map.yaml has every "
+      "rectangle's end points and heights off by sigma 1 unit (map_true.yaml: the truth)";
+  c.poses = EllipseLoop({85, 75}, 45, 28, 20.0 * M_PI / 180);
+  c.options.seed = 302;
+  c.map_sigma = 1.0;
+  c.map_seed = 8;
+  return c;
+}
+
+}  // namespace
+
 std::vector<std::string> PresetNames() {
   return {"paper-synthetic", "paper-real",      "cluttered", "kidnap",       "fast-turns",
           "motion-blur",     "real-conditions", "long-run",  "long-run-blur",
-          "faulty-rig",      "faulty-rig-2x"};
+          "faulty-rig",      "faulty-rig-2x",   "paper-real-map-error",
+          "paper-synthetic-map-error"};
 }
 
 SequenceCase MakePreset(const std::string& name) {
@@ -458,6 +507,8 @@ SequenceCase MakePreset(const std::string& name) {
   else if (name == "long-run-blur") c = LongRunBlur();
   else if (name == "faulty-rig") c = FaultyRig(1.0);
   else if (name == "faulty-rig-2x") c = FaultyRig(2.0);
+  else if (name == "paper-real-map-error") c = PaperRealMapError();
+  else if (name == "paper-synthetic-map-error") c = PaperSyntheticMapError();
   else {
     std::string list;
     for (const std::string& n : PresetNames()) list += (list.empty() ? "" : ", ") + n;

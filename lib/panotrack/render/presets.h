@@ -21,11 +21,16 @@ struct SequenceCase {
   double fps = 10.0;
   RenderOptions options;
   std::vector<int> kidnap_frames;  // first frames after sudden jumps of the pose (ascending)
+  // Survey error of the map handed to the localiser (render/sequence.h
+  // PerturbedMap): 0 writes the true map as map.yaml; above 0 map.yaml is
+  // the perturbed map and map_true.yaml the true one.
+  double map_sigma = 0.0;
+  uint64_t map_seed = 1;
 };
 
 // Names of the built-in presets: paper-synthetic, paper-real, cluttered, kidnap,
 // fast-turns, motion-blur, real-conditions, long-run, long-run-blur, faulty-rig,
-// faulty-rig-2x.
+// faulty-rig-2x, paper-real-map-error, paper-synthetic-map-error.
 std::vector<std::string> PresetNames();
 // Throws pano::Error "preset 'x': unknown (expected one of ...)".
 SequenceCase MakePreset(const std::string& name);

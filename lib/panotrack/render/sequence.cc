@@ -21,7 +21,8 @@ Mix MixFor(uint64_t seed, uint64_t salt) {
   return m;
 }
 
-enum Salt : uint64_t { kGainSalt = 11, kDropSalt = 12, kCoverSalt = 13, kPeopleSalt = 14, kSectorSalt = 15 };
+enum Salt : uint64_t { kGainSalt = 11, kDropSalt = 12, kCoverSalt = 13, kPeopleSalt = 14, kSectorSalt = 15,
+             kMapSalt = 16 };
 
 std::vector<int> PickFrames(Mix rng, int count, int n_frames, const std::vector<int>& excluded,
                             const char* option) {
@@ -197,6 +198,29 @@ std::vector<Surface> PeopleSurfaces(const std::vector<Person>& people, double ti
     top.kind = SurfaceKind::kDistractor;
     top.name = name + ":top";
     out.push_back(top);
+  }
+  return out;
+}
+
+Map PerturbedMap(const Map& map, double sigma, uint64_t seed) {
+  if (!(sigma >= 0.0) || !std::isfinite(sigma)) throw Error("map-sigma: expected a number >= 0");
+  Map out = map;
+  if (sigma == 0.0) return out;
+  Mix rng = MixFor(seed, kMapSalt);
+  // Box-Muller on the seeded uniforms: the same errors on every platform.
+  auto gauss = [&rng, sigma]() {
+    const double u1 = rng.Uniform(), u2 = rng.Uniform();
+    return sigma * std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * M_PI * u2);
+  };
+  for (MapRectangle& r : out.rectangles) {
+    r.from.x() += gauss();
+    r.from.y() += gauss();
+    r.to.x() += gauss();
+    r.to.y() += gauss();
+    // Standing on the floor is a contact, not a measurement: kept exact.
+    const double dz0 = gauss();
+    if (r.z0 != 0.0) r.z0 = std::max(0.0, r.z0 + dz0);
+    r.z1 = std::max(r.z0 + sigma, r.z1 + gauss());
   }
   return out;
 }

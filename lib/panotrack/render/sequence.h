@@ -64,6 +64,15 @@ Eigen::Vector2d PersonPosition(const Person& person, double time, const Eigen::V
 std::vector<Surface> PeopleSurfaces(const std::vector<Person>& people, double time,
                                     const Eigen::Vector2d& robot, double clearance);
 
+// The map a survey with errors would give: each rectangle's floor end points
+// (x and y of `from` and `to`) and heights (z0, z1) moved by independent
+// Gaussian errors of standard deviation `sigma` (map units), deterministic in
+// `seed`. A rectangle standing on the floor (z0 = 0) keeps z0 = 0 (a survey
+// sees the contact); heights stay ordered (z1 at least sigma above z0) and z0
+// at or above the floor; the room, boxes and distractors are kept as they are (so a
+// rectangle near a wall may be surveyed a little behind it).
+Map PerturbedMap(const Map& map, double sigma, uint64_t seed);
+
 // Renders the frames of a case with every factor of its options.
 class SequenceRenderer {
  public:

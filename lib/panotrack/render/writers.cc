@@ -92,6 +92,10 @@ std::string CaseYaml(const SequenceCase& c, const std::string& codec) {
   w.Key("frames").Int(static_cast<long long>(c.poses.size()));
   w.Key("fps").Double(c.fps);
   w.Key("seed").Unsigned(r.seed);
+  if (c.map_sigma > 0.0) {
+    w.Key("map_sigma").Double(c.map_sigma);
+    w.Key("map_seed").Unsigned(c.map_seed);
+  }
   w.Key("initial_pose").BeginMap();
   w.Key("x").Double(c.poses.front().x);
   w.Key("y").Double(c.poses.front().y);
@@ -219,7 +223,12 @@ SequenceWriteResult WriteSequence(const SequenceCase& c, const std::string& dir,
   gt.Close();
   gt_tum.Close();
   if (wo.video) video.release();
-  WriteMap(sd.File("map.yaml"), c.map, false);
+  if (c.map_sigma > 0.0) {
+    WriteMap(sd.File("map.yaml"), PerturbedMap(c.map, c.map_sigma, c.map_seed), false);
+    WriteMap(sd.File("map_true.yaml"), c.map, false);
+  } else {
+    WriteMap(sd.File("map.yaml"), c.map, false);
+  }
   Calibration calib = c.calib;
   calib.lut.clear();
   WriteCalibration(sd.File("calib.yaml"), calib);

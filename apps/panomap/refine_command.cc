@@ -1,0 +1,87 @@
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "commands.h"
+#include "panotrack/core/error.h"
+#include "panotrack/core/output_check.h"
+#include "panotrack/io/calibration.h"
+#include "panotrack/io/map.h"
+#include "panotrack/io/pose_csv.h"
+#include "panotrack/mapping/refine.h"
+
+namespace pano::app {
+
+void AddRefineCommand(CLI::App& app) {
+  struct Opts {
+    std::string map, calib, out, report;
+    std::vector<std::string> poses, videos;
+    double map_sigma = 1.0;
+    bool free_height = false, fix_first_pose = false, free_floor = false, force = false, quiet = false, verbose = false;
+    int passes = 2, threads = 0;
+  };
+  auto o = std::make_shared<Opts>();
+  CLI::App* cmd = app.add_subcommand(
+      "refine",
+      "Refine a surveyed map from video: a bundle adjustment of the landmark rectangles (each vertical, "
+      "its two floor end points and two heights shared by its four corners), the robot poses (started "
+      "from the pose CSVs, ok rows only) and optionally the sensor height, against the azimuth and image "
+      "radius of every junction tracked at its predicted place. Each surveyed coordinate has a Gaussian "
+      "prior of sigma --map-sigma; the priors fix the gauge. Prints each landmark's correction and its "
+      "standard deviation, flagged when beyond 3 sigma of the survey.");
+  cmd->add_option("--map", o->map, "Surveyed map YAML (never overwritten)")->required();
+  cmd->add_option("--calib", o->calib, "Calibration YAML")->required();
+  cmd->add_option("--poses", o->poses,
+                  "Pose CSV of each video (panoloc's output: one row per frame), repeated in the videos' order")
+      ->required()
+      ->allow_extra_args(false)
+      ->take_all();
+  cmd->add_option("videos", o->videos, "Videos (files, image folders or printf patterns)")->required();
+  cmd->add_option("-o,--output", o->out, "Refined map YAML")->required()->group("Output");
+  cmd->add_option("--report", o->report, "Per-landmark corrections as CSV")->group("Output");
+  cmd->add_flag("--force", o->force, "Replace existing output files")->group("Output");
+  cmd->add_option("--map-sigma", o->map_sigma, "Survey error: prior sigma of each coordinate (map units)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd->add_flag("--free-height", o->free_height, "Also estimate the sensor height (no prior)");
+  cmd->add_flag("--free-floor", o->free_floor,
+                "Adjust z0 of rectangles surveyed standing on the floor too (held at 0 by default)");
+  cmd->add_flag("--fix-first-pose", o->fix_first_pose, "Hold the first adjusted pose at its CSV value");
+  cmd->add_option("--passes", o->passes, "Track-and-solve rounds (later ones re-track at the solution)")
+      ->check(CLI::Range(1, 10))
+      ->capture_default_str();
+  cmd->add_option("-j,--jobs,--threads", o->threads, "Threads (0: every core)")->group("Run");
+  cmd->add_flag("-q,--quiet", o->quiet, "No table (errors still on stderr)")->group("Run");
+  cmd->add_flag("-v,--verbose", o->verbose, "Also the libraries' logs")->group("Run");
+  cmd->callback([o]() {
+    if (o->poses.size() != o->videos.size())
+      throw Error("--poses: " + std::to_string(o->poses.size()) + " pose CSVs for " +
+                  std::to_string(o->videos.size()) + " videos (give one per video, in the same order)");
+    NamedPaths reads = {{"--map", o->map}, {"--calib", o->calib}};
+    for (const std::string& p : o->poses) reads.push_back({"--poses", p});
+    for (const std::string& v : o->videos) reads.push_back({"VIDEO", v});
+    CheckPlannedOutputs(reads, {{"-o", o->out}, {"--report", o->report}}, o->force);
+    const Calibration calib = ReadCalibration(o->calib);
+    const Map map = ReadMap(o->map);
+    std::vector<RefineVideo> videos;
+    for (size_t i = 0; i < o->videos.size(); ++i) videos.push_back({o->videos[i], o->poses[i], ReadPoseCsv(o->poses[i])});
+    RefineOptions opt;
+    opt.map_sigma = o->map_sigma;
+    opt.free_height = o->free_height;
+    opt.fix_first_pose = o->fix_first_pose;
+    opt.hold_floor_contacts = !o->free_floor;
+    opt.passes = o->passes;
+    opt.num_threads = o->threads;
+    opt.tracking.num_threads = o->threads;
+    const RefineResult r = RefineMap(calib, map, videos, opt);
+    WriteMap(o->out, r.map);
+    if (!o->report.empty()) WriteRefineReportCsv(o->report, r);
+    if (!o->quiet) {
+      std::printf("%s", RefineReportTable(r, map, o->map_sigma).c_str());
+      std::printf("wrote %s\n", o->out.c_str());
+    }
+  });
+}
+
+}  // namespace pano::app
