@@ -1,0 +1,92 @@
+// Maps whose landmark shades are missing or wrong: the localiser searches
+// either polarity where the map's is unknown or contradicted, learns each
+// edge's polarity from the tracked frames, and says which shades the images
+// contradict.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <limits>
+
+#include "track_fixture.h"
+
+namespace pano {
+namespace {
+
+enum class Shades { kCorrect, kRemoved, kInverted };
+
+Map EditShades(Map m, Shades s) {
+  auto edit = [&](double* shade) {
+    if (s == Shades::kRemoved) *shade = std::numeric_limits<double>::quiet_NaN();
+    if (s == Shades::kInverted) *shade = 1.0 - *shade;
+  };
+  for (MapRectangle& r : m.rectangles) edit(&r.shade);
+  for (MapBox& b : m.boxes) edit(&b.shade);
+  return m;
+}
+
+struct Run {
+  AccuracySummary accuracy;
+  std::vector<std::string> contradicted;
+  int learned_edges = 0;  // landmark edges with a polarity learned from the images
+};
+
+Run Track(const test::RenderedCase& r, Shades s, TrackingMethod method) {
+  LocalizerOptions opt;
+  opt.method = method;
+  Localizer loc(r.c.calib, EditShades(r.c.map, s), r.table, opt);
+  loc.Reset(r.c.poses.front());
+  std::vector<PoseRow> rows;
+  for (size_t i = 0; i < r.frames.size(); ++i)
+    rows.push_back(loc.Process(r.frames[i], static_cast<int>(i), i / r.c.fps).row);
+  Run out;
+  out.accuracy = CompareToGroundTruth(rows, r.truth);
+  out.contradicted = loc.ContradictedShades();
+  for (const LandmarkPolarity& p : loc.polarity()) out.learned_edges += (p.v.learned != 0) + (p.h.learned != 0);
+  return out;
+}
+
+TEST_CASE("line junctions, paper-synthetic: shades removed or inverted, every frame tracked as with the right ones",
+          "[shades]") {
+  const test::RenderedCase r = test::RenderPreset("paper-synthetic", 20);
+  const Run right = Track(r, Shades::kCorrect, TrackingMethod::kJunction);
+  const Run removed = Track(r, Shades::kRemoved, TrackingMethod::kJunction);
+  const Run inverted = Track(r, Shades::kInverted, TrackingMethod::kJunction);
+  INFO("right: " << FormatAccuracy(right.accuracy, "units"));
+  INFO("removed: " << FormatAccuracy(removed.accuracy, "units"));
+  INFO("inverted: " << FormatAccuracy(inverted.accuracy, "units"));
+  CHECK(right.accuracy.tracked == 20);
+  CHECK(right.contradicted.empty());
+  CHECK(right.learned_edges == 0);  // the map's polarities were never in doubt
+  CHECK(removed.accuracy.tracked == 20);
+  CHECK(removed.accuracy.rms <= 1.2 * right.accuracy.rms);
+  CHECK(removed.accuracy.max <= 0.05);
+  CHECK(removed.contradicted.empty());  // nothing to contradict
+  CHECK(removed.learned_edges >= 20);
+  CHECK(inverted.accuracy.tracked == 20);
+  CHECK(inverted.accuracy.rms <= 1.2 * right.accuracy.rms);
+  CHECK(inverted.accuracy.max <= 0.05);
+  // Every rectangle in view long enough is reported inverted.
+  CHECK(inverted.contradicted.size() >= 4);
+}
+
+TEST_CASE("vertex tracker, paper-real: shades removed or inverted, every frame tracked as with the right ones",
+          "[shades_vertex]") {
+  const test::RenderedCase r = test::RenderPreset("paper-real", 20);
+  const Run right = Track(r, Shades::kCorrect, TrackingMethod::kVertex);
+  const Run removed = Track(r, Shades::kRemoved, TrackingMethod::kVertex);
+  const Run inverted = Track(r, Shades::kInverted, TrackingMethod::kVertex);
+  INFO("right: " << FormatAccuracy(right.accuracy, "cm"));
+  INFO("removed: " << FormatAccuracy(removed.accuracy, "cm"));
+  INFO("inverted: " << FormatAccuracy(inverted.accuracy, "cm"));
+  CHECK(right.accuracy.tracked == 20);
+  CHECK(right.contradicted.empty());
+  CHECK(removed.accuracy.tracked == 20);
+  CHECK(removed.accuracy.rms <= 1.2 * right.accuracy.rms);
+  CHECK(removed.learned_edges >= 20);
+  CHECK(inverted.accuracy.tracked == 20);
+  CHECK(inverted.accuracy.rms <= 1.2 * right.accuracy.rms);
+  CHECK(inverted.contradicted.size() >= 4);
+}
+
+}  // namespace
+}  // namespace pano
