@@ -96,5 +96,38 @@ TEST_CASE("vertex tracker, paper-real: shades removed or inverted, every frame t
   CHECK(inverted.contradicted.size() == 11);
 }
 
+TEST_CASE("unknown shades: landmarks predicted with either polarity; the room-wide search finds the pose",
+          "[shades]") {
+  const test::RenderedCase r = test::RenderPreset("paper-synthetic", 6);
+  const Map removed = EditShades(r.c.map, Shades::kRemoved);
+  const Scene scene = Scene::FromMap(removed, false), right_scene = Scene::FromMap(r.c.map, false);
+  const std::vector<Landmark> landmarks = LandmarksFromMap(removed), right_landmarks = LandmarksFromMap(r.c.map);
+  const std::vector<PredictedLandmark> unknown = PredictLandmarks(
+      landmarks, removed, scene, r.c.calib.sensor, *r.table, r.c.poses.front(), PredictionOptions());
+  const std::vector<PredictedLandmark> known = PredictLandmarks(
+      right_landmarks, r.c.map, right_scene, r.c.calib.sensor, *r.table, r.c.poses.front(), PredictionOptions());
+  REQUIRE(known.size() >= 20);
+  CHECK(unknown.size() >= known.size());  // no contrast can be ruled out
+  for (const PredictedLandmark& p : unknown) {
+    CHECK(p.v_polarity == 0);
+    CHECK(p.h_polarity == 0);
+    CHECK(p.map_v_polarity == 0);
+  }
+  for (const PredictedLandmark& p : known) CHECK((p.v_polarity != 0 && p.h_polarity != 0));
+  // No initial pose: the first frame is localised by the room-wide search.
+  Localizer loc(r.c.calib, removed, r.table, LocalizerOptions());
+  loc.ResetUnknown();
+  int first_ok = -1;
+  for (size_t i = 0; i < r.frames.size() && first_ok < 0; ++i) {
+    const FrameResult fr = loc.Process(r.frames[i], static_cast<int>(i), i / r.c.fps);
+    if (fr.row.status != PoseStatus::kOk) continue;
+    first_ok = static_cast<int>(i);
+    const Pose2& truth = r.c.poses[i];
+    CHECK(std::hypot(fr.row.pose.x - truth.x, fr.row.pose.y - truth.y) < 0.05);
+  }
+  CHECK(first_ok >= 0);
+  CHECK(first_ok <= 1);
+}
+
 }  // namespace
 }  // namespace pano

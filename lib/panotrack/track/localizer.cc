@@ -214,6 +214,19 @@ void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, c
     p.v_polarity = SearchPolarity(lp.v, p.map_v_polarity, object, either);
     p.h_polarity = SearchPolarity(lp.h, p.map_h_polarity, object, either);
   }
+  {
+    // An edge of unknown polarity that the tracked frames have not shown
+    // for a while (most likely no contrast there, which an unknown shade
+    // cannot predict): its landmark goes last, tracked only when too few of
+    // the others are found.
+    auto never_seen = [&](const EdgePolarityEvidence& e, int polarity) {
+      return polarity == 0 && e.last_learned == 0 && e.misses >= opt_.polarity_forget_misses;
+    };
+    std::stable_partition(ordered.begin(), ordered.end(), [&](const PredictedLandmark& p) {
+      const LandmarkPolarity& lp = polarity_[static_cast<size_t>(p.index)];
+      return !(never_seen(lp.v, p.v_polarity) || never_seen(lp.h, p.h_polarity));
+    });
+  }
   out->either_polarity = either;
   // The motion over the last frame interval; unknown: the fastest turn.
   const bool known = motion_updates_ >= 2 || solved_motion;
