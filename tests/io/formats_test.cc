@@ -3,6 +3,7 @@
 // expected.
 #include <catch2/catch.hpp>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 
@@ -147,6 +148,39 @@ TEST_CASE("map: read, write, read back; bad files", "[map]") {
   bad("nosh.yaml", kMap, "sensor_height: 30.0\n", "", {"sensor_height", "missing"});
   bad("ceiling.yaml", kMap, "height: 120", "height: 20", {"room.height"});
   bad("empty.yaml", "units: cm\nsensor_height: 30\n", "", "", {"no rectangles"});
+}
+
+TEST_CASE("map: a landmark's shade is optional (unknown), written back only when known", "[map_shade]") {
+  const std::string dir = test::ScratchDir("io_map_shade");
+  std::string text = kMap;
+  for (const std::string key : {"    shade: 0.1\n", "    shade: 0.9\n"}) text.erase(text.find(key), key.size());
+  REQUIRE(text.find("  shade:") == std::string::npos);
+  const Map m = ReadMap(Write(dir, "m.yaml", text));
+  REQUIRE(m.rectangles.size() == 1);
+  REQUIRE(m.boxes.size() == 1);
+  CHECK_FALSE(m.rectangles[0].shade_known());
+  CHECK(std::isnan(m.rectangles[0].shade));
+  CHECK_FALSE(m.boxes[0].shade_known());
+  CHECK(m.room.wall_shade == 0.55);  // the room's shades keep their defaults
+  const std::string yaml = MapToYaml(m, false);
+  CHECK(yaml.find("  shade:") == std::string::npos);
+  WriteMap(dir + "/out.yaml", m, false);
+  const Map back = ReadMap(dir + "/out.yaml");
+  CHECK_FALSE(back.rectangles[0].shade_known());
+  CHECK_FALSE(back.boxes[0].shade_known());
+  CHECK(back.rectangles[0].from == m.rectangles[0].from);
+  CHECK(MapToYaml(back, false) == yaml);
+  // One known, one unknown: each written as it is.
+  Map mixed = m;
+  mixed.boxes[0].shade = 0.25;
+  const Map mixed_back = ReadMap(Write(dir, "mixed.yaml", MapToYaml(mixed, false)));
+  CHECK_FALSE(mixed_back.rectangles[0].shade_known());
+  CHECK(mixed_back.boxes[0].shade == 0.25);
+  // A distractor (only rendered) without a shade keeps the default.
+  const Map d = ReadMap(Write(dir, "d.yaml", text + "distractors:\n  - id: panel\n    from: [10, 199]\n"
+                                                   "    to: [40, 199]\n    z: [20, 60]\n"));
+  REQUIRE(d.distractors.size() == 1);
+  CHECK(d.distractors[0].shade == MapRectangle().shade);
 }
 
 TEST_CASE("pose CSV: rows written and flushed one by one, read back; bad files", "[pose_csv]") {

@@ -1,5 +1,7 @@
 #include "panotrack/io/map.h"
 
+#include <limits>
+
 #include "panotrack/core/atomic_file.h"
 #include "panotrack/core/error.h"
 #include "panotrack/io/yaml_util.h"
@@ -13,6 +15,13 @@ double Shade(const YamlReader& r, const YAML::Node& n, const std::string& key, c
   const double s = r.Double(n, key, path, fallback);
   if (s < 0.0 || s > 1.0) r.Fail(path, "expected a reflectance between 0 and 1");
   return s;
+}
+
+// A landmark's shade: optional; without the key it is unknown (NaN), and the
+// tracker learns its edges' polarities from the images.
+double LandmarkShade(const YamlReader& r, const YAML::Node& n, const std::string& path) {
+  if (!r.Has(n, "shade")) return std::numeric_limits<double>::quiet_NaN();
+  return Shade(r, n, "shade", path, 0.0);
 }
 
 std::vector<MapRectangle> ReadRectangles(const YamlReader& r, const YAML::Node& root,
@@ -33,7 +42,9 @@ std::vector<MapRectangle> ReadRectangles(const YamlReader& r, const YAML::Node& 
     rect.to = {to[0], to[1]};
     rect.z0 = z[0];
     rect.z1 = z[1];
-    rect.shade = Shade(r, n, "shade", path + ".shade", rect.shade);
+    // Distractors are only rendered: they keep a default shade.
+    rect.shade = key == "distractors" ? Shade(r, n, "shade", path + ".shade", rect.shade)
+                                      : LandmarkShade(r, n, path + ".shade");
     out.push_back(rect);
   }
   return out;
@@ -53,7 +64,7 @@ std::vector<MapBox> ReadBoxes(const YamlReader& r, const YAML::Node& root) {
     const auto mx = r.Vector<3>(n, "max", p + ".max");
     b.min = {mn[0], mn[1], mn[2]};
     b.max = {mx[0], mx[1], mx[2]};
-    b.shade = Shade(r, n, "shade", p + ".shade", b.shade);
+    b.shade = LandmarkShade(r, n, p + ".shade");
     out.push_back(b);
   }
   return out;
@@ -94,7 +105,7 @@ void WriteRectangles(YamlWriter& w, const std::string& key, const std::vector<Ma
     w.Key("from").Numbers({r.from.x(), r.from.y()});
     w.Key("to").Numbers({r.to.x(), r.to.y()});
     w.Key("z").Numbers({r.z0, r.z1});
-    w.Key("shade").Double(r.shade);
+    if (r.shade_known()) w.Key("shade").Double(r.shade);
     w.EndMap();
   }
   w.EndList();
@@ -130,7 +141,7 @@ std::string MapToYaml(const Map& m, bool with_distractors) {
       w.Key("id").String(b.id);
       w.Key("min").Numbers({b.min.x(), b.min.y(), b.min.z()});
       w.Key("max").Numbers({b.max.x(), b.max.y(), b.max.z()});
-      w.Key("shade").Double(b.shade);
+      if (b.shade_known()) w.Key("shade").Double(b.shade);
       w.EndMap();
     }
     w.EndList();

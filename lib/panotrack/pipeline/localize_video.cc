@@ -230,6 +230,11 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
                  "predicted without it\n",
                  job.input.c_str(), sum->frames_without_odometry, std::max(0, sum->frames - 1),
                  job.odometry->front().time_s, job.odometry->back().time_s);
+  if (!opt.quiet)
+    for (const std::string& id : loc.ContradictedShades())
+      std::fprintf(stderr,
+                   "panoloc: note: %s: landmark %s: map shade looks inverted (polarity learned from the images)\n",
+                   job.input.c_str(), id.c_str());
   return rows;
 }
 

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -25,7 +26,10 @@ struct MapRectangle {
   Eigen::Vector2d to{0, 0};
   double z0 = 0.0;
   double z1 = 0.0;
+  // Reflectance 0..1 of its face; NaN when the map does not give it
+  // (unknown: the tracker learns the edges' polarities from the images).
   double shade = 0.1;
+  bool shade_known() const { return !std::isnan(shade); }
 };
 
 // An axis-aligned box.
@@ -33,7 +37,8 @@ struct MapBox {
   std::string id;
   Eigen::Vector3d min{0, 0, 0};
   Eigen::Vector3d max{0, 0, 0};
-  double shade = 0.9;
+  double shade = 0.9;  // NaN: unknown (as MapRectangle::shade)
+  bool shade_known() const { return !std::isnan(shade); }
 };
 
 struct Map {
@@ -57,7 +62,7 @@ struct Map {
   double UnitsPerMetre() const;
 };
 
-// Checks the geometry (positive sizes, unique ids, shades in 0..1); `what`
+// Checks the geometry (positive sizes, unique ids, shades in 0..1 or unknown); `what`
 // names the file in messages.
 void CheckMap(const Map& map, const std::string& what);
 

@@ -75,6 +75,8 @@ struct JunctionTracker::VerticalEdge {
   int direction = 1;            // +1: the edge runs outwards from the junction
   int polarity = 1;             // step polarity along increasing azimuth
   double ramp_px = 0.0;         // widest motion blur across it at the corner (px)
+  int n_points = 0;             // steps near the median
+  double contrast = 0.0;        // their median step (grey levels)
 };
 
 struct JunctionTracker::HorizontalEdge {
@@ -84,14 +86,25 @@ struct JunctionTracker::HorizontalEdge {
   int polarity = 1;              // step polarity along increasing radius
   double ramp_px = 0.0;          // widest motion blur across it (px)
   double along_blur_px = 0.0;    // ... and along it: its ends smear this far
+  double contrast = 0.0;         // median step of its samples (grey levels)
 };
 
-bool JunctionTracker::FindVerticalEdge(const PredictedLandmark& p, double half, VerticalEdge* edge,
-                                       LandmarkMeasurement* m) const {
+namespace {
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+}  // namespace
+
+bool JunctionTracker::FindVerticalEdge(const PredictedLandmark& p, double half, int polarity,
+                                       VerticalEdge* edge, LandmarkMeasurement* m) const {
   const JunctionOptions& o = opt_;
   // Tangential samples along the radial segment.
   edge->direction = p.v_radius > p.corner_radius ? 1 : -1;
-  edge->polarity = p.v_polarity * p.inside_azimuth_sign;
+  edge->polarity = polarity * p.inside_azimuth_sign;
   edge->ramp_px = RampAllowance(p.tangential_motion_px);
   const double v_len = std::abs(p.v_radius - p.corner_radius);
   const double v_spacing = std::max(o.sample_spacing_px, (v_len - 2 * o.corner_gap_px) / o.max_samples);
@@ -117,11 +130,13 @@ bool JunctionTracker::FindVerticalEdge(const PredictedLandmark& p, double half, 
   const double median = sorted[sorted.size() / 2];
   double sum_dtheta = 0.0;
   int n_in = 0;
+  std::vector<double> strengths;
   // A blurred edge is located less precisely: widen the truncation with it.
   const double truncation = o.truncation_px + 0.1 * edge->ramp_px;
   for (size_t k = 0; k < v_steps.size(); ++k) {
     if (std::abs(offsets[k] - median) > truncation) continue;
     sum_dtheta += wrap_angle(v_steps[k].azimuth - p.azimuth);
+    strengths.push_back(v_steps[k].strength);
     if (n_in++ == 0) edge->nearest_radius = v_steps[k].radius;
     m->edge_points.push_back(v_steps[k].px);
   }
@@ -130,6 +145,8 @@ bool JunctionTracker::FindVerticalEdge(const PredictedLandmark& p, double half, 
     return false;
   }
   edge->azimuth = wrap_angle(p.azimuth + sum_dtheta / n_in);
+  edge->n_points = n_in;
+  edge->contrast = Median(strengths);
   std::vector<double> widths;
   for (const Step& st : v_steps) widths.push_back(st.width_px);
   std::nth_element(widths.begin(), widths.begin() + widths.size() / 2, widths.end());
@@ -152,12 +169,12 @@ double RadialSlope(const PhTable& ph, const PredictedLandmark& p, double theta) 
 }  // namespace
 
 bool JunctionTracker::FindHorizontalEdge(const PredictedLandmark& p, double half, const PhTable& ph,
-                                         HorizontalEdge* edge, LandmarkMeasurement* m) const {
+                                         int polarity, HorizontalEdge* edge, LandmarkMeasurement* m) const {
   const JunctionOptions& o = opt_;
   // Radial samples along the predicted PH curve, voting in the PH
   // transform's tracking mode.
   edge->side = p.inside_azimuth_sign;
-  edge->polarity = p.h_polarity * p.inside_radius_sign;
+  edge->polarity = polarity * p.inside_radius_sign;
   edge->along_blur_px = RampAllowance(p.tangential_motion_px);
   const double arc = std::abs(wrap_angle(p.h_end_azimuth - p.azimuth));
   const double gap = o.corner_gap_px / p.corner_radius;
@@ -189,7 +206,12 @@ bool JunctionTracker::FindHorizontalEdge(const PredictedLandmark& p, double half
   }
   m->r_main = edge->fit.r_main;
   m->theta_main = edge->fit.theta_main;
-  for (const Step& st : h_steps) m->edge_points.push_back(st.px);
+  std::vector<double> strengths;
+  for (const Step& st : h_steps) {
+    m->edge_points.push_back(st.px);
+    strengths.push_back(st.strength);
+  }
+  edge->contrast = Median(strengths);
   edge->nearest_azimuth = h_steps.front().azimuth;
   return true;
 }
@@ -283,12 +305,81 @@ bool JunctionTracker::LocateJunction(const PhTable& ph, const VerticalEdge& v, c
 LandmarkMeasurement JunctionTracker::Measure(const PredictedLandmark& p, double search_px) const {
   LandmarkMeasurement m;
   const double half = std::max(search_px, 2.0);
-  VerticalEdge vertical;
-  if (!FindVerticalEdge(p, half, &vertical, &m)) return m;
+  // An edge of unknown polarity (0) is searched for a step of either sign;
+  // the pair that forms a junction wins.
+  std::vector<int> v_signs{p.v_polarity}, h_signs{p.h_polarity};
+  if (p.v_polarity == 0) v_signs = {1, -1};
+  if (p.h_polarity == 0) h_signs = {1, -1};
+  struct Vertical {
+    VerticalEdge edge;
+    LandmarkMeasurement m;
+    int sign;
+  };
+  std::vector<Vertical> verticals;
+  for (int sign : v_signs) {
+    Vertical v{VerticalEdge{}, LandmarkMeasurement{}, sign};
+    if (FindVerticalEdge(p, half, sign, &v.edge, &v.m))
+      verticals.push_back(std::move(v));
+    else
+      m.why = v.m.why;
+  }
+  if (verticals.empty()) return m;
+  // The better supported edge first: more contiguous steps, then stronger.
+  std::stable_sort(verticals.begin(), verticals.end(), [](const Vertical& a, const Vertical& b) {
+    return a.edge.n_points != b.edge.n_points ? a.edge.n_points > b.edge.n_points
+                                              : a.edge.contrast > b.edge.contrast;
+  });
   const std::shared_ptr<const PhTable> ph = ph_tables_->Get(p.h_height);
-  HorizontalEdge horizontal;
-  if (!FindHorizontalEdge(p, half, *ph, &horizontal, &m)) return m;
-  if (!LocateJunction(*ph, vertical, horizontal, &m)) return m;
+  struct Horizontal {
+    HorizontalEdge edge;
+    LandmarkMeasurement m;
+    int sign;
+  };
+  std::vector<Horizontal> horizontals;
+  for (int sign : h_signs) {
+    Horizontal h{HorizontalEdge{}, LandmarkMeasurement{}, sign};
+    if (FindHorizontalEdge(p, half, *ph, sign, &h.edge, &h.m))
+      horizontals.push_back(std::move(h));
+    else
+      m.why = h.m.why;
+  }
+  if (horizontals.empty()) return m;
+  std::stable_sort(horizontals.begin(), horizontals.end(), [](const Horizontal& a, const Horizontal& b) {
+    return a.edge.fit.score > b.edge.fit.score;
+  });
+  // With one polarity per edge this is the single pair. With either, every
+  // pair is tried: two junctions of different vertical steps at different
+  // places are ambiguous (one is another edge nearby), so none is reported.
+  bool have = false;
+  for (const Vertical& v : verticals)
+    for (const Horizontal& h : horizontals) {
+      LandmarkMeasurement trial;
+      trial.edge_width_px = v.m.edge_width_px;
+      if (!LocateJunction(*ph, v.edge, h.edge, &trial)) {
+        if (!have) m.why = trial.why;
+        continue;
+      }
+      if (have) {
+        if (v.sign != m.v_polarity &&
+            std::abs(wrap_angle(trial.azimuth - m.azimuth)) * trial.radius > opt_.junction_tolerance_px) {
+          LandmarkMeasurement none;
+          none.why = "ambiguous: junctions of either polarity";
+          return none;
+        }
+        continue;
+      }
+      have = true;
+      m = trial;
+      m.edge_points = v.m.edge_points;
+      m.edge_points.insert(m.edge_points.end(), h.m.edge_points.begin(), h.m.edge_points.end());
+      m.r_main = h.m.r_main;
+      m.theta_main = h.m.theta_main;
+      m.v_polarity = v.sign;
+      m.h_polarity = h.sign;
+      m.v_contrast = v.edge.contrast;
+      m.h_contrast = h.edge.contrast;
+    }
+  if (!have) return m;
   m.found = true;
   m.weight = 1.0;
   return m;

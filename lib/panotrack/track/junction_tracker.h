@@ -47,10 +47,12 @@ class JunctionTracker : public LandmarkTracker {
   struct VerticalEdge;                         // the steps of Measure and what they find
   struct HorizontalEdge;                       // (junction_tracker.cc)
   static constexpr double kProbeHalfPx = 2.5;  // half-length of the end points' probing samples
-  bool FindVerticalEdge(const PredictedLandmark& p, double half, VerticalEdge* edge,
+  // Each edge is searched for a step of its polarity (going into the face,
+  // +1 or -1, as PredictedLandmark's).
+  bool FindVerticalEdge(const PredictedLandmark& p, double half, int polarity, VerticalEdge* edge,
                         LandmarkMeasurement* m) const;
-  bool FindHorizontalEdge(const PredictedLandmark& p, double half, const PhTable& ph, HorizontalEdge* edge,
-                          LandmarkMeasurement* m) const;
+  bool FindHorizontalEdge(const PredictedLandmark& p, double half, const PhTable& ph, int polarity,
+                          HorizontalEdge* edge, LandmarkMeasurement* m) const;
   static TrackingWindow HorizontalWindow(const PredictedLandmark& p, double half);
   bool VerticalEnd(const VerticalEdge& v, double r_junction, double* r_end, LandmarkMeasurement* m) const;
   bool HorizontalEnd(const PhTable& ph, const HorizontalEdge& h, double theta_v, double r_junction,

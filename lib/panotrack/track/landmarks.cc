@@ -18,6 +18,7 @@ void PredictionOptions::Check() const {
 
 std::vector<Landmark> LandmarksFromMap(const Map& map) {
   std::vector<Landmark> out;
+  int object = 0;
   for (const MapRectangle& r : map.rectangles) {
     const Eigen::Vector3d fb(r.from.x(), r.from.y(), r.z0), ft(r.from.x(), r.from.y(), r.z1);
     const Eigen::Vector3d tb(r.to.x(), r.to.y(), r.z0), tt(r.to.x(), r.to.y(), r.z1);
@@ -29,12 +30,14 @@ std::vector<Landmark> LandmarksFromMap(const Map& map) {
       l.h_end = h;
       l.v_end = v;
       l.shade = r.shade;
+      l.object = object;
       out.push_back(l);
     };
     add("from-bottom", fb, tb, ft);
     add("from-top", ft, tt, fb);
     add("to-bottom", tb, fb, tt);
     add("to-top", tt, ft, tb);
+    ++object;
   }
   for (const MapBox& b : map.boxes) {
     for (int i = 0; i < 2; ++i)
@@ -46,6 +49,7 @@ std::vector<Landmark> LandmarksFromMap(const Map& map) {
             Landmark l;
             l.box = true;
             l.shade = b.shade;
+            l.object = object;
             l.corner = {x, y, z};
             l.v_end = {x, y, z_other};
             const Eigen::Vector2d nx(i ? 1.0 : -1.0, 0.0), ny(0.0, j ? 1.0 : -1.0);
@@ -62,6 +66,7 @@ std::vector<Landmark> LandmarksFromMap(const Map& map) {
                    (axis == 0 ? "-x" : "-y");
             out.push_back(l);
           }
+    ++object;
   }
   return out;
 }
@@ -137,9 +142,12 @@ std::vector<PredictedLandmark> PredictLandmarks(const std::vector<Landmark>& lan
     const Eigen::Vector3d out_v = (l.corner - l.v_end).normalized();
     const double beyond_v = ShadeTowards(scene, eye, l.corner + eps * out_h + 0.5 * (l.v_end - l.corner));
     const double beyond_h = ShadeTowards(scene, eye, l.corner + eps * out_v + 0.5 * (l.h_end - l.corner));
-    p.v_polarity = std::abs(l.shade - beyond_v) >= opt.min_contrast ? Sign(l.shade - beyond_v) : 0;
-    p.h_polarity = std::abs(l.shade - beyond_h) >= opt.min_contrast ? Sign(l.shade - beyond_h) : 0;
-    if (p.v_polarity == 0 || p.h_polarity == 0) continue;
+    // An unknown shade (NaN) on either side: either polarity (0); known
+    // shades without contrast: not a usable edge.
+    const double dv = l.shade - beyond_v, dh = l.shade - beyond_h;
+    if (std::abs(dv) < opt.min_contrast || std::abs(dh) < opt.min_contrast) continue;
+    p.v_polarity = p.map_v_polarity = std::isnan(dv) ? 0 : Sign(dv);
+    p.h_polarity = p.map_h_polarity = std::isnan(dh) ? 0 : Sign(dh);
     out.push_back(p);
   }
   return out;

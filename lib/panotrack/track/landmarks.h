@@ -25,8 +25,9 @@ struct Landmark {
   Eigen::Vector3d corner{0, 0, 0};  // world
   Eigen::Vector3d h_end{0, 0, 0};   // other end of the horizontal edge
   Eigen::Vector3d v_end{0, 0, 0};   // other end of the vertical edge
-  double shade = 0.5;               // reflectance of the landmark's own face
+  double shade = 0.5;               // reflectance of the landmark's own face; NaN: unknown
   bool box = false;
+  int object = -1;                  // its rectangle (0..) or box (after the rectangles) in the map
   // For box corners: the face holding both edges faces the camera when
   // (camera - corner) . face_normal > 0; the other face at the vertical edge
   // must face away (silhouette).
@@ -58,11 +59,17 @@ struct PredictedLandmark {
   // from the horizontal edge.
   int inside_azimuth_sign = 1;
   int inside_radius_sign = 1;
-  // Expected sign of the intensity step going into the face (+1 brighter
-  // inside) across the vertical and the horizontal edge; 0 when the map
-  // predicts no contrast.
+  // Sign of the intensity step going into the face (+1 brighter inside)
+  // across the vertical and the horizontal edge that the trackers search
+  // for; 0: either sign (the polarity is unknown). PredictLandmarks sets the
+  // map's (0 where a shade is unknown; landmarks whose known shades give no
+  // contrast are not predicted), and keeps them in map_*_polarity; the
+  // localiser may replace v_polarity / h_polarity with what it learned from
+  // the images.
   int v_polarity = 0;
   int h_polarity = 0;
+  int map_v_polarity = 0;
+  int map_h_polarity = 0;
   // The corner's predicted image motion over one frame interval (px), across
   // the vertical edge (tangential) and across the horizontal one (radial):
   // the widest motion blur its edges can show. The localiser sets them from
@@ -82,7 +89,8 @@ struct PredictionOptions {
 };
 
 // Predicts the landmarks in view from `pose`: inside the image and the
-// mirror's annulus, not hidden by map surfaces, with contrast on both edges.
+// mirror's annulus, not hidden by map surfaces, with contrast on both edges
+// (or an unknown shade on either side of an edge).
 // Image radii come from the E(D,Z) table (within 0.002 px of the model).
 std::vector<PredictedLandmark> PredictLandmarks(const std::vector<Landmark>& landmarks,
                                                 const Map& map, const Scene& scene,

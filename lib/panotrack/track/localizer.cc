@@ -46,6 +46,9 @@ void LocalizerOptions::Check() const {
   if (!(relocalize_min_fraction >= 0 && relocalize_min_fraction <= 1) || relocalize_margin < 0 ||
       !(relocalize_distinct > 0))
     throw Error("localiser: relocalize_min_fraction 0..1, relocalize_margin >= 0, relocalize_distinct > 0 expected");
+  if (polarity_learn_frames < 1 || polarity_forget_misses < 1 || polarity_max_flips < 0)
+    throw Error("localiser: polarity_learn_frames and polarity_forget_misses: expected >= 1, "
+                "polarity_max_flips: expected >= 0");
   relocalize.Check();
   robust.Check();
   motion.Check();
@@ -83,6 +86,7 @@ Localizer::Localizer(const Calibration& calib, const Map& map,
   motion_options_ = opt_.motion.Scaled(map_.UnitsPerMetre());
   motion_ = MotionModel(motion_options_);
   tracker_ = MakeTracker(opt_.method, calib_.sensor, table_, opt_, std::move(ph_tables));
+  for (const Landmark& l : landmarks_) any_known_shade_ = any_known_shade_ || !std::isnan(l.shade);
 }
 
 void Localizer::Reset(const Pose2& initial, bool hint) {
@@ -104,6 +108,9 @@ void Localizer::Reset(const Pose2& initial, bool hint) {
   motion_updates_ = 0;
   frame_pose_ = initial;
   last_signature_.clear();
+  polarity_.assign(landmarks_.size(), LandmarkPolarity{});
+  object_contradicted_.assign(landmarks_.empty() ? 0 : static_cast<size_t>(landmarks_.back().object) + 1, 0);
+  map_contradicted_ = map_confirmed_ = false;
 }
 
 void Localizer::ResetUnknown() {
@@ -111,10 +118,116 @@ void Localizer::ResetUnknown() {
   known_start_ = false;
 }
 
-void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, const Pose2* solved_motion) const {
+int Localizer::SearchPolarity(const EdgePolarityEvidence& e, int map_polarity, int object, bool either) const {
+  if (e.flips > opt_.polarity_max_flips) return 0;
+  // A few contradictions among many confirmations are wrong edges, not a
+  // wrong shade.
+  const bool map_trusted = map_polarity != 0 && !map_contradicted_ &&
+                           !object_contradicted_[static_cast<size_t>(object)] &&
+                           (e.disagree == 0 || e.agree > 2 * e.disagree);
+  if (map_trusted) return either && e.agree == 0 ? 0 : map_polarity;
+  return e.learned;
+}
+
+bool Localizer::EitherFallbackUseful() const { return any_known_shade_ && !map_confirmed_ && !map_contradicted_; }
+
+std::vector<std::string> Localizer::ContradictedShades() const {
+  std::vector<std::string> out;
+  for (size_t i = 0; i < landmarks_.size(); ++i) {
+    const std::string id = landmarks_[i].id.substr(0, landmarks_[i].id.find('/'));
+    for (const EdgePolarityEvidence* e : {&polarity_[i].v, &polarity_[i].h})
+      if (e->disagree >= opt_.polarity_learn_frames && e->disagree > e->agree &&
+          std::find(out.begin(), out.end(), id) == out.end())
+        out.push_back(id);
+  }
+  return out;
+}
+
+void Localizer::LearnPolarity(const FrameResult& fr, const TriangulationResult& tri) {
+  const std::vector<BearingObservation> obs = Observations(fr);
+  std::vector<char> inlier(fr.predicted.size(), 0);
+  for (int i : tri.inliers) inlier[static_cast<size_t>(obs[static_cast<size_t>(i)].id)] = 1;
+  auto observe = [&](EdgePolarityEvidence* e, int sign, int map_polarity, double contrast) {
+    if (sign == 0) return;
+    e->misses = 0;
+    if (map_polarity != 0) ++(sign == map_polarity ? e->agree : e->disagree);
+    e->contrast = e->contrast > 0 ? 0.8 * e->contrast + 0.2 * std::abs(contrast) : std::abs(contrast);
+    if (sign == e->candidate) {
+      ++e->run;
+    } else {
+      e->candidate = sign;
+      e->run = 1;
+    }
+    if (e->run >= opt_.polarity_learn_frames && e->learned != sign) {
+      if (e->last_learned != 0 && e->last_learned != sign) ++e->flips;
+      e->learned = e->last_learned = sign;
+    }
+  };
+  auto miss = [&](EdgePolarityEvidence* e) {
+    if (++e->misses < opt_.polarity_forget_misses || e->learned == 0) return;
+    // Lost for a while with its learned sign: what lies beyond the edge may
+    // have changed; search either sign again.
+    e->learned = e->candidate = e->run = e->misses = 0;
+  };
+  for (size_t i = 0; i < fr.predicted.size() && i < fr.measurements.size(); ++i) {
+    const PredictedLandmark& p = fr.predicted[i];
+    const LandmarkMeasurement& m = fr.measurements[i];
+    LandmarkPolarity& lp = polarity_[static_cast<size_t>(p.index)];
+    if (m.found && inlier[i]) {
+      observe(&lp.v, m.v_polarity, p.map_v_polarity, m.v_contrast);
+      observe(&lp.h, m.h_polarity, p.map_h_polarity, m.h_contrast);
+    } else if (!m.found) {
+      miss(&lp.v);
+      miss(&lp.h);
+    }
+  }
+  // Per map object and over the map: contradicted where more of its edges'
+  // measurements disagree with the map than agree; confirmed where a few
+  // edges agree.
+  std::vector<int> agree(object_contradicted_.size(), 0), disagree(object_contradicted_.size(), 0);
+  int confirmed_edges = 0;
+  for (size_t i = 0; i < landmarks_.size(); ++i)
+    for (const EdgePolarityEvidence* e : {&polarity_[i].v, &polarity_[i].h}) {
+      agree[static_cast<size_t>(landmarks_[i].object)] += e->agree;
+      disagree[static_cast<size_t>(landmarks_[i].object)] += e->disagree;
+      confirmed_edges += e->agree >= opt_.polarity_learn_frames && e->agree > 2 * e->disagree;
+    }
+  int contradicted = 0, trusted = 0;
+  for (size_t k = 0; k < object_contradicted_.size(); ++k) {
+    object_contradicted_[k] = disagree[k] > agree[k];
+    contradicted += object_contradicted_[k];
+    trusted += agree[k] > disagree[k];
+  }
+  map_contradicted_ = contradicted > trusted;
+  map_confirmed_ = map_confirmed_ || confirmed_edges >= 3;
+}
+
+void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, const Pose2* solved_motion,
+                        bool either) const {
   std::vector<PredictedLandmark> ordered = SelectSpread(
       PredictLandmarks(landmarks_, map_, scene_, calib_.sensor, *table_, pose, opt_.prediction),
       opt_.max_landmarks);
+  // The polarities to search for: the map's, or what the images showed.
+  for (PredictedLandmark& p : ordered) {
+    const LandmarkPolarity& lp = polarity_[static_cast<size_t>(p.index)];
+    const int object = p.landmark->object;
+    p.v_polarity = SearchPolarity(lp.v, p.map_v_polarity, object, either);
+    p.h_polarity = SearchPolarity(lp.h, p.map_h_polarity, object, either);
+  }
+  {
+    // An edge of unknown polarity that the tracked frames have not shown
+    // for a while (most likely no contrast there, which an unknown shade
+    // cannot predict): its landmark goes last, tracked only when too few of
+    // the others are found.
+    auto never_seen = [&](const EdgePolarityEvidence& e, int polarity) {
+      return polarity == 0 && e.last_learned == 0 && e.misses >= opt_.polarity_forget_misses;
+    };
+    std::stable_partition(ordered.begin(), ordered.end(), [&](const PredictedLandmark& p) {
+      const LandmarkPolarity& lp = polarity_[static_cast<size_t>(p.index)];
+      return !(never_seen(lp.v, p.v_polarity) || never_seen(lp.h, p.h_polarity));
+    });
+  }
+  out->either_polarity = either;
   // The motion over the last frame interval; unknown: the fastest turn.
   const bool known = motion_updates_ >= 2 || solved_motion;
   const Pose2 motion = solved_motion ? *solved_motion : known ? frame_motion_ : Pose2{0, 0, opt_.unknown_turn_per_frame};
@@ -203,12 +316,12 @@ TriangulationResult Localizer::Solve(const FrameResult& fr, const Pose2& prior) 
 }
 
 bool Localizer::TrackFrom(const Pose2& pose, double search_px, FrameResult* fr,
-                          TriangulationResult* tri) const {
-  Measure(pose, search_px, fr);
+                          TriangulationResult* tri, bool either) const {
+  Measure(pose, search_px, fr, nullptr, either);
   *tri = Solve(*fr, pose);
   for (int pass = 0; pass < 1 + opt_.refine_passes && Acceptable(*fr, *tri); ++pass) {
     FrameResult again;
-    Measure(tri->pose, opt_.refine_search_px, &again);
+    Measure(tri->pose, opt_.refine_search_px, &again, nullptr, either);
     TriangulationResult tri2 = Solve(again, tri->pose);
     if (!Acceptable(again, tri2)) break;
     fr->predicted = std::move(again.predicted);
@@ -223,6 +336,13 @@ bool Localizer::Relocalize(const cv::Mat& grey, FrameResult* fr, TriangulationRe
     relocalization_index_ = std::make_unique<const RelocalizationIndex>(
         calib_.sensor, *table_, map_, scene_, landmarks_, opt_.prediction, opt_.relocalize, opt_.num_threads);
   const std::vector<PoseHypothesis> hyps = relocalization_index_->Hypotheses(grey, opt_.num_threads);
+  // With the map's polarities, then (while the images have not confirmed
+  // them) with either.
+  return RelocalizeWith(hyps, false, fr, tri) || (EitherFallbackUseful() && RelocalizeWith(hyps, true, fr, tri));
+}
+
+bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool either, FrameResult* fr,
+                               TriangulationResult* tri) const {
   Eigen::Vector2d lo, hi;
   double top;
   map_.Extent(&lo, &hi, &top);
@@ -235,7 +355,8 @@ bool Localizer::Relocalize(const cv::Mat& grey, FrameResult* fr, TriangulationRe
   for (const PoseHypothesis& h : hyps) {
     Verified v;
     // The normal search first: a wide one invites wrong edges.
-    if (!TrackFrom(h.pose, opt_.search_px, &v.fr, &v.tri) && !TrackFrom(h.pose, opt_.max_search_px, &v.fr, &v.tri))
+    if (!TrackFrom(h.pose, opt_.search_px, &v.fr, &v.tri, either) &&
+        !TrackFrom(h.pose, opt_.max_search_px, &v.fr, &v.tri, either))
       continue;
     if (!EnoughForRelocalized(v.fr, v.tri)) continue;
     verified.push_back(std::move(v));
@@ -381,6 +502,18 @@ void Localizer::TrackPredictions(const Pose2& pred, const std::vector<float>& si
       if (Acceptable(*fr, *tri)) break;
     }
   }
+  // The map's polarities found nothing usable and no frame has confirmed
+  // them yet (its shades may be wrong): search either polarity.
+  if (Acceptable(*fr, *tri) || !EitherFallbackUseful()) return;
+  for (double width : {search, 2.0 * opt_.max_search_px})
+    for (const Pose2& p : predictions) {
+      Measure(p, width, fr, nullptr, true);
+      *tri = Solve(*fr, p);
+      if (Acceptable(*fr, *tri)) {
+        fr->predicted_pose = p;
+        return;
+      }
+    }
 }
 
 std::optional<Pose2> Localizer::SolvedMotion(const Pose2& pose) const {
@@ -408,7 +541,7 @@ void Localizer::RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) 
        ++pass) {
     FrameResult again;
     solved = SolvedMotion(tri->pose);
-    Measure(tri->pose, opt_.refine_search_px, &again, solved ? &*solved : nullptr);
+    Measure(tri->pose, opt_.refine_search_px, &again, solved ? &*solved : nullptr, fr->either_polarity);
     TriangulationResult tri2 = Solve(again, tri->pose);
     if (!Acceptable(again, tri2)) break;
     fr->predicted = std::move(again.predicted);
@@ -596,6 +729,7 @@ FrameResult Localizer::Process(const cv::Mat& grey, int frame, double time_s,
   fr.triangulation = tri;
   if (opt_.compass) last_signature_ = std::move(signature);
   RecordOutcome(&fr, tri, accepted, n_found);
+  if (accepted) LearnPolarity(fr, tri);
   if (accepted) {
     relocalize_failures_ = 0;
     next_relocalize_frame_ = 0;

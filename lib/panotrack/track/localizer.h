@@ -126,7 +126,33 @@ struct LocalizerOptions {
   // cores unless OMP_NUM_THREADS says otherwise). Set per localiser, never
   // process-wide; the results do not depend on it.
   int num_threads = 0;
+  // Edge polarities learned from the images (where the map's shade is
+  // unknown or the images contradict it): a sign is learned after this many
+  // tracked frames in a row show it; one not found in polarity_forget_misses
+  // tracked frames in a row is searched with either sign again; one learned
+  // with a different sign more than polarity_max_flips times stays "either".
+  int polarity_learn_frames = 3;
+  int polarity_forget_misses = 5;
+  int polarity_max_flips = 2;
   void Check() const;
+};
+
+// What the tracked frames showed of one edge's polarity (going into the
+// landmark's face, +1 brighter inside).
+struct EdgePolarityEvidence {
+  int learned = 0;        // the sign learned (0: none yet, or forgotten)
+  int candidate = 0;      // the sign of the current run of measurements
+  int run = 0;            // consecutive tracked frames that showed `candidate`
+  int last_learned = 0;   // the last sign learned (to count flips)
+  int flips = 0;          // times a learned sign changed
+  int misses = 0;         // consecutive tracked frames it was searched for and not found
+  int agree = 0;          // measurements agreeing with the map's polarity
+  int disagree = 0;       // ... contradicting it
+  double contrast = 0.0;  // running mean of the step found (grey levels)
+};
+
+struct LandmarkPolarity {
+  EdgePolarityEvidence v, h;  // vertical and horizontal edge
 };
 
 struct FrameResult {
@@ -143,6 +169,9 @@ struct FrameResult {
   std::vector<PredictedLandmark> predicted;
   std::vector<LandmarkMeasurement> measurements;  // one per predicted landmark
   TriangulationResult triangulation;
+  // Measured with every edge whose polarity the images have not confirmed
+  // taken with either sign (the map's polarities found nothing).
+  bool either_polarity = false;
 };
 
 // The PH tables the junction tracker uses, built per edge height on first use
@@ -180,11 +209,29 @@ class Localizer {
   const Map& map() const { return map_; }
   const Sensor& sensor() const { return calib_.sensor; }
   const std::vector<Landmark>& landmarks() const { return landmarks_; }
+  // Per landmark (as landmarks()): what the tracked frames showed of its
+  // edges' polarities.
+  const std::vector<LandmarkPolarity>& polarity() const { return polarity_; }
+  // The ids of the map's rectangles and boxes whose shade the images
+  // contradict (an edge's polarity learned against the map's over
+  // polarity_learn_frames or more tracked frames): "map shade looks inverted".
+  std::vector<std::string> ContradictedShades() const;
 
  private:
   // `motion`: this frame's motion when better known than the prediction
   // (after a first solve); it sets the expected blur of each edge.
-  void Measure(const Pose2& pose, double search_px, FrameResult* out, const Pose2* motion = nullptr) const;
+  // `either`: edges whose map polarity no tracked frame has confirmed are
+  // searched with either sign.
+  void Measure(const Pose2& pose, double search_px, FrameResult* out, const Pose2* motion = nullptr,
+               bool either = false) const;
+  // The polarity to search an edge for: the map's while the images do not
+  // contradict it, else the one learned, else 0 (either).
+  int SearchPolarity(const EdgePolarityEvidence& e, int map_polarity, int object, bool either) const;
+  // Whether retrying with `either` could find what the map's polarities did
+  // not: some shade is known and the images have not confirmed the map yet.
+  bool EitherFallbackUseful() const;
+  // Learns the edges' polarities from an accepted frame's inliers.
+  void LearnPolarity(const FrameResult& fr, const TriangulationResult& tri);
   // The motion from the previous frame's pose to `pose`, when that pose was measured.
   std::optional<Pose2> SolvedMotion(const Pose2& pose) const;
   TriangulationResult Solve(const FrameResult& fr, const Pose2& prior) const;
@@ -195,8 +242,11 @@ class Localizer {
   // The innovation gate against the motion model (fills fr->innovation).
   bool AgreesWithMotion(FrameResult* fr, const TriangulationResult& tri) const;
   // Tracks from `pose` (first a wide, then a narrow search); true if accepted.
-  bool TrackFrom(const Pose2& pose, double search_px, FrameResult* fr, TriangulationResult* tri) const;
+  bool TrackFrom(const Pose2& pose, double search_px, FrameResult* fr, TriangulationResult* tri,
+                 bool either = false) const;
   bool Relocalize(const cv::Mat& grey, FrameResult* fr, TriangulationResult* tri) const;
+  bool RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool either, FrameResult* fr,
+                      TriangulationResult* tri) const;
   // The steps of Process:
   void CheckFrame(const cv::Mat& grey, int frame) const;
   // the motion model's prediction for time t (started at the first frame);
@@ -263,6 +313,15 @@ class Localizer {
   int relocalize_failures_ = 0;
   // The bearing noise of recent good frames (radians), for the integrity test.
   double bearing_sigma_ = 0.0;
+  // Polarities learned from the images, per landmark; per map object
+  // (rectangle, box) whether the images contradict its shade; whether they
+  // contradict most of the map (then no map polarity is trusted) or have
+  // confirmed it (then no frame is retried with either polarity).
+  std::vector<LandmarkPolarity> polarity_;
+  std::vector<char> object_contradicted_;
+  bool map_contradicted_ = false;
+  bool map_confirmed_ = false;
+  bool any_known_shade_ = false;
 };
 
 }  // namespace pano

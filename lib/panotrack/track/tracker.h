@@ -22,6 +22,13 @@ struct LandmarkMeasurement {
   // its vertical edge: the motion blur seen; -1 unknown.
   double edge_width_px = -1.0;
   const char* why = "";  // reason when not found
+  // The step polarities found across the vertical and the horizontal edge,
+  // going into the face (+1 brighter inside, as PredictedLandmark's), and
+  // their contrasts (grey levels); 0 when not found.
+  int v_polarity = 0;
+  int h_polarity = 0;
+  double v_contrast = 0.0;
+  double h_contrast = 0.0;
   // For the debug video: image points of the found edges, and the tracked
   // horizontal edge's PH parameters.
   std::vector<Eigen::Vector2d> edge_points;

@@ -241,6 +241,19 @@ CornerType VertexTracker::TypeOf(const PredictedLandmark& p) {
   return t;
 }
 
+std::vector<CornerType> VertexTracker::TypesOf(const PredictedLandmark& p) {
+  const CornerType base = TypeOf(p);
+  std::vector<CornerType> out;
+  for (int v : p.v_polarity != 0 ? std::vector<int>{p.v_polarity} : std::vector<int>{1, -1})
+    for (int h : p.h_polarity != 0 ? std::vector<int>{p.h_polarity} : std::vector<int>{1, -1}) {
+      CornerType t = base;
+      t.v_polarity = v;
+      t.h_polarity = h;
+      out.push_back(t);
+    }
+  return out;
+}
+
 namespace {
 
 // The corner's azimuth, refined: the template's correlation peak is broad
@@ -254,7 +267,7 @@ namespace {
 // median width (columns, 15 % to 85 %). False when too few rows show the
 // step there.
 bool LocateVerticalEdge(const QuasiCylindricalView& view, const cv::Mat& padded, const CornerType& type,
-                        double ramp_cols, int half_y, CornerPeak* peak, double* width_cols) {
+                        double ramp_cols, int half_y, CornerPeak* peak, double* width_cols, double* contrast) {
   const int reach = static_cast<int>(std::ceil(ramp_cols)) + 12;  // the ramp, its tails, the plateaus
   const int x0 = static_cast<int>(std::floor(peak->x)) - reach, w = 2 * reach + 1;
   const int rows = std::max(3, half_y);
@@ -263,13 +276,14 @@ bool LocateVerticalEdge(const QuasiCylindricalView& view, const cv::Mat& padded,
   if (x0 < 0 || x0 + w > view.cols() || y0 < 0 || y0 + rows > view.rows()) return false;
   cv::Mat strip;
   view.WarpRegion(padded, x0, y0, w, rows, &strip);
-  std::vector<double> xs, widths;
+  std::vector<double> xs, widths, strengths;
   for (int r = 0; r < rows; ++r) {
     StepEdge e;
     if (!FindStep(strip.ptr<float>(r), w, type.x_sign * type.v_polarity, 2, 8.0, &e, ramp_cols)) continue;
     if (std::abs(x0 + e.location - peak->x) > 0.5 * ramp_cols + 2.0) continue;  // another edge
     xs.push_back(x0 + e.location);
     widths.push_back(e.width);
+    strengths.push_back(e.strength);
   }
   if (xs.size() < 3) return false;
   auto median = [](std::vector<double>* v) {
@@ -278,6 +292,7 @@ bool LocateVerticalEdge(const QuasiCylindricalView& view, const cv::Mat& padded,
   };
   peak->x = median(&xs);
   *width_cols = median(&widths);
+  *contrast = median(&strengths);
   return true;
 }
 
@@ -289,11 +304,7 @@ LandmarkMeasurement VertexTracker::Measure(const PredictedLandmark& p, double se
     m.why = "no frame";
     return m;
   }
-  const CornerType type = TypeOf(p);
-  if (type.v_polarity == 0) {
-    m.why = "no contrast predicted";
-    return m;
-  }
+  const std::vector<CornerType> types = TypesOf(p);
   const double px_per_rad = view_.width() / (2.0 * M_PI);
   const double cx = view_.x_of_azimuth(p.azimuth), cy = view_.y_of_radius(p.corner_radius);
   // Search: the expected image motion, tangential px at the corner's radius
@@ -323,37 +334,64 @@ LandmarkMeasurement VertexTracker::Measure(const PredictedLandmark& p, double se
   cv::Mat window, sum, sqsum;
   view_.WarpRegion(padded_, x0, y0, bx1 + hx - x0, by1 + hy - y0, &window);
   cv::integral(window, sum, sqsum, CV_64F, CV_64F);
-  CornerPeak peak = FindCorner(sum, sqsum, type, hx, hy, cx - x0, cy - y0, sx, sy);
-  if (!peak.found) {
+  // With an edge of unknown polarity, every corner type is tried, the best
+  // response first; the first that passes the checks below wins (its own
+  // runner-up decides whether it is ambiguous: the other types respond to
+  // parts of the same corner, such as its vertical edge alone).
+  struct Candidate {
+    CornerType type;
+    CornerPeak peak;
+  };
+  std::vector<Candidate> candidates;
+  for (const CornerType& t : types) {
+    const CornerPeak found = FindCorner(sum, sqsum, t, hx, hy, cx - x0, cy - y0, sx, sy);
+    if (found.found) candidates.push_back({t, found});
+  }
+  if (candidates.empty()) {
     m.why = "search window outside the view";
     return m;
   }
-  peak.x += x0;
-  peak.y += y0;
-  m.weight = 1.0;
-  m.azimuth = wrap_angle(view_.azimuth_of_x(peak.x));
-  m.radius = view_.radius_of_y(peak.y);
-  if (peak.score < opt_.min_score) {
-    m.why = "weak corner response";
-    return m;
-  }
-  if (peak.score - peak.second < opt_.min_peak_margin) {
-    m.why = "ambiguous: another corner-like response in the search window";
-    return m;
-  }
+  std::stable_sort(candidates.begin(), candidates.end(),
+                   [](const Candidate& a, const Candidate& b) { return a.peak.score > b.peak.score; });
   // Motion blur expected across the vertical edge, in view columns (2 px and
   // less the detector's own baseline spans).
   double ramp_cols = p.tangential_motion_px * px_per_rad / std::max(p.corner_radius, 1.0);
   if (ramp_cols < 2.0) ramp_cols = 0.0;
-  double width_cols;
+  double width_cols = 0.0, contrast = 0.0;
   const int edge_rows = std::clamp(static_cast<int>(0.7 * v_len), 3, 24);  // along the vertical edge
-  if (!LocateVerticalEdge(view_, padded_, type, ramp_cols, edge_rows, &peak, &width_cols)) {
-    m.why = "vertical edge not located beside the corner";
-    return m;
+  CornerType type;
+  CornerPeak peak;
+  bool located = false;
+  for (size_t k = 0; k < candidates.size() && !located; ++k) {
+    type = candidates[k].type;
+    peak = candidates[k].peak;
+    peak.x += x0;
+    peak.y += y0;
+    const char* why = nullptr;
+    if (peak.score < opt_.min_score)
+      why = "weak corner response";
+    else if (peak.score - peak.second < opt_.min_peak_margin)
+      why = "ambiguous: another corner-like response in the search window";
+    else if (!LocateVerticalEdge(view_, padded_, type, ramp_cols, edge_rows, &peak, &width_cols, &contrast))
+      why = "vertical edge not located beside the corner";
+    else
+      located = true;
+    if (k == 0) {  // what is reported when none passes
+      m.weight = 1.0;
+      m.azimuth = wrap_angle(view_.azimuth_of_x(peak.x));
+      m.radius = view_.radius_of_y(peak.y);
+      if (why) m.why = why;
+    }
   }
+  if (!located) return m;
+  m.why = "";
+  m.radius = view_.radius_of_y(peak.y);
   m.azimuth = wrap_angle(view_.azimuth_of_x(peak.x));
   m.edge_width_px = width_cols * p.corner_radius / px_per_rad;
   m.found = true;
+  m.v_polarity = type.v_polarity;
+  m.h_polarity = type.h_polarity;
+  m.v_contrast = contrast;
   // For the debug video: the face quadrant's two sides from the corner.
   for (int k = 1; k <= hx; k += 2)
     m.edge_points.push_back(sensor_.from_polar(m.radius, view_.azimuth_of_x(peak.x + type.x_sign * k)));

@@ -136,6 +136,9 @@ class VertexTracker : public LandmarkTracker {
 
   const QuasiCylindricalView& view() const { return view_; }
   static CornerType TypeOf(const PredictedLandmark& p);
+  // The corner types to try: TypeOf's, with each edge of unknown polarity
+  // (0) taken with either sign.
+  static std::vector<CornerType> TypesOf(const PredictedLandmark& p);
 
  private:
   Sensor sensor_;
