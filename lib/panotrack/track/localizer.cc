@@ -6,6 +6,7 @@
 
 #include "panotrack/core/error.h"
 #include "panotrack/core/parallel.h"
+#include "panotrack/track/map_symmetry.h"
 
 namespace pano {
 
@@ -44,8 +45,9 @@ void LocalizerOptions::Check() const {
   if (!(relocalize_confirmed_fraction >= 0))
     throw Error("localiser: relocalize_confirmed_fraction: expected >= 0 (above 1: every pose confirmed first)");
   if (!(relocalize_min_fraction >= 0 && relocalize_min_fraction <= 1) || relocalize_margin < 0 ||
-      !(relocalize_distinct > 0))
-    throw Error("localiser: relocalize_min_fraction 0..1, relocalize_margin >= 0, relocalize_distinct > 0 expected");
+      !(relocalize_distinct > 0) || !(relocalize_symmetry_tolerance >= 0))
+    throw Error("localiser: relocalize_min_fraction 0..1, relocalize_margin >= 0, relocalize_distinct > 0, "
+                "relocalize_symmetry_tolerance >= 0 expected");
   if (polarity_learn_frames < 1 || polarity_forget_misses < 1 || polarity_max_flips < 0)
     throw Error("localiser: polarity_learn_frames and polarity_forget_misses: expected >= 1, "
                 "polarity_max_flips: expected >= 0");
@@ -372,9 +374,43 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
   // The best-supported pose, unambiguous, must also pass the integrity test
   // (a pose with fewer inliers that passes it is no better: few bearings
   // fit a wrong pose easily).
-  if (!Consistent(&best->fr, best->tri)) return false;
+  if (!Consistent(&best->fr, best->tri) || !ChooseAmongTwins(either, &best->fr, &best->tri)) return false;
   *fr = std::move(best->fr);
   *tri = best->tri;
+  return true;
+}
+
+bool Localizer::ChooseAmongTwins(bool either, FrameResult* fr, TriangulationResult* tri) const {
+  const std::vector<BearingObservation> obs = Observations(*fr);
+  std::vector<int> seen;
+  for (int i : tri->inliers)
+    seen.push_back(fr->predicted[static_cast<size_t>(obs[static_cast<size_t>(i)].id)].index);
+  Eigen::Vector2d lo, hi;
+  double top;
+  map_.Extent(&lo, &hi, &top);
+  const std::vector<FloorMotion> motions =
+      LandmarkSymmetries(landmarks_, seen, opt_.relocalize_symmetry_tolerance * (hi - lo).maxCoeff());
+  std::vector<Pose2> poses{tri->pose};
+  for (const FloorMotion& m : motions) {
+    const Pose2 twin = m.Apply(tri->pose);
+    if (map_.IsFree(twin.x, twin.y)) poses.push_back(twin);  // not behind a wall
+  }
+  if (poses.size() == 1) return true;
+  if (!ever_tracked_ && !known_start_) return false;
+  auto from_last = [this](const Pose2& p) { return std::hypot(p.x - last_.x, p.y - last_.y); };
+  std::stable_sort(poses.begin(), poses.end(),
+                   [&](const Pose2& a, const Pose2& b) { return from_last(a) < from_last(b); });
+  // Clearly nearest: the others at least twice as far.
+  if (from_last(poses[1]) < 2.0 * from_last(poses[0])) return false;
+  const Pose2& chosen = poses[0];
+  if (std::hypot(chosen.x - tri->pose.x, chosen.y - tri->pose.y) == 0.0) return true;
+  FrameResult twin_fr;
+  TriangulationResult twin_tri;
+  if (!TrackFrom(chosen, opt_.search_px, &twin_fr, &twin_tri, either) || !EnoughForRelocalized(twin_fr, twin_tri) ||
+      !Consistent(&twin_fr, twin_tri))
+    return false;
+  *fr = std::move(twin_fr);
+  *tri = twin_tri;
   return true;
 }
 

@@ -106,6 +106,11 @@ struct LocalizerOptions {
   double relocalize_min_fraction = 0.5;
   int relocalize_margin = 2;
   double relocalize_distinct = 0.05;
+  // A map that repeats what a relocalised pose sees (a floor motion carrying
+  // its inlier landmarks onto others, within this fraction of the room's
+  // size) shows the same image from the moved pose: the last known pose
+  // chooses the pose clearly nearest to it, else the search fails.
+  double relocalize_symmetry_tolerance = 0.02;
   // A relocalised pose (the first pose, after a kidnap or a loss) is
   // reported at once only with this fraction of its chosen landmarks as
   // inliers; with fewer (a wrong pose fits a few bearings easily) the next
@@ -245,6 +250,10 @@ class Localizer {
   bool TrackFrom(const Pose2& pose, double search_px, FrameResult* fr, TriangulationResult* tri,
                  bool either = false) const;
   bool Relocalize(const cv::Mat& grey, FrameResult* fr, TriangulationResult* tri) const;
+  // Among a relocalised pose and its twins under the map's symmetries, the
+  // one clearly nearest the last known pose (tracked from); false when
+  // there are twins and none is.
+  bool ChooseAmongTwins(bool either, FrameResult* fr, TriangulationResult* tri) const;
   bool RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool either, FrameResult* fr,
                       TriangulationResult* tri) const;
   // The steps of Process:
