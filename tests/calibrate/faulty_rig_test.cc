@@ -1,0 +1,72 @@
+// Calibration of an imperfect rig (panosim preset faulty-rig: sphere centre
+// off the axis, camera tilted, lens distortion, sensor tilted) from rendered
+// boards with the poses estimated: the rig faults are fitted through the
+// general model.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+#include "panotrack/calibrate/calibrate.h"
+#include "panotrack/core/error.h"
+#include "panotrack/io/targets.h"
+#include "panotrack/render/presets.h"
+#include "rendered_targets.h"
+
+namespace pano {
+namespace {
+
+using test::RenderTargets;
+
+// The sphere's centre in the camera frame: the quantity a sphere determines
+// (its centre off the axis and a camera tilt are one; general_model.h:
+// p_M = Rt(camera_tilt) p_C).
+Eigen::Vector3d SphereCentreInCamera(const Sensor& s) {
+  const double pm[3] = {s.faults.mirror_offset[0], s.faults.mirror_offset[1], s.mirror_distance()};
+  double R[9], pc[3];
+  detail::tilt_rotation(s.faults.camera_tilt, R);
+  detail::rotate_transposed(R, pm, pc);
+  return {pc[0], pc[1], pc[2]};
+}
+
+TEST_CASE("--free parsing", "[faulty_rig]") {
+  int terms = -1;
+  const FreeFaults f = ParseFreeFaults("decentre,camera-tilt,k1,k2", MirrorModel::kSphere, &terms);
+  CHECK(f.decentre);
+  CHECK(f.camera_tilt);
+  CHECK_FALSE(f.tangential);
+  CHECK(terms == 2);
+  CHECK_FALSE(ParseFreeFaults("none", MirrorModel::kConic).Any());
+  CHECK(ParseFreeFaults("auto", MirrorModel::kConic).camera_tilt);
+  CHECK_FALSE(ParseFreeFaults("auto", MirrorModel::kSphere).camera_tilt);
+  CHECK_THROWS_AS(ParseFreeFaults("decenter", MirrorModel::kSphere), Error);
+}
+
+TEST_CASE("faulty rig, rendered boards, unknown poses: faults recovered", "[faulty_rig]") {
+  const Calibration truth = MakePreset("faulty-rig").calib;
+  const TargetSet targets =
+      ReadTargets(RenderTargets("calibrate_faulty_rig", truth, 14, 7) + "/targets_unknown.yaml");
+  REQUIRE_FALSE(targets.AllPosesKnown());
+  CalibrateOptions o;
+  o.distortion_terms = 2;  // the preset's lens has k1, k2
+  const CalibrationResult r = Calibrate(targets, o);
+  const Sensor& s = r.calib.sensor;
+  const Eigen::Vector3d centre = SphereCentreInCamera(s), centre_truth = SphereCentreInCamera(truth.sensor);
+  const double decentre_error = (centre - centre_truth).head<2>().norm();
+  const double focal = s.params.focal_px / truth.sensor.params.focal_px - 1.0;
+  WARN("faulty-rig, " << r.views.size() << " of 14 boards: centre off axis (" << centre.x() << ", " << centre.y()
+                      << ") cm, truth (" << centre_truth.x() << ", " << centre_truth.y() << "), error "
+                      << decentre_error << " cm; focal " << 100 * focal << " %, k1 " << s.params.k1 << ", k2 "
+                      << s.params.k2 << ", RMS " << r.rms_px << " px");
+  CHECK(s.faults.camera_tilt[0] == 0.0);  // the sphere's default: folded into the decentre
+  CHECK(decentre_error < 0.01);
+  CHECK(std::abs(focal) < 0.005);
+  CHECK(r.rms_px < 0.3);
+  CHECK(r.views.size() >= 8);
+  bool reported = false;
+  for (const ParameterEstimate& p : r.parameters)
+    if (p.name == "decentre_x") reported = std::isfinite(p.stddev) && p.stddev > 0.0 && p.stddev < 0.01;
+  CHECK(reported);
+}
+
+}  // namespace
+}  // namespace pano
