@@ -39,14 +39,14 @@ std::vector<int> FixedSensorIndices(bool poses_known, const CalibrateOptions& o)
 
 std::vector<int> FixedFaultIndices(bool poses_known, const CalibrateOptions& o) {
   const FreeFaults f = o.Faults();
-  std::vector<int> fixed;
-  if (!f.decentre) fixed.insert(fixed.end(), {kOffsetX, kOffsetY});
-  if (!f.camera_tilt) fixed.insert(fixed.end(), {kCameraTiltX, kCameraTiltY});
-  if (!f.tangential) fixed.insert(fixed.end(), {kP1, kP2});
-  if (!f.k3) fixed.push_back(kK3);
   // With estimated poses a tilt of the whole rig is a turn of every board.
-  if (!f.sensor_tilt || !poses_known) fixed.insert(fixed.end(), {kSensorTiltX, kSensorTiltY});
-  std::sort(fixed.begin(), fixed.end());
+  const bool free[kNumFaults] = {f.decentre,   f.decentre, f.camera_tilt, f.camera_tilt,
+                                 f.tangential, f.tangential, f.k3,
+                                 f.sensor_tilt && poses_known, f.sensor_tilt && poses_known};
+  std::vector<int> fixed;
+  fixed.reserve(kNumFaults);
+  for (int k = 0; k < kNumFaults; ++k)
+    if (!free[k]) fixed.push_back(k);
   return fixed;
 }
 
