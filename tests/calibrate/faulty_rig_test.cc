@@ -76,5 +76,36 @@ TEST_CASE("faulty rig, rendered boards, unknown poses: faults recovered", "[faul
   CHECK(decentre_std < 0.05);
 }
 
+TEST_CASE("faulty rig, rendered boards, known poses: decentre and tilt recovered", "[faulty_rig]") {
+  // With the poses known the robot frame is fixed: the sphere's centre in the
+  // camera's frame and the camera's turn against the robot (sensor tilt and
+  // camera tilt together, one rotation for a sphere) are both determined.
+  const Calibration truth = MakePreset("faulty-rig").calib;
+  const TargetSet targets =
+      ReadTargets(RenderTargets("calibrate_faulty_rig_known", truth, 10, 11) + "/targets.yaml");
+  REQUIRE(targets.AllPosesKnown());
+  CalibrateOptions o;
+  o.distortion_terms = 2;
+  o.free_faults_auto = false;
+  o.free_faults = ParseFreeFaults("decentre,sensor-tilt", MirrorModel::kSphere);
+  const CalibrationResult r = Calibrate(targets, o);
+  const Sensor& s = r.calib.sensor;
+  const Eigen::Vector3d centre = SphereCentreInCamera(s), centre_truth = SphereCentreInCamera(truth.sensor);
+  const double decentre_error = (centre - centre_truth).head<2>().norm();
+  const double focal = s.params.focal_px / truth.sensor.params.focal_px - 1.0;
+  // Both tilts are about x in the preset: the camera's turn is their sum.
+  const double tilt_truth = truth.sensor.faults.sensor_tilt[0] + truth.sensor.faults.camera_tilt[0];
+  const double tilt_error_deg = (s.faults.sensor_tilt[0] - tilt_truth) * 180.0 / M_PI;
+  WARN("faulty-rig, known poses, " << r.views.size() << " of 10 boards: centre off axis (" << centre.x() << ", "
+                                   << centre.y() << ") cm, error " << decentre_error << " cm; tilt error "
+                                   << tilt_error_deg << " deg (y " << s.faults.sensor_tilt[1] * 180.0 / M_PI
+                                   << " deg); focal " << 100 * focal << " %, RMS " << r.rms_px << " px");
+  CHECK(decentre_error < 0.01);
+  CHECK(std::abs(tilt_error_deg) < 0.05);
+  CHECK(std::abs(s.faults.sensor_tilt[1]) * 180.0 / M_PI < 0.05);
+  CHECK(std::abs(focal) < 0.005);
+  CHECK(r.rms_px < 0.3);
+}
+
 }  // namespace
 }  // namespace pano
