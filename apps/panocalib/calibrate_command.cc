@@ -16,7 +16,7 @@ namespace pano::app {
 
 void AddCalibrateCommand(CLI::App& app) {
   struct Opts {
-    std::string targets, out, lut, report, model = "sphere", distortion = "auto", free = "auto";
+    std::string targets, out, lut, report, model = "sphere", distortion = "auto", free = "none";
     double huber = 1.0, max_rms = 5.0, full_weight = CalibrateOptions().full_weight_px;
     int max_iterations = 200, threads = 0;
     bool no_aspect = false, ignore_poses = false, no_unwarp = false, verbose = false;
@@ -66,8 +66,9 @@ void AddCalibrateCommand(CLI::App& app) {
                   "Lens radial distortion terms fitted: auto (none for sphere, k1 k2 for conic), 0, 1 or 2")
       ->capture_default_str();
   cmd->add_option("--free", o->free,
-                  "Rig faults fitted: auto (decentre and camera-tilt for conic; decentre for sphere, whose "
-                  "centre off the axis and a camera tilt are one and the same), none (the aligned model), or a "
+                  "Rig faults fitted (general model): none (the aligned model), auto (decentre and camera-tilt "
+                  "for conic; decentre for sphere, whose centre off the axis and a camera tilt are one and the "
+                  "same; with estimated poses they trade against cx, cy), or a "
                   "comma list of decentre, camera-tilt, k1, k2 (as --distortion), tangential (p1 p2), k3, "
                   "sensor-tilt (known board poses only)")
       ->capture_default_str();

@@ -47,7 +47,8 @@ TEST_CASE("faulty rig, rendered boards, unknown poses: faults recovered", "[faul
       ReadTargets(RenderTargets("calibrate_faulty_rig", truth, 14, 7) + "/targets_unknown.yaml");
   REQUIRE_FALSE(targets.AllPosesKnown());
   CalibrateOptions o;
-  o.distortion_terms = 2;  // the preset's lens has k1, k2
+  o.free_faults_auto = true;  // the sphere's: decentre
+  o.distortion_terms = 2;     // the preset's lens has k1, k2
   const CalibrationResult r = Calibrate(targets, o);
   const Sensor& s = r.calib.sensor;
   const Eigen::Vector3d centre = SphereCentreInCamera(s), centre_truth = SphereCentreInCamera(truth.sensor);

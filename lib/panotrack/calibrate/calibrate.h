@@ -86,8 +86,11 @@ struct CalibrateOptions {
   double full_weight_px = 10.0;
   int max_iterations = 200;
   // Rig faults fitted (project_general in the fit when any is free);
-  // free_faults_auto: DefaultFreeFaults(model) instead of free_faults.
-  bool free_faults_auto = true;
+  // free_faults_auto: DefaultFreeFaults(model) instead of free_faults. Off
+  // (the aligned model) by default: with estimated board poses a free
+  // decentre or camera tilt trades against the principal point, which an
+  // aligned rig then loses (paper-real: cx 0.003 -> 0.6 px off).
+  bool free_faults_auto = false;
   FreeFaults free_faults;
   // Standard deviation above which a free fault is reported as not
   // determined: offsets relative to the mirror's curvature radius, angles in

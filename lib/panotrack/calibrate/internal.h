@@ -196,6 +196,14 @@ struct GeneralCornerCost {
     if (!PlausibleParams(g.aligned)) return false;
     g.aligned.rim_radius = T(RimForRadius(g.aligned.template cast<double>(), cap / scalar_value(g.aligned.focal_px)));
     g.faults = FaultsFromBlock(faults);
+    // Steps beyond a plausible rig are rejected (a free decentre may wander
+    // off where the data hardly constrain it): offset within half the
+    // curvature radius, tilts within 20 degrees.
+    const T& dx = g.faults.mirror_offset[0];
+    const T& dy = g.faults.mirror_offset[1];
+    if (!(dx * dx + dy * dy < T(0.25) * g.aligned.curvature_radius * g.aligned.curvature_radius)) return false;
+    for (const T* a : {g.faults.camera_tilt, g.faults.sensor_tilt})
+      if (!(a[0] * a[0] + a[1] * a[1] < T(0.12))) return false;
     const T Xb[3] = {T(X.x()), T(X.y()), T(X.z())};
     T Xs[3];
     ceres::AngleAxisRotatePoint(pose, Xb, Xs);
