@@ -16,7 +16,7 @@ namespace pano::app {
 
 void AddCalibrateCommand(CLI::App& app) {
   struct Opts {
-    std::string targets, out, lut, report, model = "sphere", distortion = "auto";
+    std::string targets, out, lut, report, model = "sphere", distortion = "auto", free = "none";
     double huber = 1.0, max_rms = 5.0, full_weight = CalibrateOptions().full_weight_px;
     int max_iterations = 200, threads = 0;
     bool no_aspect = false, ignore_poses = false, no_unwarp = false, verbose = false;
@@ -65,6 +65,13 @@ void AddCalibrateCommand(CLI::App& app) {
   cmd->add_option("--distortion", o->distortion,
                   "Lens radial distortion terms fitted: auto (none for sphere, k1 k2 for conic), 0, 1 or 2")
       ->capture_default_str();
+  cmd->add_option("--free", o->free,
+                  "Rig faults fitted (general model): none (the aligned model), auto (decentre and camera-tilt "
+                  "for conic; decentre for sphere, whose centre off the axis and a camera tilt are one and the "
+                  "same; with estimated poses they trade against cx, cy), or a "
+                  "comma list of decentre, camera-tilt, k1, k2 (as --distortion), tangential (p1 p2), k3, "
+                  "sensor-tilt (known board poses only)")
+      ->capture_default_str();
   cmd->add_option("--huber", o->huber, "Huber loss threshold in pixels (0: plain least squares)")
       ->capture_default_str();
   cmd->add_option("--full-weight", o->full_weight,
@@ -106,6 +113,16 @@ void AddCalibrateCommand(CLI::App& app) {
     if (o->distortion == "auto") opt.distortion_terms = -1;
     else if (o->distortion == "0" || o->distortion == "1" || o->distortion == "2") opt.distortion_terms = std::stoi(o->distortion);
     else throw Error("--distortion: expected auto, 0, 1 or 2, got '" + o->distortion + "'");
+    {
+      int radial = -1;
+      opt.free_faults = ParseFreeFaults(o->free, opt.model, &radial);
+      opt.free_faults_auto = o->free == "auto";
+      if (radial >= 0) {
+        if (o->distortion != "auto" && opt.distortion_terms != radial)
+          throw Error("--free: names k1/k2 but --distortion says " + o->distortion);
+        opt.distortion_terms = radial;
+      }
+    }
     opt.huber_px = o->huber;
     opt.max_rms_px = o->max_rms;
     opt.full_weight_px = o->full_weight;

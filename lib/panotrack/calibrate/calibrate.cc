@@ -31,6 +31,39 @@ int CalibrateOptions::Threads() const {
   return num_threads > 0 ? num_threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
 }
 
+FreeFaults DefaultFreeFaults(MirrorModel model) {
+  FreeFaults f;
+  f.decentre = true;
+  f.camera_tilt = model == MirrorModel::kConic;
+  return f;
+}
+
+FreeFaults ParseFreeFaults(const std::string& list, MirrorModel model, int* distortion_terms) {
+  if (list == "auto") return DefaultFreeFaults(model);
+  FreeFaults f;
+  if (list == "none") return f;
+  int radial = 0;
+  std::stringstream in(list);
+  std::string name;
+  while (std::getline(in, name, ',')) {
+    if (name == "decentre") f.decentre = true;
+    else if (name == "camera-tilt") f.camera_tilt = true;
+    else if (name == "tangential") f.tangential = true;
+    else if (name == "k3") f.k3 = true;
+    else if (name == "sensor-tilt") f.sensor_tilt = true;
+    else if (name == "k1") radial = std::max(radial, 1);
+    else if (name == "k2") radial = 2;
+    else
+      throw Error("--free: unknown parameter '" + name +
+                  "' (expected auto, none or a list of decentre, camera-tilt, k1, k2, tangential, k3, sensor-tilt)");
+  }
+  if (radial > 0) {
+    if (!distortion_terms) throw Error("--free: k1 and k2 are set with the lens distortion terms");
+    *distortion_terms = radial;
+  }
+  return f;
+}
+
 void CalibrateOptions::Check() const {
   if (model != MirrorModel::kSphere && model != MirrorModel::kConic)
     throw Error("--model: expected sphere or conic");
@@ -43,6 +76,7 @@ void CalibrateOptions::Check() const {
   if (!(max_rms_px > 0.0)) throw Error("--max-rms: expected a positive number of pixels");
   if (!std::isfinite(full_weight_px))
     throw Error("--full-weight: expected a number of pixels per square (0: uniform weights)");
+  if (!(fault_warning_std > 0.0)) throw Error("fault warning threshold: expected a positive number");
   if (!(scale_warning_rel_std > 0.0)) throw Error("scale warning threshold: expected a positive fraction");
   if (num_threads < 0 || num_threads > 1024)
     throw Error("--threads: expected 0 (every core) or 1..1024, got " + std::to_string(num_threads));

@@ -37,6 +37,28 @@
 
 namespace pano {
 
+// Rig faults (general_model.h) fitted as free parameters. Lens k1, k2 are
+// the aligned model's (CalibrateOptions::distortion_terms).
+struct FreeFaults {
+  bool decentre = false;     // mirror_offset (a sphere: its centre off the axis)
+  bool camera_tilt = false;  // camera_tilt
+  bool tangential = false;   // p1, p2
+  bool k3 = false;
+  bool sensor_tilt = false;  // only with known board poses (else the poses absorb it)
+  bool Any() const { return decentre || camera_tilt || tangential || k3 || sensor_tilt; }
+};
+
+// The default free faults: decentre and camera tilt for the conic; decentre
+// only for the sphere, whose centre off the axis and a camera tilt are the
+// same thing (a sphere has no axis of its own: a tilted camera sees the
+// centre off its axis), so only the centre in the camera's frame is
+// determined and it is reported as decentre with camera_tilt zero.
+FreeFaults DefaultFreeFaults(MirrorModel model);
+// Parses "auto", "none" or a comma list of decentre, camera-tilt, tangential,
+// k3, sensor-tilt (k1 and k2 are accepted and set *distortion_terms to the
+// highest named, when it is given). Throws pano::Error naming --free.
+FreeFaults ParseFreeFaults(const std::string& list, MirrorModel model, int* distortion_terms = nullptr);
+
 struct CalibrateOptions {
   MirrorModel model = MirrorModel::kSphere;
   // Lens radial distortion terms fitted: -1 automatic (0 for sphere, 2 for
@@ -63,6 +85,17 @@ struct CalibrateOptions {
   // certain there. <= 0: every corner counts the same in pixels.
   double full_weight_px = 10.0;
   int max_iterations = 200;
+  // Rig faults fitted (project_general in the fit when any is free);
+  // free_faults_auto: DefaultFreeFaults(model) instead of free_faults. Off
+  // (the aligned model) by default: with estimated board poses a free
+  // decentre or camera tilt trades against the principal point, which an
+  // aligned rig then loses (paper-real: cx 0.003 -> 0.6 px off).
+  bool free_faults_auto = false;
+  FreeFaults free_faults;
+  // Standard deviation above which a free fault is reported as not
+  // determined: offsets relative to the mirror's curvature radius, angles in
+  // radians, distortion terms as they are.
+  double fault_warning_std = 0.1;
   // A fit whose RMS reprojection error exceeds this is a failure (pixels).
   double max_rms_px = 5.0;
   // Relative standard deviation of the mirror's size above which the user is
@@ -80,6 +113,7 @@ struct CalibrateOptions {
   int DistortionTerms() const {
     return distortion_terms >= 0 ? distortion_terms : (model == MirrorModel::kConic ? 2 : 0);
   }
+  FreeFaults Faults() const { return free_faults_auto ? DefaultFreeFaults(model) : free_faults; }
   // num_threads with 0 resolved to the number of cores.
   int Threads() const;
   // Throws pano::Error naming the bad option.

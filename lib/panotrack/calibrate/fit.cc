@@ -37,6 +37,18 @@ std::vector<int> FixedSensorIndices(bool poses_known, const CalibrateOptions& o)
   return fixed;
 }
 
+std::vector<int> FixedFaultIndices(bool poses_known, const CalibrateOptions& o) {
+  const FreeFaults f = o.Faults();
+  // With estimated poses a tilt of the whole rig is a turn of every board.
+  const bool free[kNumFaults] = {f.decentre,   f.decentre, f.camera_tilt, f.camera_tilt,
+                                 f.tangential, f.tangential, f.k3,
+                                 f.sensor_tilt && poses_known, f.sensor_tilt && poses_known};
+  std::vector<int> fixed;
+  fixed.reserve(kNumFaults);
+  for (int k = 0; k < kNumFaults; ++k)
+    if (!free[k]) fixed.push_back(k);
+  return fixed;
+}
 
 }  // namespace calib_internal
 
@@ -59,7 +71,12 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
   const double cap = CapRadiusPx(init.sensor.image_width, init.sensor.image_height);
   std::array<double, kNumSensor> s = BlockFromParams(init.sensor.params);
   std::vector<std::array<double, 6>> poses = init.poses;
-  if (!AllFinite(s.data(), kNumSensor))
+  std::array<double, kNumFaults> f = BlockFromFaults(init.sensor.faults);
+  const std::vector<int> fixed_faults = FixedFaultIndices(poses_known, options);
+  const bool faults_free = static_cast<int>(fixed_faults.size()) < kNumFaults;
+  // The general model whenever a fault is free or carried from an earlier fit.
+  const bool general = faults_free || !init.sensor.faults.IsZero();
+  if (!AllFinite(s.data(), kNumSensor) || !AllFinite(f.data(), kNumFaults))
     throw Error("calibration fit: the initial sensor has non-finite parameters");
 
   ceres::Problem::Options popt;
@@ -67,6 +84,17 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
   problem.AddParameterBlock(s.data(), kNumSensor);
   const std::vector<int> fixed = FixedSensorIndices(poses_known, options);
   if (!fixed.empty()) problem.SetManifold(s.data(), new ceres::SubsetManifold(kNumSensor, fixed));
+  if (general) {
+    problem.AddParameterBlock(f.data(), kNumFaults);
+    if (!faults_free) problem.SetParameterBlockConstant(f.data());
+    else if (!fixed_faults.empty())
+      problem.SetManifold(f.data(), new ceres::SubsetManifold(kNumFaults, fixed_faults));
+  }
+  // One corner's residual (pixels, unweighted) through the model in use.
+  auto residual = [&](const Eigen::Vector3d& X, const Eigen::Vector2d& obs, const double* pose, double* r) {
+    if (general) return GeneralCornerCost(X, obs, cap)(s.data(), f.data(), pose, r);
+    return CornerCost(X, obs, cap)(s.data(), pose, r);
+  };
   size_t n_obs = 0, n_invisible = 0, n_total = 0;
   for (size_t i = 0; i < views.size(); ++i) {
     problem.AddParameterBlock(poses[i].data(), 6);
@@ -77,16 +105,20 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
     n_total += bv.corners.size();
     for (size_t j = 0; j < bv.corners.size(); ++j) {
       const Eigen::Vector3d& X = pts[bv.PointId(j)];
-      CornerCost probe(X, bv.corners[j], cap);
       double r[2];
-      if (!probe(s.data(), poses[i].data(), r)) {
+      if (!residual(X, bv.corners[j], poses[i].data(), r)) {
         ++n_invisible;
         continue;  // not visible through the initial model: left out of the fit
       }
       ceres::LossFunction* loss = options.huber_px > 0 ? new ceres::HuberLoss(options.huber_px) : nullptr;
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CornerCost, 2, kNumSensor, 6>(
-                                   new CornerCost(X, bv.corners[j], cap, weights[j])),
-                               loss, s.data(), poses[i].data());
+      if (general)
+        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<GeneralCornerCost, 2, kNumSensor, kNumFaults, 6>(
+                                     new GeneralCornerCost(X, bv.corners[j], cap, weights[j])),
+                                 loss, s.data(), f.data(), poses[i].data());
+      else
+        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CornerCost, 2, kNumSensor, 6>(
+                                     new CornerCost(X, bv.corners[j], cap, weights[j])),
+                                 loss, s.data(), poses[i].data());
       ++n_obs;
     }
   }
@@ -108,7 +140,8 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
   if (options.verbose) std::fprintf(stderr, "%s\n", summary.BriefReport().c_str());
-  if (summary.termination_type == ceres::FAILURE || !AllFinite(s.data(), kNumSensor))
+  if (summary.termination_type == ceres::FAILURE || !AllFinite(s.data(), kNumSensor) ||
+      !AllFinite(f.data(), kNumFaults))
     throw Error("calibration fit: Ceres failed (" + summary.message + ")");
 
   CalibrationResult res;
@@ -118,6 +151,7 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
   Sensor& sensor = res.calib.sensor;
   sensor = init.sensor;
   sensor.params = ParamsFromBlock(s.data());
+  sensor.faults = FaultsFromBlock(f.data());
   if (!PlausibleParams(sensor.params))
     throw Error("calibration fit: the fitted sensor is not physical");
   SetRimForImage(&sensor);
@@ -134,9 +168,8 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
     double s2 = 0.0;
     size_t n = 0;
     for (size_t j = 0; j < bv.corners.size(); ++j) {
-      CornerCost c(pts[bv.PointId(j)], bv.corners[j], cap);
       double r[2];
-      if (!c(s.data(), poses[i].data(), r)) {
+      if (!residual(pts[bv.PointId(j)], bv.corners[j], poses[i].data(), r)) {
         rv.push_back(Eigen::Vector2d(NAN, NAN));
         continue;
       }
@@ -163,6 +196,7 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
   // scaled by the residual variance; a parameter with a component in the
   // numerical null space is "not determined".
   std::vector<double*> blocks = {s.data()};
+  if (faults_free) blocks.push_back(f.data());
   if (!poses_known)
     for (auto& p : poses) blocks.push_back(p.data());
   ceres::Problem::EvaluateOptions eo;
@@ -177,6 +211,11 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
   Eigen::VectorXd sensor_std = Eigen::VectorXd::Constant(kNumSensor, 0.0);
   Eigen::MatrixXd sensor_cov = Eigen::MatrixXd::Zero(kNumSensor, kNumSensor);
   std::vector<bool> determined(kNumSensor, true);
+  std::vector<int> free_fault_idx;
+  for (int k = 0; k < kNumFaults; ++k)
+    if (faults_free && !std::binary_search(fixed_faults.begin(), fixed_faults.end(), k)) free_fault_idx.push_back(k);
+  Eigen::VectorXd fault_var = Eigen::VectorXd::Zero(kNumFaults);
+  std::vector<bool> fault_determined(kNumFaults, true);
   if (problem.Evaluate(eo, &cost, nullptr, nullptr, &jac)) {
     const int P = jac.num_cols, N = jac.num_rows;
     Eigen::MatrixXd JtJ = Eigen::MatrixXd::Zero(P, P);
@@ -208,8 +247,16 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
         sensor_cov(free_idx[a], free_idx[b]) = cov(a, b);
       determined[free_idx[a]] = null_weight[a] < 1e-3;
     }
+    // The fault block's columns follow the sensor's free ones.
+    for (size_t a = 0; a < free_fault_idx.size(); ++a) {
+      const int col = static_cast<int>(free_idx.size() + a);
+      if (col >= P) break;
+      fault_var(free_fault_idx[a]) = cov(col, col);
+      fault_determined[free_fault_idx[a]] = null_weight[col] < 1e-3;
+    }
   } else {
     for (int k : free_idx) determined[k] = false;
+    for (int k : free_fault_idx) fault_determined[k] = false;
   }
   for (int k = 0; k < kNumSensor; ++k) sensor_std(k) = std::sqrt(std::max(0.0, sensor_cov(k, k)));
 
@@ -244,6 +291,44 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
   if (!is_fixed(kK1) || !is_fixed(kK2) || p.k1 != 0.0 || p.k2 != 0.0) {
     add("k1", p.k1, sensor_cov(kK1, kK1), is_fixed(kK1), determined[kK1]);
     add("k2", p.k2, sensor_cov(kK2, kK2), is_fixed(kK2), determined[kK2]);
+  }
+
+  // Rig faults: the free ones and any carried non-zero, angles in degrees.
+  {
+    const RigFaults<double>& rf = sensor.faults;
+    auto fixed_fault = [&](int k) { return std::find(free_fault_idx.begin(), free_fault_idx.end(), k) == free_fault_idx.end(); };
+    constexpr double kDeg = 180.0 / M_PI;
+    struct Item {
+      const char* name;
+      int index;
+      double value, scale;  // reported value = block value * scale
+      double warn_std;      // std (block units) above which it is not determined
+    };
+    const double len = options.fault_warning_std * p.curvature_radius, ang = options.fault_warning_std;
+    const Item items[] = {{"decentre_x", kOffsetX, rf.mirror_offset[0], 1.0, len},
+                          {"decentre_y", kOffsetY, rf.mirror_offset[1], 1.0, len},
+                          {"camera_tilt_x_deg", kCameraTiltX, rf.camera_tilt[0], kDeg, ang},
+                          {"camera_tilt_y_deg", kCameraTiltY, rf.camera_tilt[1], kDeg, ang},
+                          {"p1", kP1, rf.p1, 1.0, options.fault_warning_std},
+                          {"p2", kP2, rf.p2, 1.0, options.fault_warning_std},
+                          {"k3", kK3, rf.k3, 1.0, options.fault_warning_std},
+                          {"sensor_tilt_x_deg", kSensorTiltX, rf.sensor_tilt[0], kDeg, ang},
+                          {"sensor_tilt_y_deg", kSensorTiltY, rf.sensor_tilt[1], kDeg, ang}};
+    std::string poor;
+    for (const Item& it : items) {
+      const bool fx = fixed_fault(it.index);
+      if (fx && it.value == 0.0) continue;
+      const double sd = std::sqrt(std::max(0.0, fault_var(it.index)));
+      const bool det = fault_determined[it.index] && std::isfinite(sd) && sd <= it.warn_std;
+      add(it.name, it.value * it.scale, fault_var(it.index) * it.scale * it.scale, fx, det);
+      if (!fx && !det) poor += std::string(poor.empty() ? "" : ", ") + it.name;
+    }
+    if (!poor.empty())
+      res.warnings.push_back("rig faults not determined by these boards (covariance rank-deficient or standard "
+                             "deviation too large): " + poor +
+                             "; fix them (--free) or take boards at more heights and azimuths");
+    if (options.Faults().sensor_tilt && !poses_known)
+      res.warnings.push_back("sensor tilt held at zero: with estimated board poses it is a turn of every board");
   }
 
   // Mirror size against the world: with unknown poses only parallax fixes it.

@@ -14,6 +14,7 @@
 #include "panotrack/calibrate/corner_weights.h"
 #include "panotrack/calibrate/refit.h"
 #include "panotrack/sensor/catadioptric.h"
+#include "panotrack/sensor/general_model.h"
 #include "panotrack/sensor/sensor.h"
 
 namespace pano::calib_internal {
@@ -64,6 +65,43 @@ inline std::array<double, kNumSensor> BlockFromParams(const SensorParams<double>
   s[kVertex] = p.vertex_distance;
   return s;
 }
+
+// The rig-fault parameter block of the fit (general_model.h's RigFaults).
+enum FaultIndex {
+  kOffsetX = 0,  // mirror_offset
+  kOffsetY,
+  kCameraTiltX,  // camera_tilt
+  kCameraTiltY,
+  kP1,
+  kP2,
+  kK3,
+  kSensorTiltX,  // sensor_tilt
+  kSensorTiltY,
+  kNumFaults
+};
+
+template <typename T>
+RigFaults<T> FaultsFromBlock(const T* f) {
+  RigFaults<T> r;
+  r.mirror_offset[0] = f[kOffsetX];
+  r.mirror_offset[1] = f[kOffsetY];
+  r.camera_tilt[0] = f[kCameraTiltX];
+  r.camera_tilt[1] = f[kCameraTiltY];
+  r.p1 = f[kP1];
+  r.p2 = f[kP2];
+  r.k3 = f[kK3];
+  r.sensor_tilt[0] = f[kSensorTiltX];
+  r.sensor_tilt[1] = f[kSensorTiltY];
+  return r;
+}
+
+inline std::array<double, kNumFaults> BlockFromFaults(const RigFaults<double>& r) {
+  return {r.mirror_offset[0], r.mirror_offset[1], r.camera_tilt[0], r.camera_tilt[1], r.p1, r.p2, r.k3,
+          r.sensor_tilt[0], r.sensor_tilt[1]};
+}
+
+// Indices of the fault block held fixed (the faults not named free).
+std::vector<int> FixedFaultIndices(bool poses_known, const CalibrateOptions& o);
 
 // Physically meaningful parameter values (the fit rejects steps outside).
 template <typename T>
@@ -133,6 +171,47 @@ struct CornerCost {
     Xs[2] += pose[5];
     T u, v;
     if (!project(p, Xs, &u, &v)) return false;
+    const T du = u - T(obs.x()), dv = v - T(obs.y());
+    residual[0] = T(L(0, 0)) * du + T(L(0, 1)) * dv;
+    residual[1] = T(L(1, 0)) * du + T(L(1, 1)) * dv;
+    return true;
+  }
+  Eigen::Vector3d X;
+  Eigen::Vector2d obs;
+  double cap;
+  Eigen::Matrix2d L;
+};
+
+// CornerCost through the general model (project_general): sensor block,
+// fault block, pose block. Used whenever a fault is free or non-zero, since
+// with Jets only project_general carries derivatives in the faults.
+struct GeneralCornerCost {
+  GeneralCornerCost(const Eigen::Vector3d& board_point, const Eigen::Vector2d& pixel, double cap_px,
+                    const Eigen::Matrix2d& sqrt_info = Eigen::Matrix2d::Identity())
+      : X(board_point), obs(pixel), cap(cap_px), L(sqrt_info) {}
+  template <typename T>
+  bool operator()(const T* sensor, const T* faults, const T* pose, T* residual) const {
+    GeneralSensorParams<T> g;
+    g.aligned = ParamsFromBlock(sensor);
+    if (!PlausibleParams(g.aligned)) return false;
+    g.aligned.rim_radius = T(RimForRadius(g.aligned.template cast<double>(), cap / scalar_value(g.aligned.focal_px)));
+    g.faults = FaultsFromBlock(faults);
+    // Steps beyond a plausible rig are rejected (a free decentre may wander
+    // off where the data hardly constrain it): offset within half the
+    // curvature radius, tilts within 20 degrees.
+    const T& dx = g.faults.mirror_offset[0];
+    const T& dy = g.faults.mirror_offset[1];
+    if (!(dx * dx + dy * dy < T(0.25) * g.aligned.curvature_radius * g.aligned.curvature_radius)) return false;
+    for (const T* a : {g.faults.camera_tilt, g.faults.sensor_tilt})
+      if (!(a[0] * a[0] + a[1] * a[1] < T(0.12))) return false;
+    const T Xb[3] = {T(X.x()), T(X.y()), T(X.z())};
+    T Xs[3];
+    ceres::AngleAxisRotatePoint(pose, Xb, Xs);
+    Xs[0] += pose[3];
+    Xs[1] += pose[4];
+    Xs[2] += pose[5];
+    T u, v;
+    if (!project_general(g, Xs, &u, &v)) return false;
     const T du = u - T(obs.x()), dv = v - T(obs.y());
     residual[0] = T(L(0, 0)) * du + T(L(0, 1)) * dv;
     residual[1] = T(L(1, 0)) * du + T(L(1, 1)) * dv;

@@ -21,10 +21,8 @@ bool ProjectBoardPoint(const Sensor& s, const BoardView& v, double x, double y, 
   double ps[3];
   ceres::AngleAxisRotatePoint(v.rvec.data(), pb, ps);
   for (int k = 0; k < 3; ++k) ps[k] += v.tvec[k];
-  double u, w;
-  if (!project(s.params, ps, &u, &w)) return false;
-  *px = {u, w};
-  return true;
+  // Through the faults too (Sensor::project).
+  return s.project(Eigen::Vector3d(ps[0], ps[1], ps[2]), px);
 }
 
 }  // namespace
