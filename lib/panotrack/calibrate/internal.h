@@ -149,6 +149,24 @@ inline double RimForRadius(SensorParams<double> p, double m_cap) {
   return 0.0;
 }
 
+// A board point (board frame) in the sensor frame: pose = angle-axis, then
+// translation.
+template <typename T>
+void BoardPointInSensor(const T* pose, const Eigen::Vector3d& board_point, T* point_sensor) {
+  const T Xb[3] = {T(board_point.x()), T(board_point.y()), T(board_point.z())};
+  ceres::AngleAxisRotatePoint(pose, Xb, point_sensor);
+  for (int i = 0; i < 3; ++i) point_sensor[i] += pose[3 + i];
+}
+
+// The pixel error (u, v) - observed, whitened by the corner's sqrt information.
+template <typename T>
+void WhitenedResidual(const Eigen::Matrix2d& sqrt_info, const T& u, const T& v, const Eigen::Vector2d& observed,
+                      T* residual) {
+  const T du = u - T(observed.x()), dv = v - T(observed.y());
+  residual[0] = T(sqrt_info(0, 0)) * du + T(sqrt_info(0, 1)) * dv;
+  residual[1] = T(sqrt_info(1, 0)) * du + T(sqrt_info(1, 1)) * dv;
+}
+
 // Reprojection residual of one board corner (pixels): sensor block, pose
 // block (angle-axis, translation).
 struct CornerCost {
@@ -163,17 +181,11 @@ struct CornerCost {
     SensorParams<T> p = ParamsFromBlock(sensor);
     if (!PlausibleParams(p)) return false;
     p.rim_radius = T(RimForRadius(p.template cast<double>(), cap / scalar_value(p.focal_px)));
-    const T Xb[3] = {T(X.x()), T(X.y()), T(X.z())};
     T Xs[3];
-    ceres::AngleAxisRotatePoint(pose, Xb, Xs);
-    Xs[0] += pose[3];
-    Xs[1] += pose[4];
-    Xs[2] += pose[5];
+    BoardPointInSensor(pose, X, Xs);
     T u, v;
     if (!project(p, Xs, &u, &v)) return false;
-    const T du = u - T(obs.x()), dv = v - T(obs.y());
-    residual[0] = T(L(0, 0)) * du + T(L(0, 1)) * dv;
-    residual[1] = T(L(1, 0)) * du + T(L(1, 1)) * dv;
+    WhitenedResidual(L, u, v, obs, residual);
     return true;
   }
   Eigen::Vector3d X;
@@ -204,17 +216,11 @@ struct GeneralCornerCost {
     if (!(dx * dx + dy * dy < T(0.25) * g.aligned.curvature_radius * g.aligned.curvature_radius)) return false;
     for (const T* a : {g.faults.camera_tilt, g.faults.sensor_tilt})
       if (!(a[0] * a[0] + a[1] * a[1] < T(0.12))) return false;
-    const T Xb[3] = {T(X.x()), T(X.y()), T(X.z())};
     T Xs[3];
-    ceres::AngleAxisRotatePoint(pose, Xb, Xs);
-    Xs[0] += pose[3];
-    Xs[1] += pose[4];
-    Xs[2] += pose[5];
+    BoardPointInSensor(pose, X, Xs);
     T u, v;
     if (!project_general(g, Xs, &u, &v)) return false;
-    const T du = u - T(obs.x()), dv = v - T(obs.y());
-    residual[0] = T(L(0, 0)) * du + T(L(0, 1)) * dv;
-    residual[1] = T(L(1, 0)) * du + T(L(1, 1)) * dv;
+    WhitenedResidual(L, u, v, obs, residual);
     return true;
   }
   Eigen::Vector3d X;
