@@ -103,7 +103,7 @@ TEST_CASE("nothing tracked: the run fails and suggests what to check", "[not_tra
   CHECK(s[0].frames == 10);
   CHECK(s[0].n_ok == 0);
   CHECK(s[0].error.find("only 0 of 10 frames tracked") != std::string::npos);
-  for (const char* cause : {"calibration", "image size", "initial pose", "shades inverted", "map units"})
+  for (const char* cause : {"calibration", "image size", "initial pose", "map units", "panomap check"})
     CHECK(s[0].error.find(cause) != std::string::npos);
   CHECK(ReadPoseCsv(dir + "/est.csv").size() == 10);  // the rows are there to look at
 }

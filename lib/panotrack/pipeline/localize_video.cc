@@ -56,7 +56,7 @@ std::string NotTrackedHint(const std::string& input, int frames, int n_ok) {
                 100 * kMinTrackedFraction);
   return input + buf +
          "likely causes: a wrong calibration or image size (--calib), a wrong initial pose (--init or "
-         "case.yaml), map shades inverted (dark for light), wrong map units";
+         "case.yaml), wrong map units, landmarks mis-measured or missing (check the map with panomap check)";
 }
 
 // The frame's time: the override rate, else the input's timestamp, else its
