@@ -146,9 +146,8 @@ std::vector<std::string> Localizer::ContradictedShades() const {
 }
 
 void Localizer::LearnPolarity(const FrameResult& fr, const TriangulationResult& tri) {
-  const std::vector<BearingObservation> obs = Observations(fr);
   std::vector<char> inlier(fr.predicted.size(), 0);
-  for (int i : tri.inliers) inlier[static_cast<size_t>(obs[static_cast<size_t>(i)].id)] = 1;
+  for (int i : InlierPredictions(fr, tri)) inlier[static_cast<size_t>(i)] = 1;
   auto observe = [&](EdgePolarityEvidence* e, int sign, int map_polarity, double contrast) {
     if (sign == 0) return;
     e->misses = 0;
@@ -270,6 +269,13 @@ void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, c
   out->measurements = std::move(meas);
 }
 
+std::vector<int> Localizer::InlierPredictions(const FrameResult& fr, const TriangulationResult& tri) const {
+  const std::vector<BearingObservation> obs = Observations(fr);
+  std::vector<int> out;
+  for (int i : tri.inliers) out.push_back(obs[static_cast<size_t>(i)].id);
+  return out;
+}
+
 std::vector<BearingObservation> Localizer::Observations(const FrameResult& fr) const {
   std::vector<BearingObservation> obs;
   for (size_t i = 0; i < fr.predicted.size(); ++i) {
@@ -381,10 +387,8 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
 }
 
 bool Localizer::ChooseAmongTwins(bool either, FrameResult* fr, TriangulationResult* tri) const {
-  const std::vector<BearingObservation> obs = Observations(*fr);
   std::vector<int> seen;
-  for (int i : tri->inliers)
-    seen.push_back(fr->predicted[static_cast<size_t>(obs[static_cast<size_t>(i)].id)].index);
+  for (int i : InlierPredictions(*fr, *tri)) seen.push_back(fr->predicted[static_cast<size_t>(i)].index);
   Eigen::Vector2d lo, hi;
   double top;
   map_.Extent(&lo, &hi, &top);

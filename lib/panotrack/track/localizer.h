@@ -242,6 +242,8 @@ class Localizer {
   TriangulationResult Solve(const FrameResult& fr, const Pose2& prior) const;
   bool Acceptable(const FrameResult& fr, const TriangulationResult& tri) const;
   std::vector<BearingObservation> Observations(const FrameResult& fr) const;
+  // The indices into fr.predicted of the solution's inlier observations.
+  std::vector<int> InlierPredictions(const FrameResult& fr, const TriangulationResult& tri) const;
   // The integrity test of an acceptable solution (fills fr->integrity).
   bool Consistent(FrameResult* fr, const TriangulationResult& tri) const;
   // The innovation gate against the motion model (fills fr->innovation).
