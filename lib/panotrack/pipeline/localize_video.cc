@@ -73,9 +73,11 @@ class SmoothedCsv {
  public:
   // `keep_rows`: also keep the rows written, without their trailing columns
   // (for the accuracy summary); else memory stays flat however long the input.
-  SmoothedCsv(const std::string& path, const FixedLagSmootherOptions& options, bool keep_rows)
+  // `loc`: the localiser whose motion steps are smoothed (its poses are
+  // those of the sensor it tracks, converted to the robot's).
+  SmoothedCsv(const std::string& path, const FixedLagSmootherOptions& options, bool keep_rows, const Localizer& loc)
       : csv_(path, {"std_x", "std_y", "std_theta", "quality"}, PoseCsvStaging::kPartial), smoother_(options),
-        keep_rows_(keep_rows) {}
+        keep_rows_(keep_rows), loc_(loc) {}
 
   void Add(const FrameResult& fr) {
     pending_.push_back({fr.row, fr.has_motion_step});
@@ -104,7 +106,7 @@ class SmoothedCsv {
       if (it == pending_.end()) throw Error("smoother: more smoothed states than frames");
       // Only a measured pose is reported as such; lost and init rows stay empty.
       if (it->row.status == PoseStatus::kOk) {
-        it->row.pose = s.state.pose();
+        it->row.pose = loc_.RobotPose(s.state.pose());
         const Eigen::Matrix3d cov = s.state.pose_covariance();
         it->row.extra.resize(4, std::nan(""));
         for (int k = 0; k < 3; ++k) it->row.extra[k] = std::sqrt(std::max(0.0, cov(k, k)));
@@ -127,6 +129,7 @@ class SmoothedCsv {
   FixedLagSmoother smoother_;
   std::deque<Pending> pending_;
   bool keep_rows_;
+  const Localizer& loc_;
   std::vector<PoseRow> rows_;
 };
 
@@ -166,7 +169,7 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
     dbg.emplace(job.debug_video, cv::Size(s.image_width, s.image_height), source->fps() > 0 ? source->fps() : 10.0);
   PoseCsvWriter csv(job.output, {"std_x", "std_y", "std_theta", "quality"}, PoseCsvStaging::kPartial);
   std::optional<SmoothedCsv> smoothed;
-  if (!job.smoothed_output.empty()) smoothed.emplace(job.smoothed_output, opt.smoother, !job.gt.empty());
+  if (!job.smoothed_output.empty()) smoothed.emplace(job.smoothed_output, opt.smoother, !job.gt.empty(), loc);
   std::optional<TumWriter> tum;
   if (!job.tum.empty()) tum.emplace(job.tum, opt.tum, PoseCsvStaging::kPartial);
   std::vector<PoseRow> rows;

@@ -85,13 +85,21 @@ Localizer::Localizer(const Calibration& calib, const Map& map,
       compass_(calib.sensor) {
   opt_.Check();
   if (!table_ || table_->empty()) throw Error("localiser: no E(D,Z) lookup table");
+  if (!calib_.sensor.aligned()) {
+    // A real rig's faults: track in the aligned view of its frames.
+    const double typical = TypicalLandmarkDistance(map_);
+    view_.emplace(calib_.sensor, typical > 0 ? typical : 20 * calib_.sensor.params.curvature_radius);
+    calib_.sensor = view_->view_sensor();
+    compass_ = AzimuthCompass(calib_.sensor);
+  }
   motion_options_ = opt_.motion.Scaled(map_.UnitsPerMetre());
   motion_ = MotionModel(motion_options_);
   tracker_ = MakeTracker(opt_.method, calib_.sensor, table_, opt_, std::move(ph_tables));
   for (const Landmark& l : landmarks_) any_known_shade_ = any_known_shade_ || !std::isnan(l.shade);
 }
 
-void Localizer::Reset(const Pose2& initial, bool hint) {
+void Localizer::Reset(const Pose2& robot_initial, bool hint) {
+  const Pose2 initial = view_ ? view_->ViewPose(robot_initial) : robot_initial;
   initial_ = last_ = initial;
   frame_motion_ = Pose2{0, 0, 0};
   blur_fraction_ = opt_.exposure_fraction;
@@ -730,9 +738,11 @@ void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, b
   ++n_lost_;
 }
 
-FrameResult Localizer::Process(const cv::Mat& grey, int frame, double time_s,
+FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double time_s,
                                const OdometryIncrement* odometry) {
-  CheckFrame(grey, frame);
+  CheckFrame(frame_image, frame);
+  if (view_) view_->Resample(frame_image, &view_frame_);
+  const cv::Mat& grey = view_ ? view_frame_ : frame_image;
   motion_stepped_ = false;
   FrameResult fr;
   fr.row.frame = frame;
@@ -778,6 +788,7 @@ FrameResult Localizer::Process(const cv::Mat& grey, int frame, double time_s,
   fr.has_motion_step = motion_stepped_;
   if (fr.has_motion_step) fr.motion_step = motion_.step();
   if (fr.unconfirmed) HoldForConfirmation(tri.pose, frame);
+  if (view_ && fr.row.status != PoseStatus::kLost) fr.row.pose = view_->RobotPose(fr.row.pose);
   return fr;
 }
 

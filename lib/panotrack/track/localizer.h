@@ -16,6 +16,7 @@
 #include "panotrack/pose/robust_pose.h"
 #include "panotrack/lut/radius_table.h"
 #include "panotrack/pose/triangulate.h"
+#include "panotrack/track/aligned_view.h"
 #include "panotrack/scene/scene.h"
 #include "panotrack/track/compass.h"
 #include "panotrack/track/junction_tracker.h"
@@ -212,7 +213,15 @@ class Localizer {
                       const OdometryIncrement* odometry = nullptr);
 
   const Map& map() const { return map_; }
+  // The sensor the tracking works with: the calibration's, or for a rig
+  // with faults its aligned view's (aligned_view.h).
   const Sensor& sensor() const { return calib_.sensor; }
+  // For a rig with faults, frames are resampled to this view; null for an
+  // aligned rig.
+  const AlignedView* aligned_view() const { return view_ ? &*view_ : nullptr; }
+  // The robot's pose from a pose of the tracked sensor (the motion model's
+  // states, a fixed-lag smoother's): the same for an aligned rig.
+  Pose2 RobotPose(const Pose2& tracked) const { return view_ ? view_->RobotPose(tracked) : tracked; }
   const std::vector<Landmark>& landmarks() const { return landmarks_; }
   // Per landmark (as landmarks()): what the tracked frames showed of its
   // edges' polarities.
@@ -285,8 +294,10 @@ class Localizer {
   // the output row and the motion model's state.
   void RecordOutcome(FrameResult* fr, const TriangulationResult& tri, bool accepted, int n_found);
 
-  Calibration calib_;
+  Calibration calib_;  // with a rig's faults, its aligned view's sensor
   Map map_;
+  std::optional<AlignedView> view_;
+  cv::Mat view_frame_;  // this frame, resampled to the view
   Scene scene_;
   std::shared_ptr<const RadiusTable> table_;
   LocalizerOptions opt_;
