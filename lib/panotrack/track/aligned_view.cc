@@ -99,6 +99,14 @@ AlignedView::AlignedView(const Sensor& rig, double exact_distance, int grid_step
         }
     }
   residual_px_ = MeasureResidual();
+  // The resampling tables: fixed point (OpenCV's bilinear remap works so in
+  // any case, to 1/32 px); a view pixel the rig does not see samples the
+  // real image's corner instead of the border, which keeps cv::remap on its
+  // fast path (nothing reads those pixels).
+  cv::Mat x = map_x_.clone(), y = map_y_.clone();
+  x.setTo(0.0f, map_x_ < 0);
+  y.setTo(0.0f, map_x_ < 0);
+  cv::convertMaps(x, y, fixed_xy_, fixed_fraction_, CV_16SC2);
 }
 
 bool AlignedView::ExactRealPixel(double u, double v, double* ur, double* vr) const {
@@ -207,7 +215,7 @@ void AlignedView::Resample(const cv::Mat& real, cv::Mat* view) const {
   if (real.type() != CV_8UC1 || real.cols != rig_.image_width || real.rows != rig_.image_height)
     throw Error("aligned view: expected a " + std::to_string(rig_.image_width) + "x" +
                 std::to_string(rig_.image_height) + " grey frame");
-  cv::remap(real, *view, map_x_, map_y_, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
+  cv::remap(real, *view, fixed_xy_, fixed_fraction_, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
 }
 
 Pose2 AlignedView::ViewPose(const Pose2& robot) const {

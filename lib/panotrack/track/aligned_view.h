@@ -51,7 +51,7 @@ class AlignedView {
   double residual_px() const { return residual_px_; }
 
   // The view of a real frame (CV_8UC1 of the rig's size); pixels whose ray
-  // the real rig does not see are 0.
+  // the real rig does not see hold arbitrary values.
   void Resample(const cv::Mat& real, cv::Mat* view) const;
 
   // A robot pose as the pose of the view's pinhole, and back.
@@ -74,6 +74,7 @@ class AlignedView {
   Eigen::Vector3d offset_;
   double exact_distance_;
   cv::Mat map_x_, map_y_;  // CV_32FC1: the real pixel of each view pixel (-1 outside)
+  cv::Mat fixed_xy_, fixed_fraction_;  // the same for cv::remap (CV_16SC2, CV_16UC1)
   double residual_px_ = 0.0;
 };
 
