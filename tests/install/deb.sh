@@ -21,12 +21,16 @@ cd "$work/root"
 expected=(usr/bin/panoloc usr/bin/panocalib usr/bin/panomap usr/bin/panosim usr/lib/libpano_core.a
           usr/lib/cmake/panotrack/panotrackConfig.cmake usr/lib/pkgconfig/panotrack.pc
           usr/include/panotrack/config.h usr/include/panotrack/sensor/sensor.h
-          usr/share/panotrack/calib/paper-real.yaml usr/share/doc/panotrack/LICENSE)
+          usr/share/panotrack/calib/paper-real.yaml usr/share/doc/panotrack/LICENSE
+          usr/lib/panotrack/libpanotrack_opencv_io.so)
 [ "$with_man" = 1 ] && expected+=(usr/share/man/man1/panoloc.1)
 for f in "${expected[@]}"; do
   [ -f "$f" ] || { echo "deb: missing $f"; exit 1; }
 done
 echo "$(find . -type f | wc -l) files in the package"
+# The OpenCV I/O module panoloc loads on demand: its libraries resolve.
+python3 -c 'import ctypes, sys; ctypes.CDLL(sys.argv[1])' usr/lib/panotrack/libpanotrack_opencv_io.so ||
+  { echo "deb: usr/lib/panotrack/libpanotrack_opencv_io.so does not load"; exit 1; }
 got=$(usr/bin/panoloc --version)
 echo "usr/bin/panoloc --version: $got"
 [ "$got" = "panoloc $version" ] || { echo "deb: expected panoloc $version"; exit 1; }

@@ -151,8 +151,8 @@ void DrawDebug(const cv::Mat& grey, const Sensor& s, const FrameResult& fr, cv::
 
 DebugVideo::DebugVideo(const std::string& path, cv::Size size, double fps) : file_(path) {
   const cv::Size annotated(size.width, size.height + kDebugHeaderHeight);
-  if (!writer_.open(file_.temp_path(), cv::VideoWriter::fourcc('a', 'v', 'c', '1'), fps, annotated, true) &&
-      !writer_.open(file_.temp_path(), cv::VideoWriter::fourcc('m', 'p', '4', 'v'), fps, annotated, true))
+  if (!writer_.open(file_.temp_path(), opencv_io::fourcc('a', 'v', 'c', '1'), fps, annotated, true) &&
+      !writer_.open(file_.temp_path(), opencv_io::fourcc('m', 'p', '4', 'v'), fps, annotated, true))
     throw Error(path + ": cannot open a video writer");
 }
 

@@ -4,7 +4,7 @@
 
 #include <memory>
 #include <opencv2/core.hpp>
-#include <opencv2/videoio.hpp>
+#include "panotrack/video/opencv_io.h"
 #include <string>
 
 #include "panotrack/core/atomic_file.h"
@@ -40,7 +40,7 @@ class DebugVideo {
 
  private:
   AtomicFile file_;
-  cv::VideoWriter writer_;  // declared after file_: released before the temporary is removed
+  opencv_io::VideoWriter writer_;  // declared after file_: released before the temporary is removed
   cv::Mat annotated_;
 };
 

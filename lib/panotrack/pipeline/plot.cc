@@ -7,12 +7,13 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
-#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgcodecs.hpp>  // IMWRITE_ constants
 #include <opencv2/imgproc.hpp>
 
 #include "panotrack/core/angles.h"
 #include "panotrack/core/atomic_file.h"
 #include "panotrack/core/error.h"
+#include "panotrack/video/opencv_io.h"
 
 namespace pano {
 
@@ -62,7 +63,7 @@ void ReservePath(LabelPlacer* placer, const std::vector<cv::Point2d>& pts, int r
 
 void EncodeAndWrite(const std::string& path, const cv::Mat& image) {
   std::vector<uchar> png;
-  if (!cv::imencode(".png", image, png, {cv::IMWRITE_PNG_COMPRESSION, 9}))
+  if (!opencv_io::imencode(".png", image, png, {cv::IMWRITE_PNG_COMPRESSION, 9}))
     throw Error(path + ": cannot encode the plot");
   AtomicFile f(path);
   f.Write(png.data(), png.size());

@@ -168,7 +168,8 @@ int FrameSource::FrameCount(const std::string& path) {
   std::string why;
   if (luma.Open(path, &why)) return static_cast<int>(luma.frame_count());
   if (LumaDecoderAvailable() && !luma.container_opened()) return -1;
-  cv::VideoCapture cap(path, cv::CAP_FFMPEG);
+  opencv_io::VideoCapture cap;
+  cap.open(path, cv::CAP_FFMPEG);
   const double n = cap.isOpened() ? cap.get(cv::CAP_PROP_FRAME_COUNT) : -1;
   return n > 0 ? static_cast<int>(n) : -1;
 }
@@ -188,7 +189,7 @@ bool FrameSource::ReadDirect(Frame* frame) {
   if (!files_.empty()) {
     if (next_file_ >= files_.size()) return false;
     const std::string& f = files_[next_file_++];
-    frame->image = cv::imread(f, cv::IMREAD_UNCHANGED);
+    frame->image = opencv_io::imread(f, cv::IMREAD_UNCHANGED);
     if (frame->image.empty()) throw Error(f + ": cannot decode the image");
     return true;
   }

@@ -20,12 +20,13 @@
 #include <memory>
 #include <mutex>
 #include <opencv2/core.hpp>
-#include <opencv2/videoio.hpp>
+#include <opencv2/videoio.hpp>  // its property and API constants
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "panotrack/video/luma_decoder.h"
+#include "panotrack/video/opencv_io.h"
 
 namespace pano {
 
@@ -76,7 +77,7 @@ class FrameSource {
   void Decode();
   std::string path_, name_;            // name_: how errors name the input
   std::unique_ptr<LumaDecoder> luma_;  // videos and streams with a luma plane
-  cv::VideoCapture capture_;           // other videos, and cameras
+  opencv_io::VideoCapture capture_;    // other videos, and cameras
   bool camera_ = false;
   long captured_ = 0;           // frames read through capture_
   long capture_expected_ = -1;  // frames capture_ must deliver; -1 unknown
