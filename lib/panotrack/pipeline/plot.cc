@@ -63,8 +63,12 @@ void ReservePath(LabelPlacer* placer, const std::vector<cv::Point2d>& pts, int r
 
 void EncodeAndWrite(const std::string& path, const cv::Mat& image) {
   std::vector<uchar> png;
-  if (!opencv_io::imencode(".png", image, png, {cv::IMWRITE_PNG_COMPRESSION, 9}))
-    throw Error(path + ": cannot encode the plot");
+  try {
+    if (!opencv_io::imencode(".png", image, png, {cv::IMWRITE_PNG_COMPRESSION, 9}))
+      throw Error("cannot encode the plot");
+  } catch (const Error& e) {
+    throw Error(path + ": " + e.what());
+  }
   AtomicFile f(path);
   f.Write(png.data(), png.size());
   f.Commit();

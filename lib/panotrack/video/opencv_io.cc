@@ -83,7 +83,20 @@ std::string BackendPath() {
   return g_path;
 }
 
-cv::Mat imread(const std::string& path, int flags) { return LoadBackend().imread(path, flags); }
+namespace {
+
+// The module, or pano::Error naming `path`, the file that needed it.
+const Backend& BackendFor(const std::string& path) {
+  try {
+    return LoadBackend();
+  } catch (const Error& e) {
+    throw Error(path + ": " + e.what());
+  }
+}
+
+}  // namespace
+
+cv::Mat imread(const std::string& path, int flags) { return BackendFor(path).imread(path, flags); }
 
 bool imencode(const std::string& ext, const cv::Mat& image, std::vector<uchar>& buffer,
               const std::vector<int>& params) {
@@ -91,12 +104,12 @@ bool imencode(const std::string& ext, const cv::Mat& image, std::vector<uchar>& 
 }
 
 bool VideoCapture::open(const std::string& path, int api, const std::vector<int>& params) {
-  backend_ = LoadBackend().NewCapture();
+  backend_ = BackendFor(path).NewCapture();
   return backend_->open(path, api, params);
 }
 
 bool VideoWriter::open(const std::string& path, int fourcc, double fps, cv::Size size, bool color) {
-  backend_ = LoadBackend().NewWriter();
+  backend_ = BackendFor(path).NewWriter();
   return backend_->open(path, fourcc, fps, size, color);
 }
 

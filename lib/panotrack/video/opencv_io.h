@@ -13,8 +13,9 @@
 //      ../lib/panotrack and ../<libdir>/panotrack from its folder;
 //   3. where this build put it, then where it installs it.
 // The classes mirror OpenCV's names and arguments; they throw pano::Error
-// when the module cannot be loaded ("...: OpenCV's image and video I/O
-// could not be loaded: ...").
+// when the module cannot be loaded ("<file>: OpenCV's image and video I/O
+// (libpanotrack_opencv_io.so) could not be loaded: <why>; ...", naming the
+// file that needed it where there is one).
 #pragma once
 
 #include <memory>
