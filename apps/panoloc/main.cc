@@ -157,6 +157,11 @@ int main(int argc, char** argv) {
                  "Frame rate for time_s, overriding the input's timestamps (0: the timestamps; "
                  "image folders: 10)")
       ->group(tracking);
+  app.add_option("--scale", o.scale,
+                 "Track frames resized by this factor (0 < S <= 1, area averaging), with the calibration "
+                 "scaled to match: large frames (1600x1200 and above) tracked at a resolution the accuracy "
+                 "needs, for less work per frame (1: as decoded)")
+      ->group(tracking);
   app.add_option("--odometry", o.odometry,
                  "Wheel odometry CSV (time,x,y,theta on the video's clock; one input): the motion "
                  "between frames that the prediction uses instead of constant velocity")

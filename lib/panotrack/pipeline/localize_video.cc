@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <deque>
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 #include <optional>
 #include <utility>
 
@@ -44,6 +45,12 @@ OdometryOptions OdometryOptionsForMap(const Map& map, double map_units_per_odome
 namespace {
 
 std::string SizeText(int width, int height) { return std::to_string(width) + "x" + std::to_string(height); }
+
+// The size frames are tracked at: as ScaledSensor rounds.
+cv::Size TrackedSize(int width, int height, double scale) {
+  if (scale == 1.0) return {width, height};
+  return {static_cast<int>(std::lround(width * scale)), static_cast<int>(std::lround(height * scale))};
+}
 
 bool TooFewTracked(int frames, int n_ok) {
   if (frames == 0) return false;
@@ -176,7 +183,7 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
   const bool keep_rows = !job.plot.empty() || !job.gt.empty();
   const bool keep_std = !job.plot.empty();  // the plot draws the standard deviations
   double previous_time = 0.0;
-  cv::Mat grey;
+  cv::Mat decoded, resized;
   sum->end = VideoEnd::kDone;
   for (int frame = 0;; ++frame) {
     if (opt.cancel && opt.cancel->load()) {
@@ -185,18 +192,22 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
     }
     double timestamp = std::nan("");
     try {
-      if (!source->Read(&grey, &timestamp)) break;
+      if (!source->Read(&decoded, &timestamp)) break;
     } catch (const Error& e) {
       sum->end = VideoEnd::kIncomplete;
       sum->error = "decode error at frame " + std::to_string(frame) + ": " + e.what();
       break;
     }
-    if (grey.cols != s.image_width || grey.rows != s.image_height) {
+    const cv::Size tracked = TrackedSize(decoded.cols, decoded.rows, opt.scale);
+    if (tracked.width != s.image_width || tracked.height != s.image_height) {
       sum->end = VideoEnd::kIncomplete;
-      sum->error = "frame " + std::to_string(frame) + " is " + SizeText(grey.cols, grey.rows) +
-                   ", the frames before it " + SizeText(s.image_width, s.image_height);
+      sum->error = "frame " + std::to_string(frame) + " is " + SizeText(decoded.cols, decoded.rows) +
+                   ", the frames before it " + SizeText(source->width(), source->height());
       break;
     }
+    // Area averaging: each tracked pixel the mean of the pixels it covers.
+    if (opt.scale != 1.0) cv::resize(decoded, resized, tracked, 0, 0, cv::INTER_AREA);
+    const cv::Mat& grey = opt.scale != 1.0 ? resized : decoded;
     const double time_s = FrameTime(frame, timestamp, opt.fps, source->fps());
     std::optional<OdometryIncrement> odometry;
     if (job.odometry && frame > 0) {
@@ -247,10 +258,14 @@ void LocalizeInto(const VideoJob& job, const SharedResources& res, const VideoRu
   if (!job.gt.empty()) gt = ReadPoseCsv(job.gt);
   FrameSource source(job.input);
   const Sensor& s = res.calib.sensor;
-  if (source.width() != s.image_width || source.height() != s.image_height)
+  const cv::Size tracked = TrackedSize(source.width(), source.height(), opt.scale);
+  if (tracked.width != s.image_width || tracked.height != s.image_height)
     throw Error(job.input + ": frame size " + SizeText(source.width(), source.height()) +
+                (opt.scale != 1.0 ? " scaled by " + std::to_string(opt.scale) + " (" +
+                                        SizeText(tracked.width, tracked.height) + ")"
+                                  : std::string()) +
                 " does not match the calibration's " + SizeText(s.image_width, s.image_height) + " (" +
-                res.calib_path + ")");
+                res.calib_path + (opt.scale != 1.0 ? " scaled" : "") + ")");
   std::vector<PoseRow> smoothed;
   const std::vector<PoseRow> rows = TrackFrames(job, res, opt, &source, sum, &smoothed);
   if (!job.plot.empty()) WritePlot(job.plot, res.map, rows, gt);

@@ -64,6 +64,9 @@ struct VideoRunOptions {
   // > 0: time_s = frame / fps, for inputs without timestamps; 0: the input's
   // timestamps, else frame / its frame rate, else frame / 10.
   double fps = 0.0;
+  // Frames are resized by this factor before tracking (the calibration in
+  // SharedResources is already scaled so).
+  double scale = 1.0;
   // Checked before each frame: when set, the frame in progress is finished
   // and the input ends as interrupted, its rows and outputs kept.
   const std::atomic<bool>* cancel = nullptr;

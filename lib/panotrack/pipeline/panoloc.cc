@@ -39,6 +39,7 @@ void PanolocOptions::Check() const {
   if (jobs < 0) throw Error("--jobs (jobs): expected 0 (as many as the threads allow) or more");
   if (num_threads < 0) throw Error("--threads (num_threads): expected 0 (all cores) or more");
   if (fps < 0 || !std::isfinite(fps)) throw Error("--fps (fps): expected a positive number");
+  if (!(scale > 0 && scale <= 1)) throw Error("--scale (scale): expected a factor in (0, 1]");
   if (smooth && out_dir.empty() && PoseCsvWriter::WritesDirectly(output))
     throw Error("--smooth (smooth): needs a file output (-o FILE.csv or --out-dir DIR) beside which to "
                 "write the smoothed CSV");
@@ -254,6 +255,12 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
   SharedResources res;
   res.calib = ReadCalibration(opt.calib_path);
   res.calib_path = opt.calib_path;
+  if (opt.scale != 1.0) {
+    res.calib.sensor = ScaledSensor(res.calib.sensor, opt.scale);
+    // The calibration's own table is for full-size frames.
+    res.calib.lut.clear();
+    res.calib.lut_resolved.clear();
+  }
   res.map = ReadMap(opt.map_path);
   if (res.calib.units != res.map.units)
     throw Error(opt.map_path + ": units '" + res.map.units + "' differ from the calibration's '" +
@@ -297,6 +304,7 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
                          return t;
                        }).share();
   run.fps = opt.fps;
+  run.scale = opt.scale;
   run.cancel = opt.cancel;
   run.quiet = opt.quiet;
   run.smoother.lag = opt.smooth_lag;

@@ -38,6 +38,10 @@ struct PanolocOptions {
   // the case.yaml beside the input; else none: a room-wide search.
   std::optional<Pose2> init;
   double fps = 0.0;                  // > 0: time_s = frame / fps; 0: the input's timestamps (VideoRunOptions)
+  // Frames resized by this factor (0 < scale <= 1) before tracking, and the
+  // calibration scaled to match (ScaledSensor): large frames tracked at the
+  // resolution the accuracy needs.
+  double scale = 1.0;
   int jobs = 0;                      // inputs processed at once; 0: as many as the threads allow
   int num_threads = 0;               // threads of the whole run; 0: all cores
   bool quiet = false;                // no notes on stderr

@@ -126,4 +126,19 @@ Sensor make_sphere_sensor(int width, int height, double focal_px, double cx, dou
   return s;
 }
 
+Sensor ScaledSensor(const Sensor& sensor, double scale) {
+  const int w = static_cast<int>(std::lround(sensor.image_width * scale));
+  const int h = static_cast<int>(std::lround(sensor.image_height * scale));
+  if (!(scale > 0) || w < 1 || h < 1) throw Error("scale " + std::to_string(scale) + ": no pixel left");
+  const double sx = static_cast<double>(w) / sensor.image_width, sy = static_cast<double>(h) / sensor.image_height;
+  Sensor out = sensor;
+  out.image_width = w;
+  out.image_height = h;
+  out.params.focal_px = sensor.params.focal_px * sx;
+  out.params.aspect = sensor.params.aspect * sy / sx;
+  out.params.cx = (sensor.params.cx + 0.5) * sx - 0.5;
+  out.params.cy = (sensor.params.cy + 0.5) * sy - 0.5;
+  return out;
+}
+
 }  // namespace pano

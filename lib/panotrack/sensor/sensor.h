@@ -69,6 +69,13 @@ struct Sensor {
   bool inside_image(const Eigen::Vector2d& pixel, double margin = 0.0) const;
 };
 
+// The same rig seen in images resized by `scale` (0 < scale, as cv::resize
+// does: width and height rounded, pixel centres mapped through the scale of
+// each axis): focal length, principal point, aspect and image size follow;
+// the mirror and the faults do not change. Throws pano::Error for a scale
+// that leaves no pixel.
+Sensor ScaledSensor(const Sensor& sensor, double scale);
+
 // The sphere model of the spec from its named parameters.
 Sensor make_sphere_sensor(int width, int height, double focal_px, double cx, double cy,
                           double aspect, double mirror_radius, double mirror_distance,
