@@ -18,6 +18,8 @@ void AddCalibrateCommand(CLI::App& app);
 void AddEvaluateCommand(CLI::App& app);
 // unwarp: a panorama or perspective view of a raw image (lib/panotrack/unwarp).
 void AddUnwarpCommand(CLI::App& app);
+// tilt: the sensor's tilt from a video in a mapped room (pipeline/sensor_tilt.h).
+void AddTiltCommand(CLI::App& app);
 // export: the calibration in OpenCV's terms (camera matrix, cv::omnidir model).
 void AddExportCommand(CLI::App& app);
 

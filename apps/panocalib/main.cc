@@ -28,6 +28,7 @@ int main(int argc, char** argv) {
   pano::app::AddLutCommand(app);
   pano::app::AddCalibrateCommand(app);
   pano::app::AddEvaluateCommand(app);
+  pano::app::AddTiltCommand(app);
   pano::app::AddExportCommand(app);
   pano::app::AddUnwarpCommand(app);
   pano::app::SplitDescriptions(app, exit_codes);
