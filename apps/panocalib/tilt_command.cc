@@ -42,6 +42,9 @@ void AddTiltCommand(CLI::App& app) {
       ->expected(3)
       ->delimiter(',');
   cmd->add_option("--frames", o->tilt.max_frames, "Frames used, from the start");
+  cmd->add_flag("--decentre", o->tilt.fit_decentre,
+                "Also refit the mirror's offset from the camera's axis (mirror_offset), which boards with "
+                "unknown poses determine least well");
   cmd->add_option("--step", o->tilt.search_deg, "First step of the search (degrees)");
   cmd->add_option("--tolerance", o->tilt.tolerance_deg, "Stop when the search's steps are this small (degrees)");
   cmd->add_option("--max-trials", o->tilt.max_trials, "Tracking runs at most");
@@ -70,9 +73,13 @@ void AddTiltCommand(CLI::App& app) {
     if (!quiet) std::fprintf(stderr, "\n");
     calib.sensor.faults.sensor_tilt[0] = r.tilt[0];
     calib.sensor.faults.sensor_tilt[1] = r.tilt[1];
+    calib.sensor.faults.mirror_offset[0] = r.mirror_offset[0];
+    calib.sensor.faults.mirror_offset[1] = r.mirror_offset[1];
     WriteCalibration(o->output, calib);
     if (quiet) return;
     std::printf("sensor_tilt: %.4f, %.4f deg (about x, then y)\n", r.tilt[0] * 180 / M_PI, r.tilt[1] * 180 / M_PI);
+    if (o->tilt.fit_decentre)
+      std::printf("mirror_offset: %.4f, %.4f %s\n", r.mirror_offset[0], r.mirror_offset[1], calib.units.c_str());
     std::printf("frames: %d; tracked %d before, %d after\n", r.frames, r.tracked_before, r.tracked_after);
     std::printf("mean RMS bearing residual: %.3e rad before, %.3e rad after (%d tracking trials)\n",
                 r.residual_before, r.residual_after, r.trials);

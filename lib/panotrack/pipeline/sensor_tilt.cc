@@ -1,7 +1,6 @@
 #include "panotrack/pipeline/sensor_tilt.h"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 
 #include "panotrack/core/error.h"
@@ -33,11 +32,8 @@ class TiltObjective {
                 const SensorTiltOptions& o)
       : calib_(calib), map_(map), frames_(frames), o_(o), table_(TableForMap(calib, map, /*quiet=*/true)) {}
 
-  Trial operator()(const double* tilt) {
+  Trial operator()(const Calibration& c) {
     ++trials_;
-    Calibration c = calib_;
-    c.sensor.faults.sensor_tilt[0] = tilt[0];
-    c.sensor.faults.sensor_tilt[1] = tilt[1];
     Localizer loc(c, map_, table_, o_.localizer);
     if (o_.init)
       loc.Reset(*o_.init);
@@ -73,71 +69,104 @@ SensorTiltResult EstimateSensorTilt(const Calibration& calib, const Map& map, co
                                     const SensorTiltOptions& options) {
   options.Check();
   if (frames.size() < static_cast<size_t>(kMinTracked)) throw Error("tilt: fewer than 5 frames");
+  // The parameters searched: the tilt's two angles (radians), and with
+  // fit_decentre the mirror's offset (map units), scaled so that one step
+  // moves the image about as much as one step of tilt does.
+  const int n = options.fit_decentre ? 4 : 2;
+  const double step = options.search_deg * M_PI / 180, tolerance = options.tolerance_deg * M_PI / 180;
+  const double offset_per_radian = calib.sensor.mirror_distance();
+  auto calibration_at = [&](const std::vector<double>& x) {
+    Calibration c = calib;
+    c.sensor.faults.sensor_tilt[0] = x[0];
+    c.sensor.faults.sensor_tilt[1] = x[1];
+    if (n == 4) {
+      c.sensor.faults.mirror_offset[0] = x[2] * offset_per_radian;
+      c.sensor.faults.mirror_offset[1] = x[3] * offset_per_radian;
+    }
+    return c;
+  };
   TiltObjective objective(calib, map, frames, options);
-  using Point = std::array<double, 2>;
   struct Vertex {
-    Point x;
+    std::vector<double> x;
     Trial t;
   };
-  const Point start{calib.sensor.faults.sensor_tilt[0], calib.sensor.faults.sensor_tilt[1]};
-  const double step = options.search_deg * M_PI / 180, tolerance = options.tolerance_deg * M_PI / 180;
-  std::array<Vertex, 3> simplex{
-      Vertex{start, objective(start.data())}, Vertex{{start[0] + step, start[1]}, {}},
-      Vertex{{start[0], start[1] + step}, {}}};
-  simplex[1].t = objective(simplex[1].x.data());
-  simplex[2].t = objective(simplex[2].x.data());
+  auto evaluate = [&](const std::vector<double>& x) {
+    const Calibration c = calibration_at(x);
+    return objective(c);
+  };
+  std::vector<double> start{calib.sensor.faults.sensor_tilt[0], calib.sensor.faults.sensor_tilt[1]};
+  if (n == 4) {
+    start.push_back(calib.sensor.faults.mirror_offset[0] / offset_per_radian);
+    start.push_back(calib.sensor.faults.mirror_offset[1] / offset_per_radian);
+  }
+  std::vector<Vertex> simplex{Vertex{start, evaluate(start)}};
+  for (int k = 0; k < n; ++k) {
+    std::vector<double> x = start;
+    x[static_cast<size_t>(k)] += step;
+    simplex.push_back(Vertex{x, evaluate(x)});
+  }
   SensorTiltResult r;
   r.frames = static_cast<int>(frames.size());
   r.residual_before = simplex[0].t.residual;
   r.tracked_before = simplex[0].t.tracked;
+  auto by_residual = [](const Vertex& a, const Vertex& b) { return a.t.residual < b.t.residual; };
   auto report = [&] {
-    if (options.on_trial) {
-      const Vertex& b = *std::min_element(simplex.begin(), simplex.end(),
-                                          [](const Vertex& a, const Vertex& c) { return a.t.residual < c.t.residual; });
-      options.on_trial(objective.trials(), b.x.data(), b.t.residual);
-    }
+    if (!options.on_trial) return;
+    const Vertex& b = *std::min_element(simplex.begin(), simplex.end(), by_residual);
+    options.on_trial(objective.trials(), b.x.data(), b.t.residual);
   };
   report();
-  // Nelder-Mead (reflection, expansion, contraction, shrink) on the 2 angles.
-  auto lerp = [](const Point& a, const Point& b, double s) {
-    return Point{a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1])};
+  // Nelder-Mead (reflection, expansion, contraction, shrink).
+  auto along = [](const std::vector<double>& a, const std::vector<double>& b, double s) {
+    std::vector<double> x(a.size());
+    for (size_t i = 0; i < a.size(); ++i) x[i] = a[i] + s * (b[i] - a[i]);
+    return x;
   };
-  while (objective.trials() + 2 <= options.max_trials) {
-    std::sort(simplex.begin(), simplex.end(), [](const Vertex& a, const Vertex& b) { return a.t.residual < b.t.residual; });
-    const double size = std::max(std::hypot(simplex[1].x[0] - simplex[0].x[0], simplex[1].x[1] - simplex[0].x[1]),
-                                 std::hypot(simplex[2].x[0] - simplex[0].x[0], simplex[2].x[1] - simplex[0].x[1]));
+  while (objective.trials() + n <= options.max_trials) {
+    std::sort(simplex.begin(), simplex.end(), by_residual);
+    double size = 0.0;
+    for (int k = 1; k <= n; ++k) {
+      double d2 = 0.0;
+      for (int i = 0; i < n; ++i) d2 += std::pow(simplex[k].x[i] - simplex[0].x[i], 2);
+      size = std::max(size, std::sqrt(d2));
+    }
     if (size < tolerance) break;
-    const Point centroid{(simplex[0].x[0] + simplex[1].x[0]) / 2, (simplex[0].x[1] + simplex[1].x[1]) / 2};
-    const Point reflected = lerp(centroid, simplex[2].x, -1.0);
-    const Trial tr = objective(reflected.data());
+    std::vector<double> centroid(static_cast<size_t>(n), 0.0);
+    for (int k = 0; k < n; ++k)
+      for (int i = 0; i < n; ++i) centroid[i] += simplex[k].x[i] / n;
+    Vertex& worst = simplex[static_cast<size_t>(n)];
+    const std::vector<double> reflected = along(centroid, worst.x, -1.0);
+    const Trial tr = evaluate(reflected);
     if (tr.residual < simplex[0].t.residual) {
-      const Point expanded = lerp(centroid, simplex[2].x, -2.0);
-      const Trial te = objective(expanded.data());
-      simplex[2] = te.residual < tr.residual ? Vertex{expanded, te} : Vertex{reflected, tr};
-    } else if (tr.residual < simplex[1].t.residual) {
-      simplex[2] = {reflected, tr};
+      const std::vector<double> expanded = along(centroid, worst.x, -2.0);
+      const Trial te = evaluate(expanded);
+      worst = te.residual < tr.residual ? Vertex{expanded, te} : Vertex{reflected, tr};
+    } else if (tr.residual < simplex[static_cast<size_t>(n - 1)].t.residual) {
+      worst = {reflected, tr};
     } else {
-      const bool outside = tr.residual < simplex[2].t.residual;
-      const Point contracted = lerp(centroid, outside ? reflected : simplex[2].x, 0.5);
-      const Trial tc = objective(contracted.data());
-      if (tc.residual < std::min(tr.residual, simplex[2].t.residual)) {
-        simplex[2] = {contracted, tc};
+      const bool outside = tr.residual < worst.t.residual;
+      const std::vector<double> contracted = along(centroid, outside ? reflected : worst.x, 0.5);
+      const Trial tc = evaluate(contracted);
+      if (tc.residual < std::min(tr.residual, worst.t.residual)) {
+        worst = {contracted, tc};
       } else {
-        for (int k = 1; k < 3; ++k) {
-          simplex[k].x = lerp(simplex[0].x, simplex[k].x, 0.5);
-          simplex[k].t = objective(simplex[k].x.data());
+        for (int k = 1; k <= n; ++k) {
+          simplex[k].x = along(simplex[0].x, simplex[k].x, 0.5);
+          simplex[k].t = evaluate(simplex[k].x);
         }
       }
     }
     report();
   }
-  const Vertex& best = *std::min_element(simplex.begin(), simplex.end(),
-                                         [](const Vertex& a, const Vertex& b) { return a.t.residual < b.t.residual; });
+  const Vertex& best = *std::min_element(simplex.begin(), simplex.end(), by_residual);
   if (best.t.tracked < kMinTracked)
     throw Error("tilt: too few frames tracked (" + std::to_string(best.t.tracked) + " of " +
                 std::to_string(frames.size()) + ") with any tilt tried: check the calibration, map and start pose");
+  const Calibration fitted = calibration_at(best.x);
   r.tilt[0] = best.x[0];
   r.tilt[1] = best.x[1];
+  r.mirror_offset[0] = fitted.sensor.faults.mirror_offset[0];
+  r.mirror_offset[1] = fitted.sensor.faults.mirror_offset[1];
   r.residual_after = best.t.residual;
   r.tracked_after = best.t.tracked;
   r.trials = objective.trials();

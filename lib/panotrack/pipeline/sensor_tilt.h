@@ -28,9 +28,14 @@ struct SensorTiltOptions {
   double tolerance_deg = 0.005;    // the search stops when its steps are this small
   int max_trials = 80;             // tracking runs at most
   std::optional<Pose2> init;       // pose at the first frame; none: the room-wide search
+  // Also the mirror's offset from the camera's axis (mirror_offset): what
+  // the boards determine least well, and what bearings see best.
+  bool fit_decentre = false;
   LocalizerOptions localizer;      // how each trial tracks
-  // Called after each trial: trials so far, the best tilt so far (radians,
-  // about x then y) and its residual (radians).
+  // Called after each trial: trials so far, the best parameters so far
+  // (the tilt in radians, about x then y; then, with fit_decentre, the
+  // mirror offset in radians of view from the pinhole) and its residual
+  // (radians).
   std::function<void(int, const double*, double)> on_trial;
   // Throws pano::Error naming the field that is wrong.
   void Check() const;
@@ -38,6 +43,7 @@ struct SensorTiltOptions {
 
 struct SensorTiltResult {
   double tilt[2] = {0.0, 0.0};     // sensor_tilt (radians, about x then y)
+  double mirror_offset[2] = {0.0, 0.0};  // mirror_offset (map units; the calibration's unless fit_decentre)
   double residual_before = 0.0;    // mean RMS bearing residual with the calibration's tilt (rad)
   double residual_after = 0.0;     // ... with the tilt found
   int frames = 0;                  // frames used
