@@ -35,6 +35,7 @@ echo "| rig | calibration | method | position RMS (cm) | outliers | tracked |"
 echo "|---|---|---|---:|---:|---:|"
 for p in $presets; do
   d=$work/$p
+  mkdir -p "$d"
   [[ -f $d/seq/video.mp4 ]] || "$bin/panosim" sequence --preset "$p" -o "$d/seq" -q --force
   [[ -f $d/targets/targets_unknown.yaml ]] ||
     "$bin/panosim" targets --preset "$p" --board 9,6,3 --auto 14 --noise 2 --seed 7 -o "$d/targets" -q --force
