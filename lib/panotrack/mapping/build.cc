@@ -247,8 +247,8 @@ void MapBuilder::AddFrame(const cv::Mat& grey, const Pose2& pose) {
     if (!explained) f.edges.push_back(d);
   }
   unexplained_ += static_cast<int>(f.edges.size());
+  stored_.push_back({static_cast<int>(frames_list_.size()), grey.clone()});
   frames_list_.push_back(std::move(f));
-  stored_.push_back({frames_, grey.clone()});
   // Keep every other stored frame once there are too many (evenly spread).
   if (static_cast<int>(stored_.size()) > 2 * opt_.max_stored_frames) {
     std::vector<std::pair<int, cv::Mat>> kept;

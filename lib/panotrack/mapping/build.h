@@ -149,7 +149,7 @@ class MapBuilder {
   RadiusTable table_;
   double scale_ = 1.0;  // map size
   std::vector<Frame> frames_list_;
-  std::vector<std::pair<int, cv::Mat>> stored_;  // (frame index, grey)
+  std::vector<std::pair<int, cv::Mat>> stored_;  // (index into frames_list_, grey)
   int frames_ = 0, frames_with_seed_ = 0, detections_ = 0, unexplained_ = 0;
 };
 
