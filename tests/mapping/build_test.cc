@@ -73,10 +73,23 @@ MapBuildJob JobFor(const std::string& dir, const std::string& seed, const std::s
 TEST_CASE("a rendered run recovers the rectangles removed from the map", "[build_rendered]") {
   const std::string dir = RenderPaperReal("build_rendered", 2, 29);
   const Map truth = ReadMap(dir + "/map.yaml");
-  const MapBuildResult r = RunMapBuild(JobFor(dir, dir + "/seed.yaml", dir + "/gt.csv"));
+  // Three frames lost (as a localiser reports them): skipped.
+  {
+    std::ifstream in(dir + "/gt.csv");
+    std::ofstream out(dir + "/lost.csv");
+    std::string line;
+    for (int i = -1; std::getline(in, line); ++i) {
+      if (i == 3 || i == 10 || i == 17) {  // frame,time_s,,,,lost,0,
+        const size_t time_end = line.find(',', line.find(',') + 1);
+        line = line.substr(0, time_end) + ",,,,lost,0,";
+      }
+      out << line << "\n";
+    }
+  }
+  const MapBuildResult r = RunMapBuild(JobFor(dir, dir + "/seed.yaml", dir + "/lost.csv"));
   INFO(FormatMapBuildReport(r));
   CHECK(r.frames == 29);
-  CHECK(r.frames_with_pose == 29);
+  CHECK(r.frames_with_pose == 26);
   const Map grown = ReadMap(dir + "/grown.yaml");
   // The seed is kept as it was, new rectangles follow it.
   REQUIRE(grown.rectangles.size() == 4 + r.rectangles.size());
@@ -104,10 +117,10 @@ TEST_CASE("a rendered run recovers the rectangles removed from the map", "[build
   }
   INFO("recovered " << recovered << ", worst corner error " << worst << " cm");
   // Measured: all 9 removed rectangles, none spurious; worst corner error
-  // 0.396 cm over 36 corners (0.36 cm from all 57 frames).
+  // 0.316 cm over 36 corners (0.43 cm from all 57 frames).
   CHECK(recovered == 9);
   CHECK(r.rectangles.size() == 9);
-  CHECK(worst == Approx(0.396).margin(0.05));
+  CHECK(worst == Approx(0.316).margin(0.04));
   CHECK(std::filesystem::exists(dir + "/report.csv"));
 }
 

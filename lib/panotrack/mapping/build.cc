@@ -529,7 +529,7 @@ MapBuildResult MapBuilder::Build() const {
         sensor.to_polar(pp.x() + normal.x(), pp.y() + normal.y(), &rn, &an);
         if (rn < rp) normal = -normal;
         double g1, g2;
-        if (!GreyAt(sf.second, pp + 2.0 * normal, &g1) || !GreyAt(sf.second, pp - 2.0 * normal, &g2)) continue;
+        if (!GreyAt(sf.second, pp + 1.0 * normal, &g1) || !GreyAt(sf.second, pp - 1.0 * normal, &g2)) continue;
         const double diff = g1 - g2;
         ++valid;
         sum += diff;
@@ -546,12 +546,15 @@ MapBuildResult MapBuilder::Build() const {
     return nf ? score / nf : 0.0;
   };
 
-  // Pairs with matching heights, strongest horizontal evidence first.
+  // Pairs with matching heights, strongest horizontal evidence first. One
+  // of the two heights may disagree (an edge partly hidden in most frames
+  // reads short): that height is then searched over both edges' values.
   const double htol = opt_.height_tolerance_fraction * scale_;
   struct Pair {
     int a, b;
     double z0, z1, top, bottom;
     int frames;
+    bool both_heights_agree;
   };
   std::vector<Pair> pairs;
   for (size_t i = 0; i < res.edges.size(); ++i)
@@ -560,18 +563,24 @@ MapBuildResult MapBuilder::Build() const {
       if (ea.verdict != EdgeVerdict::kAccepted || eb.verdict != EdgeVerdict::kAccepted) continue;
       const double w = (ea.position - eb.position).norm();
       if (w < opt_.min_width_fraction * scale_ || w > opt_.max_width_fraction * scale_) continue;
-      if (std::abs(ea.z0 - eb.z0) > htol || std::abs(ea.z1 - eb.z1) > htol) continue;
+      const bool z0_agree = std::abs(ea.z0 - eb.z0) <= htol, z1_agree = std::abs(ea.z1 - eb.z1) <= htol;
+      if (!z0_agree && !z1_agree) continue;
       ++res.pairs_considered;
-      Pair p{static_cast<int>(i), static_cast<int>(j), 0.5 * (ea.z0 + eb.z0), 0.5 * (ea.z1 + eb.z1), 0, 0, 0};
+      Pair p{static_cast<int>(i), static_cast<int>(j), 0.5 * (ea.z0 + eb.z0), 0.5 * (ea.z1 + eb.z1), 0, 0, 0,
+             z0_agree && z1_agree};
+      const double spread[2] = {z0_agree ? htol : 0.5 * std::abs(ea.z0 - eb.z0) + htol,
+                                z1_agree ? htol : 0.5 * std::abs(ea.z1 - eb.z1) + htol};
       // Refine each height to the strongest horizontal edge near it.
       // (the maximum of the mean step over a scan, to a fraction of a step
       // by a parabola through its neighbours).
-      for (double* z : {&p.z0, &p.z1}) {
-        const int half = 24;
+      for (int end = 0; end < 2; ++end) {
+        double* z = end == 0 ? &p.z0 : &p.z1;
+        const double range = spread[end];
+        const int half = static_cast<int>(std::ceil(24 * range / htol));
         std::vector<double> steps(2 * half + 1, -1.0);
         int best = -1;
         for (int k = -half; k <= half; ++k) {
-          const double zz = *z + htol * k / half;
+          const double zz = *z + range * k / half;
           if (zz < 0) continue;
           double step;
           int nf;
@@ -589,7 +598,7 @@ MapBuildResult MapBuilder::Build() const {
           const double den = a - 2 * b + c;
           if (den < 0) offset = std::clamp(0.5 * (a - c) / den, -0.5, 0.5);
         }
-        *z += htol * (best - half + offset) / half;
+        *z += range * (best - half + offset) / half;
       }
       if (p.z0 < 0.5 * htol) p.z0 = 0.0;  // standing on the floor
       double step;
@@ -605,7 +614,10 @@ MapBuildResult MapBuilder::Build() const {
       pairs.push_back(p);
     }
   std::sort(pairs.begin(), pairs.end(),
-            [](const Pair& x, const Pair& y) { return std::min(x.top, x.bottom) > std::min(y.top, y.bottom); });
+            [](const Pair& x, const Pair& y) {
+              if (x.both_heights_agree != y.both_heights_agree) return x.both_heights_agree;
+              return std::min(x.top, x.bottom) > std::min(y.top, y.bottom);
+            });
   std::set<std::string> ids;
   for (const MapRectangle& r : seed_.rectangles) ids.insert(r.id);
   for (const MapBox& b : seed_.boxes) ids.insert(b.id);

@@ -58,7 +58,7 @@ struct MapBuildOptions {
   double cell_fraction = 1.0 / 300;     // floor grid cell
   int min_views = 8;                    // frames that see an accepted edge
   double ray_tolerance_deg = 0.6;       // a ray explains an edge within this
-  double min_parallax_deg = 4.0;        // spread of the rays' world directions
+  double min_parallax_deg = 8.0;        // spread of the rays' world directions
   double max_std_fraction = 0.01;       // largest position std (1 sigma, major axis)
   // Rectangles.
   double height_tolerance_fraction = 0.03;  // bottoms (and tops) of the pair agree within
