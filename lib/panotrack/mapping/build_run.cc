@@ -81,7 +81,7 @@ MapBuildResult RunMapBuild(const MapBuildJob& job) {
     localizer = std::make_unique<Localizer>(
         calib, seed, std::make_shared<RadiusTable>(RadiusTable::Build(s, RangesForMap(seed, s))), LocalizerOptions());
     if (job.has_start)
-      localizer->Reset(job.start);
+      localizer->Reset(job.start, /*hint=*/true);  // as panoloc --init
     else
       localizer->ResetUnknown();
   }
