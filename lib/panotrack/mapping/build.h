@@ -67,7 +67,7 @@ struct MapBuildOptions {
   double min_step = 8.0;                // grey levels across a horizontal edge sample
   double min_horizontal_score = 0.6;    // fraction of samples showing the step (both edges)
   int min_horizontal_frames = 3;
-  int max_stored_frames = 120;          // frames kept for the horizontal checks (evenly spread)
+  int max_stored_frames = 60;           // frames kept for the horizontal checks (60..120, evenly spread)
   std::string id_prefix = "new";
   void Check() const;
 };
