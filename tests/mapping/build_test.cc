@@ -1,9 +1,10 @@
 // Growing a map from video: a rendered run with only four seed rectangles
 // recovers the removed ones; bad inputs fail with one line, non-zero exit
 // and nothing written.
-#include <catch2/catch.hpp>
+#include "panotrack/mapping/build.h"
 
 #include <algorithm>
+#include <catch2/catch.hpp>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -12,7 +13,6 @@
 
 #include "expect_error.h"
 #include "panotrack/io/map.h"
-#include "panotrack/mapping/build.h"
 #include "panotrack/render/presets.h"
 #include "panotrack/render/writers.h"
 #include "run_command.h"
@@ -93,7 +93,8 @@ TEST_CASE("a rendered run recovers the rectangles removed from the map", "[build
   const Map grown = ReadMap(dir + "/grown.yaml");
   // The seed is kept as it was, new rectangles follow it.
   REQUIRE(grown.rectangles.size() == 4 + r.rectangles.size());
-  for (size_t i = 0; i < 4; ++i) CHECK(WorstCornerError(grown.rectangles[i], ReadMap(dir + "/seed.yaml").rectangles[i]) == 0.0);
+  for (size_t i = 0; i < 4; ++i)
+    CHECK(WorstCornerError(grown.rectangles[i], ReadMap(dir + "/seed.yaml").rectangles[i]) == 0.0);
   // Each removed rectangle (9) matched to the nearest new one.
   int recovered = 0;
   double worst = 0;
@@ -148,8 +149,10 @@ TEST_CASE("bad inputs: one line, non-zero exit, nothing written", "[build_bad_in
   CHECK(!std::filesystem::exists(dir + "/grown.yaml"));
   CHECK(!std::filesystem::exists(dir + "/report.csv"));
   // The program: exit 1, one line, nothing written.
-  const std::string common = " --calib " + dir + "/calib.yaml " + dir + "/frames/frame_%04d.png -o " + dir + "/out.yaml";
-  test::CommandRun run = test::RunProgram("panomap build --map " + dir + "/seed.yaml --poses " + dir + "/short.csv" + common);
+  const std::string common =
+      " --calib " + dir + "/calib.yaml " + dir + "/frames/frame_%04d.png -o " + dir + "/out.yaml";
+  test::CommandRun run =
+      test::RunProgram("panomap build --map " + dir + "/seed.yaml --poses " + dir + "/short.csv" + common);
   CHECK(run.code == 1);
   CHECK(test::CountLines(run.out) == 1);
   CHECK(run.out.find("panomap: " + dir + "/short.csv: 7 rows") == 0);

@@ -7,9 +7,8 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
-#include <set>
-
 #include <opencv2/imgproc.hpp>
+#include <set>
 
 #include "panotrack/core/angles.h"
 #include "panotrack/core/error.h"
@@ -63,12 +62,18 @@ bool GreyAt(const cv::Mat& grey, const Eigen::Vector2d& p, double* value) {
 
 const char* edge_verdict_name(EdgeVerdict v) {
   switch (v) {
-    case EdgeVerdict::kAccepted: return "accepted";
-    case EdgeVerdict::kTooFewViews: return "too few views";
-    case EdgeVerdict::kLowParallax: return "low parallax";
-    case EdgeVerdict::kPoorlyConditioned: return "poorly conditioned";
-    case EdgeVerdict::kNoHeight: return "no height";
-    case EdgeVerdict::kRoomCorner: return "room corner";
+    case EdgeVerdict::kAccepted:
+      return "accepted";
+    case EdgeVerdict::kTooFewViews:
+      return "too few views";
+    case EdgeVerdict::kLowParallax:
+      return "low parallax";
+    case EdgeVerdict::kPoorlyConditioned:
+      return "poorly conditioned";
+    case EdgeVerdict::kNoHeight:
+      return "no height";
+    case EdgeVerdict::kRoomCorner:
+      return "room corner";
   }
   return "?";
 }
@@ -147,9 +152,8 @@ std::vector<VerticalEdgeDetection> DetectVerticalEdges(const cv::Mat& grey, cons
     const std::vector<float>& raw = sign > 0 ? count_pos : count_neg;
     std::vector<float> c(raw.size());
     for (int k = 0; k < n_az; ++k)
-      c[static_cast<size_t>(k)] =
-          0.25f * raw[static_cast<size_t>((k + n_az - 1) % n_az)] + 0.5f * raw[static_cast<size_t>(k)] +
-          0.25f * raw[static_cast<size_t>((k + 1) % n_az)];
+      c[static_cast<size_t>(k)] = 0.25f * raw[static_cast<size_t>((k + n_az - 1) % n_az)] +
+                                  0.5f * raw[static_cast<size_t>(k)] + 0.25f * raw[static_cast<size_t>((k + 1) % n_az)];
     for (int k = 0; k < n_az; ++k) {
       const float v = c[static_cast<size_t>(k)];
       if (v < options.min_edge_px) continue;
@@ -234,7 +238,6 @@ void MapBuilder::AddFrame(const cv::Mat& grey, const Pose2& pose) {
     throw Error("map build: expected 8-bit grey frames of the calibration's size");
   Frame f;
   f.pose = pose;
-  f.index = frames_;
   const std::vector<PredictedLandmark> predicted =
       PredictLandmarks(landmarks_, seed_, scene_, sensor, table_, pose, opt_.prediction);
   if (!predicted.empty()) ++frames_with_seed_;
@@ -502,8 +505,7 @@ MapBuildResult MapBuilder::Build() const {
   // frames they were seen in.
   const double limb = sensor.limb_radius();
   const double r_in = opt_.prediction.min_radius_fraction * limb, r_out = limb - opt_.prediction.max_radius_margin;
-  auto horizontal = [&](const Eigen::Vector2d& a, const Eigen::Vector2d& b, double z, double* mean_step,
-                        int* frames) {
+  auto horizontal = [&](const Eigen::Vector2d& a, const Eigen::Vector2d& b, double z, double* mean_step, int* frames) {
     double score = 0, step_sum = 0;
     int nf = 0;
     const int samples = 16;
@@ -613,11 +615,10 @@ MapBuildResult MapBuilder::Build() const {
       }
       pairs.push_back(p);
     }
-  std::sort(pairs.begin(), pairs.end(),
-            [](const Pair& x, const Pair& y) {
-              if (x.both_heights_agree != y.both_heights_agree) return x.both_heights_agree;
-              return std::min(x.top, x.bottom) > std::min(y.top, y.bottom);
-            });
+  std::sort(pairs.begin(), pairs.end(), [](const Pair& x, const Pair& y) {
+    if (x.both_heights_agree != y.both_heights_agree) return x.both_heights_agree;
+    return std::min(x.top, x.bottom) > std::min(y.top, y.bottom);
+  });
   std::set<std::string> ids;
   for (const MapRectangle& r : seed_.rectangles) ids.insert(r.id);
   for (const MapBox& b : seed_.boxes) ids.insert(b.id);
@@ -679,9 +680,8 @@ std::string FormatMapBuildReport(const MapBuildResult& r) {
     const BuiltEdge& e = r.edges[i];
     std::string verdict = edge_verdict_name(e.verdict);
     if (e.rectangle >= 0) verdict += " -> " + r.rectangles[static_cast<size_t>(e.rectangle)].rectangle.id;
-    std::snprintf(line, sizeof line, "e%-4zu %9.2f %9.2f %5.2f %6d %8.1f %8.3f %6.1f %6.1f  %s\n", i,
-                  e.position.x(), e.position.y(), e.std_major, e.views, e.parallax_deg, e.rms_bearing_deg, e.z0,
-                  e.z1, verdict.c_str());
+    std::snprintf(line, sizeof line, "e%-4zu %9.2f %9.2f %5.2f %6d %8.1f %8.3f %6.1f %6.1f  %s\n", i, e.position.x(),
+                  e.position.y(), e.std_major, e.views, e.parallax_deg, e.rms_bearing_deg, e.z0, e.z1, verdict.c_str());
     out += line;
   }
   if (!r.rectangles.empty()) {

@@ -30,11 +30,10 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <opencv2/core.hpp>
 #include <string>
 #include <utility>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "panotrack/lut/radius_table.h"
 #include "panotrack/pose/pose_row.h"
@@ -49,35 +48,35 @@ struct MapBuildOptions {
   PredictionOptions prediction;  // for the seed landmarks' edges
   // Vertical edge detection (per frame).
   double azimuth_bin_deg = 0.25;
-  double min_gradient = 3.0;     // grey levels per px across the edge
-  int min_edge_px = 12;          // radial pixels of one sign in the peak's column
-  int nms_bins = 4;              // peaks are maxima over +-nms_bins
+  double min_gradient = 3.0;        // grey levels per px across the edge
+  int min_edge_px = 12;             // radial pixels of one sign in the peak's column
+  int nms_bins = 4;                 // peaks are maxima over +-nms_bins
   double seed_exclusion_deg = 1.0;  // detections this near a seed edge are the seed's
   // Triangulation. Lengths are fractions of the map's size (the larger side
   // of its extent) so that the defaults suit any units.
-  double cell_fraction = 1.0 / 300;     // floor grid cell
-  int min_views = 8;                    // frames that see an accepted edge
-  double ray_tolerance_deg = 0.6;       // a ray explains an edge within this
-  double min_parallax_deg = 8.0;        // spread of the rays' world directions
-  double max_std_fraction = 0.01;       // largest position std (1 sigma, major axis)
+  double cell_fraction = 1.0 / 300;  // floor grid cell
+  int min_views = 8;                 // frames that see an accepted edge
+  double ray_tolerance_deg = 0.6;    // a ray explains an edge within this
+  double min_parallax_deg = 8.0;     // spread of the rays' world directions
+  double max_std_fraction = 0.01;    // largest position std (1 sigma, major axis)
   // Rectangles.
   double height_tolerance_fraction = 0.03;  // bottoms (and tops) of the pair agree within
   double min_width_fraction = 0.04;
   double max_width_fraction = 0.5;
-  double min_step = 8.0;                // grey levels across a horizontal edge sample
-  double min_horizontal_score = 0.6;    // fraction of samples showing the step (both edges)
+  double min_step = 8.0;              // grey levels across a horizontal edge sample
+  double min_horizontal_score = 0.6;  // fraction of samples showing the step (both edges)
   int min_horizontal_frames = 3;
-  int max_stored_frames = 60;           // frames kept for the horizontal checks (60..120, evenly spread)
+  int max_stored_frames = 60;  // frames kept for the horizontal checks (60..120, evenly spread)
   std::string id_prefix = "new";
   void Check() const;
 };
 
 // One vertical edge in one frame.
 struct VerticalEdgeDetection {
-  double azimuth = 0.0;  // image azimuth (radians)
-  int polarity = 0;      // sign of the intensity step towards increasing azimuth
+  double azimuth = 0.0;           // image azimuth (radians)
+  int polarity = 0;               // sign of the intensity step towards increasing azimuth
   double r_lo = 0.0, r_hi = 0.0;  // radial extent (px)
-  int support = 0;       // pixels in the peak's column
+  int support = 0;                // pixels in the peak's column
 };
 
 // The vertical edges of one grey frame, by azimuth.
@@ -89,22 +88,22 @@ const char* edge_verdict_name(EdgeVerdict v);
 
 struct BuiltEdge {
   Eigen::Vector2d position{0, 0};
-  double std_major = 0.0;    // position std along its worst direction (map units)
+  double std_major = 0.0;  // position std along its worst direction (map units)
   int views = 0;
   double parallax_deg = 0.0;
   double rms_bearing_deg = 0.0;
   double z0 = 0.0, z1 = 0.0, z0_std = 0.0, z1_std = 0.0;
   EdgeVerdict verdict = EdgeVerdict::kAccepted;
-  int rectangle = -1;        // into MapBuildResult::rectangles
+  int rectangle = -1;  // into MapBuildResult::rectangles
   // The rays it explains: (frame index into the stored poses, detection).
   std::vector<std::pair<int, int>> rays;
 };
 
 struct BuiltRectangle {
   MapRectangle rectangle;
-  int edge_from = -1, edge_to = -1;  // into MapBuildResult::edges
+  int edge_from = -1, edge_to = -1;            // into MapBuildResult::edges
   double top_score = 0.0, bottom_score = 0.0;  // fraction of horizontal samples showing the step
-  int frames = 0;                    // frames the horizontal edges were checked in
+  int frames = 0;                              // frames the horizontal edges were checked in
 };
 
 struct MapBuildResult {
@@ -116,12 +115,6 @@ struct MapBuildResult {
   // Pairs of accepted edges with matching heights, and of those the ones
   // whose horizontal edges were not seen.
   int pairs_considered = 0, pairs_rejected = 0;
-};
-
-// One frame given to the builder.
-struct BuildFrameInput {
-  const cv::Mat* grey = nullptr;
-  Pose2 pose;
 };
 
 // Accumulates frames with their poses, then builds.
@@ -139,7 +132,6 @@ class MapBuilder {
   struct Frame {
     Pose2 pose;
     std::vector<VerticalEdgeDetection> edges;  // unexplained by the seed
-    int index = 0;
   };
   Calibration calib_;
   Map seed_;
@@ -158,7 +150,7 @@ struct MapBuildJob {
   std::string map_path, calib_path, input;
   std::string poses_path;  // pose CSV, one row per frame; empty: localise with the seed
   bool has_start = false;
-  Pose2 start;             // the first frame's pose when localising
+  Pose2 start;  // the first frame's pose when localising
   std::string output, report_csv;
   MapBuildOptions options;
   bool overwrite = false;

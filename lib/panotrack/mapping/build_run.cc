@@ -38,9 +38,9 @@ void WriteMapBuildCsv(const std::string& path, const MapBuildResult& r) {
   char line[512];
   for (size_t i = 0; i < r.edges.size(); ++i) {
     const BuiltEdge& e = r.edges[i];
-    std::snprintf(line, sizeof line, "e%zu,%.4f,%.4f,%.4f,%d,%.3f,%.4f,%.3f,%.3f,%.3f,%.3f,%s,%s\n", i,
-                  e.position.x(), e.position.y(), e.std_major, e.views, e.parallax_deg, e.rms_bearing_deg, e.z0,
-                  e.z0_std, e.z1, e.z1_std, edge_verdict_name(e.verdict),
+    std::snprintf(line, sizeof line, "e%zu,%.4f,%.4f,%.4f,%d,%.3f,%.4f,%.3f,%.3f,%.3f,%.3f,%s,%s\n", i, e.position.x(),
+                  e.position.y(), e.std_major, e.views, e.parallax_deg, e.rms_bearing_deg, e.z0, e.z0_std, e.z1,
+                  e.z1_std, edge_verdict_name(e.verdict),
                   e.rectangle >= 0 ? r.rectangles[static_cast<size_t>(e.rectangle)].rectangle.id.c_str() : "");
     text += line;
   }
@@ -49,8 +49,9 @@ void WriteMapBuildCsv(const std::string& path, const MapBuildResult& r) {
 
 MapBuildResult RunMapBuild(const MapBuildJob& job) {
   job.Check();
-  CheckPlannedOutputs({{"--map", job.map_path}, {"--calib", job.calib_path}, {"", job.input}, {"--poses", job.poses_path}},
-                      {{"-o", job.output}, {"--report", job.report_csv}}, job.overwrite);
+  CheckPlannedOutputs(
+      {{"--map", job.map_path}, {"--calib", job.calib_path}, {"", job.input}, {"--poses", job.poses_path}},
+      {{"-o", job.output}, {"--report", job.report_csv}}, job.overwrite);
   const Calibration calib = ReadCalibration(job.calib_path);
   const Map seed = ReadMap(job.map_path);
   if (calib.units != seed.units)
@@ -73,8 +74,8 @@ MapBuildResult RunMapBuild(const MapBuildJob& job) {
   FrameSource frames(job.input);
   if (frames.width() != s.image_width || frames.height() != s.image_height)
     throw Error(job.input + ": frame size " + SizeText(frames.width(), frames.height()) +
-                " does not match the calibration's " + SizeText(s.image_width, s.image_height) + " (" +
-                job.calib_path + ")");
+                " does not match the calibration's " + SizeText(s.image_width, s.image_height) + " (" + job.calib_path +
+                ")");
   MapBuilder builder(calib, seed, job.options);
   std::unique_ptr<Localizer> localizer;
   if (job.poses_path.empty()) {
