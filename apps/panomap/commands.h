@@ -12,5 +12,7 @@ namespace pano::app {
 void AddCheckCommand(CLI::App& app);
 // refine: bundle-adjust the map's rectangles against tracked video (lib/panotrack/mapping/refine.h).
 void AddRefineCommand(CLI::App& app);
+// build: grow a map with rectangles triangulated from video (lib/panotrack/mapping/build.h).
+void AddBuildCommand(CLI::App& app);
 
 }  // namespace pano::app

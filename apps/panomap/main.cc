@@ -10,7 +10,7 @@
 
 int main(int argc, char** argv) {
   CLI::App app{
-      "panomap: check a room's landmark map against video and refine it.\n"
+      "panomap: check a room's landmark map against video, refine it, and grow it from video.\n"
       "Subcommands: see 'panomap SUBCOMMAND --help'. Existing output files are kept unless\n"
       "--force is given; the input map is never overwritten.",
       "panomap"};
@@ -25,6 +25,7 @@ int main(int argc, char** argv) {
   app.option_defaults()->always_capture_default();
   pano::app::AddCheckCommand(app);
   pano::app::AddRefineCommand(app);
+  pano::app::AddBuildCommand(app);
   pano::app::SplitDescriptions(app, exit_codes);
   return pano::app::RunSubcommandApp(app, "panomap", argc, argv);
 }
