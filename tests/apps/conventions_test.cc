@@ -52,7 +52,10 @@ TEST_CASE("--version, --help with exit codes and the shared options, --force for
       {"panosim still", {"-o,--output", "--force", "-j,--jobs", "-q,--quiet", "-v,--verbose"}},
       {"panosim sequence", {"-o,--output", "--force", "-j,--jobs", "-q,--quiet", "-v,--verbose"}},
       {"panosim targets", {"-o,--output", "--force", "-j,--jobs", "-q,--quiet", "-v,--verbose"}},
-      {"panomap check", {"-o,--output", "--force", "-q,--quiet", "-v,--verbose"}}};
+      {"panomap check", {"-o,--output", "--force", "-q,--quiet", "-v,--verbose"}},
+      {"panomap refine", {"-o,--output", "--force", "-q,--quiet", "-v,--verbose"}},
+      {"panomap build", {"-o,--output", "--force", "-q,--quiet", "-v,--verbose"}},
+      {"panocalib tilt", {"-o,--output", "--force", "-q,--quiet"}}};
   for (const auto& [command, options] : subcommands) {
     INFO(command);
     r = Exec(command + " --help");
