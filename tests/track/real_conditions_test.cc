@@ -119,19 +119,31 @@ TEST_CASE("a wrong initial guess is not reported: the room-wide search takes ove
   CHECK(first <= 1);
 }
 
-TEST_CASE("kidnapped: lost at the jump, recovered within 2 frames, nothing wrong reported ok", "[kidnap]") {
+TEST_CASE("kidnapped: relocalised at the jump itself (nothing predicted is there), nothing wrong reported ok",
+          "[kidnap]") {
   test::RenderedCase r = test::RenderPreset("kidnap", 40);
-  const std::vector<PoseRow> rows = test::Localize(r, LocalizerOptions(), r.c.poses.front());
   const int jump = r.c.kidnap_frames.front();
+  for (TrackingMethod method : {TrackingMethod::kJunction, TrackingMethod::kVertex}) {
+    LocalizerOptions o;
+    o.method = method;
+    const std::vector<PoseRow> rows = test::Localize(r, o, r.c.poses.front());
+    INFO(tracking_method_name(method));
+    CHECK(WrongOk(rows, r.truth, 0.5) == 0);
+    // Every frame: the jump's own frame searches the room at once.
+    CHECK(CompareToGroundTruth(rows, r.truth).tracked == 40);
+    const PoseRow& at_jump = rows[static_cast<size_t>(jump)];
+    CHECK(std::hypot(at_jump.pose.x - r.truth[jump].pose.x, at_jump.pose.y - r.truth[jump].pose.y) < 0.1);
+  }
+  // Searching only after relocalize_after lost frames: the jump's frame is lost.
+  LocalizerOptions o;
+  o.relocalize_unseen_fraction = 0.0;
+  const std::vector<PoseRow> rows = test::Localize(r, o, r.c.poses.front());
+  CHECK(rows[static_cast<size_t>(jump)].status == PoseStatus::kLost);
+  CHECK(rows[static_cast<size_t>(jump) + 1].status == PoseStatus::kOk);
   CHECK(WrongOk(rows, r.truth, 0.5) == 0);
-  int first_ok = -1;
-  for (int i = jump; i < 40 && first_ok < 0; ++i)
-    if (rows[static_cast<size_t>(i)].status == PoseStatus::kOk) first_ok = i;
-  CHECK(first_ok >= jump);
-  CHECK(first_ok <= jump + 2);
 }
 
-TEST_CASE("kidnapped, every relocalised pose held for the next frame: recovered within 2 frames, the "
+TEST_CASE("kidnapped, every relocalised pose held for the next frame: recovered at the next frame, the "
           "smoother fed throughout", "[kidnap]") {
   test::RenderedCase r = test::RenderPreset("kidnap", 40);
   LocalizerOptions o;
@@ -154,8 +166,41 @@ TEST_CASE("kidnapped, every relocalised pose held for the next frame: recovered 
   int first_ok = -1;
   for (int i = jump; i < 40 && first_ok < 0; ++i)
     if (rows[static_cast<size_t>(i)].status == PoseStatus::kOk) first_ok = i;
-  CHECK(first_ok >= jump + 1);  // the held frame itself is not reported
-  CHECK(first_ok <= jump + 2);
+  CHECK(first_ok == jump + 1);  // held at the jump, confirmed by the next frame
+}
+
+// Real-conditions frames 126-139 (people walking past, auto-exposure,
+// texture): at frame 139 most of the landmarks chosen to track are hidden,
+// and those tracked instead decide the pose.
+TEST_CASE("most landmarks chosen hidden by people: the frame tracks with the others", "[real_conditions]") {
+  test::RenderedCase r;
+  r.c = MakePreset("real-conditions");
+  const SequenceRenderer renderer(r.c);
+  const int first = 126, n = 14;
+  for (int i = first; i < first + n; ++i) {
+    r.frames.push_back(renderer.RenderFrame(i));
+    PoseRow row;
+    row.frame = i - first;
+    row.pose = r.c.poses[static_cast<size_t>(i)];
+    r.truth.push_back(row);
+  }
+  r.c.map.distractors.clear();
+  r.table = TableForMap(r.c.calib, r.c.map, true);
+  Localizer loc(r.c.calib, r.c.map, r.table, LocalizerOptions());
+  loc.Reset(r.truth.front().pose);
+  std::vector<PoseRow> rows;
+  FrameResult last;
+  for (int i = 0; i < n; ++i) {
+    last = loc.Process(r.frames[static_cast<size_t>(i)], i, 0.1 * i);
+    rows.push_back(last.row);
+  }
+  // The last frame: 4 of the 12 landmarks chosen found, the others tracked
+  // too; 20 inliers among the 48 predicted (measured 0.011 cm off).
+  CHECK(last.row.status == PoseStatus::kOk);
+  CHECK(last.predicted.size() > 12);
+  CHECK(std::hypot(last.row.pose.x - r.truth.back().pose.x, last.row.pose.y - r.truth.back().pose.y) <= 0.02);
+  CHECK(CompareToGroundTruth(rows, r.truth).tracked == n - 1);  // measured: frame 133 lost
+  CHECK(WrongOk(rows, r.truth, 0.5) == 0);
 }
 
 }  // namespace

@@ -32,6 +32,8 @@ void LocalizerOptions::Check() const {
   if (relocalize_after < 0 || relocalize_min_landmarks < 3)
     throw Error("localiser: relocalize_after >= 0 and relocalize_min_landmarks >= 3 expected");
   if (num_threads < 0) throw Error("localiser: num_threads: expected 0 (all cores) or more");
+  if (!(relocalize_unseen_fraction >= 0 && relocalize_unseen_fraction <= 1))
+    throw Error("localiser: relocalize_unseen_fraction: expected 0..1");
   if (relocalize_max_interval < 1) throw Error("localiser: relocalize_max_interval: expected >= 1");
   if (!(gate_chi2 > 0) || !(gate_heading_sigma > 0) || !(gate_position_fraction > 0))
     throw Error("localiser: gate_chi2, gate_heading_sigma and gate_position_fraction: expected > 0");
@@ -324,11 +326,25 @@ TriangulationResult Localizer::Solve(const FrameResult& fr, const Pose2& prior) 
     robust.inlier_threshold = std::clamp(3.0 * bearing_sigma_, opt_.min_inlier_threshold, opt_.robust.inlier_threshold);
   // Every bearing agreeing with the least-squares pose: nothing to reject
   // (most frames; the consensus costs milliseconds).
-  if (plain.ok && plain.inliers.size() == obs.size() &&
-      std::all_of(plain.bearing_residuals.begin(), plain.bearing_residuals.end(),
-                  [&](double r) { return std::abs(r) <= robust.inlier_threshold; }))
-    return plain;
-  return RobustTriangulate(obs, prior, robust, opt_.triangulation);
+  TriangulationResult out = plain;
+  if (!(plain.ok && plain.inliers.size() == obs.size() &&
+        std::all_of(plain.bearing_residuals.begin(), plain.bearing_residuals.end(),
+                    [&](double r) { return std::abs(r) <= robust.inlier_threshold; })))
+    out = RobustTriangulate(obs, prior, robust, opt_.triangulation);
+  if (bearing_sigma_ > 0 || !out.ok || obs.size() < 6) return out;
+  // No noise seen yet (the first frame): the widest threshold admits an edge
+  // a few tenths of a degree off (a corner of unknown polarity matched by a
+  // wrong template, a half-hidden edge). This frame's own residuals (their
+  // median, robust to those) say how far good bearings lie from the pose.
+  std::vector<double> abs_residuals;
+  for (double r : out.bearing_residuals) abs_residuals.push_back(std::abs(r));
+  std::nth_element(abs_residuals.begin(), abs_residuals.begin() + abs_residuals.size() / 2, abs_residuals.end());
+  const double own = std::clamp(3.0 * 1.4826 * abs_residuals[abs_residuals.size() / 2], opt_.min_inlier_threshold,
+                                opt_.robust.inlier_threshold);
+  if (own >= robust.inlier_threshold) return out;
+  robust.inlier_threshold = own;
+  TriangulationResult tight = RobustTriangulate(obs, prior, robust, opt_.triangulation);
+  return tight.ok ? tight : out;
 }
 
 bool Localizer::TrackFrom(const Pose2& pose, double search_px, FrameResult* fr,
@@ -428,9 +444,14 @@ bool Localizer::ChooseAmongTwins(bool either, FrameResult* fr, TriangulationResu
 
 bool Localizer::Acceptable(const FrameResult& fr, const TriangulationResult& tri) const {
   if (!tri.ok) return false;
-  const double n_pred = static_cast<double>(fr.predicted.size());
+  // Of the landmarks chosen to track, and of the others (tracked only when
+  // too few of those were found) the ones found: an unfound extra is
+  // likely hidden or faint, one found off the pose counts against it.
+  const size_t n_chosen = static_cast<size_t>(ChosenLandmarks(fr));
+  double n_counted = static_cast<double>(n_chosen);
+  for (size_t i = n_chosen; i < fr.measurements.size(); ++i) n_counted += fr.measurements[i].found;
   return tri.rms_bearing <= opt_.max_rms_bearing &&
-         (n_pred < 8 || tri.inliers.size() >= opt_.min_inlier_fraction * n_pred);
+         (n_counted < 8 || tri.inliers.size() >= opt_.min_inlier_fraction * n_counted);
 }
 
 namespace {
@@ -598,11 +619,26 @@ void Localizer::RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) 
   }
 }
 
-bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, FrameResult* fr, TriangulationResult* tri) {
+bool Localizer::ViewUnlikePrediction(const FrameResult& fr, const TriangulationResult& tri) const {
+  if (!(opt_.relocalize_unseen_fraction > 0)) return false;
+  const size_t chosen = static_cast<size_t>(ChosenLandmarks(fr));
+  int found = 0;
+  for (size_t i = 0; i < chosen && i < fr.measurements.size(); ++i) found += fr.measurements[i].found;
+  if (found < opt_.relocalize_unseen_fraction * static_cast<double>(chosen)) return true;
+  // Corner-like responses elsewhere fit a pose (a few, never an acceptable
+  // one) that the motion so far rules out.
+  if (!tri.ok || Acceptable(fr, tri) || !motion_.initialized()) return false;
+  const PoseMeasurement m = MeasurementOf(tri, Observations(fr), opt_.gate_position_fraction, opt_.gate_heading_sigma);
+  return motion_.Innovation(m) > opt_.gate_chi2;
+}
+
+bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, FrameResult* fr,
+                                 TriangulationResult* tri) {
   // Before the first pose (no start, or a start the frames did not confirm)
-  // at once; later after relocalize_after lost frames, then less and less
-  // often while it keeps failing.
-  const bool due = ever_tracked_ ? opt_.relocalize_after > 0 && n_lost_ + 1 >= opt_.relocalize_after
+  // at once; later after relocalize_after lost frames (at once when the
+  // view is not the predicted one), then less and less often while it
+  // keeps failing.
+  const bool due = ever_tracked_ ? opt_.relocalize_after > 0 && (n_lost_ + 1 >= opt_.relocalize_after || at_once)
                                  : opt_.relocalize_after > 0 || !known_start_ || start_is_hint_;
   if (!due || frame < next_relocalize_frame_) return false;
   FrameResult found;
@@ -772,7 +808,7 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
   int n_found = 0;  // before any relocalisation: what tracking from the prediction found
   for (const auto& m : fr.measurements) n_found += m.found;
   // Lost for a while (the robot may have been carried), or never found: search the room.
-  if (!accepted && RelocalizeIfLost(grey, frame, &fr, &tri)) {
+  if (!accepted && RelocalizeIfLost(grey, frame, ever_tracked_ && ViewUnlikePrediction(fr, tri), &fr, &tri)) {
     accepted = Corroborated(fr, tri);
     fr.unconfirmed = !accepted;
   }

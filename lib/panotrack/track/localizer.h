@@ -95,6 +95,12 @@ struct LocalizerOptions {
   // pose (0: never). Relocalisation accepts a pose only with at least
   // relocalize_min_landmarks inliers.
   int relocalize_after = 2;
+  // ... and at once (on the first lost frame) when the view is not the
+  // predicted one (the robot was carried off: tracking from the prediction
+  // will not recover): fewer than this fraction of the landmarks chosen to
+  // track were found, or those found fit no acceptable pose but one the
+  // motion model rules out. 0: never at once.
+  double relocalize_unseen_fraction = 0.25;
   // After three failed relocalisations in a row the next waits 2, 4 ...
   // frames (at most this many): a long loss costs a bounded share of the
   // frames, a short one is searched on every frame.
@@ -280,7 +286,10 @@ class Localizer {
   // narrow passes around the solved pose when landmarks were off-centre;
   void RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) const;
   // the room-wide search after relocalize_after lost frames;
-  bool RelocalizeIfLost(const cv::Mat& grey, int frame, FrameResult* fr, TriangulationResult* tri);
+  // `at_once`: the view is not the predicted one (ViewUnlikePrediction).
+  bool RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, FrameResult* fr, TriangulationResult* tri);
+  // whether a frame's tracking says the robot is not near the prediction;
+  bool ViewUnlikePrediction(const FrameResult& fr, const TriangulationResult& tri) const;
   // whether a relocalised pose stands on its own evidence;
   bool Corroborated(const FrameResult& fr, const TriangulationResult& tri) const;
   // the landmarks chosen to track at this frame (max_landmarks of those predicted);
