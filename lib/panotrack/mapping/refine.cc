@@ -225,9 +225,9 @@ void GaugeUncertainty(const Map& surveyed, const std::vector<std::array<double, 
       rows(e.x(), e.y(), 0.0, &J);
       info += wm * J.topRows(2).transpose() * J.topRows(2);
     }
-    for (const double z : {r.z0, r.z1}) {
-      if (z == r.z0 && opt.hold_floor_contacts && r.z0 == 0.0) continue;  // held, no prior
-      rows(0.0, 0.0, z - surveyed.sensor_height, &J);
+    for (int level = 0; level < 2; ++level) {
+      if (level == 0 && opt.hold_floor_contacts && r.z0 == 0.0) continue;  // held, no prior
+      rows(0.0, 0.0, (level ? r.z1 : r.z0) - surveyed.sensor_height, &J);
       info += wm * J.row(2).transpose() * J.row(2);
     }
   }
@@ -612,12 +612,11 @@ std::string RefineReportTable(const RefineResult& r, const Map& surveyed, double
                 r.rejected, r.crowded);
   out << line;
   // The floor: what the priors alone fix (the images cannot see it).
+  char scale[64] = "";
+  if (r.gauge_scale_std > 0.0) std::snprintf(scale, sizeof scale, ", scale +- %.3g %%", 100.0 * r.gauge_scale_std);
   std::snprintf(line, sizeof line,
                 "gauge (fixed by the priors alone): shift +- %.3g %s, turn +- %.3g deg%s -> corner RMS floor %.3g %s\n",
-                r.gauge_shift_std, surveyed.units.c_str(), r.gauge_turn_std * 180.0 / M_PI,
-                r.gauge_scale_std > 0.0
-                    ? (", scale +- " + std::to_string(r.gauge_scale_std * 100.0).substr(0, 5) + " %").c_str()
-                    : "",
+                r.gauge_shift_std, surveyed.units.c_str(), r.gauge_turn_std * 180.0 / M_PI, scale,
                 r.gauge_corner_rms, surveyed.units.c_str());
   out << line;
   if (r.sensor_height_std > 0.0) {
