@@ -29,8 +29,8 @@ void AddRefineCommand(CLI::App& app) {
       "from the pose CSVs, ok rows only) and optionally the sensor height, against the azimuth and image "
       "radius of every junction tracked at its predicted place. Each surveyed coordinate has a Gaussian "
       "prior of sigma --map-sigma; the priors (and --pose-sigma's on the poses) fix the gauge, whose "
-      "uncertainty is printed. Measurements beyond --reject-sigmas are dropped. Prints each landmark's correction and its "
-      "standard deviation, flagged when beyond 3 sigma of the survey.");
+      "uncertainty is printed. Measurements beyond --reject-sigmas are dropped. Prints each landmark's "
+      "correction and its standard deviation, flagged when beyond 3 sigma of the survey.");
   cmd->add_option("--map", o->map, "Surveyed map YAML (never overwritten)")->required();
   cmd->add_option("--calib", o->calib, "Calibration YAML")->required();
   cmd->add_option("--poses", o->poses,

@@ -31,7 +31,8 @@ void RefineOptions::Check() const {
   if (passes < 1 || passes > 10) throw Error("passes: expected 1..10");
   if (!(search_px > 0.0) || !(refine_search_px > 0.0)) throw Error("search_px: expected positive widths");
   if (min_corners_per_frame < 2) throw Error("min_corners_per_frame: expected at least 2");
-  if (!(pose_sigma >= 0.0) || !std::isfinite(pose_sigma)) throw Error("pose_sigma: expected 0 (none) or a positive number");
+  if (!(pose_sigma >= 0.0) || !std::isfinite(pose_sigma))
+    throw Error("pose_sigma: expected 0 (none) or a positive number");
   if (!(loss_sigmas > 0.0)) throw Error("loss_sigmas: expected a positive number");
   if (!(reject_sigmas > loss_sigmas)) throw Error("reject_sigmas: expected more than loss_sigmas");
   if (!(min_edge_gap_px >= 0.0)) throw Error("min_edge_gap_px: expected 0 or more");
@@ -474,7 +475,8 @@ int DropCrowded(double gap_px, std::vector<PredictedLandmark>* predicted) {
       const auto [a0, a1] = span(pa);
       const auto [b0, b1] = span(pb);
       if (a1 + gap_px < b0 || b1 + gap_px < a0) continue;
-      const double across = std::abs(wrap_angle(pa.azimuth - pb.azimuth)) * std::min(pa.corner_radius, pb.corner_radius);
+      const double across =
+          std::abs(wrap_angle(pa.azimuth - pb.azimuth)) * std::min(pa.corner_radius, pb.corner_radius);
       if (across < gap_px) crowded[a] = crowded[b] = 1;
     }
   std::vector<PredictedLandmark> kept;
