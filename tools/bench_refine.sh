@@ -2,20 +2,24 @@
 # Map refinement end to end (panomap refine). For each room: render the
 # 300-frame map-error preset (map.yaml off by sigma 1 map unit per
 # coordinate, map_true.yaml the truth), localise it with panoloc on the
-# surveyed map, refine the map from that video and its poses, and print
-#  (a) the RMS corner error against the truth, surveyed -> refined;
+# surveyed map, refine the map from that video with poses from three
+# sources, and print for each
+#  (a) the RMS corner error against the truth, surveyed -> refined, raw and
+#      after the gauge (the shift, turn and scaling that no image sees and
+#      only the priors fix: what is left is the error of the room's shape),
+#      with the gauge floor the refinement itself reports;
 #  (b) panoloc's position RMS on a second sequence of the same room (another
-#      trajectory and seed, not used by the refinement) with the true, the
-#      surveyed and the refined map.
-# The surveyed map is tracked with panoloc's integrity bound off
+#      trajectory and seed, not used by the refinement) with the refined map,
+#      raw and after a rigid 2-D alignment of the trajectory to the ground
+#      truth (removing the gauge the map passes on to the poses).
+# Pose sources: "panoloc" (the surveyed map's poses; ROUNDS rounds, each
+# later one re-localising on the last refined map and refining the surveyed
+# map again), "gt" (panosim's gt.csv, default options: the survey still
+# fixes the gauge) and "gt+prior" (gt.csv with --pose-sigma POSE_SIGMA: the
+# poses fix the gauge). The true and the surveyed map give the reference
+# rows. The surveyed map is tracked with panoloc's integrity bound off
 # (--alert-fraction 0): the bound assumes an exact map, and with 1 unit of
-# survey error most frames would be held back. Rounds (ROUNDS, default 2):
-# each later round re-localises the first video on the last refined map
-# (default settings) and refines the surveyed map again from those poses.
-# Corner RMS is given raw and after the gauge (the shift, turn and scaling
-# that no image sees and the survey's priors fix: the refined map inherits
-# the survey's mean error there); the second sequence's RMS likewise carries
-# that offset (its std is the localisation noise about it).
+# survey error most frames would be held back.
 # Usage: tools/bench_refine.sh [BUILD_DIR] [WORK_DIR]
 set -euo pipefail
 build=${1:-build}
@@ -26,14 +30,34 @@ for tool in panosim panoloc panomap; do
   [ -x "$bin/$tool" ] || { echo "bench_refine.sh: $bin/$tool not found (build first)" >&2; exit 1; }
 done
 rounds=${ROUNDS:-2}
+pose_sigma=${POSE_SIGMA:-0.1}
 # room preset : second sequence (same room and sensor, another path)
 cases=${CASES:-"paper-real:fast-turns paper-synthetic:paper-synthetic"}
 
-# RMS of panoloc's positions against the ground truth (its own accuracy summary).
-rms_of() {
-  python3 -c 'import json,sys; a=json.load(open(sys.argv[1]))["inputs"][0]; print("%.3f/%.3f/%d" % (a["accuracy"]["rms"], a["accuracy"]["std"], a["accuracy"]["tracked"]) if "accuracy" in a else "nan/nan/0")' "$1"
+# panoloc's position RMS against the ground truth, raw and after the rigid
+# 2-D transform that best aligns its ok rows to the truth, and the rows ok.
+traj_rms() {  # poses.csv gt.csv
+  python3 - "$1" "$2" <<'PY'
+import csv, math, sys
+import numpy as np
+rows = {int(r["frame"]): r for r in csv.DictReader(open(sys.argv[1])) if r["status"] == "ok"}
+gt = {int(r["frame"]): r for r in csv.DictReader(open(sys.argv[2]))}
+f = sorted(k for k in rows if k in gt)
+if len(f) < 3:
+    print("nan nan %d" % len(f)); sys.exit()
+P = np.array([[float(rows[k]["x"]), float(rows[k]["y"])] for k in f])
+Q = np.array([[float(gt[k]["x"]), float(gt[k]["y"])] for k in f])
+raw = math.sqrt(((P - Q) ** 2).sum(1).mean())
+# Kabsch in 2-D (no scale).
+pc, qc = P.mean(0), Q.mean(0)
+u, _, vt = np.linalg.svd((P - pc).T @ (Q - qc))
+d = np.sign(np.linalg.det(u @ vt))
+R = (u @ np.diag([1, d]) @ vt).T
+aligned = math.sqrt((((P - pc) @ R.T + qc - Q) ** 2).sum(1).mean())
+print("%.3f %.3f %d" % (raw, aligned, len(f)))
+PY
 }
-# RMS distance between the rectangle corners of two maps.
+# RMS distance between the rectangle corners of two maps, raw and after the gauge.
 corner_rms() {
   python3 - "$1" "$2" <<'PY'
 import math, sys, yaml
@@ -61,16 +85,25 @@ print("%.3f %.3f" % (raw, aligned))
 PY
 }
 localise() {  # video map out.csv gt.csv [panoloc options]
-  local v=$1 m=$2 o=$3 g=$4
+  local v=$1 m=$2 o=$3
   shift 4
   # panoloc exits 1 when it tracks under 10 % of the frames: still a figure.
-  "$bin/panoloc" "$v" --calib "$(dirname "$v")/calib.yaml" --map "$m" -o "$o" --gt "$g" --force -q \
-    --summary-json "${o%.csv}.json" "$@" || true
-  rms_of "${o%.csv}.json"
+  "$bin/panoloc" "$v" --calib "$(dirname "$v")/calib.yaml" --map "$m" -o "$o" --force -q "$@" || true
+}
+# One table row: room, pose source, map, its refine log (or -), second sequence dir.
+row() {
+  local room=$1 source=$2 map=$3 log=$4 d=$5 s=$6 tag=$7
+  localise "$s/video.mp4" "$map" "$s/$tag.csv" "$s/gt.csv"
+  local c raw aligned n craw cgauge floor="-"
+  c=$(corner_rms "$map" "$d/map_true.yaml")
+  [ "$log" = - ] || floor=$(sed -n 's/.*corner RMS floor \([0-9.e+-]*\).*/\1/p' "$log")
+  read -r raw aligned n < <(traj_rms "$s/$tag.csv" "$s/gt.csv")
+  read -r craw cgauge <<< "$c"
+  echo "| $room | $source | $craw | $cgauge | $floor | $raw | $aligned | $n |"
 }
 
-echo "| room | units | frames ok (surveyed map) | corner RMS surveyed | refined | factor | after gauge: surveyed | refined | factor | 2nd seq RMS/std/ok: true map | surveyed map | refined map | RMS refined/true |"
-echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+echo "| room | poses (map) | corner RMS | after gauge | gauge floor | 2nd seq RMS | after rigid alignment | 2nd seq frames ok |"
+echo "|---|---|---|---|---|---|---|---|"
 for c in $cases; do
   room=${c%%:*}
   second=${c#*:}
@@ -79,31 +112,29 @@ for c in $cases; do
   s="$work/$second"
   [ -f "$d/video.mp4" ] || "$bin/panosim" sequence --preset "$p" -o "$d" --force --quiet
   [ -f "$s/video.mp4" ] || "$bin/panosim" sequence --preset "$second" -o "$s" --force --quiet
-  units=$(sed -n 's/^units: //p' "$d/map.yaml")
-  first=$(localise "$d/video.mp4" "$d/map.yaml" "$d/poses.csv" "$d/gt.csv" --alert-fraction 0)
-  map="$d/map.yaml"
+  localise "$d/video.mp4" "$d/map.yaml" "$d/poses.csv" "$d/gt.csv" --alert-fraction 0
+  refine() {  # name poses.csv [panomap options]
+    local name=$1 poses=$2
+    shift 2
+    "$bin/panomap" refine --map "$d/map.yaml" --calib "$d/calib.yaml" --poses "$poses" "$d/video.mp4" \
+      -o "$d/refined_$name.yaml" --report "$d/report_$name.csv" --map-sigma 1 --force "$@" > "$d/refine_$name.txt"
+  }
   poses="$d/poses.csv"
   for r in $(seq 1 "$rounds"); do
-    "$bin/panomap" refine --map "$d/map.yaml" --calib "$d/calib.yaml" --poses "$poses" "$d/video.mp4" \
-      -o "$d/refined$r.yaml" --report "$d/report$r.csv" --map-sigma 1 --force > "$d/refine$r.txt"
-    map="$d/refined$r.yaml"
+    refine "panoloc$r" "$poses"
     if [ "$r" -lt "$rounds" ]; then
-      localise "$d/video.mp4" "$map" "$d/poses$r.csv" "$d/gt.csv" > /dev/null
+      localise "$d/video.mp4" "$d/refined_panoloc$r.yaml" "$d/poses$r.csv" "$d/gt.csv"
       poses="$d/poses$r.csv"
     fi
   done
-  before=$(corner_rms "$d/map.yaml" "$d/map_true.yaml")
-  after=$(corner_rms "$map" "$d/map_true.yaml")
-  t=$(localise "$s/video.mp4" "$d/map_true.yaml" "$s/true.csv" "$s/gt.csv")
-  m=$(localise "$s/video.mp4" "$d/map.yaml" "$s/surveyed.csv" "$s/gt.csv")
-  f=$(localise "$s/video.mp4" "$map" "$s/refined.csv" "$s/gt.csv")
-  python3 - "$room" "$units" "$first" "$before" "$after" "$t" "$m" "$f" <<'PY'
-import sys
-room, units, first, before, after, t, m, f = sys.argv[1:9]
-(b, bg), (a, ag) = (map(float, x.split()) for x in (before, after))
-ok = first.split("/")[2]
-ratio = float(f.split("/")[0]) / float(t.split("/")[0])
-print(f"| {room} | {units} | {ok}/300 | {b:.3f} | {a:.3f} | {b / a:.1f}x | {bg:.3f} | {ag:.3f} | {bg / ag:.1f}x | "
-      f"{t} | {m} | {f} | {ratio:.1f} |")
-PY
+  refine gt "$d/gt.csv"
+  refine gt_prior "$d/gt.csv" --pose-sigma "$pose_sigma"
+  row "$room" "(true map)" "$d/map_true.yaml" - "$d" "$s" loc_true
+  row "$room" "(surveyed map)" "$d/map.yaml" - "$d" "$s" loc_surveyed
+  ok=$(python3 -c 'import csv,sys; print(sum(r["status"]=="ok" for r in csv.DictReader(open(sys.argv[1]))))' "$d/poses.csv")
+  for r in $(seq 1 "$rounds"); do
+    row "$room" "panoloc ($ok/300 ok), round $r" "$d/refined_panoloc$r.yaml" "$d/refine_panoloc$r.txt" "$d" "$s" "loc_panoloc$r"
+  done
+  row "$room" "gt" "$d/refined_gt.yaml" "$d/refine_gt.txt" "$d" "$s" loc_gt
+  row "$room" "gt, --pose-sigma $pose_sigma" "$d/refined_gt_prior.yaml" "$d/refine_gt_prior.txt" "$d" "$s" loc_gt_prior
 done

@@ -17,7 +17,7 @@ void AddRefineCommand(CLI::App& app) {
   struct Opts {
     std::string map, calib, out, report;
     std::vector<std::string> poses, videos;
-    double map_sigma = 1.0;
+    double map_sigma = 1.0, pose_sigma = 0.0, reject_sigmas = 4.0, edge_gap = 10.0;
     bool free_height = false, fix_first_pose = false, free_floor = false, force = false, quiet = false, verbose = false;
     int passes = 2, threads = 0;
   };
@@ -28,8 +28,9 @@ void AddRefineCommand(CLI::App& app) {
       "its two floor end points and two heights shared by its four corners), the robot poses (started "
       "from the pose CSVs, ok rows only) and optionally the sensor height, against the azimuth and image "
       "radius of every junction tracked at its predicted place. Each surveyed coordinate has a Gaussian "
-      "prior of sigma --map-sigma; the priors fix the gauge. Prints each landmark's correction and its "
-      "standard deviation, flagged when beyond 3 sigma of the survey.");
+      "prior of sigma --map-sigma; the priors (and --pose-sigma's on the poses) fix the gauge, whose "
+      "uncertainty is printed. Measurements beyond --reject-sigmas are dropped. Prints each landmark's "
+      "correction and its standard deviation, flagged when beyond 3 sigma of the survey.");
   cmd->add_option("--map", o->map, "Surveyed map YAML (never overwritten)")->required();
   cmd->add_option("--calib", o->calib, "Calibration YAML")->required();
   cmd->add_option("--poses", o->poses,
@@ -44,7 +45,24 @@ void AddRefineCommand(CLI::App& app) {
   cmd->add_option("--map-sigma", o->map_sigma, "Survey error: prior sigma of each coordinate (map units)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  cmd->add_flag("--free-height", o->free_height, "Also estimate the sensor height (no prior)");
+  cmd->add_option("--pose-sigma", o->pose_sigma,
+                  "Prior sigma of each pose's position at its CSV value (map units; 0: none). Give it when the "
+                  "poses come from an absolute reference (motion capture, ground truth): they then fix the "
+                  "shift and turn the images cannot see better than the survey. Poses localised on the "
+                  "surveyed map only repeat the survey's gauge: leave it at 0")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  cmd->add_option("--reject-sigmas", o->reject_sigmas,
+                  "Drop measurements beyond this many noise sigmas (a tracker locked onto another edge)")
+      ->check(CLI::Range(2.5, 100.0))
+      ->capture_default_str();
+  cmd->add_option("--edge-gap", o->edge_gap,
+                  "Skip corners whose vertical edge passes within this many pixels of another landmark's (0: "
+                  "measure all)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  cmd->add_flag("--free-height", o->free_height,
+                "Also estimate the sensor height (no prior; it then joins the gauge as a scaling)");
   cmd->add_flag("--free-floor", o->free_floor,
                 "Adjust z0 of rectangles surveyed standing on the floor too (held at 0 by default)");
   cmd->add_flag("--fix-first-pose", o->fix_first_pose, "Hold the first adjusted pose at its CSV value");
@@ -68,6 +86,9 @@ void AddRefineCommand(CLI::App& app) {
     for (size_t i = 0; i < o->videos.size(); ++i) videos.push_back({o->videos[i], o->poses[i], ReadPoseCsv(o->poses[i])});
     RefineOptions opt;
     opt.map_sigma = o->map_sigma;
+    opt.pose_sigma = o->pose_sigma;
+    opt.reject_sigmas = o->reject_sigmas;
+    opt.min_edge_gap_px = o->edge_gap;
     opt.free_height = o->free_height;
     opt.fix_first_pose = o->fix_first_pose;
     opt.hold_floor_contacts = !o->free_floor;

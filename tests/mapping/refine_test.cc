@@ -4,7 +4,9 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <algorithm>
 #include <fstream>
+#include <map>
 #include <random>
 #include <string>
 
@@ -50,33 +52,46 @@ TEST_CASE("the survey error is seeded and of the size asked", "[refine_perturb]"
   CHECK(CornerRms(m.truth, PerturbedMap(m.truth, 0.0, 3)) == 0.0);
 }
 
-// Exact projections of the true corners (with small Gaussian noise) from
-// every 5th pose: the adjustment takes the surveyed map close to the truth.
-TEST_CASE("projections of the true room recover the perturbed map", "[refine_projections]") {
-  PANO_SEEDED_RNG(11);
-  const MapCase m = MakeMapCase("paper-synthetic-map-error");
+// Exact projections of the true corners (with Gaussian noise: azimuth
+// 0.05 deg, radius 0.2 px) from every 5th true pose; the starting poses are
+// the truth moved by sigma 0.5 units.
+struct Projections {
+  std::vector<Pose2> truth, starts;
+  std::vector<CornerObservation> obs;
+};
+
+Projections Project(const MapCase& m, std::mt19937_64& rng) {
   const Sensor& sensor = m.c.calib.sensor;
   const RadiusTable table = RadiusTable::Build(sensor, RangesForMap(m.truth, sensor));
   const Scene scene = Scene::FromMap(m.truth, false);
   const std::vector<Landmark> landmarks = LandmarksFromMap(m.truth);
   std::normal_distribution<double> az_noise(0.0, 0.05 * M_PI / 180), r_noise(0.0, 0.2), pose_noise(0.0, 0.5);
-  std::vector<Pose2> starts;
-  std::vector<CornerObservation> obs;
+  Projections p;
   for (size_t i = 0; i < m.c.poses.size(); i += 5) {
     const Pose2& truth = m.c.poses[i];
-    for (const PredictedLandmark& p : PredictLandmarks(landmarks, m.truth, scene, sensor, table, truth, {})) {
-      const Eigen::Vector3d s = sensor_from_world(truth, m.truth.sensor_height, p.landmark->corner);
+    for (const PredictedLandmark& l : PredictLandmarks(landmarks, m.truth, scene, sensor, table, truth, {})) {
+      const Eigen::Vector3d s = sensor_from_world(truth, m.truth.sensor_height, l.landmark->corner);
       double radius = 0.0;
       REQUIRE(sensor.image_radius(std::hypot(s.x(), s.y()), s.z(), &radius));
-      obs.push_back({static_cast<int>(starts.size()), p.index,
-                     sensor.image_azimuth(std::atan2(s.y(), s.x())) + az_noise(rng), radius + r_noise(rng)});
+      p.obs.push_back({static_cast<int>(p.starts.size()), l.index,
+                       sensor.image_azimuth(std::atan2(s.y(), s.x())) + az_noise(rng), radius + r_noise(rng)});
     }
-    starts.push_back({truth.x + pose_noise(rng), truth.y + pose_noise(rng), truth.theta + 0.002});
+    p.truth.push_back(truth);
+    p.starts.push_back({truth.x + pose_noise(rng), truth.y + pose_noise(rng), truth.theta + 0.002});
   }
-  REQUIRE(obs.size() > 500);
+  return p;
+}
+
+// From exact projections the adjustment takes the surveyed map close to the truth.
+TEST_CASE("projections of the true room recover the perturbed map", "[refine_projections]") {
+  PANO_SEEDED_RNG(11);
+  const MapCase m = MakeMapCase("paper-synthetic-map-error");
+  const Projections p = Project(m, rng);
+  const std::vector<Pose2>& starts = p.starts;
+  REQUIRE(p.obs.size() > 500);
   RefineOptions opt;
   opt.num_threads = 1;
-  const RefineResult r = SolveMapRefinement(m.c.calib, m.surveyed, starts, obs, opt);
+  const RefineResult r = SolveMapRefinement(m.c.calib, m.surveyed, starts, p.obs, opt);
   const double before = CornerRms(m.truth, m.surveyed), after = CornerRms(m.truth, r.map);
   INFO("corner RMS " << before << " -> " << after);
   CHECK(before == Approx(1.888).margin(0.001));
@@ -95,6 +110,89 @@ TEST_CASE("projections of the true room recover the perturbed map", "[refine_pro
     CHECK(l.observations > 0);
     for (double s : l.std) CHECK((s >= 0.0 && s < opt.map_sigma));  // 0: z0 held on the floor
   }
+  // Gaussian noise alone: next to nothing beyond 4 sigmas.
+  CHECK(r.rejected <= 2);
+  // The gauge the survey's priors leave (the floor of the raw error): from
+  // the map's geometry alone, the same for every run of this map.
+  INFO("gauge: shift " << r.gauge_shift_std << " turn " << r.gauge_turn_std << " floor " << r.gauge_corner_rms);
+  CHECK(r.gauge_shift_std == Approx(0.2132).epsilon(0.01));
+  CHECK(r.gauge_turn_std * 180 / M_PI == Approx(0.1411).epsilon(0.01));
+  CHECK(r.gauge_scale_std == 0.0);  // the height is held: no scaling
+  CHECK(r.gauge_corner_rms == Approx(0.3693).epsilon(0.01));
+  // ... and printed, so that users know it.
+  const std::string table = RefineReportTable(r, m.surveyed, opt.map_sigma);
+  INFO(table);
+  CHECK(table.find("gauge (fixed by the priors alone): shift +- 0.213 units, turn +- 0.141 deg -> corner RMS "
+                   "floor 0.369 units") != std::string::npos);
+}
+
+// Poses from an absolute reference (here the truth) with a prior fix the
+// gauge: the raw corner error falls to the room's shape error, and the
+// reported floor with it.
+TEST_CASE("pose priors from a reference fix the gauge", "[refine_pose_prior]") {
+  PANO_SEEDED_RNG(11);
+  const MapCase m = MakeMapCase("paper-synthetic-map-error");
+  const Projections p = Project(m, rng);
+  RefineOptions opt;
+  opt.num_threads = 1;
+  opt.pose_sigma = 0.05;
+  const RefineResult r = SolveMapRefinement(m.c.calib, m.surveyed, p.truth, p.obs, opt, &p.starts);
+  const double after = CornerRms(m.truth, r.map), shape = CornerRmsAfterGauge(r.map, m.truth);
+  INFO("corner RMS " << after << ", after the gauge " << shape << ", floor " << r.gauge_corner_rms);
+  CHECK(after == Approx(0.0731).margin(0.005));  // from 0.640 with the survey's gauge
+  CHECK(shape < 0.09);
+  CHECK(r.gauge_corner_rms == Approx(0.0176).epsilon(0.01));  // from 0.369
+  // The priors sit at the given poses, not at the starts.
+  double worst = 0.0;
+  for (size_t f = 0; f < p.truth.size(); ++f)
+    worst = std::max(worst, std::hypot(r.poses[f].x - p.truth[f].x, r.poses[f].y - p.truth[f].y));
+  CHECK(worst < 0.1);
+  // Poses and starts must match one for one.
+  std::vector<Pose2> fewer = p.starts;
+  fewer.pop_back();
+  test::ExpectError([&] { SolveMapRefinement(m.c.calib, m.surveyed, p.truth, p.obs, opt, &fewer); },
+                    "SolveMapRefinement", {"differ in size"});
+  opt.pose_sigma = -1.0;
+  test::ExpectError([&] { opt.Check(); }, "pose_sigma", {});
+}
+
+// A tracker that locked onto a neighbouring edge for a run of frames: one
+// corner's azimuths all off by 0.5 deg (10 noise sigmas) on a third of its
+// views. The Huber loss alone lets the run pull the corner; the outliers
+// are dropped and the corner comes back.
+TEST_CASE("a run of biased measurements is dropped", "[refine_outliers]") {
+  PANO_SEEDED_RNG(11);
+  const MapCase m = MakeMapCase("paper-synthetic-map-error");
+  Projections p = Project(m, rng);
+  std::map<int, int> views;
+  for (const CornerObservation& o : p.obs) ++views[o.landmark];
+  const int target = std::max_element(views.begin(), views.end(), [](auto& a, auto& b) {
+                       return a.second < b.second;
+                     })->first;  // the corner seen most
+  std::vector<size_t> run;  // every 3rd view of it
+  for (size_t i = 0, seen = 0; i < p.obs.size(); ++i)
+    if (p.obs[i].landmark == target && seen++ % 3 == 0) run.push_back(i);
+  const int biased = static_cast<int>(run.size());
+  REQUIRE(biased > 10);
+  RefineOptions opt;
+  opt.num_threads = 1;
+  const RefineResult clean = SolveMapRefinement(m.c.calib, m.surveyed, p.starts, p.obs, opt);
+  for (size_t i : run) p.obs[i].azimuth += 0.5 * M_PI / 180;
+  const RefineResult r = SolveMapRefinement(m.c.calib, m.surveyed, p.starts, p.obs, opt);
+  opt.reject_sigmas = 1e6;  // keep everything: the Huber loss alone
+  const RefineResult kept = SolveMapRefinement(m.c.calib, m.surveyed, p.starts, p.obs, opt);
+  // The corner against where the clean measurements put it.
+  const auto corner = [&](const RefineResult& x) {
+    return LandmarksFromMap(x.map)[static_cast<size_t>(target)].corner;
+  };
+  const double moved = (corner(r) - corner(clean)).norm(), pulled = (corner(kept) - corner(clean)).norm();
+  INFO("landmark " << target << ": biased " << biased << "; rejected " << r.rejected << " (clean "
+                   << clean.rejected << "); moved " << moved << " (kept: " << pulled << ")");
+  CHECK(r.rejected >= biased);
+  CHECK(r.rejected <= biased + clean.rejected + 2);
+  CHECK(kept.rejected == 0);
+  CHECK(moved < 0.008);  // measured 0.0045
+  CHECK(pulled == Approx(0.0265).margin(0.003));  // 6x as far
 }
 
 // Renders every 3rd frame of a map-error case as PNG frames (no video codec needed).
@@ -131,11 +229,20 @@ TEST_CASE("a rendered sequence recovers the perturbed map", "[refine_rendered]")
   const double shape = CornerRmsAfterGauge(r.map, truth);
   INFO("corner RMS " << before << " -> " << after << ", after the gauge " << shape);
   CHECK(r.frames_used == 40);
-  // Measured 1.888 -> 0.641, as from exact projections: what is left is the
-  // gauge the survey's priors fix. The room's shape: 1.766 -> 0.077.
+  // Measured 1.888 -> 0.644, as from exact projections: what is left is the
+  // gauge the survey's priors fix (reported floor 0.369). The room's shape:
+  // 1.766 -> 0.104 on these 40 frames (0.084 on all 300 of the sequence).
   CHECK(before == Approx(1.888).margin(0.001));
-  CHECK(after == Approx(0.641).margin(0.02));
-  CHECK(shape < 0.09);
+  CHECK(after == Approx(0.644).margin(0.02));
+  CHECK(shape == Approx(0.104).margin(0.012));
+  CHECK(r.gauge_corner_rms == Approx(0.3693).epsilon(0.01));
+  // Views of a corner next to another landmark's edge are skipped, and the
+  // measurements beyond 4 noise sigmas dropped: a few percent of each.
+  INFO("crowded " << r.crowded << ", rejected " << r.rejected << " of " << 2 * r.measurements);
+  CHECK(r.crowded > 0);
+  CHECK(r.crowded < r.measurements / 4);
+  CHECK(r.rejected > 0);
+  CHECK(r.rejected < r.measurements / 5);
 }
 
 TEST_CASE("bad inputs fail with one line naming the file", "[refine_bad_input]") {

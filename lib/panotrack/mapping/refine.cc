@@ -31,7 +31,11 @@ void RefineOptions::Check() const {
   if (passes < 1 || passes > 10) throw Error("passes: expected 1..10");
   if (!(search_px > 0.0) || !(refine_search_px > 0.0)) throw Error("search_px: expected positive widths");
   if (min_corners_per_frame < 2) throw Error("min_corners_per_frame: expected at least 2");
+  if (!(pose_sigma >= 0.0) || !std::isfinite(pose_sigma))
+    throw Error("pose_sigma: expected 0 (none) or a positive number");
   if (!(loss_sigmas > 0.0)) throw Error("loss_sigmas: expected a positive number");
+  if (!(reject_sigmas > loss_sigmas)) throw Error("reject_sigmas: expected more than loss_sigmas");
+  if (!(min_edge_gap_px >= 0.0)) throw Error("min_edge_gap_px: expected 0 or more");
   if (!(initial_azimuth_sigma > 0.0) || !(initial_radius_sigma > 0.0))
     throw Error("initial sigmas: expected positive numbers");
   if (max_iterations < 1) throw Error("max_iterations: expected at least 1");
@@ -126,6 +130,17 @@ struct PriorCost {
   }
 };
 
+// An absolute reference: the pose's position at its CSV value.
+struct PosePriorCost {
+  double x = 0.0, y = 0.0, sigma = 1.0;
+  template <typename T>
+  bool operator()(const T* pose, T* residual) const {
+    residual[0] = (pose[0] - T(x)) / T(sigma);
+    residual[1] = (pose[1] - T(y)) / T(sigma);
+    return true;
+  }
+};
+
 // 1.4826 x the median absolute value: the noise sigma of residuals with outliers.
 double RobustSigma(std::vector<double> v, double fallback) {
   if (v.size() < 8) return fallback;
@@ -164,8 +179,74 @@ void RawResiduals(const SensorParams<double>& sensor, const std::vector<Landmark
     double a, r;
     PredictMeasurement(sensor, pose, X, u.height, false, &a);
     az->push_back(wrap_angle(a - o.azimuth));
-    if (PredictMeasurement(sensor, pose, X, u.height, true, &r)) rad->push_back(r - o.radius);
+    rad->push_back(PredictMeasurement(sensor, pose, X, u.height, true, &r) ? r - o.radius : std::nan(""));
   }
+}
+
+std::vector<double> Finite(const std::vector<double>& v, const std::vector<char>* keep = nullptr) {
+  std::vector<double> out;
+  for (size_t i = 0; i < v.size(); ++i)
+    if (std::isfinite(v[i]) && (!keep || (*keep)[i])) out.push_back(v[i]);
+  return out;
+}
+
+// The gauge's covariance from the priors alone: the survey's coordinates
+// (sigma map_sigma each) and the poses' positions (sigma pose_sigma). The
+// gauge moves a point p (about the corners' centroid c, height above the
+// sensor dz) by (tx - w (y - cy) + s (x - cx), ty + w (x - cx) + s (y - cy),
+// s dz): shift, turn and, with a free height, scale.
+void GaugeUncertainty(const Map& surveyed, const std::vector<std::array<double, 3>>& prior_poses,
+                      const RefineOptions& opt, RefineResult* res) {
+  const int n = opt.free_height ? 4 : 3;
+  std::vector<Eigen::Vector3d> corners;
+  for (const MapRectangle& r : surveyed.rectangles)
+    for (int c = 0; c < 4; ++c)
+      corners.push_back({(c / 2 ? r.to : r.from).x(), (c / 2 ? r.to : r.from).y(),
+                         (c % 2 ? r.z1 : r.z0) - surveyed.sensor_height});
+  if (corners.empty()) return;
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  for (const Eigen::Vector3d& p : corners) centre += p.head<2>();
+  centre /= static_cast<double>(corners.size());
+  auto rows = [&](double x, double y, double dz, Eigen::MatrixXd* J) {
+    J->setZero(3, n);
+    (*J)(0, 0) = 1.0;
+    (*J)(0, 2) = -(y - centre.y());
+    (*J)(1, 1) = 1.0;
+    (*J)(1, 2) = x - centre.x();
+    if (n == 4) {
+      (*J)(0, 3) = x - centre.x();
+      (*J)(1, 3) = y - centre.y();
+      (*J)(2, 3) = dz;
+    }
+  };
+  Eigen::MatrixXd info = Eigen::MatrixXd::Zero(n, n), J;
+  const double wm = 1.0 / (opt.map_sigma * opt.map_sigma);
+  for (const MapRectangle& r : surveyed.rectangles) {
+    for (const Eigen::Vector2d& e : {r.from, r.to}) {
+      rows(e.x(), e.y(), 0.0, &J);
+      info += wm * J.topRows(2).transpose() * J.topRows(2);
+    }
+    for (int level = 0; level < 2; ++level) {
+      if (level == 0 && opt.hold_floor_contacts && r.z0 == 0.0) continue;  // held, no prior
+      rows(0.0, 0.0, (level ? r.z1 : r.z0) - surveyed.sensor_height, &J);
+      info += wm * J.row(2).transpose() * J.row(2);
+    }
+  }
+  if (opt.pose_sigma > 0.0)
+    for (const auto& p : prior_poses) {
+      rows(p[0], p[1], 0.0, &J);
+      info += J.topRows(2).transpose() * J.topRows(2) / (opt.pose_sigma * opt.pose_sigma);
+    }
+  const Eigen::MatrixXd cov = info.inverse();
+  res->gauge_shift_std = std::sqrt(0.5 * (cov(0, 0) + cov(1, 1)));
+  res->gauge_turn_std = std::sqrt(cov(2, 2));
+  res->gauge_scale_std = n == 4 ? std::sqrt(cov(3, 3)) : 0.0;
+  double sum = 0.0;
+  for (const Eigen::Vector3d& p : corners) {
+    rows(p.x(), p.y(), p.z(), &J);
+    sum += (J * cov * J.transpose()).trace();
+  }
+  res->gauge_corner_rms = std::sqrt(sum / static_cast<double>(corners.size()));
 }
 
 double Rms(const std::vector<double>& v) {
@@ -177,9 +258,11 @@ double Rms(const std::vector<double>& v) {
 }  // namespace
 
 RefineResult SolveMapRefinement(const Calibration& calib, const Map& surveyed, const std::vector<Pose2>& poses,
-                                const std::vector<CornerObservation>& observations, const RefineOptions& opt) {
+                                const std::vector<CornerObservation>& observations, const RefineOptions& opt,
+                                const std::vector<Pose2>* start) {
   opt.Check();
   if (observations.empty()) throw Error("no corner observations to refine the map from");
+  if (start && start->size() != poses.size()) throw Error("SolveMapRefinement: start and poses differ in size");
   const std::vector<Landmark> landmarks = LandmarksFromMap(surveyed);
   const SensorParams<double>& sensor = calib.sensor.params;
   const int n_rect = static_cast<int>(surveyed.rectangles.size());
@@ -191,30 +274,41 @@ RefineResult SolveMapRefinement(const Calibration& calib, const Map& surveyed, c
 
   Unknowns u;
   for (const MapRectangle& r : surveyed.rectangles) u.rects.push_back(RectangleParams(r));
-  for (const Pose2& p : poses) u.poses.push_back({p.x, p.y, p.theta});
+  for (const Pose2& p : start ? *start : poses) u.poses.push_back({p.x, p.y, p.theta});
   u.height = surveyed.sensor_height;
 
   RefineResult res;
   std::vector<double> az, rad;
   RawResiduals(sensor, landmarks, u, observations, &az, &rad);
-  res.rms_azimuth_before = Rms(az);
+  res.rms_azimuth_before = Rms(Finite(az));
   double sigma_az = opt.initial_azimuth_sigma, sigma_r = opt.initial_radius_sigma;
 
-  std::vector<int> frame_count(poses.size(), 0);
-  for (const CornerObservation& o : observations) ++frame_count[static_cast<size_t>(o.frame)];
-  int first_frame = -1;
-  for (size_t f = 0; f < frame_count.size() && first_frame < 0; ++f)
-    if (frame_count[f] > 0) first_frame = static_cast<int>(f);
+  // Which measurements enter the solve: all at first, then those within
+  // reject_sigmas of the last solution.
+  const size_t n_obs = observations.size();
+  std::vector<char> use_az(n_obs, 1), use_r(n_obs, 1);
+  std::vector<char> frame_used(poses.size(), 0);
+  std::vector<std::array<double, 3>> prior_poses;
 
   std::unique_ptr<ceres::Problem> problem;
-  // Two solves: the second with the noise sigmas measured on the first's
-  // residuals, so that the priors and the measurements are weighed right.
-  for (int round = 0; round < 2; ++round) {
+  // The first solve with the initial noise sigmas and every measurement;
+  // later ones with the sigmas measured on the last residuals and without
+  // the outliers, until the set of measurements no longer changes.
+  const int max_rounds = 6;
+  for (int round = 0; round < max_rounds; ++round) {
+    // A frame with too few azimuths left is dropped altogether (its pose
+    // would be free).
+    std::vector<int> azimuths(poses.size(), 0);
+    for (size_t i = 0; i < n_obs; ++i) azimuths[static_cast<size_t>(observations[i].frame)] += use_az[i];
+    for (size_t f = 0; f < poses.size(); ++f) frame_used[f] = azimuths[f] >= 3;
     ceres::Problem::Options po;
     problem = std::make_unique<ceres::Problem>(po);
-    for (const CornerObservation& o : observations) {
+    for (size_t i = 0; i < n_obs; ++i) {
+      const CornerObservation& o = observations[i];
+      if (!frame_used[static_cast<size_t>(o.frame)]) continue;
       double* pose = u.poses[static_cast<size_t>(o.frame)].data();
       for (bool radius : {false, true}) {
+        if (!(radius ? use_r[i] : use_az[i])) continue;
         const double sigma = radius ? sigma_r : sigma_az;
         const double measured = radius ? o.radius : o.azimuth;
         ceres::LossFunction* loss = new ceres::HuberLoss(opt.loss_sigmas);
@@ -232,6 +326,15 @@ RefineResult SolveMapRefinement(const Calibration& calib, const Map& surveyed, c
         }
       }
     }
+    prior_poses.clear();
+    for (size_t f = 0; f < poses.size(); ++f)
+      if (frame_used[f]) {
+        prior_poses.push_back({poses[f].x, poses[f].y, poses[f].theta});
+        if (opt.pose_sigma > 0.0)
+          problem->AddResidualBlock(new ceres::AutoDiffCostFunction<PosePriorCost, 2, 3>(
+                                        new PosePriorCost{poses[f].x, poses[f].y, opt.pose_sigma}),
+                                    nullptr, u.poses[f].data());
+      }
     for (int k = 0; k < n_rect; ++k) {
       auto* prior = new PriorCost{RectangleParams(surveyed.rectangles[static_cast<size_t>(k)]), opt.map_sigma};
       problem->AddResidualBlock(new ceres::AutoDiffCostFunction<PriorCost, kRectangleParams, kRectangleParams>(prior),
@@ -242,9 +345,13 @@ RefineResult SolveMapRefinement(const Calibration& calib, const Map& surveyed, c
         if (surveyed.rectangles[static_cast<size_t>(k)].z0 == 0.0)
           problem->SetManifold(u.rects[static_cast<size_t>(k)].data(),
                                new ceres::SubsetManifold(kRectangleParams, {4}));
-    if (!opt.free_height) problem->SetParameterBlockConstant(&u.height);
-    if (opt.fix_first_pose && first_frame >= 0)
-      problem->SetParameterBlockConstant(u.poses[static_cast<size_t>(first_frame)].data());
+    if (problem->HasParameterBlock(&u.height) && !opt.free_height) problem->SetParameterBlockConstant(&u.height);
+    if (opt.fix_first_pose)
+      for (size_t f = 0; f < poses.size(); ++f)
+        if (frame_used[f]) {
+          problem->SetParameterBlockConstant(u.poses[f].data());
+          break;
+        }
     ceres::Solver::Options so;
     so.linear_solver_type = ceres::SPARSE_SCHUR;
     so.max_num_iterations = opt.max_iterations;
@@ -256,13 +363,29 @@ RefineResult SolveMapRefinement(const Calibration& calib, const Map& surveyed, c
     ceres::Solve(so, problem.get(), &summary);
     if (!summary.IsSolutionUsable()) throw Error("map refinement failed: " + summary.message);
     RawResiduals(sensor, landmarks, u, observations, &az, &rad);
-    sigma_az = RobustSigma(az, sigma_az);
-    sigma_r = RobustSigma(rad, sigma_r);
+    // Noise sigmas from the measurements kept (robust scale).
+    sigma_az = RobustSigma(Finite(az, &use_az), sigma_az);
+    sigma_r = RobustSigma(Finite(rad, &use_r), sigma_r);
+    bool changed = false;
+    for (size_t i = 0; i < n_obs; ++i) {
+      const char keep_az = std::abs(az[i]) <= opt.reject_sigmas * sigma_az;
+      const char keep_r = std::isfinite(rad[i]) && std::abs(rad[i]) <= opt.reject_sigmas * sigma_r;
+      changed = changed || keep_az != use_az[i] || keep_r != use_r[i];
+      use_az[i] = keep_az;
+      use_r[i] = keep_r;
+    }
+    // Round 0 only measured the noise: solve at least once with it.
+    if (round > 0 && !changed) break;
   }
   res.azimuth_sigma = sigma_az;
   res.radius_sigma = sigma_r;
-  res.rms_azimuth_after = Rms(az);
-  res.measurements = static_cast<int>(observations.size());
+  res.rms_azimuth_after = Rms(Finite(az, &use_az));
+  for (size_t i = 0; i < n_obs; ++i) {
+    if (!frame_used[static_cast<size_t>(observations[i].frame)]) continue;
+    res.measurements += use_az[i] || use_r[i];
+    res.rejected += !use_az[i] + !use_r[i];
+  }
+  GaugeUncertainty(surveyed, prior_poses, opt, &res);
 
   // Standard deviations of the rectangles (and the height) from the last solve.
   std::vector<std::array<double, kRectangleParams>> stds(static_cast<size_t>(n_rect));
@@ -294,8 +417,11 @@ RefineResult SolveMapRefinement(const Calibration& calib, const Map& surveyed, c
   res.map = surveyed;
   res.map.sensor_height = u.height;
   std::vector<int> per_rect(static_cast<size_t>(n_rect), 0);
-  for (const CornerObservation& o : observations)
-    if (o.landmark < 4 * n_rect) ++per_rect[static_cast<size_t>(o.landmark / 4)];
+  for (size_t i = 0; i < n_obs; ++i) {
+    const CornerObservation& o = observations[i];
+    if (o.landmark < 4 * n_rect && frame_used[static_cast<size_t>(o.frame)] && (use_az[i] || use_r[i]))
+      ++per_rect[static_cast<size_t>(o.landmark / 4)];
+  }
   for (int k = 0; k < n_rect; ++k) {
     const size_t kk = static_cast<size_t>(k);
     MapRectangle& r = res.map.rectangles[kk];
@@ -319,7 +445,7 @@ RefineResult SolveMapRefinement(const Calibration& calib, const Map& surveyed, c
     res.landmarks.push_back(lc);
   }
   for (const auto& p : u.poses) res.poses.push_back({p[0], p[1], wrap_angle(p[2])});
-  for (int c : frame_count) res.frames_used += c > 0;
+  for (char used : frame_used) res.frames_used += used;
   return res;
 }
 
@@ -330,6 +456,35 @@ void CheckFrameCount(const RefineVideo& v, int frames) {
   if (static_cast<int>(v.poses.size()) != frames)
     throw Error(v.poses_path + ": " + std::to_string(v.poses.size()) + " pose rows for the " +
                 std::to_string(frames) + " frames of " + v.video + " (expected one row per frame)");
+}
+
+// Drops the predicted corners whose vertical edge runs within gap_px
+// (across it, where their radii overlap) of another landmark's vertical
+// edge: the tracker may measure the other. Corners on one vertical edge (a
+// rectangle's top and bottom) do not crowd each other. Returns how many.
+int DropCrowded(double gap_px, std::vector<PredictedLandmark>* predicted) {
+  if (gap_px <= 0.0) return 0;
+  const auto span = [](const PredictedLandmark& p) {
+    return std::make_pair(std::min(p.corner_radius, p.v_radius), std::max(p.corner_radius, p.v_radius));
+  };
+  std::vector<char> crowded(predicted->size(), 0);
+  for (size_t a = 0; a < predicted->size(); ++a)
+    for (size_t b = a + 1; b < predicted->size(); ++b) {
+      const PredictedLandmark &pa = (*predicted)[a], &pb = (*predicted)[b];
+      if ((pa.landmark->corner.head<2>() - pb.landmark->corner.head<2>()).norm() < 1e-9) continue;
+      const auto [a0, a1] = span(pa);
+      const auto [b0, b1] = span(pb);
+      if (a1 + gap_px < b0 || b1 + gap_px < a0) continue;
+      const double across =
+          std::abs(wrap_angle(pa.azimuth - pb.azimuth)) * std::min(pa.corner_radius, pb.corner_radius);
+      if (across < gap_px) crowded[a] = crowded[b] = 1;
+    }
+  std::vector<PredictedLandmark> kept;
+  for (size_t k = 0; k < predicted->size(); ++k)
+    if (!crowded[k]) kept.push_back((*predicted)[k]);
+  const int dropped = static_cast<int>(predicted->size() - kept.size());
+  *predicted = std::move(kept);
+  return dropped;
 }
 
 }  // namespace
@@ -369,7 +524,8 @@ RefineResult RefineMap(const Calibration& calib, const Map& surveyed, const std:
     const double search = pass == 0 ? opt.search_px : opt.refine_search_px;
     const int threads = ThreadCount(opt.num_threads);
 
-    std::vector<Pose2> poses;
+    std::vector<Pose2> poses, starts;  // the CSV's and where this round starts them
+    int crowded = 0;
     std::vector<std::pair<size_t, size_t>> frame_of;  // adjustment frame -> (video, frame)
     std::vector<CornerObservation> obs;
     for (size_t v = 0; v < videos.size(); ++v) {
@@ -392,6 +548,7 @@ RefineResult RefineMap(const Calibration& calib, const Map& surveyed, const std:
             Pose2{pose.x, pose.y, pose.theta - opt.tracking.unknown_turn_per_frame});
         SetImageMotion(predicting, calib.sensor, *table, before, opt.tracking.exposure_fraction, &predicted);
         previous = pose;
+        crowded += DropCrowded(opt.min_edge_gap_px, &predicted);
         if (predicted.empty()) continue;
         tracker->BeginFrame(grey);
         std::vector<LandmarkMeasurement> meas(predicted.size());
@@ -405,7 +562,8 @@ RefineResult RefineMap(const Calibration& calib, const Map& surveyed, const std:
             found.push_back({static_cast<int>(poses.size()), predicted[k].index, meas[k].azimuth, meas[k].radius});
         if (static_cast<int>(found.size()) < opt.min_corners_per_frame) continue;
         obs.insert(obs.end(), found.begin(), found.end());
-        poses.push_back(pose);
+        poses.push_back(row.pose);
+        starts.push_back(pose);
         frame_of.push_back({v, static_cast<size_t>(i)});
       }
       CheckFrameCount(rv, i);
@@ -416,7 +574,8 @@ RefineResult RefineMap(const Calibration& calib, const Map& surveyed, const std:
       throw Error("no landmark of the map was found in " + std::string(videos.size() > 1 ? "any of " : "") + names +
                   " (the map, the calibration or the poses do not fit the video)");
     }
-    res = SolveMapRefinement(calib, surveyed, poses, obs, opt);
+    res = SolveMapRefinement(calib, surveyed, poses, obs, opt, &starts);
+    res.crowded = crowded;
     for (size_t f = 0; f < frame_of.size(); ++f) solved[frame_of[f].first][frame_of[f].second] = res.poses[f];
     current = res.map;
   }
@@ -448,6 +607,19 @@ std::string RefineReportTable(const RefineResult& r, const Map& surveyed, double
                 "landmarks beyond 3 sigma (%.3g %s) of the survey\n",
                 r.frames_used, r.measurements, r.azimuth_sigma * 180.0 / M_PI, r.radius_sigma, flagged,
                 r.landmarks.size(), 3.0 * map_sigma, surveyed.units.c_str());
+  out << line;
+  std::snprintf(line, sizeof line,
+                "%d measurements dropped as outliers (beyond the noise), %d corner views skipped (another edge "
+                "too near)\n",
+                r.rejected, r.crowded);
+  out << line;
+  // The floor: what the priors alone fix (the images cannot see it).
+  char scale[64] = "";
+  if (r.gauge_scale_std > 0.0) std::snprintf(scale, sizeof scale, ", scale +- %.3g %%", 100.0 * r.gauge_scale_std);
+  std::snprintf(line, sizeof line,
+                "gauge (fixed by the priors alone): shift +- %.3g %s, turn +- %.3g deg%s -> corner RMS floor %.3g %s\n",
+                r.gauge_shift_std, surveyed.units.c_str(), r.gauge_turn_std * 180.0 / M_PI, scale,
+                r.gauge_corner_rms, surveyed.units.c_str());
   out << line;
   if (r.sensor_height_std > 0.0) {
     std::snprintf(line, sizeof line, "sensor height %.3f +- %.3f %s (surveyed %.3f)\n", r.map.sensor_height,

@@ -10,6 +10,8 @@
 // Every parameter has a Gaussian prior at its surveyed value (sigma
 // map_sigma): the priors fix the gauge (the measurements are blind to a
 // rigid motion of the whole room and trajectory), so no pose need be held.
+// Optional priors on the poses (pose_sigma) fix it from an absolute
+// reference instead.
 #pragma once
 
 #include <array>
@@ -26,7 +28,13 @@ namespace pano {
 
 struct RefineOptions {
   double map_sigma = 1.0;     // prior sigma of each surveyed coordinate (map units)
-  bool free_height = false;   // estimate the sensor height too (no prior)
+  // Prior sigma of each pose's position at its CSV value (map units); 0: no
+  // pose prior. Poses from an absolute reference (motion capture, ground
+  // truth) fix the gauge far better than the survey; poses localised on the
+  // surveyed map only repeat the survey's gauge, with the map's errors in
+  // them, so the default leaves them free.
+  double pose_sigma = 0.0;
+  bool free_height = false;   // estimate the sensor height too (no prior; it is measured)
   bool fix_first_pose = false;  // hold the first used pose (the priors fix the gauge anyway)
   // Rectangles surveyed standing on the floor (z0 = 0) keep z0 = 0: the
   // contact is known exactly, and with the sensor height it fixes the one
@@ -44,6 +52,15 @@ struct RefineOptions {
   // Huber loss on each measurement, in units of its noise sigma; the noise
   // sigmas are estimated from the residuals (robust scale) between solves.
   double loss_sigmas = 2.0;
+  // Measurements whose residual exceeds this many noise sigmas are dropped
+  // and the adjustment solved again (until none changes): a tracker that
+  // locked onto a neighbouring edge for a few frames is biased, not noisy,
+  // and even a Huber loss lets such runs pull a corner.
+  double reject_sigmas = 4.0;
+  // Corners whose vertical edge passes within this many pixels (across the
+  // edge, where the edges overlap in radius) of another landmark's edge are
+  // not measured: the tracker cannot tell the two apart.
+  double min_edge_gap_px = 10.0;
   double initial_azimuth_sigma = 0.1 * M_PI / 180;  // radians
   double initial_radius_sigma = 0.5;                // px
   int max_iterations = 100;
@@ -83,19 +100,30 @@ struct RefineResult {
   std::vector<Pose2> poses;        // per adjusted frame
   int frames_used = 0;
   int measurements = 0;            // corner observations in the last solve
+  int rejected = 0;                // azimuth or radius measurements dropped as outliers
+  int crowded = 0;                 // corner predictions not measured (another edge too near)
+  // The gauge left to the priors (the transform the images cannot see):
+  // its standard deviations, from the survey's priors and the pose priors
+  // alone. shift: of the corners' centroid, each axis (map units); turn:
+  // about it (radians); scale: about the sensor height (free height only).
+  // gauge_corner_rms is the RMS corner error it alone gives: the floor of
+  // the refined map's error against the truth.
+  double gauge_shift_std = 0.0, gauge_turn_std = 0.0, gauge_scale_std = 0.0;
+  double gauge_corner_rms = 0.0;
   double azimuth_sigma = 0.0;      // robust noise estimates of the last solve (radians, px)
   double radius_sigma = 0.0;
   double rms_azimuth_before = 0.0, rms_azimuth_after = 0.0;  // radians, first and last solve
   bool covariance_ok = false;
 };
 
-// The adjustment itself from corner observations: `poses` are the starting
-// poses of the frames the observations index. Throws pano::Error when there
-// are no observations.
+// The adjustment itself from corner observations: `poses` are the poses of
+// the frames the observations index (the CSV's: the pose priors sit there),
+// `start` where the adjustment starts them (null: at `poses`). Throws
+// pano::Error when there are no observations.
 RefineResult SolveMapRefinement(const Calibration& calib, const Map& surveyed,
                                 const std::vector<Pose2>& poses,
                                 const std::vector<CornerObservation>& observations,
-                                const RefineOptions& options);
+                                const RefineOptions& options, const std::vector<Pose2>* start = nullptr);
 
 // One video and its trajectory (one pose CSV row per video frame; rows
 // whose status is not ok are skipped).
