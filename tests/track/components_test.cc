@@ -2,6 +2,7 @@
 // the visual compass, relocalisation, and the accuracy summary.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <set>
@@ -128,6 +129,32 @@ TEST_CASE("visual compass: the rotation between two frames at one position", "[c
     CHECK(std::abs(turn * 180 / M_PI - turn_deg) < 0.2);
     CHECK(score > 0.96);
   }
+}
+
+// Decoded video frames share the decoder's buffer, whose rows are padded:
+// a frame with padded rows reads as its continuous copy does.
+cv::Mat WithPaddedRows(const cv::Mat& frame, int padding) {
+  cv::Mat wide(frame.rows, frame.cols + padding, CV_8UC1, cv::Scalar(255));
+  frame.copyTo(wide(cv::Rect(0, 0, frame.cols, frame.rows)));
+  return wide(cv::Rect(0, 0, frame.cols, frame.rows));
+}
+
+TEST_CASE("visual compass and relocalisation read frames with padded rows", "[compass]") {
+  const SequenceCase c = MakePreset("paper-synthetic");
+  const Scene scene = Scene::FromMap(c.map, true);
+  const Renderer renderer(c.calib.sensor, scene, c.map.sensor_height, c.options);
+  const cv::Mat frame = renderer.Render(c.poses[10]);
+  REQUIRE(frame.isContinuous());
+  const cv::Mat padded = WithPaddedRows(frame, 44);
+  REQUIRE_FALSE(padded.isContinuous());
+  const AzimuthCompass compass(c.calib.sensor);
+  CHECK(compass.Signature(padded) == compass.Signature(frame));
+  const RadiusTable table = RadiusTable::Build(c.calib.sensor, RangesForMap(c.map, c.calib.sensor));
+  const RelocalizationIndex index(c.calib.sensor, table, c.map, scene, LandmarksFromMap(c.map),
+                                  PredictionOptions(), RelocalizeOptions());
+  const std::vector<float> hist = index.RadialEdgeHistogram(frame);
+  CHECK(*std::max_element(hist.begin(), hist.end()) == Approx(1.0).margin(1e-6));  // edges were found
+  CHECK(index.RadialEdgeHistogram(padded) == hist);
 }
 
 TEST_CASE("relocalisation: a robot started at a wrong pose finds itself", "[relocalize]") {

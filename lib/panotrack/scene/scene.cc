@@ -99,6 +99,9 @@ int Scene::Add(const Surface& s) {
   const double det = aa * bb - ab * ab;
   p.ua = (bb * s.edge_a - ab * s.edge_b) / det;
   p.ub = (aa * s.edge_b - ab * s.edge_a) / det;
+  p.corner = s.corner;
+  p.shade = s.shade;
+  p.background = s.background();
   const Eigen::Vector3d pts[4] = {s.corner, s.corner + s.edge_a, s.corner + s.edge_b,
                                   s.corner + s.edge_a + s.edge_b};
   for (const Eigen::Vector3d& q : pts) {
@@ -120,7 +123,7 @@ bool Scene::HitSurface(int i, const Eigen::Vector3d& o, const Eigen::Vector3d& d
   if (den == 0.0) return false;
   const double tt = (p.offset - p.normal.dot(o)) / den;
   if (!(tt > 0.0)) return false;
-  const Eigen::Vector3d q = o + tt * d - surfaces_[static_cast<size_t>(i)].corner;
+  const Eigen::Vector3d q = o + tt * d - p.corner;
   const double a = p.ua.dot(q), b = p.ub.dot(q);
   if (a < 0.0 || a > 1.0 || b < 0.0 || b > 1.0) return false;
   *t = tt;
@@ -135,12 +138,13 @@ RayHit Scene::Intersect(const Eigen::Vector3d& origin, const Eigen::Vector3d& di
   for (int i = 0; i < static_cast<int>(surfaces_.size()); ++i) {
     double t;
     if (!HitSurface(i, origin, direction, &t) || !(t < max_t)) continue;
-    const double key = surfaces_[static_cast<size_t>(i)].background() ? t + bias : t;
+    const Plane& p = planes_[static_cast<size_t>(i)];
+    const double key = p.background ? t + bias : t;
     if (key < best_key) {
       best_key = key;
       best.t = t;
       best.surface = i;
-      best.shade = surfaces_[static_cast<size_t>(i)].shade;
+      best.shade = p.shade;
     }
   }
   return best;

@@ -65,10 +65,13 @@ class Scene {
   Eigen::Vector3d max() const { return max_; }
 
  private:
-  struct Plane {  // precomputed per surface
+  struct Plane {  // precomputed per surface; all a ray cast reads, packed together
     Eigen::Vector3d normal;
     double offset;     // normal . corner
     Eigen::Vector3d ua, ub;  // dual edge vectors: a = ua . (p - corner), b = ub . (p - corner)
+    Eigen::Vector3d corner;  // the surface's
+    double shade;            // the surface's
+    bool background;         // the surface's background()
   };
   bool HitSurface(int i, const Eigen::Vector3d& o, const Eigen::Vector3d& d, double* t) const;
   std::vector<Surface> surfaces_;

@@ -23,19 +23,21 @@ AzimuthCompass::AzimuthCompass(const Sensor& s, int bins, double inner, double o
       const int u = static_cast<int>(std::lround(px.x())), v = static_cast<int>(std::lround(px.y()));
       if (u < 0 || v < 0 || u >= width_ || v >= height_) continue;
       pixel_offset_.push_back(v * width_ + u);
+      pixel_row_.push_back(v);
       pixel_bin_.push_back(b);
     }
   }
 }
 
 std::vector<float> AzimuthCompass::Signature(const cv::Mat& grey) const {
-  if (grey.type() != CV_8UC1 || grey.cols != width_ || grey.rows != height_ || !grey.isContinuous())
-    throw Error("compass: expected a continuous 8-bit grey frame of the calibration's size");
+  if (grey.type() != CV_8UC1 || grey.cols != width_ || grey.rows != height_)
+    throw Error("compass: expected an 8-bit grey frame of the calibration's size");
   std::vector<double> sum(bins_, 0.0);
   std::vector<int> count(bins_, 0);
   const uchar* data = grey.ptr<uchar>(0);
+  const int row_padding = static_cast<int>(grey.step[0]) - width_;  // 0 for a continuous frame
   for (size_t i = 0; i < pixel_offset_.size(); ++i) {
-    sum[pixel_bin_[i]] += data[pixel_offset_[i]];
+    sum[pixel_bin_[i]] += data[pixel_offset_[i] + pixel_row_[i] * row_padding];
     ++count[pixel_bin_[i]];
   }
   std::vector<float> mean(bins_);

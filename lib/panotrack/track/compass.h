@@ -34,6 +34,7 @@ class AzimuthCompass {
  private:
   int bins_;
   std::vector<int> pixel_offset_;  // pixel index (row * width + col) per sample
+  std::vector<int> pixel_row_;     // its row (frames may have padded rows)
   std::vector<int> pixel_bin_;     // its azimuth bin
   int width_ = 0, height_ = 0;
 };

@@ -42,13 +42,19 @@ struct Step {
 // increasing azimuth / radius within `half` px of the centre; the step may be
 // a ramp up to `ramp_px` wide (motion blur). The sample reaches beyond `half`
 // by the ramp and the plateaus the step detector needs either side.
+// cos and sin of an azimuth, for the samples along an edge at one azimuth.
+struct Heading {
+  explicit Heading(double azimuth) : c(std::cos(azimuth)), s(std::sin(azimuth)) {}
+  double c, s;
+};
+
 bool LinearStep(const cv::Mat& grey, const Sensor& s, const JunctionOptions& o, double radius,
-                double azimuth, double half, int polarity, bool radial, Step* out,
+                const Heading& heading, double half, int polarity, bool radial, Step* out,
                 double ramp_px = 0.0) {
   const double reach = half + 0.5 * ramp_px + 3.5;
   const int n = 2 * static_cast<int>(std::ceil(reach / o.sample_step_px)) + 1;
   if (n > 512) return false;
-  const double c = std::cos(azimuth), sn = std::sin(azimuth), a = s.params.aspect;
+  const double c = heading.c, sn = heading.s, a = s.params.aspect;
   // Direction in pixels of one unit of (aspect-free) image length.
   const Eigen::Vector2d dir = radial ? Eigen::Vector2d(c, a * sn) : Eigen::Vector2d(-sn, a * c);
   const Eigen::Vector2d centre(s.params.cx + radius * c, s.params.cy + a * radius * sn);  // from_polar
@@ -91,7 +97,7 @@ struct JunctionTracker::HorizontalEdge {
 
 namespace {
 
-double Median(std::vector<double> v) {
+double Median(std::vector<double>&& v) {
   if (v.empty()) return 0.0;
   std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
   return v[v.size() / 2];
@@ -109,13 +115,15 @@ bool JunctionTracker::FindVerticalEdge(const PredictedLandmark& p, double half, 
   const double v_len = std::abs(p.v_radius - p.corner_radius);
   const double v_spacing = std::max(o.sample_spacing_px, (v_len - 2 * o.corner_gap_px) / o.max_samples);
   std::vector<Step> v_steps;
+  v_steps.reserve(static_cast<size_t>(o.max_samples));
+  const Heading heading(p.azimuth);
   for (double d = o.corner_gap_px; d < v_len - o.corner_gap_px && static_cast<int>(v_steps.size()) < o.max_samples;
        d += v_spacing) {
     Step st;
     const double r = p.corner_radius + edge->direction * d;
     // Tangential motion grows with the radius under rotation.
     const double ramp = edge->ramp_px * r / p.corner_radius;
-    if (LinearStep(grey_, sensor_, o, r, p.azimuth, half, edge->polarity, false, &st, ramp))
+    if (LinearStep(grey_, sensor_, o, r, heading, half, edge->polarity, false, &st, ramp))
       v_steps.push_back(st);
   }
   if (static_cast<int>(v_steps.size()) < o.min_vertical_points) {
@@ -124,6 +132,7 @@ bool JunctionTracker::FindVerticalEdge(const PredictedLandmark& p, double half, 
   }
   // Truncated median: the contiguous steps near the median azimuth.
   std::vector<double> offsets;  // tangential offsets from the prediction, px
+  offsets.reserve(v_steps.size());
   for (const Step& st : v_steps) offsets.push_back(wrap_angle(st.azimuth - p.azimuth) * st.radius);
   std::vector<double> sorted = offsets;
   std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
@@ -131,6 +140,7 @@ bool JunctionTracker::FindVerticalEdge(const PredictedLandmark& p, double half, 
   double sum_dtheta = 0.0;
   int n_in = 0;
   std::vector<double> strengths;
+  strengths.reserve(v_steps.size());
   // A blurred edge is located less precisely: widen the truncation with it.
   const double truncation = o.truncation_px + 0.1 * edge->ramp_px;
   for (size_t k = 0; k < v_steps.size(); ++k) {
@@ -146,8 +156,9 @@ bool JunctionTracker::FindVerticalEdge(const PredictedLandmark& p, double half, 
   }
   edge->azimuth = wrap_angle(p.azimuth + sum_dtheta / n_in);
   edge->n_points = n_in;
-  edge->contrast = Median(strengths);
+  edge->contrast = Median(std::move(strengths));
   std::vector<double> widths;
+  widths.reserve(v_steps.size());
   for (const Step& st : v_steps) widths.push_back(st.width_px);
   std::nth_element(widths.begin(), widths.begin() + widths.size() / 2, widths.end());
   m->edge_width_px = widths[widths.size() / 2];
@@ -182,6 +193,8 @@ bool JunctionTracker::FindHorizontalEdge(const PredictedLandmark& p, double half
       std::max(o.sample_spacing_px / p.corner_radius, (arc - 2 * gap) / o.max_horizontal_samples);
   std::vector<TrackingVote> votes;
   std::vector<Step> h_steps;
+  votes.reserve(static_cast<size_t>(o.max_horizontal_samples));
+  h_steps.reserve(static_cast<size_t>(o.max_horizontal_samples));
   for (double dt = gap; dt < arc - gap && static_cast<int>(votes.size()) < o.max_horizontal_samples;
        dt += h_spacing) {
     const double theta = wrap_angle(p.azimuth + edge->side * dt);
@@ -191,7 +204,7 @@ bool JunctionTracker::FindHorizontalEdge(const PredictedLandmark& p, double half
     const double ramp = RampAllowance(p.radial_motion_px + RadialSlope(ph, p, theta) * edge->along_blur_px);
     edge->ramp_px = std::max(edge->ramp_px, ramp);
     Step st;
-    if (!LinearStep(grey_, sensor_, o, r_pred, theta, half, edge->polarity, true, &st, ramp)) continue;
+    if (!LinearStep(grey_, sensor_, o, r_pred, Heading(theta), half, edge->polarity, true, &st, ramp)) continue;
     votes.push_back({st.radius, theta, 1.0});
     h_steps.push_back(st);
   }
@@ -207,11 +220,13 @@ bool JunctionTracker::FindHorizontalEdge(const PredictedLandmark& p, double half
   m->r_main = edge->fit.r_main;
   m->theta_main = edge->fit.theta_main;
   std::vector<double> strengths;
+  strengths.reserve(h_steps.size());
+  m->edge_points.reserve(m->edge_points.size() + h_steps.size());
   for (const Step& st : h_steps) {
     m->edge_points.push_back(st.px);
     strengths.push_back(st.strength);
   }
-  edge->contrast = Median(strengths);
+  edge->contrast = Median(std::move(strengths));
   edge->nearest_azimuth = h_steps.front().azimuth;
   return true;
 }
@@ -235,9 +250,10 @@ TrackingWindow JunctionTracker::HorizontalWindow(const PredictedLandmark& p, dou
 // beyond the junction that must not: first along the vertical edge (radius),
 bool JunctionTracker::VerticalEnd(const VerticalEdge& v, double r_junction, double* r_end,
                                   LandmarkMeasurement* m) const {
+  const Heading heading(v.azimuth);
   auto has_step = [&](double r) {
     Step st;
-    return LinearStep(grey_, sensor_, opt_, r, v.azimuth, kProbeHalfPx, v.polarity, false, &st,
+    return LinearStep(grey_, sensor_, opt_, r, heading, kProbeHalfPx, v.polarity, false, &st,
                       v.ramp_px * r / r_junction);
   };
   double r_in = v.nearest_radius, r_out = r_junction - v.direction * (opt_.corner_gap_px + 1.5);
@@ -260,7 +276,8 @@ bool JunctionTracker::HorizontalEnd(const PhTable& ph, const HorizontalEdge& h, 
     double r;
     Step st;
     return ph.Curve(h.fit.r_main, wrap_angle(theta - h.fit.theta_main), &r) &&
-           LinearStep(grey_, sensor_, opt_, r, theta, kProbeHalfPx, h.polarity, true, &st, h.ramp_px);
+           LinearStep(grey_, sensor_, opt_, r, Heading(theta), kProbeHalfPx, h.polarity, true, &st,
+                      h.ramp_px);
   };
   // Motion blur smears the edge's end past the junction by up to half the
   // tangential motion.
@@ -307,16 +324,19 @@ LandmarkMeasurement JunctionTracker::Measure(const PredictedLandmark& p, double 
   const double half = std::max(search_px, 2.0);
   // An edge of unknown polarity (0) is searched for a step of either sign;
   // the pair that forms a junction wins.
-  std::vector<int> v_signs{p.v_polarity}, h_signs{p.h_polarity};
-  if (p.v_polarity == 0) v_signs = {1, -1};
-  if (p.h_polarity == 0) h_signs = {1, -1};
+  static constexpr int kEither[2] = {1, -1};
+  const int* const v_signs = p.v_polarity == 0 ? kEither : &p.v_polarity;
+  const int* const h_signs = p.h_polarity == 0 ? kEither : &p.h_polarity;
+  const int n_v_signs = p.v_polarity == 0 ? 2 : 1, n_h_signs = p.h_polarity == 0 ? 2 : 1;
   struct Vertical {
     VerticalEdge edge;
     LandmarkMeasurement m;
     int sign;
   };
   std::vector<Vertical> verticals;
-  for (int sign : v_signs) {
+  verticals.reserve(static_cast<size_t>(n_v_signs));
+  for (int k = 0; k < n_v_signs; ++k) {
+    const int sign = v_signs[k];
     Vertical v{VerticalEdge{}, LandmarkMeasurement{}, sign};
     if (FindVerticalEdge(p, half, sign, &v.edge, &v.m))
       verticals.push_back(std::move(v));
@@ -336,7 +356,9 @@ LandmarkMeasurement JunctionTracker::Measure(const PredictedLandmark& p, double 
     int sign;
   };
   std::vector<Horizontal> horizontals;
-  for (int sign : h_signs) {
+  horizontals.reserve(static_cast<size_t>(n_h_signs));
+  for (int k = 0; k < n_h_signs; ++k) {
+    const int sign = h_signs[k];
     Horizontal h{HorizontalEdge{}, LandmarkMeasurement{}, sign};
     if (FindHorizontalEdge(p, half, *ph, sign, &h.edge, &h.m))
       horizontals.push_back(std::move(h));
@@ -370,6 +392,7 @@ LandmarkMeasurement JunctionTracker::Measure(const PredictedLandmark& p, double 
       }
       have = true;
       m = trial;
+      m.edge_points.reserve(v.m.edge_points.size() + h.m.edge_points.size());
       m.edge_points = v.m.edge_points;
       m.edge_points.insert(m.edge_points.end(), h.m.edge_points.begin(), h.m.edge_points.end());
       m.r_main = h.m.r_main;

@@ -90,6 +90,7 @@ std::vector<PredictedLandmark> PredictLandmarks(const std::vector<Landmark>& lan
                                                 const Sensor& sensor, const RadiusTable& table,
                                                 const Pose2& pose, const PredictionOptions& opt) {
   std::vector<PredictedLandmark> out;
+  out.reserve(landmarks.size());
   const double limb = sensor.limb_radius();
   const double r_lo = opt.min_radius_fraction * limb, r_hi = limb - opt.max_radius_margin;
   // The mirror's vertex approximates where the scene is seen from.

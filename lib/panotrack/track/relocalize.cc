@@ -104,7 +104,7 @@ RelocalizationIndex::RelocalizationIndex(const Sensor& sensor, const RadiusTable
       sensor.to_polar(u, v, &r, &az);
       if (r < 0.3 * limb || r > 0.97 * limb) continue;
       const int b = static_cast<int>(std::floor((az + M_PI) / (2 * M_PI) * bins));
-      pixels_.push_back({v * cols_ + u, (b % bins + bins) % bins, static_cast<float>(std::cos(az)),
+      pixels_.push_back({v * cols_ + u, v, (b % bins + bins) % bins, static_cast<float>(std::cos(az)),
                          static_cast<float>(std::sin(az))});
     }
   Eigen::Vector2d lo, hi;
@@ -131,15 +131,16 @@ RelocalizationIndex::RelocalizationIndex(const Sensor& sensor, const RadiusTable
 }
 
 std::vector<float> RelocalizationIndex::RadialEdgeHistogram(const cv::Mat& grey) const {
-  if (grey.type() != CV_8UC1 || grey.cols != cols_ || grey.rows != rows_ || !grey.isContinuous())
-    throw Error("relocalisation: expected a continuous 8-bit grey image of the sensor's size");
+  if (grey.type() != CV_8UC1 || grey.cols != cols_ || grey.rows != rows_)
+    throw Error("relocalisation: expected an 8-bit grey image of the sensor's size");
   const int bins = opt_.heading_bins;
   const uint8_t* img = grey.ptr<uint8_t>(0);
-  const int w = cols_;
+  const int w = static_cast<int>(grey.step[0]);  // bytes from one row to the next
+  const int row_padding = w - cols_;              // 0 for a continuous frame
   std::vector<double> h(bins, 0.0);
   for (const Pixel& p : pixels_) {
     // 3x3 Sobel, as cv::Sobel computes it inside the image.
-    const uint8_t* c = img + p.offset;
+    const uint8_t* c = img + p.offset + p.row * row_padding;
     const float gx = static_cast<float>((c[-w + 1] + 2 * c[1] + c[w + 1]) - (c[-w - 1] + 2 * c[-1] + c[w - 1]));
     const float gy = static_cast<float>((c[w - 1] + 2 * c[w] + c[w + 1]) - (c[-w - 1] + 2 * c[-w] + c[-w + 1]));
     const double g_tan = -p.sin_az * gx + p.cos_az * gy / aspect_;

@@ -77,6 +77,7 @@ class RelocalizationIndex {
  private:
   struct Pixel {
     int offset;  // v * cols + u
+    int row;     // v (frames may have padded rows)
     int bin;
     float cos_az, sin_az;
   };

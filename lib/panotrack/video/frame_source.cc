@@ -52,11 +52,29 @@ std::vector<std::string> ExpandPattern(const std::string& pattern) {
   return files;
 }
 
+// Frames that are 8-bit grey already are handed out as they are, sharing
+// their buffer (the decoder's own for LumaDecoder's frames): no copy.
+bool IsGrey(const cv::Mat& image) { return image.type() == CV_8UC1; }
+
 void ToGrey(const cv::Mat& in, cv::Mat* out) {
   if (in.channels() == 3) cv::cvtColor(in, *out, cv::COLOR_BGR2GRAY);
   else if (in.channels() == 4) cv::cvtColor(in, *out, cv::COLOR_BGRA2GRAY);
   else in.copyTo(*out);  // into *out's buffer when it has the size already
   if (out->depth() != CV_8U) out->convertTo(*out, CV_8U);
+}
+
+// A frame handed out as decoded has waited in the prefetch queue and left
+// the CPU caches: one sequential read of each cache line brings it back at
+// memory bandwidth, where the tracker's scattered reads would each wait for
+// memory.
+void BringIntoCache(const cv::Mat& image) {
+  constexpr int kCacheLine = 64;
+  unsigned sum = 0;
+  for (int y = 0; y < image.rows; ++y) {
+    const uchar* row = image.ptr<uchar>(y);
+    for (int x = 0; x < image.cols; x += kCacheLine) sum += row[x];
+  }
+  asm volatile("" : : "r"(sum));  // the reads are the point: keep them
 }
 
 std::string DecodeError(const std::string& name, long frame, const std::string& why) {
@@ -86,9 +104,12 @@ FrameSource::FrameSource(const std::string& path, size_t prefetch_bytes, double 
   if (!ReadDirect(&first_) || first_.image.empty())
     throw Error(name_ + ": no frames (empty or corrupt input)");
   const size_t frame_bytes = first_.image.total() * first_.image.elemSize();
-  cv::Mat grey;
-  ToGrey(first_.image, &grey);
-  first_.image = grey;
+  if (!IsGrey(first_.image)) {
+    cv::Mat grey;
+    ToGrey(first_.image, &grey);
+    first_.image = grey;
+  }
+  const cv::Mat& grey = first_.image;
   have_first_ = true;
   width_ = grey.cols;
   height_ = grey.rows;
@@ -265,10 +286,18 @@ bool FrameSource::Read(cv::Mat* grey, double* time_s) {
     queue_.pop_front();
     cv_.notify_all();
     lock.unlock();
-    // Converted here, on the consumer's thread: the decoding thread is the
-    // pipeline's bottleneck.
-    ToGrey(frame.image, grey);  // a copy: the buffer can be decoded into again
     *time_s = frame.time_s;
+    if (IsGrey(frame.image)) {
+      BringIntoCache(frame.image);
+      *grey = std::move(frame.image);
+      return true;
+    }
+    // Converted here, on the consumer's thread: the decoding thread is the
+    // pipeline's bottleneck. Never into a buffer that another cv::Mat shares
+    // (a frame the consumer still holds) or a decoder's (own allocator).
+    if (grey->u && (grey->u->refcount > 1 || grey->u->currAllocator != cv::Mat::getDefaultAllocator()))
+      grey->release();
+    ToGrey(frame.image, grey);  // a copy: the buffer can be decoded into again
     std::lock_guard<std::mutex> relock(mu_);
     free_.push_back(std::move(frame.image));
     return true;

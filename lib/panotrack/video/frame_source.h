@@ -55,6 +55,9 @@ class FrameSource {
 
   // Next frame; false at the clean end. Throws pano::Error for a frame that
   // cannot be decoded or an input that ends before its container says.
+  // Frames are not copied out: *grey may share the decoder's buffer (rows
+  // `step` bytes apart, not necessarily continuous). Read it, never write it
+  // (clone() for a frame to draw on).
   bool Read(cv::Mat* grey);
   // The same, with the frame's presentation time in seconds from the first
   // frame's, from the video's timestamps (variable frame rates included);
@@ -93,7 +96,7 @@ class FrameSource {
   std::thread worker_;
   std::mutex mu_;
   std::condition_variable cv_;
-  std::deque<Frame> queue_;  // decoded frames, converted to grey by Read()
+  std::deque<Frame> queue_;  // decoded frames; Read() converts those not grey yet
   // Buffers handed back by Read() for the decoder to fill again: a fresh
   // frame-sized allocation per frame costs page faults on every frame.
   std::vector<cv::Mat> free_;

@@ -21,6 +21,7 @@ extern "C" {
 #include <cstdio>
 #include <cstring>
 #include <mutex>
+#include <new>
 
 namespace pano {
 
@@ -56,6 +57,59 @@ bool HasLumaPlane(int format) {
 std::string NoLumaPlane(int format) {
   const char* name = av_get_pix_fmt_name(static_cast<AVPixelFormat>(format));
   return std::string("pixel format ") + (name ? name : "unknown") + " has no 8-bit luma plane";
+}
+
+// Lets a cv::Mat own a reference to a decoded AVFrame: OpenCV calls
+// deallocate() when the last Mat sharing the plane lets go of it. Only the
+// UMatData made by WrapLuma() name it, so OpenCV allocates nothing with it.
+class FrameAllocator : public cv::MatAllocator {
+ public:
+  cv::UMatData* allocate(int, const int*, int, void*, size_t*, cv::AccessFlag, cv::UMatUsageFlags) const override {
+    return nullptr;
+  }
+  bool allocate(cv::UMatData*, cv::AccessFlag, cv::UMatUsageFlags) const override { return false; }
+  void deallocate(cv::UMatData* u) const override {
+    if (!u) return;
+    auto* frame = static_cast<AVFrame*>(u->userdata);
+    av_frame_free(&frame);
+    delete u;
+  }
+};
+
+const FrameAllocator& FrameRefs() {
+  static const FrameAllocator* allocator = new FrameAllocator;  // never destroyed: Mats may outlive statics
+  return *allocator;
+}
+
+// *grey = the decoded frame's luma plane, sharing the frame's buffer: the
+// reference to it moves from `decoded` into the cv::Mat. False when out of
+// memory.
+bool WrapLuma(AVFrame* decoded, cv::Mat* grey) {
+  if (decoded->linesize[0] < decoded->width) {  // a bottom-up plane: copied, as OpenCV has no such layout
+    cv::Mat copy(decoded->height, decoded->width, CV_8UC1);
+    for (int y = 0; y < decoded->height; ++y)
+      std::memcpy(copy.ptr<uchar>(y), decoded->data[0] + static_cast<ptrdiff_t>(y) * decoded->linesize[0],
+                  decoded->width);
+    av_frame_unref(decoded);
+    *grey = std::move(copy);
+    return true;
+  }
+  AVFrame* held = av_frame_alloc();
+  auto* u = held ? new (std::nothrow) cv::UMatData(&FrameRefs()) : nullptr;
+  if (!u) {
+    av_frame_free(&held);
+    av_frame_unref(decoded);
+    return false;
+  }
+  av_frame_move_ref(held, decoded);
+  cv::Mat view(held->height, held->width, CV_8UC1, held->data[0], static_cast<size_t>(held->linesize[0]));
+  u->data = u->origdata = held->data[0];
+  u->size = static_cast<size_t>(held->linesize[0]) * static_cast<size_t>(held->height);
+  u->userdata = held;
+  u->refcount = 1;
+  view.u = u;  // the view and its copies now own the reference (view.allocator stays the default: for create())
+  *grey = std::move(view);
+  return true;
 }
 
 }  // namespace
@@ -234,7 +288,10 @@ struct LumaDecoder::Impl {
     return static_cast<double>(ts - first_timestamp) * av_q2d(time_base);
   }
 
-  // Copies the decoded frame's luma plane out (the decoder reuses its buffers).
+  // Hands out the decoded frame's luma plane without copying it: *grey
+  // wraps the plane (with its row stride) and holds a reference to the
+  // frame, which goes back to the decoder's pool when the last cv::Mat
+  // sharing it is released.
   void Deliver(cv::Mat* grey, double* time_s) {
     const bool damaged = (frame->flags & AV_FRAME_FLAG_CORRUPT) || frame->decode_error_flags != 0;
     const int pixel_format = frame->format;
@@ -243,12 +300,8 @@ struct LumaDecoder::Impl {
       Fail(damaged ? "damaged frame (the decoder concealed errors in it)" : NoLumaPlane(pixel_format));
     }
     checked_format = pixel_format;
-    grey->create(frame->height, frame->width, CV_8UC1);
-    for (int y = 0; y < frame->height; ++y)
-      std::memcpy(grey->ptr<uchar>(y), frame->data[0] + static_cast<ptrdiff_t>(y) * frame->linesize[0],
-                  frame->width);
     if (time_s) *time_s = FrameTime();
-    av_frame_unref(frame);
+    if (!WrapLuma(frame, grey)) Fail("out of memory");
     ++frames_out;
   }
 };

@@ -36,9 +36,12 @@ class LumaDecoder {
   // standard input. With io_timeout_s > 0 (streams), opening and every wait
   // for data give up after that long instead of blocking for ever.
   bool Open(const std::string& path, std::string* reason, double io_timeout_s = 0.0);
-  // Next frame's luma as CV_8UC1 (reusing *grey's buffer) and, when time_s is
-  // given, its presentation time in seconds from the first frame's; false at
-  // the clean end (or after Abort()). Throws pano::Error as above.
+  // Next frame's luma as CV_8UC1 and, when time_s is given, its presentation
+  // time in seconds from the first frame's; false at the clean end (or after
+  // Abort()). Throws pano::Error as above. Not a copy: *grey shares the
+  // decoder's buffer (rows `step` bytes apart, usually not continuous), which
+  // returns to the decoder when the last cv::Mat sharing it is released. The
+  // decoder may still predict later frames from it: read it, never write it.
   bool Read(cv::Mat* grey, double* time_s = nullptr);
   // From another thread: makes a Read() blocked on input return false.
   void Abort();
