@@ -25,7 +25,8 @@ declare -A paper_out=( ["paper-synthetic/junction"]="0 %" ["paper-synthetic/vert
 echo "| preset | method | frames ok | std | RMS | max | heading RMS (deg) | outliers | paper: std | paper: outliers |"
 echo "|---|---|---|---|---|---|---|---|---|---|"
 for p in $presets; do
-  "$bin/panosim" sequence --preset "$p" -o "$work/$p" --force --quiet
+  # A folder already rendered there is reused (RENDER=1 renders it again).
+  [[ -f $work/$p/video.mp4 && ${RENDER:-0} != 1 ]] || "$bin/panosim" sequence --preset "$p" -o "$work/$p" --force --quiet
   units=$(sed -n 's/^units: //p' "$work/$p/map.yaml")
   for m in $methods; do
     "$bin/panoloc" "$work/$p/video.mp4" --calib "$work/$p/calib.yaml" --map "$work/$p/map.yaml" \
