@@ -268,43 +268,43 @@ struct Ray {
   double world_angle;
 };
 
+// The normal equations of the bearings of `rays` at `x`, each weighted by
+// Huber's loss (huber 0: plain least squares); returns the sum of squared
+// residuals.
+double BearingNormalEquations(const std::vector<Ray>& rays, const Eigen::Vector2d& x, double huber,
+                              Eigen::Matrix2d* H, Eigen::Vector2d* g) {
+  H->setZero();
+  g->setZero();
+  double ss = 0;
+  for (const Ray& r : rays) {
+    const Eigen::Vector2d d = x - r.origin;
+    const double d2 = d.squaredNorm();
+    const double res = wrap_angle(r.world_angle - std::atan2(d.y(), d.x()));
+    const Eigen::Vector2d J(d.y() / d2, -d.x() / d2);
+    const double w = huber <= 0 || std::abs(res) <= huber ? 1.0 : huber / std::abs(res);
+    *H += w * J * J.transpose();
+    *g += w * J * res;
+    ss += res * res;
+  }
+  return ss;
+}
+
 // Least squares on the bearings of `rays` (Huber), from `x`. Returns the
 // RMS residual (radians); `cov` the position covariance.
 double SolveEdge(const std::vector<Ray>& rays, Eigen::Vector2d* x, Eigen::Matrix2d* cov) {
   const double huber = 0.1 * kDeg;
-  double rms = 0;
+  Eigen::Matrix2d H;
+  Eigen::Vector2d g;
   for (int it = 0; it < 15; ++it) {
-    Eigen::Matrix2d H = Eigen::Matrix2d::Zero();
-    Eigen::Vector2d g = Eigen::Vector2d::Zero();
-    double ss = 0;
-    for (const Ray& r : rays) {
-      const Eigen::Vector2d d = *x - r.origin;
-      const double d2 = d.squaredNorm();
-      const double res = wrap_angle(r.world_angle - std::atan2(d.y(), d.x()));
-      const Eigen::Vector2d J(d.y() / d2, -d.x() / d2);
-      const double w = std::abs(res) <= huber ? 1.0 : huber / std::abs(res);
-      H += w * J * J.transpose();
-      g += w * J * res;
-      ss += res * res;
-    }
-    rms = std::sqrt(ss / std::max<size_t>(rays.size(), 1));
+    BearingNormalEquations(rays, *x, huber, &H, &g);
     const Eigen::Vector2d step = -H.ldlt().solve(g);
     if (!step.allFinite()) break;
     *x += step;
     if (step.norm() < 1e-9) break;
   }
-  Eigen::Matrix2d H = Eigen::Matrix2d::Zero();
-  double ss = 0;
-  for (const Ray& r : rays) {
-    const Eigen::Vector2d d = *x - r.origin;
-    const double d2 = d.squaredNorm();
-    const double res = wrap_angle(r.world_angle - std::atan2(d.y(), d.x()));
-    const Eigen::Vector2d J(d.y() / d2, -d.x() / d2);
-    H += J * J.transpose();
-    ss += res * res;
-  }
+  const double ss = BearingNormalEquations(rays, *x, 0.0, &H, &g);
   const int n = static_cast<int>(rays.size());
-  rms = std::sqrt(ss / std::max(n, 1));
+  const double rms = std::sqrt(ss / std::max(n, 1));
   const double sigma = std::max(rms * std::sqrt(n / std::max(1.0, n - 2.0)), 0.05 * kDeg);
   *cov = sigma * sigma * H.inverse();
   return rms;

@@ -11,6 +11,7 @@
 #include "panotrack/io/map.h"
 #include "panotrack/io/pose_csv.h"
 #include "panotrack/mapping/build.h"
+#include "panotrack/mapping/run_inputs.h"
 #include "panotrack/track/localizer.h"
 #include "panotrack/video/frame_source.h"
 
@@ -18,7 +19,6 @@ namespace pano {
 
 namespace {
 
-std::string SizeText(int w, int h) { return std::to_string(w) + "x" + std::to_string(h); }
 
 }  // namespace
 
@@ -54,28 +54,17 @@ MapBuildResult RunMapBuild(const MapBuildJob& job) {
       {{"-o", job.output}, {"--report", job.report_csv}}, job.overwrite);
   const Calibration calib = ReadCalibration(job.calib_path);
   const Map seed = ReadMap(job.map_path);
-  if (calib.units != seed.units)
-    throw Error(job.map_path + ": units '" + seed.units + "' differ from the calibration's '" + calib.units + "' (" +
-                job.calib_path + ")");
+  CheckMapUnits(calib, seed, job.map_path, job.calib_path);
   if (seed.rectangles.empty() && seed.boxes.empty())
     throw Error(job.map_path + ": the seed map has no landmarks (give a few measured rectangles)");
   if (job.has_start && !seed.IsFree(job.start.x, job.start.y))
     throw Error("--start: (" + std::to_string(job.start.x) + ", " + std::to_string(job.start.y) +
                 ") is outside the room or inside a box of " + job.map_path);
   std::vector<PoseRow> rows;
-  if (!job.poses_path.empty()) {
-    rows = ReadPoseCsv(job.poses_path);
-    for (size_t i = 0; i < rows.size(); ++i)
-      if (rows[i].frame != static_cast<int>(i))
-        throw Error(job.poses_path + ": row " + std::to_string(i + 1) + " is frame " + std::to_string(rows[i].frame) +
-                    ", expected frame " + std::to_string(i) + " (one row per frame of " + job.input + ")");
-  }
+  if (!job.poses_path.empty()) rows = ReadPosesOnePerFrame(job.poses_path, job.input);
   const Sensor& s = calib.sensor;
   FrameSource frames(job.input);
-  if (frames.width() != s.image_width || frames.height() != s.image_height)
-    throw Error(job.input + ": frame size " + SizeText(frames.width(), frames.height()) +
-                " does not match the calibration's " + SizeText(s.image_width, s.image_height) + " (" + job.calib_path +
-                ")");
+  CheckFrameSize(frames.width(), frames.height(), s, job.input, job.calib_path);
   MapBuilder builder(calib, seed, job.options);
   std::unique_ptr<Localizer> localizer;
   if (job.poses_path.empty()) {

@@ -15,6 +15,7 @@
 #include "panotrack/io/map.h"
 #include "panotrack/io/pose_csv.h"
 #include "panotrack/mapping/check.h"
+#include "panotrack/mapping/run_inputs.h"
 #include "panotrack/track/localizer.h"
 #include "panotrack/video/frame_source.h"
 
@@ -82,7 +83,6 @@ std::shared_ptr<const RadiusTable> TableFor(const Calibration& calib, const Map&
   return std::make_shared<RadiusTable>(RadiusTable::Build(calib.sensor, need));
 }
 
-std::string SizeText(int w, int h) { return std::to_string(w) + "x" + std::to_string(h); }
 
 int EdgeStatusRank(const EdgeCheck& e, int min_visible) {
   if (e.visible < min_visible) return 0;
@@ -170,27 +170,16 @@ MapCheckReport RunMapCheck(const MapCheckJob& job) {
                       {{"-o", job.overlay}, {"--report", job.report_csv}}, job.overwrite);
   const Calibration calib = ReadCalibration(job.calib_path);
   const Map map = ReadMap(job.map_path);
-  if (calib.units != map.units)
-    throw Error(job.map_path + ": units '" + map.units + "' differ from the calibration's '" + calib.units + "' (" +
-                job.calib_path + ")");
+  CheckMapUnits(calib, map, job.map_path, job.calib_path);
   if (map.rectangles.empty() && map.boxes.empty()) throw Error(job.map_path + ": the map has no landmarks");
   if (job.pose && !map.IsFree(job.pose->x, job.pose->y))
     throw Error("--pose: (" + std::to_string(job.pose->x) + ", " + std::to_string(job.pose->y) +
                 ") is outside the room or inside a box of " + job.map_path);
   std::vector<PoseRow> rows;
-  if (!job.poses_path.empty()) {
-    rows = ReadPoseCsv(job.poses_path);
-    for (size_t i = 0; i < rows.size(); ++i)
-      if (rows[i].frame != static_cast<int>(i))
-        throw Error(job.poses_path + ": row " + std::to_string(i + 1) + " is frame " + std::to_string(rows[i].frame) +
-                    ", expected frame " + std::to_string(i) + " (one row per frame of " + job.input + ")");
-  }
+  if (!job.poses_path.empty()) rows = ReadPosesOnePerFrame(job.poses_path, job.input);
   const Sensor& s = calib.sensor;
   Frames frames(job.input);
-  if (frames.width() != s.image_width || frames.height() != s.image_height)
-    throw Error(job.input + ": frame size " + SizeText(frames.width(), frames.height()) +
-                " does not match the calibration's " + SizeText(s.image_width, s.image_height) + " (" +
-                job.calib_path + ")");
+  CheckFrameSize(frames.width(), frames.height(), s, job.input, job.calib_path);
   const std::shared_ptr<const RadiusTable> table = TableFor(calib, map);
   FrameChecker checker(calib, map, table, job.options);
   const bool localise = !job.pose && job.poses_path.empty();
