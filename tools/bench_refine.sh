@@ -14,9 +14,9 @@
 #      truth (removing the gauge the map passes on to the poses).
 # Pose sources: "panoloc" (the surveyed map's poses; ROUNDS rounds, each
 # later one re-localising on the last refined map and refining the surveyed
-# map again), "gt" (panosim's gt.csv, default options: the survey still
-# fixes the gauge) and "gt+prior" (gt.csv with --pose-sigma POSE_SIGMA: the
-# poses fix the gauge). The true and the surveyed map give the reference
+# map again), "gt" (panosim's gt.csv with the default --pose-sigma auto: a
+# reference trajectory, its positions held with a tenth of --map-sigma, fix
+# the gauge) and "gt, --pose-sigma 0" (the survey fixes the gauge). The true and the surveyed map give the reference
 # rows. The surveyed map is tracked with panoloc's integrity bound off
 # (--alert-fraction 0): the bound assumes an exact map, and with 1 unit of
 # survey error most frames would be held back.
@@ -30,7 +30,6 @@ for tool in panosim panoloc panomap; do
   [ -x "$bin/$tool" ] || { echo "bench_refine.sh: $bin/$tool not found (build first)" >&2; exit 1; }
 done
 rounds=${ROUNDS:-2}
-pose_sigma=${POSE_SIGMA:-0.1}
 # room preset : second sequence (same room and sensor, another path)
 cases=${CASES:-"paper-real:fast-turns paper-synthetic:paper-synthetic"}
 
@@ -128,13 +127,13 @@ for c in $cases; do
     fi
   done
   refine gt "$d/gt.csv"
-  refine gt_prior "$d/gt.csv" --pose-sigma "$pose_sigma"
+  refine gt_noprior "$d/gt.csv" --pose-sigma 0
   row "$room" "(true map)" "$d/map_true.yaml" - "$d" "$s" loc_true
   row "$room" "(surveyed map)" "$d/map.yaml" - "$d" "$s" loc_surveyed
   ok=$(python3 -c 'import csv,sys; print(sum(r["status"]=="ok" for r in csv.DictReader(open(sys.argv[1]))))' "$d/poses.csv")
   for r in $(seq 1 "$rounds"); do
     row "$room" "panoloc ($ok/300 ok), round $r" "$d/refined_panoloc$r.yaml" "$d/refine_panoloc$r.txt" "$d" "$s" "loc_panoloc$r"
   done
-  row "$room" "gt" "$d/refined_gt.yaml" "$d/refine_gt.txt" "$d" "$s" loc_gt
-  row "$room" "gt, --pose-sigma $pose_sigma" "$d/refined_gt_prior.yaml" "$d/refine_gt_prior.txt" "$d" "$s" loc_gt_prior
+  row "$room" "gt, --pose-sigma 0" "$d/refined_gt_noprior.yaml" "$d/refine_gt_noprior.txt" "$d" "$s" loc_gt_noprior
+  row "$room" "gt (reference: --pose-sigma auto)" "$d/refined_gt.yaml" "$d/refine_gt.txt" "$d" "$s" loc_gt
 done

@@ -1,3 +1,4 @@
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -16,8 +17,9 @@ namespace pano::app {
 void AddRefineCommand(CLI::App& app) {
   struct Opts {
     std::string map, calib, out, report;
+    std::string pose_sigma = "auto";
     std::vector<std::string> poses, videos;
-    double map_sigma = 1.0, pose_sigma = 0.0, reject_sigmas = 4.0, edge_gap = 10.0;
+    double map_sigma = 1.0, reject_sigmas = 4.0, edge_gap = 10.0, radius_systematic = 0.04;
     bool free_height = false, fix_first_pose = false, free_floor = false, force = false, quiet = false, verbose = false;
     int passes = 2, threads = 0;
   };
@@ -46,11 +48,23 @@ void AddRefineCommand(CLI::App& app) {
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   cmd->add_option("--pose-sigma", o->pose_sigma,
-                  "Prior sigma of each pose's position at its CSV value (map units; 0: none). Give it when the "
-                  "poses come from an absolute reference (motion capture, ground truth): they then fix the "
-                  "shift and turn the images cannot see better than the survey. Poses localised on the "
-                  "surveyed map only repeat the survey's gauge: leave it at 0")
-      ->check(CLI::NonNegativeNumber)
+                  "Prior sigma of each pose's position at its CSV value (map units), 0 for none, or auto: a "
+                  "tenth of --map-sigma when the pose CSVs are a reference trajectory (ground truth, motion "
+                  "capture: rows without panoloc's std columns), else none. A reference fixes the shift and "
+                  "turn the images cannot see better than the survey; poses localised on the surveyed map "
+                  "only repeat its gauge")
+      ->check(CLI::Validator(
+          [](std::string& v) {
+            if (v == "auto") return std::string();
+            try {
+              size_t used = 0;
+              const double sigma = std::stod(v, &used);
+              if (used == v.size() && sigma >= 0.0 && std::isfinite(sigma)) return std::string();
+            } catch (const std::exception&) {
+            }
+            return "expected auto or a number of 0 or more, got '" + v + "'";
+          },
+          "auto|SIGMA"))
       ->capture_default_str();
   cmd->add_option("--reject-sigmas", o->reject_sigmas,
                   "Drop measurements beyond this many noise sigmas (a tracker locked onto another edge)")
@@ -59,6 +73,12 @@ void AddRefineCommand(CLI::App& app) {
   cmd->add_option("--edge-gap", o->edge_gap,
                   "Skip corners whose vertical edge passes within this many pixels of another landmark's (0: "
                   "measure all)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  cmd->add_option("--radius-systematic", o->radius_systematic,
+                  "Systematic image-radius error of a corner (px, repeated over its frames): its radius "
+                  "measurements together weigh at most like one of this sigma, so that a small bias seen in "
+                  "many frames does not move the corner along its line of sight (0: none)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   cmd->add_flag("--free-height", o->free_height,
@@ -86,9 +106,10 @@ void AddRefineCommand(CLI::App& app) {
     for (size_t i = 0; i < o->videos.size(); ++i) videos.push_back({o->videos[i], o->poses[i], ReadPoseCsv(o->poses[i])});
     RefineOptions opt;
     opt.map_sigma = o->map_sigma;
-    opt.pose_sigma = o->pose_sigma;
+    opt.pose_sigma = o->pose_sigma == "auto" ? AutoPoseSigma(videos, o->map_sigma) : std::stod(o->pose_sigma);
     opt.reject_sigmas = o->reject_sigmas;
     opt.min_edge_gap_px = o->edge_gap;
+    opt.radius_systematic_px = o->radius_systematic;
     opt.free_height = o->free_height;
     opt.fix_first_pose = o->fix_first_pose;
     opt.hold_floor_contacts = !o->free_floor;
@@ -99,6 +120,15 @@ void AddRefineCommand(CLI::App& app) {
     WriteMap(o->out, r.map);
     if (!o->report.empty()) WriteRefineReportCsv(o->report, r);
     if (!o->quiet) {
+      if (o->pose_sigma == "auto") {
+        if (opt.pose_sigma > 0.0)
+          std::printf("poses: a reference trajectory (no standard deviations): positions held with sigma %g "
+                      "(--pose-sigma auto)\n",
+                      opt.pose_sigma);
+        else
+          std::printf("poses: localised (with standard deviations): no pose prior, the survey fixes the gauge "
+                      "(--pose-sigma auto)\n");
+      }
       std::printf("%s", RefineReportTable(r, map, o->map_sigma).c_str());
       std::printf("wrote %s\n", o->out.c_str());
     }

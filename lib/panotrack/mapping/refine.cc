@@ -36,6 +36,8 @@ void RefineOptions::Check() const {
   if (!(loss_sigmas > 0.0)) throw Error("loss_sigmas: expected a positive number");
   if (!(reject_sigmas > loss_sigmas)) throw Error("reject_sigmas: expected more than loss_sigmas");
   if (!(min_edge_gap_px >= 0.0)) throw Error("min_edge_gap_px: expected 0 or more");
+  if (!(radius_systematic_px >= 0.0) || !std::isfinite(radius_systematic_px))
+    throw Error("radius_systematic_px: expected 0 or a positive number");
   if (!(initial_azimuth_sigma > 0.0) || !(initial_radius_sigma > 0.0))
     throw Error("initial sigmas: expected positive numbers");
   if (max_iterations < 1) throw Error("max_iterations: expected at least 1");
@@ -249,6 +251,24 @@ void GaugeUncertainty(const Map& surveyed, const std::vector<std::array<double, 
   res->gauge_corner_rms = std::sqrt(sum / static_cast<double>(corners.size()));
 }
 
+// Each corner's radius sigma: the frame's noise plus a systematic part
+// shared by all its n radius measurements (taken as fully correlated, so the
+// n together weigh at most like one measurement of sigma `systematic`):
+// sqrt(noise^2 + n systematic^2). The radius changes little with distance, so
+// without this hundreds of frames turn a bias of a few hundredths of a pixel
+// into a depth error that outweighs the azimuths' triangulation.
+std::vector<double> CornerRadiusSigmas(const std::vector<CornerObservation>& obs, const std::vector<char>& use_r,
+                                       const std::vector<char>& frame_used, size_t n_landmarks, double noise,
+                                       double systematic) {
+  std::vector<int> count(n_landmarks, 0);
+  for (size_t i = 0; i < obs.size(); ++i)
+    if (use_r[i] && frame_used[static_cast<size_t>(obs[i].frame)]) ++count[static_cast<size_t>(obs[i].landmark)];
+  std::vector<double> sigma(n_landmarks);
+  for (size_t k = 0; k < n_landmarks; ++k)
+    sigma[k] = std::sqrt(noise * noise + count[k] * systematic * systematic);
+  return sigma;
+}
+
 double Rms(const std::vector<double>& v) {
   double s = 0.0;
   for (double x : v) s += x * x;
@@ -301,6 +321,8 @@ RefineResult SolveMapRefinement(const Calibration& calib, const Map& surveyed, c
     std::vector<int> azimuths(poses.size(), 0);
     for (size_t i = 0; i < n_obs; ++i) azimuths[static_cast<size_t>(observations[i].frame)] += use_az[i];
     for (size_t f = 0; f < poses.size(); ++f) frame_used[f] = azimuths[f] >= 3;
+    const std::vector<double> radius_sigma =
+        CornerRadiusSigmas(observations, use_r, frame_used, landmarks.size(), sigma_r, opt.radius_systematic_px);
     ceres::Problem::Options po;
     problem = std::make_unique<ceres::Problem>(po);
     for (size_t i = 0; i < n_obs; ++i) {
@@ -309,7 +331,7 @@ RefineResult SolveMapRefinement(const Calibration& calib, const Map& surveyed, c
       double* pose = u.poses[static_cast<size_t>(o.frame)].data();
       for (bool radius : {false, true}) {
         if (!(radius ? use_r[i] : use_az[i])) continue;
-        const double sigma = radius ? sigma_r : sigma_az;
+        const double sigma = radius ? radius_sigma[static_cast<size_t>(o.landmark)] : sigma_az;
         const double measured = radius ? o.radius : o.azimuth;
         ceres::LossFunction* loss = new ceres::HuberLoss(opt.loss_sigmas);
         if (o.landmark < 4 * n_rect) {
@@ -488,6 +510,21 @@ int DropCrowded(double gap_px, std::vector<PredictedLandmark>* predicted) {
 }
 
 }  // namespace
+
+bool IsReferenceTrajectory(const std::vector<PoseRow>& rows) {
+  for (const PoseRow& r : rows)
+    if (r.status == PoseStatus::kOk)
+      for (double v : r.extra)
+        if (std::isfinite(v)) return false;
+  return true;
+}
+
+double AutoPoseSigma(const std::vector<RefineVideo>& videos, double map_sigma) {
+  if (videos.empty()) return 0.0;
+  for (const RefineVideo& v : videos)
+    if (!IsReferenceTrajectory(v.poses)) return 0.0;
+  return 0.1 * map_sigma;
+}
 
 RefineResult RefineMap(const Calibration& calib, const Map& surveyed, const std::vector<RefineVideo>& videos,
                        const RefineOptions& opt) {

@@ -61,6 +61,11 @@ struct RefineOptions {
   // edge, where the edges overlap in radius) of another landmark's edge are
   // not measured: the tracker cannot tell the two apart.
   double min_edge_gap_px = 10.0;
+  // Systematic error of a corner's image radius (px): a bias that repeats
+  // over its frames (edge location, interpolation). A corner's radius
+  // measurements then weigh at most like one of this sigma, so that many
+  // frames do not turn a small bias into a depth error. 0: none.
+  double radius_systematic_px = 0.04;
   double initial_azimuth_sigma = 0.1 * M_PI / 180;  // radians
   double initial_radius_sigma = 0.5;                // px
   int max_iterations = 100;
@@ -132,6 +137,16 @@ struct RefineVideo {
   std::string poses_path;  // named in messages
   std::vector<PoseRow> poses;
 };
+
+// Whether a pose CSV is a reference trajectory (ground truth, motion
+// capture): its ok rows carry no standard deviations, which panoloc always
+// writes. Poses panoloc localised on the surveyed map repeat its gauge;
+// those of a reference can fix it.
+bool IsReferenceTrajectory(const std::vector<PoseRow>& rows);
+
+// The pose prior of `--pose-sigma auto`: a tenth of map_sigma when every
+// video's poses are a reference trajectory, else 0 (none).
+double AutoPoseSigma(const std::vector<RefineVideo>& videos, double map_sigma);
 
 // Tracks every corner of `surveyed` in every ok frame of each video from its
 // pose (the junction tracker at the predicted position), solves, and repeats
