@@ -72,11 +72,12 @@ bool SampleLine(const cv::Mat& grey, const Eigen::Vector2d& start, const Eigen::
                 int n, float* out) {
   if (n <= 0) return true;
   // A straight line lies inside the image when both its ends do: check them
-  // once, then interpolate without per-sample checks.
-  float ends[2];
+  // once (where SampleGrey samples), then interpolate without per-sample checks.
   const Eigen::Vector2d last = start + (n - 1) * step;
-  if (!SampleGrey(grey, start.x(), start.y(), &ends[0]) || !SampleGrey(grey, last.x(), last.y(), &ends[1]))
-    return false;
+  auto inside = [&](const Eigen::Vector2d& q) {
+    return q.x() >= 0.0 && q.y() >= 0.0 && q.x() <= grey.cols - 1.001 && q.y() <= grey.rows - 1.001;
+  };
+  if (!inside(start) || !inside(last)) return false;
   // In float, in chunks whose coordinates, corner pixels and blends are
   // each one loop the compiler vectorises (the line is inside the image, so
   // truncation is floor).
