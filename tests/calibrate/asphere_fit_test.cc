@@ -7,6 +7,8 @@
 #include <cmath>
 
 #include "panotrack/calibrate/calibrate.h"
+#include "panotrack/io/calibration.h"
+#include "rendered_targets.h"
 #include "synthetic.h"
 #include "test_rng.h"
 
@@ -67,7 +69,7 @@ TEST_CASE("asphere: a non-conic mirror, known poses: terms recovered, the conic 
   WARN("non-conic mirror, known poses: conic RMS " << conic.rms_px << " px, asphere RMS " << asphere.rms_px
                                                   << " px\n" << Summary(asphere));
   CHECK(asphere.calib.sensor.model == MirrorModel::kAsphere);
-  CHECK(asphere.rms_px < 0.06);        // the noise: 0.05 px per axis
+  CHECK(asphere.rms_px < 0.08);  // the noise: 0.05 px per axis, 0.071 px Euclidean
   CHECK(conic.rms_px > 4.0 * asphere.rms_px);
   CheckWithin(asphere, "asphere_a4", 0.03);
   CheckWithin(asphere, "asphere_a6", 0.002);
@@ -88,7 +90,7 @@ TEST_CASE("asphere: on a true conic the terms come out zero within their deviati
   o.model = MirrorModel::kAsphere;
   o.asphere_terms = 1;
   const CalibrationResult r = CalibrateViews(set.views, board, 752, 480, "cm", o);
-  CHECK(r.rms_px < 0.06);
+  CHECK(r.rms_px < 0.08);
   CheckWithin(r, "asphere_a4", 0.0);
   const ParameterEstimate* a6 = Find(r, "asphere_a6");
   CHECK(a6 == nullptr);  // held at zero and not reported
@@ -116,6 +118,33 @@ TEST_CASE("asphere: terms that trade with the lens are reported not determined",
                         w.find("asphere_a4") != std::string::npos);
   CHECK(warned);
   CHECK(!std::isfinite(a4->stddev));
+}
+
+TEST_CASE("asphere: rendered boards of a non-conic mirror, the asphere recovers its terms", "[asphere_rendered]") {
+  // panosim targets --calib paper-real.yaml --asphere 0.02,0.03 --auto 14
+  // --noise 2: the paper's sphere bent by the terms, rendered and detected.
+  Calibration truth = ReadCalibration(test::SourcePath("calib/paper-real.yaml"));
+  truth.sensor.model = MirrorModel::kAsphere;
+  truth.sensor.params.asphere_a4 = 0.02;
+  truth.sensor.params.asphere_a6 = 0.03;
+  truth.sensor.Check("truth");
+  const TargetSet targets = ReadTargets(test::RenderTargets("calibrate_asphere", truth, 14, 5) + "/targets.yaml");
+  REQUIRE(targets.AllPosesKnown());
+  CalibrateOptions o;
+  o.distortion_terms = 0;
+  o.model = MirrorModel::kConic;
+  const CalibrationResult conic = Calibrate(targets, o);
+  o.model = MirrorModel::kAsphere;
+  const CalibrationResult asphere = Calibrate(targets, o);
+  const SensorParams<double>& p = asphere.calib.sensor.params;
+  WARN("rendered non-conic mirror (sphere + a4 0.02, a6 0.03), known poses: conic RMS "
+       << conic.rms_px << " px (k " << conic.calib.sensor.params.conic_constant << "), asphere RMS "
+       << asphere.rms_px << " px\n" << Summary(asphere));
+  CHECK(asphere.rms_px < 0.5 * conic.rms_px);
+  CheckWithin(asphere, "asphere_a4", 0.02);
+  CheckWithin(asphere, "asphere_a6", 0.03);
+  CheckWithin(asphere, "conic_constant", 0.0);
+  CHECK(p.curvature_radius == Approx(4.9).epsilon(0.01));
 }
 
 }  // namespace

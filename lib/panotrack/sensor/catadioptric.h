@@ -142,6 +142,23 @@ inline bool asphere_ray_hit(const SensorParams<double>& p, double dx, double dy,
   const double zv = p.vertex_distance;
   double lo = 0.0, hi = std::numeric_limits<double>::infinity();
   double t = 0.0;
+  {
+    // Start from the conic's hit (closed form), near when the terms are
+    // small; the bracket below keeps the iteration safe from either side.
+    const double A = a * a + b * b + 1.0 + p.conic_constant;
+    const double q = p.curvature_radius - (a * a + b * b) * zv + a * dx + b * dy;
+    const double ex = a * zv - dx, ey = b * zv - dy;
+    const double C = ex * ex + ey * ey;
+    const double disc = q * q - A * C;
+    if (disc >= 0.0 && q + std::sqrt(disc) > 0.0) t = zv + C / (q + std::sqrt(disc));
+    // Above the surface and rising: maybe past both roots near the limb;
+    // start from the pinhole then.
+    const double ex0 = t * a - dx, ey0 = t * b - dy;
+    double w = 0.0, sigma = 0.0;
+    if (!asphere_sag(p, ex0 * ex0 + ey0 * ey0, &w, &sigma) ||
+        (zv + w - t > 0.0 && !(sigma * (ex0 * a + ey0 * b) - 1.0 < 0.0)))
+      t = 0.0;
+  }
   for (int it = 0; it < 200; ++it) {
     const double ex = t * a - dx, ey = t * b - dy;
     double w = 0.0, sigma = 0.0, t_next;
@@ -262,32 +279,49 @@ T max_normalized_radius(const SensorParams<T>& p) {
   return m_max;
 }
 
+namespace detail {
+// Outward normal (not unit) of an even asphere at distance s from its axis:
+// the gradient of w(s) - w, (s sigma, -1).
+template <typename T>
+bool asphere_normal(const SensorParams<T>& p, const T& s, T* ns, T* nz) {
+  T w, sigma;
+  if (!asphere_sag(p, s * s, &w, &sigma)) return false;
+  *ns = s * sigma;
+  *nz = T(-1);
+  return true;
+}
+
+// mirror_hit for an even asphere (kept out of the conic's inlined path).
+template <typename T>
+bool asphere_mirror_hit(const SensorParams<T>& p, const T& m, T* s, T* z) {
+  // Even asphere: the hit in double, then one Newton step in T so that Jet
+  // derivatives follow the implicit function theorem.
+  const SensorParams<double> pd = p.template cast<double>();
+  const double md = scalar_value(m);
+  double t0;
+  if (!detail::asphere_ray_hit(pd, 0.0, 0.0, md, 0.0, &t0)) return false;
+  T t = T(t0);
+  if constexpr (!std::is_same<T, double>::value) {
+    double wd = 0.0, sigma_d = 0.0;
+    if (!detail::asphere_sag(pd, t0 * t0 * md * md, &wd, &sigma_d)) return false;
+    const double dH = sigma_d * t0 * md * md - 1.0;
+    const T st = T(t0) * m;
+    T w;
+    if (!detail::asphere_sag(p, st * st, &w, static_cast<T*>(nullptr))) return false;
+    t = T(t0) - (p.vertex_distance + w - T(t0)) / T(dH);
+  }
+  *s = t * m;
+  *z = t;
+  return true;
+}
+}  // namespace detail
+
 // Camera ray t (m, 1) against the mirror: the first hit, from below.
 // Returns false when the ray misses (beyond the limb).
 template <typename T>
 bool mirror_hit(const SensorParams<T>& p, const T& m, T* s, T* z) {
   using std::sqrt;
-  if (!is_conic_profile(p)) {
-    // Even asphere: the hit in double, then one Newton step in T so that Jet
-    // derivatives follow the implicit function theorem.
-    const SensorParams<double> pd = p.template cast<double>();
-    const double md = scalar_value(m);
-    double t0;
-    if (!detail::asphere_ray_hit(pd, 0.0, 0.0, md, 0.0, &t0)) return false;
-    T t = T(t0);
-    if constexpr (!std::is_same<T, double>::value) {
-      double wd = 0.0, sigma_d = 0.0;
-      if (!detail::asphere_sag(pd, t0 * t0 * md * md, &wd, &sigma_d)) return false;
-      const double dH = sigma_d * t0 * md * md - 1.0;
-      const T st = T(t0) * m;
-      T w;
-      if (!detail::asphere_sag(p, st * st, &w, static_cast<T*>(nullptr))) return false;
-      t = T(t0) - (p.vertex_distance + w - T(t0)) / T(dH);
-    }
-    *s = t * m;
-    *z = t;
-    return true;
-  }
+  if (!is_conic_profile(p)) return detail::asphere_mirror_hit(p, m, s, z);
   const T& R = p.curvature_radius;
   const T& zv = p.vertex_distance;
   const T m2 = m * m;
@@ -318,12 +352,8 @@ bool reflect_meridian(const SensorParams<T>& p, const T& m, T* ps, T* pz, T* ds,
     // Outward (downward-facing) normal: gradient of s^2 - 2 R w + (1+k) w^2.
     ns = *ps;
     nz = (T(1) + p.conic_constant) * w - p.curvature_radius;
-  } else {
-    // Gradient of w(s) - w: (s sigma, -1).
-    T w, sigma;
-    if (!detail::asphere_sag(p, *ps * *ps, &w, &sigma)) return false;
-    ns = *ps * sigma;
-    nz = T(-1);
+  } else if (!detail::asphere_normal(p, *ps, &ns, &nz)) {
+    return false;
   }
   const T nn = sqrt(ns * ns + nz * nz);
   ns /= nn;
