@@ -29,6 +29,8 @@
 #include <cstdio>
 #include <cstring>
 #include <exception>
+#include <map>
+#include <set>
 #include <string>
 
 #include "panotrack/calibrate/calibrate.h"
@@ -175,6 +177,19 @@ struct CvScore {
   size_t train_n = 0, held_n = 0;
   int failed_boards = 0;
   std::vector<double> fold_train, fold_held;
+  // Held-out boards fitted: file -> (sum of squared errors, corners).
+  std::map<std::string, std::pair<double, size_t>> boards;
+  // Held-out RMS over the boards in `common` only (every method fitted them).
+  double HeldOn(const std::set<std::string>& common) const {
+    double s2 = 0;
+    size_t n = 0;
+    for (const auto& [file, e] : boards)
+      if (common.count(file)) {
+        s2 += e.first;
+        n += e.second;
+      }
+    return n ? std::sqrt(s2 / n) : NAN;
+  }
   void AddFold(double train_rms, size_t train_corners, double held_s2_fold, size_t held_n_fold) {
     train_s2 += train_rms * train_rms * train_corners;
     train_n += train_corners;
@@ -305,7 +320,18 @@ void CrossValidate(const std::vector<pano::BoardView>& views, const pano::Target
       double s2 = 0;
       size_t n = 0;
       if (m.options) {
-        const pano::CalibrationResult r = pano::CalibrateViews(train, board, W, H, units, *m.options);
+        pano::CalibrationResult r;
+        try {
+          r = pano::CalibrateViews(train, board, W, H, units, *m.options);
+        } catch (const std::exception& e) {
+          // A fit that fails (e.g. an asphere bent out of convexity) scores
+          // none of its held-out boards.
+          std::printf("  fold %d %s: fit failed (%s)\n", fold, m.name, e.what());
+          m.score.failed_boards += static_cast<int>(held.size());
+          m.score.fold_train.push_back(NAN);
+          m.score.fold_held.push_back(NAN);
+          continue;
+        }
         pano::EvaluateOptions eo;
         eo.huber_px = m.options->huber_px;
         eo.full_weight_px = m.options->full_weight_px;
@@ -317,6 +343,7 @@ void CrossValidate(const std::vector<pano::BoardView>& views, const pano::Target
           }
           s2 += f.rms_px * f.rms_px * f.corners_used;
           n += static_cast<size_t>(f.corners_used);
+          m.score.boards[v.file] = {f.rms_px * f.rms_px * f.corners_used, static_cast<size_t>(f.corners_used)};
         }
         m.score.AddFold(r.rms_px, CornerCount(train), s2, n);
         if (m.options->model == pano::MirrorModel::kAsphere) {
@@ -336,16 +363,32 @@ void CrossValidate(const std::vector<pano::BoardView>& views, const pano::Target
         }
       } else {
         const pano::OmnidirFit f = pano::FitOmnidir(train, board, cv::Size(W, H));
-        for (const pano::BoardView& v : held)
-          if (!OmnidirHeldOut(f, v, pts, &s2, &n)) ++m.score.failed_boards;
+        for (const pano::BoardView& v : held) {
+          double s2b = 0;
+          size_t nb = 0;
+          if (!OmnidirHeldOut(f, v, pts, &s2b, &nb)) {
+            ++m.score.failed_boards;
+            continue;
+          }
+          s2 += s2b;
+          n += nb;
+          m.score.boards[v.file] = {s2b, nb};
+        }
         // omnidir's training RMS is over the boards it kept.
         m.score.AddFold(f.rms_px, CornerCount(train) * f.images_used / train.size(), s2, n);
       }
     }
   }
-  std::printf("  %-28s %10s %10s   per fold held-out\n", "", "train RMS", "held-out");
+  // The boards every method could fit when held out: the fair comparison
+  // when some model fails on some (its fit does not reach them).
+  std::set<std::string> common;
+  for (const pano::BoardView& v : views) common.insert(v.file);
+  for (const Method& m : methods)
+    for (auto it = common.begin(); it != common.end();) it = m.score.boards.count(*it) ? std::next(it) : common.erase(it);
+  std::printf("  %-28s %10s %10s %14s   per fold held-out\n", "", "train RMS", "held-out", "common boards");
   for (const Method& m : methods) {
-    std::printf("  %-28s %8.4f px %8.4f px  ", m.name, m.score.Train(), m.score.Held());
+    std::printf("  %-28s %8.4f px %8.4f px %8.4f px (%zu)  ", m.name, m.score.Train(), m.score.Held(),
+                m.score.HeldOn(common), common.size());
     for (double h : m.score.fold_held) std::printf(" %.3f", h);
     if (m.score.failed_boards) std::printf("  (%d held-out boards not fitted)", m.score.failed_boards);
     std::printf("\n");

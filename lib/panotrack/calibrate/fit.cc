@@ -178,6 +178,15 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
   if (!PlausibleParams(sensor.params))
     throw Error("calibration fit: the fitted sensor is not physical");
   SetRimForImage(&sensor);
+  if (asphere) {
+    // Free terms may bend the profile beyond what a calibration file accepts
+    // (a mirror that is not convex where the camera sees it).
+    try {
+      sensor.Check("fitted sensor");
+    } catch (const Error& e) {
+      throw Error(std::string("calibration fit: ") + e.what());
+    }
+  }
 
   // Residuals of every corner (visible or not).
   double sum2 = 0.0;
