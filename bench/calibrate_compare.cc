@@ -2,6 +2,8 @@
 // (findChessboardCornersSB, the same corners for every model), then fits
 //   - panotrack's conic model (k1, k2 lens distortion),
 //   - panotrack's sphere model,
+//   - panotrack's asphere model (the conic plus a4, or a4 and a6) in the
+//     cross-validation,
 //   - OpenCV's cv::omnidir::calibrate (Mei's unified model, k1 k2 p1 p2),
 // and prints each one's Euclidean RMS reprojection error over all corners
 // (rigid board poses), plus the full `Calibrate` pipeline (with the unwarped
@@ -27,6 +29,8 @@
 #include <cstdio>
 #include <cstring>
 #include <exception>
+#include <map>
+#include <set>
 #include <string>
 
 #include "panotrack/calibrate/calibrate.h"
@@ -173,6 +177,19 @@ struct CvScore {
   size_t train_n = 0, held_n = 0;
   int failed_boards = 0;
   std::vector<double> fold_train, fold_held;
+  // Held-out boards fitted: file -> (sum of squared errors, corners).
+  std::map<std::string, std::pair<double, size_t>> boards;
+  // Held-out RMS over the boards in `common` only (every method fitted them).
+  double HeldOn(const std::set<std::string>& common) const {
+    double s2 = 0;
+    size_t n = 0;
+    for (const auto& [file, e] : boards)
+      if (common.count(file)) {
+        s2 += e.first;
+        n += e.second;
+      }
+    return n ? std::sqrt(s2 / n) : NAN;
+  }
   void AddFold(double train_rms, size_t train_corners, double held_s2_fold, size_t held_n_fold) {
     train_s2 += train_rms * train_rms * train_corners;
     train_n += train_corners;
@@ -266,8 +283,11 @@ pano::Sensor FitWithFocalHeld(const std::vector<pano::BoardView>& views, const p
 void CrossValidate(const std::vector<pano::BoardView>& views, const pano::TargetBoard& board, int W, int H,
                    const std::string& units, int folds, bool gauge) {
   const std::vector<Eigen::Vector3d> pts = pano::BoardPoints(board);
-  pano::CalibrateOptions conic, sphere, conic_ls;
+  pano::CalibrateOptions conic, sphere, conic_ls, asphere, asphere_a4;
   conic.model = pano::MirrorModel::kConic;
+  asphere.model = pano::MirrorModel::kAsphere;
+  asphere_a4 = asphere;
+  asphere_a4.asphere_terms = 1;
   conic_ls = conic;
   conic_ls.huber_px = 0.0;
   conic_ls.full_weight_px = 0.0;
@@ -279,6 +299,8 @@ void CrossValidate(const std::vector<pano::BoardView>& views, const pano::Target
   std::vector<Method> methods = {{"panotrack conic (k1,k2)", &conic, {}},
                                  {"panotrack conic, least sq.", &conic_ls, {}},
                                  {"panotrack sphere", &sphere, {}},
+                                 {"panotrack asphere (a4)", &asphere_a4, {}},
+                                 {"panotrack asphere (a4,a6)", &asphere, {}},
                                  {"OpenCV omnidir (Mei)", nullptr, {}}};
   std::printf("\n%d-fold cross-validation on the same %zu raw-detected boards (board k held out in fold k mod %d; "
               "held-out boards: only their pose fitted):\n",
@@ -298,7 +320,18 @@ void CrossValidate(const std::vector<pano::BoardView>& views, const pano::Target
       double s2 = 0;
       size_t n = 0;
       if (m.options) {
-        const pano::CalibrationResult r = pano::CalibrateViews(train, board, W, H, units, *m.options);
+        pano::CalibrationResult r;
+        try {
+          r = pano::CalibrateViews(train, board, W, H, units, *m.options);
+        } catch (const std::exception& e) {
+          // A fit that fails (e.g. an asphere bent out of convexity) scores
+          // none of its held-out boards.
+          std::printf("  fold %d %s: fit failed (%s)\n", fold, m.name, e.what());
+          m.score.failed_boards += static_cast<int>(held.size());
+          m.score.fold_train.push_back(NAN);
+          m.score.fold_held.push_back(NAN);
+          continue;
+        }
         pano::EvaluateOptions eo;
         eo.huber_px = m.options->huber_px;
         eo.full_weight_px = m.options->full_weight_px;
@@ -310,8 +343,14 @@ void CrossValidate(const std::vector<pano::BoardView>& views, const pano::Target
           }
           s2 += f.rms_px * f.rms_px * f.corners_used;
           n += static_cast<size_t>(f.corners_used);
+          m.score.boards[v.file] = {f.rms_px * f.rms_px * f.corners_used, static_cast<size_t>(f.corners_used)};
         }
         m.score.AddFold(r.rms_px, CornerCount(train), s2, n);
+        if (m.options->model == pano::MirrorModel::kAsphere) {
+          const pano::SensorParams<double>& p = r.calib.sensor.params;
+          std::printf("  fold %d %s: a4 %.5f a6 %.5f (K %.4f) train %.4f px\n", fold, m.name, p.asphere_a4,
+                      p.asphere_a6, p.conic_constant, r.rms_px);
+        }
         if (m.options == &conic) {
           const pano::SensorParams<double>& p = r.calib.sensor.params;
           const double r0 = RadiusAtElevation(r.calib.sensor, 0.0);
@@ -324,16 +363,32 @@ void CrossValidate(const std::vector<pano::BoardView>& views, const pano::Target
         }
       } else {
         const pano::OmnidirFit f = pano::FitOmnidir(train, board, cv::Size(W, H));
-        for (const pano::BoardView& v : held)
-          if (!OmnidirHeldOut(f, v, pts, &s2, &n)) ++m.score.failed_boards;
+        for (const pano::BoardView& v : held) {
+          double s2b = 0;
+          size_t nb = 0;
+          if (!OmnidirHeldOut(f, v, pts, &s2b, &nb)) {
+            ++m.score.failed_boards;
+            continue;
+          }
+          s2 += s2b;
+          n += nb;
+          m.score.boards[v.file] = {s2b, nb};
+        }
         // omnidir's training RMS is over the boards it kept.
         m.score.AddFold(f.rms_px, CornerCount(train) * f.images_used / train.size(), s2, n);
       }
     }
   }
-  std::printf("  %-28s %10s %10s   per fold held-out\n", "", "train RMS", "held-out");
+  // The boards every method could fit when held out: the fair comparison
+  // when some model fails on some (its fit does not reach them).
+  std::set<std::string> common;
+  for (const pano::BoardView& v : views) common.insert(v.file);
+  for (const Method& m : methods)
+    for (auto it = common.begin(); it != common.end();) it = m.score.boards.count(*it) ? std::next(it) : common.erase(it);
+  std::printf("  %-28s %10s %10s %14s   per fold held-out\n", "", "train RMS", "held-out", "common boards");
   for (const Method& m : methods) {
-    std::printf("  %-28s %8.4f px %8.4f px  ", m.name, m.score.Train(), m.score.Held());
+    std::printf("  %-28s %8.4f px %8.4f px %8.4f px (%zu)  ", m.name, m.score.Train(), m.score.Held(),
+                m.score.HeldOn(common), common.size());
     for (double h : m.score.fold_held) std::printf(" %.3f", h);
     if (m.score.failed_boards) std::printf("  (%d held-out boards not fitted)", m.score.failed_boards);
     std::printf("\n");
@@ -345,8 +400,10 @@ void CrossValidate(const std::vector<pano::BoardView>& views, const pano::Target
                 "%.3f .. %.3f px (spread %.3f px)\n",
                 *fmin, *fmax, 100.0 * (*fmax / *fmin - 1.0), *rmin, *rmax, *rmax - *rmin);
   }
-  const double best = std::min({methods[0].score.Held(), methods[1].score.Held(), methods[2].score.Held()});
-  std::printf("  best panotrack held-out / omnidir held-out: %.3f\n", best / methods[3].score.Held());
+  double best = INFINITY;
+  for (const Method& m : methods)
+    if (m.options) best = std::min(best, m.score.Held());
+  std::printf("  best panotrack held-out / omnidir held-out: %.3f\n", best / methods.back().score.Held());
   if (focals.empty() || !gauge) return;
 
   // Gauge: every fold's conic with the focal length held at the folds' median.

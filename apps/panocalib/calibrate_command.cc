@@ -18,7 +18,7 @@ void AddCalibrateCommand(CLI::App& app) {
   struct Opts {
     std::string targets, out, lut, report, model = "sphere", distortion = "auto", free = "none";
     double huber = 1.0, max_rms = 5.0, full_weight = CalibrateOptions().full_weight_px;
-    int max_iterations = 200, threads = 0;
+    int max_iterations = 200, threads = 0, asphere_terms = 2;
     bool no_aspect = false, ignore_poses = false, no_unwarp = false, verbose = false;
   };
   auto o = std::make_shared<Opts>();
@@ -60,10 +60,14 @@ void AddCalibrateCommand(CLI::App& app) {
   cmd->add_option("-o,--output", o->out, "Output calibration file (YAML)")->required();
   cmd->add_option("--lut", o->lut, "Also write the E(D,Z) lookup table here (referenced from the YAML)");
   cmd->add_option("--report", o->report, "Also write a report PNG (per-image RMS, residual vectors)");
-  cmd->add_option("--model", o->model, "Mirror profile: sphere (spec section 2) or conic (quadric of revolution)")
+  cmd->add_option("--model", o->model,
+                  "Mirror profile: sphere (spec section 2), conic (quadric of revolution) or asphere (the conic "
+                  "plus even-asphere terms a4, a6, for a mirror whose maker does not publish its shape)")
+      ->capture_default_str();
+  cmd->add_option("--asphere-terms", o->asphere_terms, "Even-asphere terms fitted with --model asphere: 1 (a4) or 2 (a4, a6)")
       ->capture_default_str();
   cmd->add_option("--distortion", o->distortion,
-                  "Lens radial distortion terms fitted: auto (none for sphere, k1 k2 for conic), 0, 1 or 2")
+                  "Lens radial distortion terms fitted: auto (none for sphere, k1 k2 for conic and asphere), 0, 1 or 2")
       ->capture_default_str();
   cmd->add_option("--free", o->free,
                   "Rig faults fitted (general model): none (the aligned model), auto (decentre and camera-tilt "
@@ -109,7 +113,9 @@ void AddCalibrateCommand(CLI::App& app) {
     CalibrateOptions opt;
     if (o->model == "sphere") opt.model = MirrorModel::kSphere;
     else if (o->model == "conic") opt.model = MirrorModel::kConic;
-    else throw Error("--model: expected sphere or conic, got '" + o->model + "'");
+    else if (o->model == "asphere") opt.model = MirrorModel::kAsphere;
+    else throw Error("--model: expected sphere, conic or asphere, got '" + o->model + "'");
+    opt.asphere_terms = o->asphere_terms;
     if (o->distortion == "auto") opt.distortion_terms = -1;
     else if (o->distortion == "0" || o->distortion == "1" || o->distortion == "2") opt.distortion_terms = std::stoi(o->distortion);
     else throw Error("--distortion: expected auto, 0, 1 or 2, got '" + o->distortion + "'");

@@ -18,7 +18,8 @@ namespace {
 MirrorModel ModelOf(const std::string& name) {
   if (name == "sphere") return MirrorModel::kSphere;
   if (name == "conic") return MirrorModel::kConic;
-  throw Error("model: expected sphere or conic, got '" + name + "'");
+  if (name == "asphere") return MirrorModel::kAsphere;
+  throw Error("model: expected sphere, conic or asphere, got '" + name + "'");
 }
 
 CalibrationResult RunCalibrate(const std::filesystem::path& targets_path, const std::string& model,

@@ -26,7 +26,8 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 MirrorModel ModelFromName(const std::string& name) {
   if (name == "sphere") return MirrorModel::kSphere;
   if (name == "conic") return MirrorModel::kConic;
-  throw Error("model: expected sphere or conic, got '" + name + "'");
+  if (name == "asphere") return MirrorModel::kAsphere;
+  throw Error("model: expected sphere, conic or asphere, got '" + name + "'");
 }
 
 py::object Project(const Sensor& s, const DoubleArray& points, int num_threads) {
@@ -106,6 +107,8 @@ py::dict ParamsDict(const SensorParams<double>& p) {
   d["conic_constant"] = p.conic_constant;
   d["vertex_distance"] = p.vertex_distance;
   d["rim_radius"] = p.rim_radius;
+  d["asphere_a4"] = p.asphere_a4;
+  d["asphere_a6"] = p.asphere_a6;
   return d;
 }
 
@@ -121,13 +124,13 @@ void BindSensor(py::module_& m) {
       .def(py::init<>())
       .def_property(
           "model", [](const Sensor& s) { return std::string(mirror_model_name(s.model)); },
-          [](Sensor& s, const std::string& name) { s.model = ModelFromName(name); }, "'sphere' or 'conic'")
+          [](Sensor& s, const std::string& name) { s.model = ModelFromName(name); }, "'sphere', 'conic' or 'asphere' (a conic with even-asphere terms)")
       .def_readwrite("image_width", &Sensor::image_width)
       .def_readwrite("image_height", &Sensor::image_height)
       // clang-format off
       PANO_PARAM(focal_px) PANO_PARAM(cx) PANO_PARAM(cy) PANO_PARAM(aspect) PANO_PARAM(azimuth_offset)
       PANO_PARAM(k1) PANO_PARAM(k2) PANO_PARAM(curvature_radius) PANO_PARAM(conic_constant)
-      PANO_PARAM(vertex_distance) PANO_PARAM(rim_radius)
+      PANO_PARAM(vertex_distance) PANO_PARAM(rim_radius) PANO_PARAM(asphere_a4) PANO_PARAM(asphere_a6)
       // clang-format on
       .def_property_readonly("params", [](const Sensor& s) { return ParamsDict(s.params); },
                              "All model parameters as a dict (a copy)")
@@ -160,6 +163,9 @@ void BindSensor(py::module_& m) {
             s.params.conic_constant = get("conic_constant");
             s.params.vertex_distance = get("vertex_distance");
             s.params.rim_radius = get("rim_radius");
+            // States pickled before the even-asphere terms existed have none.
+            if (p.contains("asphere_a4")) s.params.asphere_a4 = get("asphere_a4");
+            if (p.contains("asphere_a6")) s.params.asphere_a6 = get("asphere_a6");
             return s;
           }))
       .def("__copy__", [](const Sensor& s) { return s; })

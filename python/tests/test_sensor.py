@@ -166,6 +166,23 @@ def test_pickle_and_copy(sensor):
     assert same(s.project(point_grid(20)), sensor.project(point_grid(20)))
 
 
+def test_asphere_terms_round_trip(sensor):
+    """Model asphere: its terms are parameters, change the image, and pickle."""
+    import pickle
+    s = pickle.loads(pickle.dumps(sensor))
+    s.model = "asphere"
+    s.asphere_a4 = 0.02
+    s.asphere_a6 = 0.01
+    s.check()
+    assert s.params["asphere_a4"] == 0.02 and s.params["asphere_a6"] == 0.01
+    back = pickle.loads(pickle.dumps(s))
+    assert back.model == "asphere" and back.params == s.params
+    pts = point_grid(20)
+    moved = s.project(pts) - sensor.project(pts)
+    assert np.nanmax(np.abs(moved)) > 0.5
+    assert same(back.project(pts), s.project(pts))
+
+
 def test_speed_against_the_cpp_loop(sensor, capsys):
     """project on 10^6 points through numpy against the plain C++ loop (one
     thread, no numpy): measured and printed, not asserted."""

@@ -29,6 +29,14 @@ Map OneRoom() {
   return m;
 }
 
+// Decoded video frames share the decoder's buffer, whose rows are padded:
+// a frame with padded rows reads as its continuous copy does.
+cv::Mat WithPaddedRows(const cv::Mat& frame, int padding) {
+  cv::Mat wide(frame.rows, frame.cols + padding, CV_8UC1, cv::Scalar(255));
+  frame.copyTo(wide(cv::Rect(0, 0, frame.cols, frame.rows)));
+  return wide(cv::Rect(0, 0, frame.cols, frame.rows));
+}
+
 TEST_CASE("landmarks: ids, prediction geometry, polarity, box silhouettes, occlusion", "[landmarks]") {
   const Map m = OneRoom();
   const std::vector<Landmark> lms = LandmarksFromMap(m);
@@ -76,6 +84,95 @@ TEST_CASE("landmarks: ids, prediction geometry, polarity, box silhouettes, occlu
   for (size_t i = 0; i < std::min<size_t>(3, ordered.size()); ++i)
     thirds_chosen.insert(std::min(2, static_cast<int>((ordered[i].azimuth + M_PI) / (2 * M_PI) * 3)));
   CHECK(thirds_chosen.size() == std::min<size_t>(3, thirds_with_landmarks.size()));
+}
+
+TEST_CASE("landmarks: SpreadPrediction is SelectSpread(PredictLandmarks) in two parts", "[landmarks]") {
+  PANO_SEEDED_RNG(11);
+  const Map m = OneRoom();
+  const std::vector<Landmark> lms = LandmarksFromMap(m);
+  const Sensor s = make_sphere_sensor(500, 500, 590, 249.5, 249.5, 1.0, 4.9, 15.1);
+  const Scene scene = Scene::FromMap(m, false);
+  const RadiusTable table = RadiusTable::Build(s, RangesForMap(m, s));
+  std::uniform_real_distribution<double> xy(5.0, 195.0), heading(-M_PI, M_PI);
+  auto same = [](const PredictedLandmark& a, const PredictedLandmark& b) {
+    return a.index == b.index && a.corner_px == b.corner_px && a.azimuth == b.azimuth && a.v_radius == b.v_radius &&
+           a.r_main == b.r_main && a.theta_main == b.theta_main && a.v_polarity == b.v_polarity &&
+           a.h_polarity == b.h_polarity && a.map_v_polarity == b.map_v_polarity;
+  };
+  int with_rest = 0, short_lists = 0;
+  for (int trial = 0; trial < 60; ++trial) {
+    const Pose2 pose{xy(rng), xy(rng), heading(rng)};
+    if (!m.IsFree(pose.x, pose.y)) continue;
+    const std::vector<PredictedLandmark> all = PredictLandmarks(lms, m, scene, s, table, pose, PredictionOptions());
+    for (int max_count : {0, 3, 5, 12, 100}) {
+      INFO("pose " << pose.x << " " << pose.y << " " << pose.theta << ", max_count " << max_count);
+      const std::vector<PredictedLandmark> expected = SelectSpread(all, max_count);
+      SpreadPrediction prediction(lms, m, scene, s, table, pose, PredictionOptions(), max_count);
+      std::vector<PredictedLandmark> got = prediction.First();
+      CHECK(got.size() == (max_count > 0 ? std::min<size_t>(max_count, all.size()) : all.size()));
+      CHECK(prediction.HasMore() == (got.size() < expected.size()));
+      with_rest += prediction.HasMore();
+      short_lists += max_count > 0 && all.size() <= static_cast<size_t>(max_count);
+      const std::vector<PredictedLandmark> rest = prediction.Rest();
+      got.insert(got.end(), rest.begin(), rest.end());
+      REQUIRE(got.size() == expected.size());
+      for (size_t i = 0; i < got.size(); ++i) CHECK(same(got[i], expected[i]));
+    }
+  }
+  // Both of SelectSpread's cases were met: a list longer than max_count
+  // (spread), and one no longer (landmark order).
+  CHECK(with_rest > 20);
+  CHECK(short_lists > 20);
+}
+
+TEST_CASE("linear samples: the vector path gives the scalar blend's bits", "[edge_step]") {
+  PANO_SEEDED_RNG(5);
+  cv::Mat image(60, 90, CV_8UC1);
+  cv::randu(image, 0, 256);
+  const cv::Mat padded = WithPaddedRows(image, 7);
+  std::uniform_real_distribution<double> x(0.0, 88.99), y(0.0, 58.99);
+  std::uniform_int_distribution<int> count(1, 70);
+  for (int trial = 0; trial < 400; ++trial) {
+    // Lines anywhere, the last rows included (read without gathers).
+    const Eigen::Vector2d a(x(rng), y(rng)), b(x(rng), y(rng));
+    const int n = count(rng);
+    const Eigen::Vector2d step = n > 1 ? Eigen::Vector2d((b - a) / (n - 1)) : Eigen::Vector2d(0.3, 0.1);
+    float got[80], got_padded[80];
+    REQUIRE(SampleLine(image, a, step, n, got));
+    REQUIRE(SampleLine(padded, a, step, n, got_padded));
+    for (int k = 0; k < n; ++k) {
+      // The blend in float, as SampleLine documents it.
+      const float px = static_cast<float>(a.x()) + static_cast<float>(k) * static_cast<float>(step.x());
+      const float py = static_cast<float>(a.y()) + static_cast<float>(k) * static_cast<float>(step.y());
+      const int ix = std::clamp(static_cast<int>(px), 0, image.cols - 2);
+      const int iy = std::clamp(static_cast<int>(py), 0, image.rows - 2);
+      const float fx = px - static_cast<float>(ix), fy = py - static_cast<float>(iy);
+      const float p00 = image.at<uchar>(iy, ix), p01 = image.at<uchar>(iy, ix + 1);
+      const float p10 = image.at<uchar>(iy + 1, ix), p11 = image.at<uchar>(iy + 1, ix + 1);
+      const float expected = (1 - fy) * ((1 - fx) * p00 + fx * p01) + fy * ((1 - fx) * p10 + fx * p11);
+      INFO("trial " << trial << " sample " << k << " of " << n);
+      CHECK(got[k] == expected);
+      CHECK(got_padded[k] == expected);
+    }
+  }
+  float none[2];
+  CHECK_FALSE(SampleLine(image, {10, 58.5}, {0, 1}, 2, none));  // the second sample falls outside
+}
+
+TEST_CASE("step detector: of equal steps, the first", "[edge_step]") {
+  // Two identical steps (and falls between them): whichever part of the
+  // profile each lies in, the first one is found.
+  for (int n : {29, 40, 47, 61}) {
+    for (int first = 6; first < n / 2 - 4; ++first) {
+      const int second = first + (n - first) / 2;
+      std::vector<float> p(static_cast<size_t>(n));
+      for (int i = 0; i < n; ++i) p[static_cast<size_t>(i)] = (i >= first && i < second - 3) || i >= second ? 150.0f : 50.0f;
+      StepEdge e;
+      INFO("n " << n << ", steps at " << first << " and " << second);
+      if (!FindStep(p.data(), n, +1, 4, 12.0, &e)) continue;  // too near an end for the plateaus
+      CHECK(std::abs(e.location - (first - 0.5)) < 0.01);
+    }
+  }
 }
 
 TEST_CASE("step detector: sub-sample location of blurred steps, polarity, threshold", "[edge_step]") {
@@ -131,13 +228,6 @@ TEST_CASE("visual compass: the rotation between two frames at one position", "[c
   }
 }
 
-// Decoded video frames share the decoder's buffer, whose rows are padded:
-// a frame with padded rows reads as its continuous copy does.
-cv::Mat WithPaddedRows(const cv::Mat& frame, int padding) {
-  cv::Mat wide(frame.rows, frame.cols + padding, CV_8UC1, cv::Scalar(255));
-  frame.copyTo(wide(cv::Rect(0, 0, frame.cols, frame.rows)));
-  return wide(cv::Rect(0, 0, frame.cols, frame.rows));
-}
 
 TEST_CASE("visual compass and relocalisation read frames with padded rows", "[compass]") {
   const SequenceCase c = MakePreset("paper-synthetic");

@@ -161,7 +161,7 @@ struct RenderFlags {
 // Faults of a real rig (sensor/general_model.h) set on the sensor being
 // rendered; each replaces that fault of the preset or calibration file.
 struct RigFlags {
-  std::vector<double> decentre, camera_tilt, distortion, sensor_tilt;
+  std::vector<double> decentre, camera_tilt, distortion, sensor_tilt, asphere;
 
   void Add(CLI::App* app) {
     for (CLI::Option* o :
@@ -179,6 +179,13 @@ struct RigFlags {
           AddNumberList(app, "--sensor-tilt", &sensor_tilt, 2, "ax,ay (degrees)",
                         "Rig fault: the mirror's axis tilted from the robot's vertical, about x then y (degrees)")})
       o->group("Rig faults");
+    app->add_option("--asphere", asphere,
+                    "Mirror profile: even-asphere terms a4[,a6] added to the sphere's or conic's sag, "
+                    "R (a4 (s/R)^4 + a6 (s/R)^6) (model asphere: a mirror that is not a conic)")
+        ->delimiter(',')
+        ->expected(1, 2)
+        ->type_name("A4[,A6]")
+        ->group("Mirror profile");
   }
   void Apply(pano::Sensor* s) const {
     const double deg = M_PI / 180.0;
@@ -205,6 +212,16 @@ struct RigFlags {
     if (!sensor_tilt.empty()) {
       f.sensor_tilt[0] = sensor_tilt[0] * deg;
       f.sensor_tilt[1] = sensor_tilt[1] * deg;
+    }
+    if (!asphere.empty()) {
+      for (double v : asphere)
+        if (!std::isfinite(v)) throw pano::Error("--asphere: expected finite numbers");
+      s->params.asphere_a4 = asphere[0];
+      s->params.asphere_a6 = asphere.size() == 2 ? asphere[1] : 0.0;
+      const bool terms = s->params.asphere_a4 != 0.0 || s->params.asphere_a6 != 0.0;
+      if (terms) s->model = pano::MirrorModel::kAsphere;
+      else if (s->model == pano::MirrorModel::kAsphere) s->model = pano::MirrorModel::kConic;
+      s->Check("--asphere");
     }
     s->Check("rig faults");
   }

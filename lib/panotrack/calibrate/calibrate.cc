@@ -34,7 +34,7 @@ int CalibrateOptions::Threads() const {
 FreeFaults DefaultFreeFaults(MirrorModel model) {
   FreeFaults f;
   f.decentre = true;
-  f.camera_tilt = model == MirrorModel::kConic;
+  f.camera_tilt = model != MirrorModel::kSphere;
   return f;
 }
 
@@ -65,8 +65,10 @@ FreeFaults ParseFreeFaults(const std::string& list, MirrorModel model, int* dist
 }
 
 void CalibrateOptions::Check() const {
-  if (model != MirrorModel::kSphere && model != MirrorModel::kConic)
-    throw Error("--model: expected sphere or conic");
+  if (model != MirrorModel::kSphere && model != MirrorModel::kConic && model != MirrorModel::kAsphere)
+    throw Error("--model: expected sphere, conic or asphere");
+  if (asphere_terms < 1 || asphere_terms > 2)
+    throw Error("--asphere-terms: expected 1 (a4) or 2 (a4, a6), got " + std::to_string(asphere_terms));
   if (distortion_terms < -1 || distortion_terms > 2)
     throw Error("--distortion: expected 0, 1 or 2 radial terms, got " + std::to_string(distortion_terms));
   if (!(huber_px >= 0.0) || !std::isfinite(huber_px))

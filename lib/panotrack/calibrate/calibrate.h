@@ -60,9 +60,13 @@ FreeFaults DefaultFreeFaults(MirrorModel model);
 FreeFaults ParseFreeFaults(const std::string& list, MirrorModel model, int* distortion_terms = nullptr);
 
 struct CalibrateOptions {
+  // kAsphere: the conic with even-asphere terms fitted (started from the
+  // conic's initialisation with the terms at zero).
   MirrorModel model = MirrorModel::kSphere;
+  // Even-asphere terms fitted with model asphere: 1 (a4) or 2 (a4, a6).
+  int asphere_terms = 2;
   // Lens radial distortion terms fitted: -1 automatic (0 for sphere, 2 for
-  // conic), else 0, 1 (k1) or 2 (k1, k2).
+  // conic and asphere), else 0, 1 (k1) or 2 (k1, k2).
   int distortion_terms = -1;
   bool fit_aspect = true;
   // Fitted only when the board poses are known: with unknown poses a turn of
@@ -111,7 +115,7 @@ struct CalibrateOptions {
   bool verbose = false;
 
   int DistortionTerms() const {
-    return distortion_terms >= 0 ? distortion_terms : (model == MirrorModel::kConic ? 2 : 0);
+    return distortion_terms >= 0 ? distortion_terms : (model != MirrorModel::kSphere ? 2 : 0);
   }
   FreeFaults Faults() const { return free_faults_auto ? DefaultFreeFaults(model) : free_faults; }
   // num_threads with 0 resolved to the number of cores.

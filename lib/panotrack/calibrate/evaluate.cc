@@ -26,12 +26,13 @@ double Seconds(std::chrono::steady_clock::time_point t0) {
 // Errors of every corner through the sensor block and pose; fills the fit's
 // residuals, counts and RMS.
 void Score(const BoardView& view, const std::vector<Eigen::Vector3d>& pts, const std::array<double, kNumSensor>& s,
-           const std::array<double, 6>& pose, double cap, BoardPoseFit* fit) {
+           const SensorParams<double>& asphere, const std::array<double, 6>& pose, double cap, BoardPoseFit* fit) {
   fit->residuals.clear();
   double s2 = 0.0, worst = 0.0;
   int n = 0;
   for (size_t j = 0; j < view.corners.size(); ++j) {
     CornerCost c(pts[view.PointId(j)], view.corners[j], cap);
+    c.WithAsphere(asphere);
     double r[2];
     if (!c(s.data(), pose.data(), r)) {
       fit->residuals.emplace_back(NAN, NAN);
@@ -95,11 +96,12 @@ BoardPoseFit FitBoardPose(const BoardView& view, const TargetBoard& board, const
   for (size_t j = 0; j < view.corners.size(); ++j) {
     const Eigen::Vector3d& X = pts[view.PointId(j)];
     CornerCost probe(X, view.corners[j], cap);
+    probe.WithAsphere(sensor.params);
     double r[2];
     if (!probe(s.data(), pose.data(), r)) continue;
     ceres::LossFunction* loss = options.huber_px > 0 ? new ceres::HuberLoss(options.huber_px) : nullptr;
     problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CornerCost, 2, kNumSensor, 6>(
-                                 new CornerCost(X, view.corners[j], cap, weights[j])),
+                                 &(new CornerCost(X, view.corners[j], cap, weights[j]))->WithAsphere(sensor.params)),
                              loss, s.data(), pose.data());
     ++n_obs;
   }
@@ -127,7 +129,7 @@ BoardPoseFit FitBoardPose(const BoardView& view, const TargetBoard& board, const
   }
   fit.rvec = Eigen::Vector3d(pose[0], pose[1], pose[2]);
   fit.tvec = Eigen::Vector3d(pose[3], pose[4], pose[5]);
-  Score(view, pts, s, pose, cap, &fit);
+  Score(view, pts, s, sensor.params, pose, cap, &fit);
   if (fit.corners_used * 2 < static_cast<int>(view.corners.size())) {
     fit.failure = "the fitted pose sees only " + std::to_string(fit.corners_used) + " of " +
                   std::to_string(view.corners.size()) + " corners";

@@ -78,6 +78,12 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
   const bool general = faults_free || !init.sensor.faults.IsZero();
   if (!AllFinite(s.data(), kNumSensor) || !AllFinite(f.data(), kNumFaults))
     throw Error("calibration fit: the initial sensor has non-finite parameters");
+  // Model asphere: its even-asphere terms are a block of their own (a6 held
+  // at zero when only a4 is asked for).
+  const bool asphere = options.model == MirrorModel::kAsphere;
+  std::array<double, kNumAsphere> terms = {init.sensor.params.asphere_a4, init.sensor.params.asphere_a6};
+  if (asphere && options.asphere_terms < 2) terms[kA6] = 0.0;
+  const int n_free_asphere = asphere ? options.asphere_terms : 0;
 
   ceres::Problem::Options popt;
   ceres::Problem problem(popt);
@@ -90,8 +96,14 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
     else if (!fixed_faults.empty())
       problem.SetManifold(f.data(), new ceres::SubsetManifold(kNumFaults, fixed_faults));
   }
+  if (asphere) {
+    problem.AddParameterBlock(terms.data(), kNumAsphere);
+    if (n_free_asphere < kNumAsphere) problem.SetManifold(terms.data(), new ceres::SubsetManifold(kNumAsphere, {kA6}));
+  }
   // One corner's residual (pixels, unweighted) through the model in use.
   auto residual = [&](const Eigen::Vector3d& X, const Eigen::Vector2d& obs, const double* pose, double* r) {
+    if (asphere && general) return AsphereCornerCost(X, obs, cap)(s.data(), f.data(), terms.data(), pose, r);
+    if (asphere) return AsphereCornerCost(X, obs, cap)(s.data(), terms.data(), pose, r);
     if (general) return GeneralCornerCost(X, obs, cap)(s.data(), f.data(), pose, r);
     return CornerCost(X, obs, cap)(s.data(), pose, r);
   };
@@ -111,7 +123,16 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
         continue;  // not visible through the initial model: left out of the fit
       }
       ceres::LossFunction* loss = options.huber_px > 0 ? new ceres::HuberLoss(options.huber_px) : nullptr;
-      if (general)
+      if (asphere && general)
+        problem.AddResidualBlock(
+            new ceres::AutoDiffCostFunction<AsphereCornerCost, 2, kNumSensor, kNumFaults, kNumAsphere, 6>(
+                new AsphereCornerCost(X, bv.corners[j], cap, weights[j])),
+            loss, s.data(), f.data(), terms.data(), poses[i].data());
+      else if (asphere)
+        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<AsphereCornerCost, 2, kNumSensor, kNumAsphere, 6>(
+                                     new AsphereCornerCost(X, bv.corners[j], cap, weights[j])),
+                                 loss, s.data(), terms.data(), poses[i].data());
+      else if (general)
         problem.AddResidualBlock(new ceres::AutoDiffCostFunction<GeneralCornerCost, 2, kNumSensor, kNumFaults, 6>(
                                      new GeneralCornerCost(X, bv.corners[j], cap, weights[j])),
                                  loss, s.data(), f.data(), poses[i].data());
@@ -141,7 +162,7 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
   ceres::Solve(so, &problem, &summary);
   if (options.verbose) std::fprintf(stderr, "%s\n", summary.BriefReport().c_str());
   if (summary.termination_type == ceres::FAILURE || !AllFinite(s.data(), kNumSensor) ||
-      !AllFinite(f.data(), kNumFaults))
+      !AllFinite(f.data(), kNumFaults) || !AllFinite(terms.data(), kNumAsphere))
     throw Error("calibration fit: Ceres failed (" + summary.message + ")");
 
   CalibrationResult res;
@@ -152,9 +173,20 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
   sensor = init.sensor;
   sensor.params = ParamsFromBlock(s.data());
   sensor.faults = FaultsFromBlock(f.data());
+  sensor.params.asphere_a4 = terms[kA4];
+  sensor.params.asphere_a6 = terms[kA6];
   if (!PlausibleParams(sensor.params))
     throw Error("calibration fit: the fitted sensor is not physical");
   SetRimForImage(&sensor);
+  if (asphere) {
+    // Free terms may bend the profile beyond what a calibration file accepts
+    // (a mirror that is not convex where the camera sees it).
+    try {
+      sensor.Check("fitted sensor");
+    } catch (const Error& e) {
+      throw Error(std::string("calibration fit: ") + e.what());
+    }
+  }
 
   // Residuals of every corner (visible or not).
   double sum2 = 0.0;
@@ -197,6 +229,7 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
   // numerical null space is "not determined".
   std::vector<double*> blocks = {s.data()};
   if (faults_free) blocks.push_back(f.data());
+  if (asphere) blocks.push_back(terms.data());
   if (!poses_known)
     for (auto& p : poses) blocks.push_back(p.data());
   ceres::Problem::EvaluateOptions eo;
@@ -216,6 +249,8 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
     if (faults_free && !std::binary_search(fixed_faults.begin(), fixed_faults.end(), k)) free_fault_idx.push_back(k);
   Eigen::VectorXd fault_var = Eigen::VectorXd::Zero(kNumFaults);
   std::vector<bool> fault_determined(kNumFaults, true);
+  Eigen::VectorXd asphere_var = Eigen::VectorXd::Zero(kNumAsphere);
+  std::vector<bool> asphere_determined(kNumAsphere, true);
   if (problem.Evaluate(eo, &cost, nullptr, nullptr, &jac)) {
     const int P = jac.num_cols, N = jac.num_rows;
     Eigen::MatrixXd JtJ = Eigen::MatrixXd::Zero(P, P);
@@ -254,9 +289,17 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
       fault_var(free_fault_idx[a]) = cov(col, col);
       fault_determined[free_fault_idx[a]] = null_weight[col] < 1e-3;
     }
+    // Then the asphere block's free columns.
+    for (int k = 0; k < n_free_asphere; ++k) {
+      const int col = static_cast<int>(free_idx.size() + free_fault_idx.size()) + k;
+      if (col >= P) break;
+      asphere_var(k) = cov(col, col);
+      asphere_determined[k] = null_weight[col] < 1e-3;
+    }
   } else {
     for (int k : free_idx) determined[k] = false;
     for (int k : free_fault_idx) fault_determined[k] = false;
+    for (int k = 0; k < n_free_asphere; ++k) asphere_determined[k] = false;
   }
   for (int k = 0; k < kNumSensor; ++k) sensor_std(k) = std::sqrt(std::max(0.0, sensor_cov(k, k)));
 
@@ -329,6 +372,24 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
                              "; fix them (--free) or take boards at more heights and azimuths");
     if (options.Faults().sensor_tilt && !poses_known)
       res.warnings.push_back("sensor tilt held at zero: with estimated board poses it is a turn of every board");
+  }
+
+  // Even-asphere terms (model asphere): "not determined" as the faults are.
+  if (asphere) {
+    const char* names[kNumAsphere] = {"asphere_a4", "asphere_a6"};
+    std::string poor;
+    for (int k = 0; k < kNumAsphere; ++k) {
+      const bool fx = k >= n_free_asphere;
+      if (fx && terms[k] == 0.0) continue;
+      const double sd = std::sqrt(std::max(0.0, asphere_var(k)));
+      const bool det = asphere_determined[k] && std::isfinite(sd) && sd <= options.fault_warning_std;
+      add(names[k], terms[k], asphere_var(k), fx, det);
+      if (!fx && !det) poor += std::string(poor.empty() ? "" : ", ") + names[k];
+    }
+    if (!poor.empty())
+      res.warnings.push_back("mirror profile terms not determined by these boards (covariance rank-deficient or "
+                             "standard deviation too large): " + poor +
+                             "; fit the conic (--model conic) or take boards nearer the mirror's rim");
   }
 
   // Mirror size against the world: with unknown poses only parallax fixes it.

@@ -695,7 +695,7 @@ InitialEstimate Initialize(const std::vector<BoardView>& views, const TargetBoar
   if (views.empty()) throw Error("initialisation: no boards");
   const InitInput in{views, BoardPoints(board), board.square * std::max(board.cols, board.rows),
                      width, height, poses_known,
-                     options.model == MirrorModel::kConic, options};
+                     options.model != MirrorModel::kSphere, options};
   std::ostringstream log;
   StartRanking rank;
   for (const auto& [cx, cy] : CentreCandidates(width, height)) {

@@ -180,6 +180,8 @@ struct CornerCost {
   bool operator()(const T* sensor, const T* pose, T* residual) const {
     SensorParams<T> p = ParamsFromBlock(sensor);
     if (!PlausibleParams(p)) return false;
+    p.asphere_a4 = T(asphere_a4);
+    p.asphere_a6 = T(asphere_a6);
     p.rim_radius = T(RimForRadius(p.template cast<double>(), cap / scalar_value(p.focal_px)));
     T Xs[3];
     BoardPointInSensor(pose, X, Xs);
@@ -188,10 +190,18 @@ struct CornerCost {
     WhitenedResidual(L, u, v, obs, residual);
     return true;
   }
+  // The mirror's even-asphere terms held fixed (SensorParams); zero for the
+  // sphere and the conic, whose projection then takes the closed form.
+  CornerCost& WithAsphere(const SensorParams<double>& p) {
+    asphere_a4 = p.asphere_a4;
+    asphere_a6 = p.asphere_a6;
+    return *this;
+  }
   Eigen::Vector3d X;
   Eigen::Vector2d obs;
   double cap;
   Eigen::Matrix2d L;
+  double asphere_a4 = 0.0, asphere_a6 = 0.0;
 };
 
 // CornerCost through the general model (project_general): sensor block,
@@ -220,6 +230,56 @@ struct GeneralCornerCost {
     BoardPointInSensor(pose, X, Xs);
     T u, v;
     if (!project_general(g, Xs, &u, &v)) return false;
+    WhitenedResidual(L, u, v, obs, residual);
+    return true;
+  }
+  Eigen::Vector3d X;
+  Eigen::Vector2d obs;
+  double cap;
+  Eigen::Matrix2d L;
+};
+
+// The even-asphere terms of the fit (model asphere): a block of their own, so
+// that sphere and conic fits keep their cost and speed.
+enum AsphereIndex { kA4 = 0, kA6, kNumAsphere };
+
+// CornerCost and GeneralCornerCost with the asphere block as free parameters:
+// (sensor, asphere, pose) or (sensor, faults, asphere, pose).
+struct AsphereCornerCost {
+  AsphereCornerCost(const Eigen::Vector3d& board_point, const Eigen::Vector2d& pixel, double cap_px,
+                    const Eigen::Matrix2d& sqrt_info = Eigen::Matrix2d::Identity())
+      : X(board_point), obs(pixel), cap(cap_px), L(sqrt_info) {}
+  template <typename T>
+  bool operator()(const T* sensor, const T* asphere, const T* pose, T* residual) const {
+    return Evaluate(sensor, static_cast<const T*>(nullptr), asphere, pose, residual, false);
+  }
+  template <typename T>
+  bool operator()(const T* sensor, const T* faults, const T* asphere, const T* pose, T* residual) const {
+    return Evaluate(sensor, faults, asphere, pose, residual, true);
+  }
+  template <typename T>
+  bool Evaluate(const T* sensor, const T* faults, const T* asphere, const T* pose, T* residual, bool general) const {
+    GeneralSensorParams<T> g;
+    g.aligned = ParamsFromBlock(sensor);
+    if (!PlausibleParams(g.aligned)) return false;
+    g.aligned.asphere_a4 = asphere[kA4];
+    g.aligned.asphere_a6 = asphere[kA6];
+    g.aligned.rim_radius = T(RimForRadius(g.aligned.template cast<double>(), cap / scalar_value(g.aligned.focal_px)));
+    T Xs[3];
+    BoardPointInSensor(pose, X, Xs);
+    T u, v;
+    if (general) {
+      g.faults = FaultsFromBlock(faults);
+      // The bounds of GeneralCornerCost.
+      const T& dx = g.faults.mirror_offset[0];
+      const T& dy = g.faults.mirror_offset[1];
+      if (!(dx * dx + dy * dy < T(0.25) * g.aligned.curvature_radius * g.aligned.curvature_radius)) return false;
+      for (const T* a : {g.faults.camera_tilt, g.faults.sensor_tilt})
+        if (!(a[0] * a[0] + a[1] * a[1] < T(0.12))) return false;
+      if (!project_general(g, Xs, &u, &v)) return false;
+    } else if (!project(g.aligned, Xs, &u, &v)) {
+      return false;
+    }
     WhitenedResidual(L, u, v, obs, residual);
     return true;
   }

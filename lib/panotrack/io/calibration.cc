@@ -15,7 +15,7 @@ namespace {
 const char* const kKnownKeys[] = {"model", "units", "image_width", "image_height", "focal_px", "cx",
                                   "cy", "aspect", "azimuth_offset", "k1", "k2", "rim_radius",
                                   "mirror_radius", "mirror_distance", "curvature_radius",
-                                  "conic_constant", "vertex_distance", "lut",
+                                  "conic_constant", "vertex_distance", "asphere_a4", "asphere_a6", "lut",
                                   "mirror_offset", "camera_tilt", "sensor_tilt", "p1", "p2", "k3",
                                   "images", "images_not_found", "images_used", "images_total",
                                   "software", "command_line"};
@@ -96,8 +96,10 @@ Calibration ParseCalibration(const std::string& path, const YAML::Node& n) {
     s.model = MirrorModel::kSphere;
   } else if (model == "conic") {
     s.model = MirrorModel::kConic;
+  } else if (model == "asphere") {
+    s.model = MirrorModel::kAsphere;
   } else {
-    r.Fail("model", "unknown model '" + model + "' (expected sphere or conic)");
+    r.Fail("model", "unknown model '" + model + "' (expected sphere, conic or asphere)");
   }
   c.units = r.String(n, "units", "units", "cm");
   s.image_width = r.Int(n, "image_width", "image_width", 1, kMaxImageSide);
@@ -127,6 +129,13 @@ Calibration ParseCalibration(const std::string& path, const YAML::Node& n) {
     p.curvature_radius = r.Double(n, "curvature_radius", "curvature_radius");
     p.conic_constant = r.Double(n, "conic_constant", "conic_constant");
     p.vertex_distance = r.Double(n, "vertex_distance", "vertex_distance");
+  }
+  // The even-asphere terms: optional (absent: zero), and only for model asphere.
+  for (const char* key : {"asphere_a4", "asphere_a6"})
+    if (s.model != MirrorModel::kAsphere && r.Has(n, key)) r.Fail(key, "only with model asphere");
+  if (s.model == MirrorModel::kAsphere) {
+    p.asphere_a4 = r.Double(n, "asphere_a4", "asphere_a4", 0.0);
+    p.asphere_a6 = r.Double(n, "asphere_a6", "asphere_a6", 0.0);
   }
   // Faults of a real rig (all optional; absent: an aligned rig).
   RigFaults<double>& f = s.faults;
@@ -214,6 +223,8 @@ std::string CalibrationToYaml(const Calibration& c) {
     w.Key("curvature_radius").Double(p.curvature_radius);
     w.Key("conic_constant").Double(p.conic_constant);
     w.Key("vertex_distance").Double(p.vertex_distance);
+    if (p.asphere_a4 != 0.0) w.Key("asphere_a4").Double(p.asphere_a4);
+    if (p.asphere_a6 != 0.0) w.Key("asphere_a6").Double(p.asphere_a6);
   }
   w.Key("azimuth_offset").Double(p.azimuth_offset);
   if (p.k1 != 0.0 || p.k2 != 0.0) {

@@ -54,6 +54,11 @@ void PackParams(const Sensor& s, double* out) {
   std::memcpy(out, v, sizeof v);
 }
 
+// An asphere table's header is followed by its even-asphere terms (a4, a6),
+// covered by the checksum; sphere and conic tables have none, as before.
+constexpr int kNumAsphereTerms = 2;
+bool HasAsphereTail(uint32_t model) { return model == static_cast<uint32_t>(MirrorModel::kAsphere); }
+
 // Bilinear interpolation of grid g (ny rows of nx) at fractional (fx, fy).
 inline bool Bilinear(const std::vector<float>& g, int nx, int ny, double fx, double fy,
                      double* out) {
@@ -202,6 +207,10 @@ bool RadiusTable::Matches(const Sensor& s) const {
   PackParams(sensor_, b);
   for (int i = 0; i < 11; ++i)
     if (std::abs(a[i] - b[i]) > 1e-9 * (1.0 + std::abs(a[i]))) return false;
+  const double ta[kNumAsphereTerms] = {s.params.asphere_a4, s.params.asphere_a6};
+  const double tb[kNumAsphereTerms] = {sensor_.params.asphere_a4, sensor_.params.asphere_a6};
+  for (int i = 0; i < kNumAsphereTerms; ++i)
+    if (std::abs(ta[i] - tb[i]) > 1e-9 * (1.0 + std::abs(ta[i]))) return false;
   return true;
 }
 
@@ -223,6 +232,10 @@ void RadiusTable::Save(const std::string& path) const {
   h.n_radius = size_.n_radius;
   h.n_height = size_.n_height;
   std::string blob(reinterpret_cast<const char*>(&h), sizeof h);
+  if (HasAsphereTail(h.model)) {
+    const double tail[kNumAsphereTerms] = {sensor_.params.asphere_a4, sensor_.params.asphere_a6};
+    blob.append(reinterpret_cast<const char*>(tail), sizeof tail);
+  }
   blob.append(reinterpret_cast<const char*>(forward_.data()), forward_.size() * sizeof(float));
   blob.append(reinterpret_cast<const char*>(inverse_.data()), inverse_.size() * sizeof(float));
   const uint64_t sum = Fnv1a64(reinterpret_cast<const uint8_t*>(blob.data()), blob.size());
@@ -251,7 +264,8 @@ void CheckHeader(const std::string& path, const Header& h) {
     throw Error(path + ": corrupt lookup table header (table sizes " + std::to_string(h.n_distance) + " x " +
                 std::to_string(h.n_elevation) + " and " + std::to_string(h.n_radius) + " x " +
                 std::to_string(h.n_height) + ")");
-  if (h.model > 1) throw Error(path + ": corrupt lookup table header (model)");
+  if (h.model > static_cast<uint32_t>(MirrorModel::kAsphere))
+    throw Error(path + ": corrupt lookup table header (model)");
   if (h.image_width < 1 || h.image_width > kMaxImageSide || h.image_height < 1 ||
       h.image_height > kMaxImageSide ||
       static_cast<long long>(h.image_width) * h.image_height > kMaxImagePixels)
@@ -281,11 +295,20 @@ RadiusTable RadiusTable::Load(const std::string& path, const Sensor* expected) {
   CheckHeader(path, h);
   const size_t n_fwd = static_cast<size_t>(h.n_distance) * h.n_elevation;
   const size_t n_inv = static_cast<size_t>(h.n_radius) * h.n_height;
-  const size_t want = sizeof(Header) + (n_fwd + n_inv) * sizeof(float) + sizeof(uint64_t);
+  const size_t n_tail = HasAsphereTail(h.model) ? kNumAsphereTerms : 0;
+  const size_t want = sizeof(Header) + n_tail * sizeof(double) + (n_fwd + n_inv) * sizeof(float) + sizeof(uint64_t);
   if (in.size() >= 0 && static_cast<size_t>(in.size()) != want)
     throw Error(path + ": truncated or padded lookup table (" + std::to_string(in.size()) +
                 " bytes, expected " + std::to_string(want) + ")");
   RadiusTable t;
+  double tail[kNumAsphereTerms] = {0.0, 0.0};
+  if (n_tail > 0) {
+    const size_t got = in.Read(tail, sizeof tail);
+    read_so_far += got;
+    if (got != sizeof tail)
+      throw Error(path + ": truncated lookup table (" + std::to_string(read_so_far) + " bytes, expected " +
+                  std::to_string(want) + ")");
+  }
   ReadFloats(in, n_fwd, &t.forward_, &read_so_far, want);
   ReadFloats(in, n_inv, &t.inverse_, &read_so_far, want);
   uint64_t stored = 0;
@@ -296,6 +319,7 @@ RadiusTable RadiusTable::Load(const std::string& path, const Sensor* expected) {
     throw Error(path + ": padded lookup table (more than the " + std::to_string(want) +
                 " bytes its header declares)");
   uint64_t sum = Fnv1a64(&h, sizeof h);
+  if (n_tail > 0) sum = Fnv1a64(tail, sizeof tail, sum);
   sum = Fnv1a64(t.forward_.data(), n_fwd * sizeof(float), sum);
   sum = Fnv1a64(t.inverse_.data(), n_inv * sizeof(float), sum);
   if (sum != stored) throw Error(path + ": corrupt lookup table (checksum mismatch)");
@@ -307,6 +331,8 @@ RadiusTable RadiusTable::Load(const std::string& path, const Sensor* expected) {
   double* fields[11] = {&p.focal_px, &p.cx, &p.cy, &p.aspect, &p.azimuth_offset, &p.k1, &p.k2,
                         &p.curvature_radius, &p.conic_constant, &p.vertex_distance, &p.rim_radius};
   for (int i = 0; i < 11; ++i) *fields[i] = h.params[i];
+  p.asphere_a4 = tail[0];
+  p.asphere_a6 = tail[1];
   t.sensor_.Check(path);
   t.ranges_ = {h.ranges[0], h.ranges[1], h.ranges[2], h.ranges[3]};
   t.ranges_.Check(path);

@@ -39,10 +39,14 @@ class KeyHasher {
 };
 
 // The sensor parameters the table depends on (those RadiusTable::Save records).
-void ParamFields(const SensorParams<double>& p, const double* out[11]) {
-  const double* f[11] = {&p.focal_px, &p.cx, &p.cy, &p.aspect, &p.azimuth_offset, &p.k1, &p.k2,
-                         &p.curvature_radius, &p.conic_constant, &p.vertex_distance, &p.rim_radius};
-  for (int i = 0; i < 11; ++i) out[i] = f[i];
+// The last two, the even-asphere terms, enter the cache key only when non-zero
+// (so that the keys of conic and sphere tables stay as they were).
+constexpr int kNumParamFields = 13;
+void ParamFields(const SensorParams<double>& p, const double* out[kNumParamFields]) {
+  const double* f[kNumParamFields] = {&p.focal_px, &p.cx, &p.cy, &p.aspect, &p.azimuth_offset, &p.k1, &p.k2,
+                                      &p.curvature_radius, &p.conic_constant, &p.vertex_distance, &p.rim_radius,
+                                      &p.asphere_a4, &p.asphere_a6};
+  for (int i = 0; i < kNumParamFields; ++i) out[i] = f[i];
 }
 
 // Bitwise equality: the key is over the bits, so the file must match them.
@@ -53,11 +57,11 @@ std::string Mismatch(const RadiusTable& t, const Sensor& sensor, const LutRanges
   const Sensor& s = t.sensor();
   if (s.model != sensor.model || s.image_width != sensor.image_width || s.image_height != sensor.image_height)
     return "another sensor model or image size";
-  const double* a[11];
-  const double* b[11];
+  const double* a[kNumParamFields];
+  const double* b[kNumParamFields];
   ParamFields(s.params, a);
   ParamFields(sensor.params, b);
-  for (int i = 0; i < 11; ++i)
+  for (int i = 0; i < kNumParamFields; ++i)
     if (!SameBits(*a[i], *b[i])) return "other sensor parameters";
   const LutRanges& r = t.ranges();
   if (!SameBits(r.d_min, ranges.d_min) || !SameBits(r.d_max, ranges.d_max) || !SameBits(r.z_min, ranges.z_min) ||
@@ -92,9 +96,11 @@ std::string RadiusTableCacheKey(const Sensor& sensor, const LutRanges& ranges, c
   h.Add(static_cast<int32_t>(sensor.model));
   h.Add(static_cast<int32_t>(sensor.image_width));
   h.Add(static_cast<int32_t>(sensor.image_height));
-  const double* p[11];
+  const double* p[kNumParamFields];
   ParamFields(sensor.params, p);
-  for (const double* v : p) h.Add(*v);
+  for (int i = 0; i < 11; ++i) h.Add(*p[i]);
+  if (sensor.params.asphere_a4 != 0.0 || sensor.params.asphere_a6 != 0.0)
+    for (int i = 11; i < kNumParamFields; ++i) h.Add(*p[i]);
   for (double v : {ranges.d_min, ranges.d_max, ranges.z_min, ranges.z_max}) h.Add(v);
   for (int n : {size.n_distance, size.n_elevation, size.n_radius, size.n_height}) h.Add(static_cast<int32_t>(n));
   char hex[17];

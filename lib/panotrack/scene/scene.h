@@ -73,7 +73,8 @@ class Scene {
     double shade;            // the surface's
     bool background;         // the surface's background()
   };
-  bool HitSurface(int i, const Eigen::Vector3d& o, const Eigen::Vector3d& d, double* t) const;
+  // The hit of surface i at 0 < t < limit, if any.
+  bool HitSurface(int i, const Eigen::Vector3d& o, const Eigen::Vector3d& d, double limit, double* t) const;
   std::vector<Surface> surfaces_;
   std::vector<Plane> planes_;
   Eigen::Vector3d min_{0, 0, 0}, max_{0, 0, 0};

@@ -1,5 +1,6 @@
 // Catadioptric sensor model: a pinhole camera on the axis of a convex mirror
-// that is a quadric of revolution (sphere, ellipsoid, paraboloid, hyperboloid).
+// that is a quadric of revolution (sphere, ellipsoid, paraboloid, hyperboloid),
+// optionally with even-asphere terms (a real mirror that is not exactly a conic).
 //
 // Everything here is templated on the scalar T so that ceres::Jet passes
 // through (the calibrator differentiates projections by automatic
@@ -17,6 +18,7 @@
 // normalised image radius: image_radius = focal_px * distort(m).
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <type_traits>
@@ -39,6 +41,13 @@ auto scalar_value(const T& x) -> decltype(scalar_value(x.a)) {
 // -1 paraboloid, < -1 hyperboloid, (-1,0) prolate and > 0 oblate ellipsoid).
 // A sphere of radius r centred d above the pinhole is R = r, k = 0,
 // vertex_distance = d - r.
+//
+// Even asphere: the conic's sag plus higher-order terms,
+//   w(s) = s^2 / (R + sqrt(R^2 - (1+k) s^2)) + R (a4 rho^4 + a6 rho^6),  rho = s / R,
+// a4 = asphere_a4, a6 = asphere_a6, dimensionless (a maker's A4 s^4 + A6 s^6
+// in lengths is a4 = A4 R^3, a6 = A6 R^5). Relative to R they describe the
+// shape alone, so they stay determined when the mirror's scale is not.
+// Both zero: the conic, computed in closed form as before.
 template <typename T>
 struct SensorParams {
   T focal_px = T(0);
@@ -52,6 +61,8 @@ struct SensorParams {
   T conic_constant = T(0);
   T vertex_distance = T(0);  // height of the mirror's vertex above the pinhole
   T rim_radius = T(0);       // mirror's physical radius (s at its rim); 0: up to the limb
+  T asphere_a4 = T(0);       // even-asphere terms (see above); 0: a conic
+  T asphere_a6 = T(0);
 
   template <typename U>
   SensorParams<U> cast() const {
@@ -67,6 +78,8 @@ struct SensorParams {
     p.conic_constant = U(scalar_value(conic_constant));
     p.vertex_distance = U(scalar_value(vertex_distance));
     p.rim_radius = U(scalar_value(rim_radius));
+    p.asphere_a4 = U(scalar_value(asphere_a4));
+    p.asphere_a6 = U(scalar_value(asphere_a6));
     return p;
   }
 };
@@ -79,13 +92,174 @@ void set_sphere_mirror(SensorParams<T>* p, const T& mirror_radius, const T& mirr
   p->vertex_distance = mirror_distance - mirror_radius;
 }
 
+namespace detail {
+// True when x is exactly zero and carries no derivative (a ceres::Jet's or a
+// dual number's derivative part is zero too): such a term can be left out of
+// the computation without losing derivatives with respect to it.
+inline bool is_constant_zero(double x) { return x == 0.0; }
+inline bool is_constant_zero(float x) { return x == 0.0f; }
+template <typename V>
+auto is_constant_zero(const V& v) -> decltype(bool((v.array() == 0).all())) {
+  return bool((v.array() == 0).all());
+}
+template <typename T>
+auto is_constant_zero(const T& x) -> decltype(is_constant_zero(x.a) && is_constant_zero(x.v)) {
+  return is_constant_zero(x.a) && is_constant_zero(x.v);
+}
+
+// The even-asphere profile as a function of u = s^2 (every term is even in s,
+// so no square root of s^2 appears and derivatives stay finite on the axis):
+// the sag w and sigma = (dw/ds) / s. False outside the conic part's domain
+// ((1+k) s^2 < R^2).
+template <typename T>
+bool asphere_sag(const SensorParams<T>& p, const T& u, T* w, T* sigma) {
+  using std::sqrt;
+  const T& R = p.curvature_radius;
+  const T inner = R * R - (T(1) + p.conic_constant) * u;
+  if (!(inner > T(0))) return false;
+  const T q = sqrt(inner);
+  const T r2 = u / (R * R);  // rho^2
+  *w = u / (R + q) + R * r2 * r2 * (p.asphere_a4 + p.asphere_a6 * r2);
+  if (sigma) *sigma = T(1) / q + (T(4) * p.asphere_a4 + T(6) * p.asphere_a6 * r2) * r2 / R;
+  return true;
+}
+
+// d sigma / d u in double (the limb's Newton solve).
+inline double asphere_dsigma_du(const SensorParams<double>& p, double u) {
+  const double R = p.curvature_radius;
+  const double q = std::sqrt(R * R - (1.0 + p.conic_constant) * u);
+  return (1.0 + p.conic_constant) / (2.0 * q * q * q) + (4.0 * p.asphere_a4 + 12.0 * p.asphere_a6 * u / (R * R)) / (R * R * R);
+}
+
+// Parameter t of the first hit of the camera ray t (a, b, 1) from the pinhole
+// with the even-asphere mirror whose axis passes through (dx, dy):
+// H(t) = zv + w(u(t)) - t, u(t) = (t a - dx)^2 + (t b - dy)^2, is positive at
+// the pinhole and falls through zero at the visible hit. Newton's method from
+// the pinhole approaches that first root from below without overshooting it
+// on a convex profile; a bracket and bisection guard the rest. False when the
+// ray passes beyond the limb.
+inline bool asphere_ray_hit(const SensorParams<double>& p, double dx, double dy, double a, double b, double* t_out) {
+  const double zv = p.vertex_distance;
+  double lo = 0.0, hi = std::numeric_limits<double>::infinity();
+  double t = 0.0;
+  {
+    // Start from the conic's hit (closed form), near when the terms are
+    // small; the bracket below keeps the iteration safe from either side.
+    const double A = a * a + b * b + 1.0 + p.conic_constant;
+    const double q = p.curvature_radius - (a * a + b * b) * zv + a * dx + b * dy;
+    const double ex = a * zv - dx, ey = b * zv - dy;
+    const double C = ex * ex + ey * ey;
+    const double disc = q * q - A * C;
+    if (disc >= 0.0 && q + std::sqrt(disc) > 0.0) t = zv + C / (q + std::sqrt(disc));
+    // Above the surface and rising: maybe past both roots near the limb;
+    // start from the pinhole then.
+    const double ex0 = t * a - dx, ey0 = t * b - dy;
+    double w = 0.0, sigma = 0.0;
+    if (!asphere_sag(p, ex0 * ex0 + ey0 * ey0, &w, &sigma) ||
+        (zv + w - t > 0.0 && !(sigma * (ex0 * a + ey0 * b) - 1.0 < 0.0)))
+      t = 0.0;
+  }
+  for (int it = 0; it < 200; ++it) {
+    const double ex = t * a - dx, ey = t * b - dy;
+    double w = 0.0, sigma = 0.0, t_next;
+    if (!asphere_sag(p, ex * ex + ey * ey, &w, &sigma)) {
+      hi = t;  // beyond the conic's domain: the root, if any, is nearer
+      t_next = 0.5 * (lo + hi);
+    } else {
+      const double H = zv + w - t;
+      const double dH = sigma * (ex * a + ey * b) - 1.0;
+      if (H > 0.0) lo = t; else hi = t;
+      if (H == 0.0) {
+        *t_out = t;
+        return true;
+      }
+      t_next = t - H / dH;
+      if (!(dH < 0.0) || !(t_next > lo && t_next < hi)) {
+        if (!std::isfinite(hi)) return false;  // still above the surface and rising no more: beyond the limb
+        t_next = 0.5 * (lo + hi);
+      }
+    }
+    if (std::abs(t_next - t) < 1e-15 * (1.0 + std::abs(t)) || hi - lo < 1e-15 * (1.0 + lo)) {
+      *t_out = t_next;
+      return true;
+    }
+    t = t_next;
+  }
+  return false;
+}
+
+// Largest normalised radius s / (zv + w(s)) that sees the even-asphere mirror
+// (the limb: zv + w = s w', where L(u) = zv + w - u sigma changes sign) or its
+// rim, whichever is nearer the axis; infinity when neither limits.
+inline double asphere_max_normalized_radius(const SensorParams<double>& p) {
+  const double R = p.curvature_radius, zv = p.vertex_distance, one_k = 1.0 + p.conic_constant;
+  auto L = [&](double u, double* val) {
+    double w = 0.0, sigma = 0.0;
+    if (!asphere_sag(p, u, &w, &sigma)) return false;
+    *val = zv + w - u * sigma;
+    return true;
+  };
+  auto phi = [&](double u) {
+    double w = 0.0;
+    asphere_sag(p, u, &w, static_cast<double*>(nullptr));
+    return std::sqrt(u) / (zv + w);
+  };
+  // The visible part ends at the rim, or at the conic's domain edge (where
+  // the slope is infinite), or nowhere (a hyperboloid without a rim).
+  double u_end = one_k > 0.0 ? R * R / one_k * (1.0 - 1e-15) : std::numeric_limits<double>::infinity();
+  if (p.rim_radius > 0.0) u_end = std::min(u_end, p.rim_radius * p.rim_radius);
+  double lo = 0.0, hi = u_end, v = 0.0;
+  if (std::isfinite(u_end)) {
+    if (L(u_end, &v) && v >= 0.0) return phi(u_end);  // the rim comes before the limb
+  } else {
+    // Bracket the limb by quadrupling: L(lo) > 0 > L(hi).
+    hi = R * R;
+    while (L(hi, &v) && v > 0.0 && hi < 1e12 * R * R) {
+      lo = hi;
+      hi *= 4.0;
+    }
+    if (!L(hi, &v) || v > 0.0) return std::numeric_limits<double>::infinity();
+  }
+  // The limb: Newton's method on L(u), safeguarded by the bracket.
+  double u = 0.5 * (lo + hi);
+  for (int it = 0; it < 200; ++it) {
+    if (!L(u, &v)) {
+      hi = u;
+      u = 0.5 * (lo + hi);
+      continue;
+    }
+    if (v > 0.0) lo = u; else hi = u;
+    double w = 0.0, sigma = 0.0;
+    asphere_sag(p, u, &w, &sigma);
+    const double dL = -0.5 * sigma - u * asphere_dsigma_du(p, u);
+    double u_next = u - v / dL;
+    if (!(u_next > lo && u_next < hi)) u_next = 0.5 * (lo + hi);
+    const bool done = std::abs(u_next - u) < 1e-16 * u || hi - lo < 1e-16 * hi;
+    u = u_next;
+    if (done) break;
+  }
+  const double m_max = phi(u);
+  return m_max;
+}
+}  // namespace detail
+
+// True when the mirror is a plain conic: no even-asphere term, nor any
+// derivative with respect to one (a Jet whose asphere terms are free takes the
+// asphere path even where they are zero).
+template <typename T>
+bool is_conic_profile(const SensorParams<T>& p) {
+  return detail::is_constant_zero(p.asphere_a4) && detail::is_constant_zero(p.asphere_a6);
+}
+
 // Largest normalised image radius m that sees the mirror: the limb (where the
 // camera ray grazes the mirror) or the rim, whichever is nearer the axis.
 // Infinity when neither limits (a hyperboloid whose asymptotic cone holds the
-// pinhole, with no rim given).
+// pinhole, with no rim given). With asphere terms it is computed in double
+// (callers only compare against it).
 template <typename T>
 T max_normalized_radius(const SensorParams<T>& p) {
   using std::sqrt;
+  if (!is_conic_profile(p)) return T(detail::asphere_max_normalized_radius(p.template cast<double>()));
   const T& R = p.curvature_radius;
   const T& zv = p.vertex_distance;
   const T one_k = T(1) + p.conic_constant;
@@ -105,11 +279,49 @@ T max_normalized_radius(const SensorParams<T>& p) {
   return m_max;
 }
 
+namespace detail {
+// Outward normal (not unit) of an even asphere at distance s from its axis:
+// the gradient of w(s) - w, (s sigma, -1).
+template <typename T>
+bool asphere_normal(const SensorParams<T>& p, const T& s, T* ns, T* nz) {
+  T w, sigma;
+  if (!asphere_sag(p, s * s, &w, &sigma)) return false;
+  *ns = s * sigma;
+  *nz = T(-1);
+  return true;
+}
+
+// mirror_hit for an even asphere (kept out of the conic's inlined path).
+template <typename T>
+bool asphere_mirror_hit(const SensorParams<T>& p, const T& m, T* s, T* z) {
+  // Even asphere: the hit in double, then one Newton step in T so that Jet
+  // derivatives follow the implicit function theorem.
+  const SensorParams<double> pd = p.template cast<double>();
+  const double md = scalar_value(m);
+  double t0;
+  if (!detail::asphere_ray_hit(pd, 0.0, 0.0, md, 0.0, &t0)) return false;
+  T t = T(t0);
+  if constexpr (!std::is_same<T, double>::value) {
+    double wd = 0.0, sigma_d = 0.0;
+    if (!detail::asphere_sag(pd, t0 * t0 * md * md, &wd, &sigma_d)) return false;
+    const double dH = sigma_d * t0 * md * md - 1.0;
+    const T st = T(t0) * m;
+    T w;
+    if (!detail::asphere_sag(p, st * st, &w, static_cast<T*>(nullptr))) return false;
+    t = T(t0) - (p.vertex_distance + w - T(t0)) / T(dH);
+  }
+  *s = t * m;
+  *z = t;
+  return true;
+}
+}  // namespace detail
+
 // Camera ray t (m, 1) against the mirror: the first hit, from below.
 // Returns false when the ray misses (beyond the limb).
 template <typename T>
 bool mirror_hit(const SensorParams<T>& p, const T& m, T* s, T* z) {
   using std::sqrt;
+  if (!is_conic_profile(p)) return detail::asphere_mirror_hit(p, m, s, z);
   const T& R = p.curvature_radius;
   const T& zv = p.vertex_distance;
   const T m2 = m * m;
@@ -134,10 +346,15 @@ template <typename T>
 bool reflect_meridian(const SensorParams<T>& p, const T& m, T* ps, T* pz, T* ds, T* dz) {
   using std::sqrt;
   if (!mirror_hit(p, m, ps, pz)) return false;
-  const T w = *pz - p.vertex_distance;
-  // Outward (downward-facing) normal: gradient of s^2 - 2 R w + (1+k) w^2.
-  T ns = *ps;
-  T nz = (T(1) + p.conic_constant) * w - p.curvature_radius;
+  T ns, nz;
+  if (is_conic_profile(p)) {
+    const T w = *pz - p.vertex_distance;
+    // Outward (downward-facing) normal: gradient of s^2 - 2 R w + (1+k) w^2.
+    ns = *ps;
+    nz = (T(1) + p.conic_constant) * w - p.curvature_radius;
+  } else if (!detail::asphere_normal(p, *ps, &ns, &nz)) {
+    return false;
+  }
   const T nn = sqrt(ns * ns + nz * nz);
   ns /= nn;
   nz /= nn;

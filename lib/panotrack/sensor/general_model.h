@@ -120,6 +120,33 @@ void rotate_transposed(const T* R, const T* x, T* y) {
 template <typename T>
 bool general_mirror_hit(const SensorParams<T>& p, const T& dx, const T& dy, const T& a, const T& b, T* Q) {
   using std::sqrt;
+  if (!is_conic_profile(p)) {
+    // Even asphere: the hit in double, then one Newton step in T on
+    // H(t) = zv + w(u(t)) - t (Jet derivatives by the implicit function theorem).
+    const SensorParams<double> pd = p.template cast<double>();
+    const double ad = scalar_value(a), bd = scalar_value(b), dxd = scalar_value(dx), dyd = scalar_value(dy);
+    double t0;
+    if (!asphere_ray_hit(pd, dxd, dyd, ad, bd, &t0)) return false;
+    T t = T(t0);
+    if constexpr (!std::is_same<T, double>::value) {
+      const double exd = t0 * ad - dxd, eyd = t0 * bd - dyd;
+      double wd = 0.0, sigma_d = 0.0;
+      if (!asphere_sag(pd, exd * exd + eyd * eyd, &wd, &sigma_d)) return false;
+      const double dH = sigma_d * (exd * ad + eyd * bd) - 1.0;
+      const T ex = T(t0) * a - dx, ey = T(t0) * b - dy;
+      T w;
+      if (!asphere_sag(p, ex * ex + ey * ey, &w, static_cast<T*>(nullptr))) return false;
+      t = T(t0) - (p.vertex_distance + w - T(t0)) / T(dH);
+    }
+    Q[0] = t * a;
+    Q[1] = t * b;
+    Q[2] = t;
+    if (p.rim_radius > T(0)) {
+      const T sx = Q[0] - dx, sy = Q[1] - dy;
+      if (sx * sx + sy * sy > p.rim_radius * p.rim_radius) return false;
+    }
+    return true;
+  }
   const T& R = p.curvature_radius;
   const T& zv = p.vertex_distance;
   const T m2 = a * a + b * b;
@@ -149,8 +176,16 @@ template <typename T>
 bool general_reflect(const SensorParams<T>& p, const T& dx, const T& dy, const T& a, const T& b, T* Q, T* r) {
   using std::sqrt;
   if (!general_mirror_hit(p, dx, dy, a, b, Q)) return false;
-  // Outward (downward-facing) normal: gradient of s^2 - 2 R w + (1+k) w^2.
+  // Outward (downward-facing) normal: gradient of s^2 - 2 R w + (1+k) w^2,
+  // or of w(s) - w for an even asphere.
   T n[3] = {Q[0] - dx, Q[1] - dy, (T(1) + p.conic_constant) * (Q[2] - p.vertex_distance) - p.curvature_radius};
+  if (!is_conic_profile(p)) {
+    T w, sigma;
+    if (!asphere_sag(p, n[0] * n[0] + n[1] * n[1], &w, &sigma)) return false;
+    n[0] = n[0] * sigma;
+    n[1] = n[1] * sigma;
+    n[2] = T(-1);
+  }
   const T nn = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
   const T vl = sqrt(a * a + b * b + T(1));
   const T v[3] = {a / vl, b / vl, T(1) / vl};

@@ -27,8 +27,33 @@ Eigen::Vector3d world_direction(const Pose2& pose, const Eigen::Vector3d& d) {
 }
 
 const char* mirror_model_name(MirrorModel m) {
-  return m == MirrorModel::kSphere ? "sphere" : "conic";
+  switch (m) {
+    case MirrorModel::kSphere: return "sphere";
+    case MirrorModel::kConic: return "conic";
+    case MirrorModel::kAsphere: return "asphere";
+  }
+  return "unknown";
 }
+
+namespace {
+
+// The visible part of an even-asphere profile curves towards its axis
+// everywhere (w'' = sigma + 2 u dsigma/du > 0), as the reflection solves
+// assume: sampled from the axis to the point seen at m_max.
+bool ConvexProfile(const SensorParams<double>& p, double m_max) {
+  double s_edge, z_edge;
+  if (!mirror_hit(p, m_max * (1.0 - 1e-9), &s_edge, &z_edge)) return false;
+  const int n = 200;
+  for (int i = 0; i <= n; ++i) {
+    const double s = s_edge * i / n, u = s * s;
+    double w = 0.0, sigma = 0.0;
+    if (!detail::asphere_sag(p, u, &w, &sigma)) return false;
+    if (!(sigma + 2.0 * u * detail::asphere_dsigma_du(p, u) > 0.0) || !(w >= 0.0)) return false;
+  }
+  return true;
+}
+
+}  // namespace
 
 void Sensor::Check(const std::string& what) const {
   auto fail = [&](const std::string& key, const std::string& problem) {
@@ -36,7 +61,8 @@ void Sensor::Check(const std::string& what) const {
   };
   const SensorParams<double>& p = params;
   const double vals[] = {p.focal_px, p.cx, p.cy, p.aspect, p.azimuth_offset, p.k1, p.k2,
-                         p.curvature_radius, p.conic_constant, p.vertex_distance, p.rim_radius};
+                         p.curvature_radius, p.conic_constant, p.vertex_distance, p.rim_radius,
+                         p.asphere_a4, p.asphere_a6};
   for (double v : vals)
     if (!std::isfinite(v)) fail("parameters", "not a finite number (NaN or infinity)");
   if (image_width <= 0 || image_height <= 0)
@@ -64,9 +90,13 @@ void Sensor::Check(const std::string& what) const {
   if (!(std::hypot(f.mirror_offset[0], f.mirror_offset[1]) < p.curvature_radius))
     fail("mirror_offset", "expected an offset smaller than the mirror's radius");
   if (p.rim_radius < 0.0) fail("rim_radius", "expected a non-negative rim radius");
+  if (model != MirrorModel::kAsphere && (p.asphere_a4 != 0.0 || p.asphere_a6 != 0.0))
+    fail("asphere_a4/asphere_a6", "even-asphere terms need model asphere");
   const double m_max = max_normalized_radius(p);
   if (!std::isfinite(m_max) || !(m_max > 0.0))
     fail("rim_radius", "the mirror has no limb; give its rim_radius");
+  if (!is_conic_profile(p) && !ConvexProfile(p, m_max))
+    fail("asphere_a4/asphere_a6", "the mirror's profile is not convex where the camera sees it");
 }
 
 bool Sensor::project(const Eigen::Vector3d& ps, Eigen::Vector2d* pixel) const {

@@ -28,7 +28,9 @@ Eigen::Vector3d world_from_sensor(const Pose2& pose, double sensor_height,
 // Rotates a sensor-frame direction into the world frame.
 Eigen::Vector3d world_direction(const Pose2& pose, const Eigen::Vector3d& dir_sensor);
 
-enum class MirrorModel { kSphere, kConic };
+// kAsphere: the conic with its even-asphere terms (SensorParams::asphere_a4,
+// asphere_a6), which only it may have non-zero.
+enum class MirrorModel { kSphere, kConic, kAsphere };
 const char* mirror_model_name(MirrorModel m);
 
 struct Sensor {

@@ -27,30 +27,54 @@ AzimuthCompass::AzimuthCompass(const Sensor& s, int bins, double inner, double o
       pixel_bin_.push_back(b);
     }
   }
+  // Grouped by bin (rings in order within each): a frame's bin sums are
+  // then runs of consecutive samples.
+  std::vector<int> order(pixel_bin_.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return pixel_bin_[a] < pixel_bin_[b]; });
+  std::vector<int> offset(order.size()), row(order.size());
+  bin_begin_.assign(static_cast<size_t>(bins_) + 1, 0);
+  for (size_t i = 0; i < order.size(); ++i) {
+    offset[i] = pixel_offset_[order[i]];
+    row[i] = pixel_row_[order[i]];
+    ++bin_begin_[static_cast<size_t>(pixel_bin_[order[i]]) + 1];
+  }
+  for (int b = 0; b < bins_; ++b) bin_begin_[b + 1] += bin_begin_[b];
+  pixel_offset_ = std::move(offset);
+  pixel_row_ = std::move(row);
+  pixel_bin_.clear();
 }
 
 std::vector<float> AzimuthCompass::Signature(const cv::Mat& grey) const {
   if (grey.type() != CV_8UC1 || grey.cols != width_ || grey.rows != height_)
     throw Error("compass: expected an 8-bit grey frame of the calibration's size");
-  std::vector<double> sum(bins_, 0.0);
-  std::vector<int> count(bins_, 0);
+  std::vector<float> mean(bins_);
   const uchar* data = grey.ptr<uchar>(0);
   const int row_padding = static_cast<int>(grey.step[0]) - width_;  // 0 for a continuous frame
-  for (size_t i = 0; i < pixel_offset_.size(); ++i) {
-    sum[pixel_bin_[i]] += data[pixel_offset_[i] + pixel_row_[i] * row_padding];
-    ++count[pixel_bin_[i]];
+  for (int b = 0; b < bins_; ++b) {
+    // Integer sums of at most eight pixels: exact, as a double sum would be.
+    int sum = 0;
+    const int begin = bin_begin_[b], end = bin_begin_[b + 1];
+    if (row_padding == 0)
+      for (int i = begin; i < end; ++i) sum += data[pixel_offset_[i]];
+    else
+      for (int i = begin; i < end; ++i) sum += data[pixel_offset_[i] + pixel_row_[i] * row_padding];
+    mean[b] = end > begin ? static_cast<float>(static_cast<double>(sum) / (end - begin)) : 0.0f;
   }
-  std::vector<float> mean(bins_);
-  for (int b = 0; b < bins_; ++b) mean[b] = count[b] ? static_cast<float>(sum[b] / count[b]) : 0.0f;
   // High-pass: minus a moving average over 1/12 of the circle, so that
   // slow illumination changes do not pull the correlation.
   const int h = bins_ / 24;
   std::vector<float> sig(bins_);
   double acc = 0;
   for (int k = -h; k <= h; ++k) acc += mean[(k + bins_) % bins_];
+  int ahead = h + 1, behind = bins_ - h;  // (b + h + 1) and (b - h) modulo bins_
+  if (ahead >= bins_) ahead -= bins_;
+  if (behind >= bins_) behind -= bins_;
   for (int b = 0; b < bins_; ++b) {
     sig[b] = mean[b] - static_cast<float>(acc / (2 * h + 1));
-    acc += mean[(b + h + 1) % bins_] - mean[(b - h + bins_) % bins_];
+    acc += mean[ahead] - mean[behind];
+    if (++ahead == bins_) ahead = 0;
+    if (++behind == bins_) behind = 0;
   }
   double norm = 0;
   for (float v : sig) norm += v * v;

@@ -33,9 +33,10 @@ class AzimuthCompass {
 
  private:
   int bins_;
-  std::vector<int> pixel_offset_;  // pixel index (row * width + col) per sample
+  std::vector<int> pixel_offset_;  // pixel index (row * width + col) per sample, bin by bin
   std::vector<int> pixel_row_;     // its row (frames may have padded rows)
-  std::vector<int> pixel_bin_;     // its azimuth bin
+  std::vector<int> pixel_bin_;     // its azimuth bin (while building)
+  std::vector<int> bin_begin_;     // bin b's samples: [bin_begin_[b], bin_begin_[b + 1])
   int width_ = 0, height_ = 0;
 };
 

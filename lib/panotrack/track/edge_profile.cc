@@ -3,17 +3,81 @@
 #include <algorithm>
 #include <cmath>
 
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#include <immintrin.h>
+#define PANO_EDGE_PROFILE_AVX2 1
+#endif
+
 namespace pano {
+
+namespace {
+
+// One bilinear sample: the blend every path below computes, in this order
+// and in float, so that all of them give the same bits.
+inline float Blend(float fx, float fy, float p00, float p01, float p10, float p11) {
+  return (1 - fy) * ((1 - fx) * p00 + fx * p01) + fy * ((1 - fx) * p10 + fx * p11);
+}
+
+#ifdef PANO_EDGE_PROFILE_AVX2
+bool HaveAvx2() {
+  static const bool have = __builtin_cpu_supports("avx2");
+  return have;
+}
+
+// Samples k0.. of a line inside the image, eight at a time, each pixel pair
+// fetched by one 4-byte gather (the row's pixels ix .. ix + 3). The caller
+// guarantees that those reads stay inside the image's buffer: no sample in
+// its last three rows. AVX2 without FMA: every product rounds as in the
+// scalar blend.
+__attribute__((target("avx2"))) void SampleLineAvx2(const uchar* data, int stride, float sx, float sy, float dx,
+                                                     float dy, int max_ix, int max_iy, int n, float* out) {
+  const __m256 vsx = _mm256_set1_ps(sx), vsy = _mm256_set1_ps(sy);
+  const __m256 vdx = _mm256_set1_ps(dx), vdy = _mm256_set1_ps(dy);
+  const __m256 one = _mm256_set1_ps(1.0f);
+  const __m256i zero = _mm256_setzero_si256(), byte = _mm256_set1_epi32(0xff);
+  const __m256i vmax_ix = _mm256_set1_epi32(max_ix), vmax_iy = _mm256_set1_epi32(max_iy);
+  const __m256i vstride = _mm256_set1_epi32(stride);
+  const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  const int* top_base = reinterpret_cast<const int*>(data);
+  const int* bottom_base = reinterpret_cast<const int*>(data + stride);
+  for (int k0 = 0; k0 < n; k0 += 8) {
+    // The last group's lanes past the line's end neither read nor write.
+    const __m256i live = _mm256_cmpgt_epi32(_mm256_set1_epi32(n - k0), lanes);
+    const __m256 k = _mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_set1_epi32(k0), lanes));
+    const __m256 x = _mm256_add_ps(vsx, _mm256_mul_ps(k, vdx));
+    const __m256 y = _mm256_add_ps(vsy, _mm256_mul_ps(k, vdy));
+    const __m256i ix = _mm256_min_epi32(_mm256_max_epi32(_mm256_cvttps_epi32(x), zero), vmax_ix);
+    const __m256i iy = _mm256_min_epi32(_mm256_max_epi32(_mm256_cvttps_epi32(y), zero), vmax_iy);
+    const __m256 fx = _mm256_sub_ps(x, _mm256_cvtepi32_ps(ix));
+    const __m256 fy = _mm256_sub_ps(y, _mm256_cvtepi32_ps(iy));
+    const __m256i offset = _mm256_add_epi32(_mm256_mullo_epi32(iy, vstride), ix);
+    const __m256i top = _mm256_mask_i32gather_epi32(zero, top_base, offset, live, 1);
+    const __m256i bottom = _mm256_mask_i32gather_epi32(zero, bottom_base, offset, live, 1);
+    const __m256 p00 = _mm256_cvtepi32_ps(_mm256_and_si256(top, byte));
+    const __m256 p01 = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(top, 8), byte));
+    const __m256 p10 = _mm256_cvtepi32_ps(_mm256_and_si256(bottom, byte));
+    const __m256 p11 = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(bottom, 8), byte));
+    const __m256 gx = _mm256_sub_ps(one, fx);
+    const __m256 upper = _mm256_add_ps(_mm256_mul_ps(gx, p00), _mm256_mul_ps(fx, p01));
+    const __m256 lower = _mm256_add_ps(_mm256_mul_ps(gx, p10), _mm256_mul_ps(fx, p11));
+    _mm256_maskstore_ps(out + k0, live,
+                        _mm256_add_ps(_mm256_mul_ps(_mm256_sub_ps(one, fy), upper), _mm256_mul_ps(fy, lower)));
+  }
+}
+#endif
+
+}  // namespace
 
 bool SampleLine(const cv::Mat& grey, const Eigen::Vector2d& start, const Eigen::Vector2d& step,
                 int n, float* out) {
   if (n <= 0) return true;
   // A straight line lies inside the image when both its ends do: check them
-  // once, then interpolate without per-sample checks.
-  float ends[2];
+  // once (where SampleGrey samples), then interpolate without per-sample checks.
   const Eigen::Vector2d last = start + (n - 1) * step;
-  if (!SampleGrey(grey, start.x(), start.y(), &ends[0]) || !SampleGrey(grey, last.x(), last.y(), &ends[1]))
-    return false;
+  auto inside = [&](const Eigen::Vector2d& q) {
+    return q.x() >= 0.0 && q.y() >= 0.0 && q.x() <= grey.cols - 1.001 && q.y() <= grey.rows - 1.001;
+  };
+  if (!inside(start) || !inside(last)) return false;
   // In float, in chunks whose coordinates, corner pixels and blends are
   // each one loop the compiler vectorises (the line is inside the image, so
   // truncation is floor).
@@ -22,6 +86,14 @@ bool SampleLine(const cv::Mat& grey, const Eigen::Vector2d& start, const Eigen::
   const float sx = static_cast<float>(start.x()), sy = static_cast<float>(start.y());
   const float dx = static_cast<float>(step.x()), dy = static_cast<float>(step.y());
   const int max_ix = grey.cols - 2, max_iy = grey.rows - 2;
+#ifdef PANO_EDGE_PROFILE_AVX2
+  // The gathers read two bytes past each pixel pair: clear of the buffer's
+  // end when the line keeps out of the last rows (margin for float rounding).
+  if (HaveAvx2() && std::max(start.y(), last.y()) < grey.rows - 3.5) {
+    SampleLineAvx2(data, stride, sx, sy, dx, dy, max_ix, max_iy, n, out);
+    return true;
+  }
+#endif
   constexpr int kChunk = 32;
   int offset[kChunk];
   float fx[kChunk], fy[kChunk], p00[kChunk], p01[kChunk], p10[kChunk], p11[kChunk];
@@ -43,8 +115,7 @@ bool SampleLine(const cv::Mat& grey, const Eigen::Vector2d& start, const Eigen::
       p10[j] = r0[stride];
       p11[j] = r0[stride + 1];
     }
-    for (int j = 0; j < m; ++j)
-      out[k0 + j] = (1 - fy[j]) * ((1 - fx[j]) * p00[j] + fx[j] * p01[j]) + fy[j] * ((1 - fx[j]) * p10[j] + fx[j] * p11[j]);
+    for (int j = 0; j < m; ++j) out[k0 + j] = Blend(fx[j], fy[j], p00[j], p01[j], p10[j], p11[j]);
   }
   return true;
 }
@@ -70,6 +141,60 @@ double AreaLocation(const float* p, int a, int b, float left, float right) {
   return b + 0.5 - area;
 }
 
+int LargestRiseScalar(const float* p, int n, int h, float sgn, float min_rise) {
+  int best = -1;
+  float best_rise = min_rise;
+  for (int i = h; i < n - h; ++i) {
+    const float rise = sgn * (p[i + h] - p[i - h]);
+    if (rise > best_rise) {
+      best_rise = rise;
+      best = i;
+    }
+  }
+  return best;
+}
+
+#ifdef PANO_EDGE_PROFILE_AVX2
+// The same, eight rises at a time: their maximum, then the first sample
+// that reaches it (what the scalar scan keeps, as it moves on only for a
+// strictly larger rise).
+__attribute__((target("avx2"))) int LargestRiseAvx2(const float* p, int n, int h, float sgn, float min_rise) {
+  const int end = n - h;  // rises at i = h .. end - 1
+  const __m256 vsgn = _mm256_set1_ps(sgn);
+  __m256 vmax = _mm256_set1_ps(min_rise);
+  int i = h;
+  for (; i + 8 <= end; i += 8)
+    // max(rise, vmax): a NaN rise keeps vmax, as the scalar comparison skips it.
+    vmax = _mm256_max_ps(_mm256_mul_ps(vsgn, _mm256_sub_ps(_mm256_loadu_ps(p + i + h), _mm256_loadu_ps(p + i - h))),
+                         vmax);
+  float lanes[8];
+  _mm256_storeu_ps(lanes, vmax);
+  float top = lanes[0];
+  for (int k = 1; k < 8; ++k) top = std::max(top, lanes[k]);
+  const int vector_end = i;
+  for (; i < end; ++i) top = std::max(top, sgn * (p[i + h] - p[i - h]));
+  if (!(top > min_rise)) return -1;
+  const __m256 vtop = _mm256_set1_ps(top);
+  for (i = h; i < vector_end; i += 8) {
+    const __m256 rise = _mm256_mul_ps(vsgn, _mm256_sub_ps(_mm256_loadu_ps(p + i + h), _mm256_loadu_ps(p + i - h)));
+    const int mask = _mm256_movemask_ps(_mm256_cmp_ps(rise, vtop, _CMP_EQ_OQ));
+    if (mask) return i + __builtin_ctz(static_cast<unsigned>(mask));
+  }
+  for (; i < end; ++i)
+    if (sgn * (p[i + h] - p[i - h]) == top) return i;
+  return -1;
+}
+#endif
+
+// The first sample of the largest signed rise p[i + h] - p[i - h] (times
+// sgn) above min_rise; -1 when none is.
+int LargestRise(const float* p, int n, int h, float sgn, float min_rise) {
+#ifdef PANO_EDGE_PROFILE_AVX2
+  if (HaveAvx2()) return LargestRiseAvx2(p, n, h, sgn, min_rise);
+#endif
+  return LargestRiseScalar(p, n, h, sgn, min_rise);
+}
+
 }  // namespace
 
 bool FindStep(const float* p, int n, int polarity, int baseline, double min_step, StepEdge* edge,
@@ -78,17 +203,10 @@ bool FindStep(const float* p, int n, int polarity, int baseline, double min_step
   const int h = std::max(std::max(1, baseline / 2), static_cast<int>(std::ceil(0.5 * ramp)) + 1);
   const int w = 3;  // plateau samples either side
   if (n < 2 * (h + w) + 1) return false;
-  // Signed rise over the window centred on each sample (SIMD-friendly).
-  int best = -1;
-  float best_rise = static_cast<float>(min_step);
+  // Signed rise over the window centred on each sample: the first of the
+  // largest, when above min_step.
   const float sgn = polarity >= 0 ? 1.0f : -1.0f;
-  for (int i = h; i < n - h; ++i) {
-    const float rise = sgn * (p[i + h] - p[i - h]);
-    if (rise > best_rise) {
-      best_rise = rise;
-      best = i;
-    }
-  }
+  const int best = LargestRise(p, n, h, sgn, static_cast<float>(min_step));
   if (best < 0) return false;
   // The plateaus either side of the ramp, first a whole rise window away,
   // then right beside the ramp's own extent: plateaus measured far out pick

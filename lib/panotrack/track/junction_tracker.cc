@@ -24,6 +24,8 @@ JunctionTracker::JunctionTracker(const Sensor& sensor, std::shared_ptr<PhTableCa
                                  const JunctionOptions& options)
     : sensor_(sensor), ph_tables_(std::move(ph_tables)), opt_(options) {
   opt_.Check();
+  // The step detector's rise is taken over 2 px.
+  step_baseline_ = std::max(2, static_cast<int>(std::lround(2.0 / opt_.sample_step_px)));
 }
 
 namespace {
@@ -37,18 +39,20 @@ struct Step {
   Eigen::Vector2d px;
 };
 
-// A linear sample through (radius, azimuth) along the tangential (`radial`
-// false) or radial direction, searched for a step of `polarity` along
-// increasing azimuth / radius within `half` px of the centre; the step may be
-// a ramp up to `ramp_px` wide (motion blur). The sample reaches beyond `half`
-// by the ramp and the plateaus the step detector needs either side.
 // cos and sin of an azimuth, for the samples along an edge at one azimuth.
 struct Heading {
   explicit Heading(double azimuth) : c(std::cos(azimuth)), s(std::sin(azimuth)) {}
   double c, s;
 };
 
-bool LinearStep(const cv::Mat& grey, const Sensor& s, const JunctionOptions& o, double radius,
+// A linear sample through (radius, azimuth) along the tangential (`radial`
+// false) or radial direction, searched for a step of `polarity` along
+// increasing azimuth / radius within `half` px of the centre; the step may be
+// a ramp up to `ramp_px` wide (motion blur). The sample reaches beyond `half`
+// by the ramp and the plateaus the step detector needs either side.
+// `baseline`: the step detector's (samples).
+
+bool LinearStep(const cv::Mat& grey, const Sensor& s, const JunctionOptions& o, int baseline, double radius,
                 const Heading& heading, double half, int polarity, bool radial, Step* out,
                 double ramp_px = 0.0) {
   const double reach = half + 0.5 * ramp_px + 3.5;
@@ -63,7 +67,6 @@ bool LinearStep(const cv::Mat& grey, const Sensor& s, const JunctionOptions& o, 
   float profile[512];
   if (!SampleLine(grey, start, o.sample_step_px * dir, n, profile)) return false;
   StepEdge e;
-  const int baseline = std::max(2, static_cast<int>(std::lround(2.0 / o.sample_step_px)));
   if (!FindStep(profile, n, polarity, baseline, o.min_step, &e, ramp_px / o.sample_step_px)) return false;
   if (std::abs(e.location - half_n) * o.sample_step_px > half + 0.5 * ramp_px) return false;
   out->px = start + e.location * o.sample_step_px * dir;
@@ -123,7 +126,7 @@ bool JunctionTracker::FindVerticalEdge(const PredictedLandmark& p, double half, 
     const double r = p.corner_radius + edge->direction * d;
     // Tangential motion grows with the radius under rotation.
     const double ramp = edge->ramp_px * r / p.corner_radius;
-    if (LinearStep(grey_, sensor_, o, r, heading, half, edge->polarity, false, &st, ramp))
+    if (LinearStep(grey_, sensor_, o, step_baseline_, r, heading, half, edge->polarity, false, &st, ramp))
       v_steps.push_back(st);
   }
   if (static_cast<int>(v_steps.size()) < o.min_vertical_points) {
@@ -204,7 +207,7 @@ bool JunctionTracker::FindHorizontalEdge(const PredictedLandmark& p, double half
     const double ramp = RampAllowance(p.radial_motion_px + RadialSlope(ph, p, theta) * edge->along_blur_px);
     edge->ramp_px = std::max(edge->ramp_px, ramp);
     Step st;
-    if (!LinearStep(grey_, sensor_, o, r_pred, Heading(theta), half, edge->polarity, true, &st, ramp)) continue;
+    if (!LinearStep(grey_, sensor_, o, step_baseline_, r_pred, Heading(theta), half, edge->polarity, true, &st, ramp)) continue;
     votes.push_back({st.radius, theta, 1.0});
     h_steps.push_back(st);
   }
@@ -253,7 +256,7 @@ bool JunctionTracker::VerticalEnd(const VerticalEdge& v, double r_junction, doub
   const Heading heading(v.azimuth);
   auto has_step = [&](double r) {
     Step st;
-    return LinearStep(grey_, sensor_, opt_, r, heading, kProbeHalfPx, v.polarity, false, &st,
+    return LinearStep(grey_, sensor_, opt_, step_baseline_, r, heading, kProbeHalfPx, v.polarity, false, &st,
                       v.ramp_px * r / r_junction);
   };
   double r_in = v.nearest_radius, r_out = r_junction - v.direction * (opt_.corner_gap_px + 1.5);
@@ -276,7 +279,7 @@ bool JunctionTracker::HorizontalEnd(const PhTable& ph, const HorizontalEdge& h, 
     double r;
     Step st;
     return ph.Curve(h.fit.r_main, wrap_angle(theta - h.fit.theta_main), &r) &&
-           LinearStep(grey_, sensor_, opt_, r, Heading(theta), kProbeHalfPx, h.polarity, true, &st,
+           LinearStep(grey_, sensor_, opt_, step_baseline_, r, Heading(theta), kProbeHalfPx, h.polarity, true, &st,
                       h.ramp_px);
   };
   // Motion blur smears the edge's end past the junction by up to half the

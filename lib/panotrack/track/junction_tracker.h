@@ -63,6 +63,7 @@ class JunctionTracker : public LandmarkTracker {
   Sensor sensor_;
   std::shared_ptr<PhTableCache> ph_tables_;
   JunctionOptions opt_;
+  int step_baseline_ = 2;  // the step detector's baseline in samples (from opt_)
   cv::Mat grey_;
 };
 

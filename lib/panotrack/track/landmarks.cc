@@ -85,75 +85,186 @@ double ShadeTowards(const Scene& scene, const Eigen::Vector3d& eye, const Eigen:
 
 }  // namespace
 
+namespace {
+
+// What PredictLandmarks computes per landmark, in two steps: the geometry
+// (cheap: projections and table look-ups) ...
+struct PredictionContext {
+  PredictionContext(const Map& map, const Sensor& sensor, const Pose2& pose, const PredictionOptions& opt)
+      : eye(pose.x, pose.y, map.sensor_height + sensor.params.vertex_distance), cam(pose.x, pose.y) {
+    const double limb = sensor.limb_radius();
+    r_lo = opt.min_radius_fraction * limb;
+    r_hi = limb - opt.max_radius_margin;
+  }
+  // The mirror's vertex approximates where the scene is seen from.
+  Eigen::Vector3d eye;
+  Eigen::Vector2d cam;
+  double r_lo, r_hi;
+};
+
+bool PredictGeometry(const Landmark& l, int idx, const Map& map, const Sensor& sensor, const RadiusTable& table,
+                     const Pose2& pose, const PredictionOptions& opt, const PredictionContext& ctx,
+                     PredictedLandmark* out) {
+  if (l.box) {
+    const Eigen::Vector2d to_cam = ctx.cam - l.corner.head<2>();
+    if (!(to_cam.dot(l.face_normal) > 0.0) || to_cam.dot(l.other_face_normal) > 0.0) return false;
+  }
+  PredictedLandmark& p = *out;
+  p.index = idx;
+  p.landmark = &l;
+  const Eigen::Vector3d c = sensor_from_world(pose, map.sensor_height, l.corner);
+  const Eigen::Vector3d h = sensor_from_world(pose, map.sensor_height, l.h_end);
+  const Eigen::Vector3d v = sensor_from_world(pose, map.sensor_height, l.v_end);
+  p.distance = c.head<2>().norm();
+  if (!(p.distance > 0.0) || !table.radius(p.distance, c.z(), &p.corner_radius)) return false;
+  if (p.corner_radius < ctx.r_lo || p.corner_radius > ctx.r_hi) return false;
+  p.azimuth = sensor.image_azimuth(std::atan2(c.y(), c.x()));
+  p.corner_px = sensor.from_polar(p.corner_radius, p.azimuth);
+  if (!sensor.inside_image(p.corner_px, opt.image_margin)) return false;
+  // Vertical edge: radial, from the corner to the other end (clamped to the
+  // usable annulus).
+  double rv;
+  if (!table.radius(p.distance, v.z(), &rv)) rv = v.z() > c.z() ? ctx.r_hi : ctx.r_lo;
+  p.v_radius = std::clamp(rv, ctx.r_lo, ctx.r_hi);
+  if (std::abs(p.v_radius - p.corner_radius) < opt.min_edge_px) return false;
+  // Horizontal edge: its line's closest point to the axis (Eqn 4).
+  const Eigen::Vector2d c2 = c.head<2>(), dir = (h - c).head<2>();
+  const double len2 = dir.squaredNorm();
+  if (!(len2 > 0.0)) return false;
+  const Eigen::Vector2d foot = c2 - (c2.dot(dir) / len2) * dir;
+  const double d_main = foot.norm();
+  p.h_height = c.z();
+  if (!(d_main > 0.0) || !table.radius(d_main, p.h_height, &p.r_main)) return false;
+  p.theta_main = sensor.image_azimuth(std::atan2(foot.y(), foot.x()));
+  p.h_end_azimuth = sensor.image_azimuth(std::atan2(h.y(), h.x()));
+  const double dtheta_edge = wrap_angle(p.h_end_azimuth - p.azimuth);
+  if (std::abs(dtheta_edge) * p.corner_radius < opt.min_edge_px) return false;
+  p.inside_azimuth_sign = dtheta_edge > 0 ? 1 : -1;
+  p.inside_radius_sign = v.z() > c.z() ? 1 : -1;
+  return true;
+}
+
+// ... and the scene's ray casts (most of the cost): not hidden by map
+// surfaces, and the polarities from the shades beyond each edge.
+bool PredictVisibility(const Scene& scene, const PredictionOptions& opt, const Eigen::Vector3d& eye,
+                       PredictedLandmark* p) {
+  const Landmark& l = *p->landmark;
+  const double dist3 = (l.corner - eye).norm();
+  if (scene.Occluded(eye, l.corner, 1e-3 * dist3 + 1e-6)) return false;
+  // Expected polarities from the map: the landmark's shade against what
+  // lies just beyond each edge.
+  const double eps = std::max(0.01 * dist3, 0.5);
+  const Eigen::Vector3d out_h = (l.corner - l.h_end).normalized();
+  const Eigen::Vector3d out_v = (l.corner - l.v_end).normalized();
+  const double beyond_v = ShadeTowards(scene, eye, l.corner + eps * out_h + 0.5 * (l.v_end - l.corner));
+  const double beyond_h = ShadeTowards(scene, eye, l.corner + eps * out_v + 0.5 * (l.h_end - l.corner));
+  // An unknown shade (NaN) on either side: either polarity (0); known
+  // shades without contrast: not a usable edge.
+  const double dv = l.shade - beyond_v, dh = l.shade - beyond_h;
+  if (std::abs(dv) < opt.min_contrast || std::abs(dh) < opt.min_contrast) return false;
+  p->v_polarity = p->map_v_polarity = std::isnan(dv) ? 0 : Sign(dv);
+  p->h_polarity = p->map_h_polarity = std::isnan(dh) ? 0 : Sign(dh);
+  return true;
+}
+
+// SelectSpread's azimuth sector.
+int SpreadSector(const PredictedLandmark& p, int max_count) {
+  const int sector = static_cast<int>((p.azimuth + M_PI) / (2 * M_PI) * max_count);
+  return std::clamp(sector, 0, max_count - 1);
+}
+
+}  // namespace
+
 std::vector<PredictedLandmark> PredictLandmarks(const std::vector<Landmark>& landmarks,
                                                 const Map& map, const Scene& scene,
                                                 const Sensor& sensor, const RadiusTable& table,
                                                 const Pose2& pose, const PredictionOptions& opt) {
   std::vector<PredictedLandmark> out;
   out.reserve(landmarks.size());
-  const double limb = sensor.limb_radius();
-  const double r_lo = opt.min_radius_fraction * limb, r_hi = limb - opt.max_radius_margin;
-  // The mirror's vertex approximates where the scene is seen from.
-  const Eigen::Vector3d eye(pose.x, pose.y, map.sensor_height + sensor.params.vertex_distance);
-  const Eigen::Vector2d cam(pose.x, pose.y);
+  const PredictionContext ctx(map, sensor, pose, opt);
   for (size_t idx = 0; idx < landmarks.size(); ++idx) {
-    const Landmark& l = landmarks[idx];
-    if (l.box) {
-      const Eigen::Vector2d to_cam = cam - l.corner.head<2>();
-      if (!(to_cam.dot(l.face_normal) > 0.0) || to_cam.dot(l.other_face_normal) > 0.0) continue;
-    }
     PredictedLandmark p;
-    p.index = static_cast<int>(idx);
-    p.landmark = &l;
-    const Eigen::Vector3d c = sensor_from_world(pose, map.sensor_height, l.corner);
-    const Eigen::Vector3d h = sensor_from_world(pose, map.sensor_height, l.h_end);
-    const Eigen::Vector3d v = sensor_from_world(pose, map.sensor_height, l.v_end);
-    p.distance = c.head<2>().norm();
-    if (!(p.distance > 0.0) || !table.radius(p.distance, c.z(), &p.corner_radius)) continue;
-    if (p.corner_radius < r_lo || p.corner_radius > r_hi) continue;
-    p.azimuth = sensor.image_azimuth(std::atan2(c.y(), c.x()));
-    p.corner_px = sensor.from_polar(p.corner_radius, p.azimuth);
-    if (!sensor.inside_image(p.corner_px, opt.image_margin)) continue;
-    const double dist3 = (l.corner - eye).norm();
-    if (scene.Occluded(eye, l.corner, 1e-3 * dist3 + 1e-6)) continue;
-    // Vertical edge: radial, from the corner to the other end (clamped to the
-    // usable annulus).
-    double rv;
-    if (!table.radius(p.distance, v.z(), &rv)) rv = v.z() > c.z() ? r_hi : r_lo;
-    p.v_radius = std::clamp(rv, r_lo, r_hi);
-    if (std::abs(p.v_radius - p.corner_radius) < opt.min_edge_px) continue;
-    // Horizontal edge: its line's closest point to the axis (Eqn 4).
-    const Eigen::Vector2d c2 = c.head<2>(), dir = (h - c).head<2>();
-    const double len2 = dir.squaredNorm();
-    if (!(len2 > 0.0)) continue;
-    const Eigen::Vector2d foot = c2 - (c2.dot(dir) / len2) * dir;
-    const double d_main = foot.norm();
-    p.h_height = c.z();
-    if (!(d_main > 0.0) || !table.radius(d_main, p.h_height, &p.r_main)) continue;
-    p.theta_main = sensor.image_azimuth(std::atan2(foot.y(), foot.x()));
-    p.h_end_azimuth = sensor.image_azimuth(std::atan2(h.y(), h.x()));
-    const double dtheta_edge = wrap_angle(p.h_end_azimuth - p.azimuth);
-    if (std::abs(dtheta_edge) * p.corner_radius < opt.min_edge_px) continue;
-    p.inside_azimuth_sign = dtheta_edge > 0 ? 1 : -1;
-    p.inside_radius_sign = v.z() > c.z() ? 1 : -1;
-    // Expected polarities from the map: the landmark's shade against what
-    // lies just beyond each edge.
-    const double eps = std::max(0.01 * dist3, 0.5);
-    const Eigen::Vector3d out_h = (l.corner - l.h_end).normalized();
-    const Eigen::Vector3d out_v = (l.corner - l.v_end).normalized();
-    const double beyond_v = ShadeTowards(scene, eye, l.corner + eps * out_h + 0.5 * (l.v_end - l.corner));
-    const double beyond_h = ShadeTowards(scene, eye, l.corner + eps * out_v + 0.5 * (l.h_end - l.corner));
-    // An unknown shade (NaN) on either side: either polarity (0); known
-    // shades without contrast: not a usable edge.
-    const double dv = l.shade - beyond_v, dh = l.shade - beyond_h;
-    if (std::abs(dv) < opt.min_contrast || std::abs(dh) < opt.min_contrast) continue;
-    p.v_polarity = p.map_v_polarity = std::isnan(dv) ? 0 : Sign(dv);
-    p.h_polarity = p.map_h_polarity = std::isnan(dh) ? 0 : Sign(dh);
-    out.push_back(p);
+    if (PredictGeometry(landmarks[idx], static_cast<int>(idx), map, sensor, table, pose, opt, ctx, &p) &&
+        PredictVisibility(scene, opt, ctx.eye, &p))
+      out.push_back(p);
   }
   return out;
 }
 
+SpreadPrediction::SpreadPrediction(const std::vector<Landmark>& landmarks, const Map& map, const Scene& scene,
+                                   const Sensor& sensor, const RadiusTable& table, const Pose2& pose,
+                                   const PredictionOptions& opt, int max_count)
+    : scene_(scene), opt_(opt), max_count_(max_count) {
+  const PredictionContext ctx(map, sensor, pose, opt);
+  eye_ = ctx.eye;
+  candidates_.reserve(landmarks.size());
+  for (size_t idx = 0; idx < landmarks.size(); ++idx) {
+    PredictedLandmark p;
+    if (PredictGeometry(landmarks[idx], static_cast<int>(idx), map, sensor, table, pose, opt, ctx, &p))
+      candidates_.push_back(p);
+  }
+  state_.assign(candidates_.size(), kUnknown);
+  if (max_count_ <= 0) return;
+  // SelectSpread's order: nearest first (ties in landmark order), then one
+  // per sector; a landmark the scene rules out simply does not take part.
+  by_distance_.resize(candidates_.size());
+  for (size_t i = 0; i < by_distance_.size(); ++i) by_distance_[i] = static_cast<int>(i);
+  std::stable_sort(by_distance_.begin(), by_distance_.end(),
+                   [&](int a, int b) { return candidates_[a].distance < candidates_[b].distance; });
+  taken_.assign(candidates_.size(), 0);
+  std::vector<char> sector_used(static_cast<size_t>(max_count_), 0);
+  for (int i : by_distance_) {
+    const int sector = SpreadSector(candidates_[i], max_count_);
+    if (sector_used[sector] || !Visible(i)) continue;
+    sector_used[sector] = 1;
+    taken_[i] = 1;
+    spread_.push_back(i);
+  }
+  for (size_t k = 0; k < by_distance_.size() && static_cast<int>(spread_.size()) < max_count_; ++k) {
+    const int i = by_distance_[k];
+    if (!taken_[i] && Visible(i)) {
+      taken_[i] = 1;
+      spread_.push_back(i);
+    }
+  }
+  // More than max_count visible: the spread order; else (all of them seen by
+  // now) landmark order, as SelectSpread leaves a short list.
+  more_ = false;
+  if (static_cast<int>(spread_.size()) == max_count_)
+    for (int i : by_distance_)
+      if (!taken_[i] && Visible(i)) {
+        more_ = true;
+        break;
+      }
+}
+
+bool SpreadPrediction::Visible(int i) {
+  if (state_[i] == kUnknown) {
+    state_[i] = PredictVisibility(scene_, opt_, eye_, &candidates_[i]) ? kVisible : kHidden;
+  }
+  return state_[i] == kVisible;
+}
+
+std::vector<PredictedLandmark> SpreadPrediction::First() {
+  std::vector<PredictedLandmark> out;
+  if (max_count_ > 0 && more_) {
+    for (int i : spread_) out.push_back(candidates_[i]);
+    return out;
+  }
+  // The whole list, in landmark order (every candidate has been tested by
+  // now when max_count > 0).
+  for (size_t i = 0; i < candidates_.size(); ++i)
+    if (Visible(static_cast<int>(i))) out.push_back(candidates_[i]);
+  return out;
+}
+
+std::vector<PredictedLandmark> SpreadPrediction::Rest() {
+  std::vector<PredictedLandmark> out;
+  if (max_count_ <= 0 || !more_) return out;
+  for (int i : by_distance_)
+    if (!taken_[i] && Visible(i)) out.push_back(candidates_[i]);
+  return out;
+}
 void SetImageMotion(const Map& map, const Sensor& sensor, const RadiusTable& table,
                     const Pose2& previous, double fraction, std::vector<PredictedLandmark>* predicted) {
   for (PredictedLandmark& p : *predicted) {
@@ -176,8 +287,7 @@ std::vector<PredictedLandmark> SelectSpread(std::vector<PredictedLandmark> all, 
   std::vector<PredictedLandmark> out;
   std::vector<char> taken(all.size(), 0), sector_used(max_count, 0);
   for (size_t i = 0; i < all.size(); ++i) {
-    int sector = static_cast<int>((all[i].azimuth + M_PI) / (2 * M_PI) * max_count);
-    sector = std::clamp(sector, 0, max_count - 1);
+    const int sector = SpreadSector(all[i], max_count);
     if (sector_used[sector]) continue;
     sector_used[sector] = 1;
     taken[i] = 1;

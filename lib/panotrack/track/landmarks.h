@@ -109,4 +109,36 @@ void SetImageMotion(const Map& map, const Sensor& sensor, const RadiusTable& tab
 // the nearest of the rest; the others follow, nearest first.
 std::vector<PredictedLandmark> SelectSpread(std::vector<PredictedLandmark> all, int max_count);
 
+// SelectSpread(PredictLandmarks(...), max_count) in two parts: its first
+// min(max_count, size) landmarks, then on demand the rest. The scene's ray
+// casts (occlusion and the shades beyond the edges: most of a prediction's
+// cost) run only for the landmarks that decide the order of the first part,
+// so a frame that tracks the chosen landmarks pays for about those alone.
+class SpreadPrediction {
+ public:
+  SpreadPrediction(const std::vector<Landmark>& landmarks, const Map& map, const Scene& scene,
+                   const Sensor& sensor, const RadiusTable& table, const Pose2& pose,
+                   const PredictionOptions& opt, int max_count);
+  // The whole list's first min(max_count, size) elements (all for max_count <= 0).
+  std::vector<PredictedLandmark> First();
+  // Whether the whole list is longer than First().
+  bool HasMore() const { return max_count_ > 0 && more_; }
+  // The elements after First(), in order.
+  std::vector<PredictedLandmark> Rest();
+
+ private:
+  bool Visible(int i);  // the scene's tests of candidates_[i], run once
+  enum State : char { kUnknown, kVisible, kHidden };
+  const Scene& scene_;
+  PredictionOptions opt_;
+  int max_count_;
+  Eigen::Vector3d eye_;
+  std::vector<PredictedLandmark> candidates_;  // landmark order, the geometry's tests passed
+  std::vector<State> state_;
+  std::vector<int> by_distance_;  // candidates nearest first
+  std::vector<char> taken_;       // in the first part
+  std::vector<int> spread_;       // the first part (when more_)
+  bool more_ = false;
+};
+
 }  // namespace pano

@@ -215,29 +215,6 @@ void Localizer::LearnPolarity(const FrameResult& fr, const TriangulationResult& 
 
 void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, const Pose2* solved_motion,
                         bool either) const {
-  std::vector<PredictedLandmark> ordered = SelectSpread(
-      PredictLandmarks(landmarks_, map_, scene_, calib_.sensor, *table_, pose, opt_.prediction),
-      opt_.max_landmarks);
-  // The polarities to search for: the map's, or what the images showed.
-  for (PredictedLandmark& p : ordered) {
-    const LandmarkPolarity& lp = polarity_[static_cast<size_t>(p.index)];
-    const int object = p.landmark->object;
-    p.v_polarity = SearchPolarity(lp.v, p.map_v_polarity, object, either);
-    p.h_polarity = SearchPolarity(lp.h, p.map_h_polarity, object, either);
-  }
-  {
-    // An edge of unknown polarity that the tracked frames have not shown
-    // for a while (most likely no contrast there, which an unknown shade
-    // cannot predict): its landmark goes last, tracked only when too few of
-    // the others are found.
-    auto never_seen = [&](const EdgePolarityEvidence& e, int polarity) {
-      return polarity == 0 && e.last_learned == 0 && e.misses >= opt_.polarity_forget_misses;
-    };
-    std::stable_partition(ordered.begin(), ordered.end(), [&](const PredictedLandmark& p) {
-      const LandmarkPolarity& lp = polarity_[static_cast<size_t>(p.index)];
-      return !(never_seen(lp.v, p.v_polarity) || never_seen(lp.h, p.h_polarity));
-    });
-  }
   out->either_polarity = either;
   // The motion over the last frame interval; unknown: the fastest turn.
   const bool known = motion_updates_ >= 2 || solved_motion;
@@ -246,10 +223,52 @@ void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, c
   // Edges may be blurred a little more than the estimate says.
   const double fraction = known ? std::min(opt_.exposure_fraction, 1.3 * blur_fraction_ + 0.05)
                                 : opt_.exposure_fraction;
-  SetImageMotion(map_, calib_.sensor, *table_, before, fraction, &ordered);
-  const int n_all = static_cast<int>(ordered.size());
-  const int n_first = opt_.max_landmarks > 0 ? std::min(n_all, opt_.max_landmarks) : n_all;
-  std::vector<LandmarkMeasurement> meas(n_all);
+  // The landmarks to track, spread in azimuth (SelectSpread): the chosen
+  // ones first, the others only when they are needed.
+  SpreadPrediction prediction(landmarks_, map_, scene_, calib_.sensor, *table_, pose, opt_.prediction,
+                              opt_.max_landmarks);
+  // The polarities to search for (the map's, or what the images showed),
+  // and the expected motion blur.
+  auto prepare = [&](std::vector<PredictedLandmark>* batch) {
+    for (PredictedLandmark& p : *batch) {
+      const LandmarkPolarity& lp = polarity_[static_cast<size_t>(p.index)];
+      const int object = p.landmark->object;
+      p.v_polarity = SearchPolarity(lp.v, p.map_v_polarity, object, either);
+      p.h_polarity = SearchPolarity(lp.h, p.map_h_polarity, object, either);
+    }
+    SetImageMotion(map_, calib_.sensor, *table_, before, fraction, batch);
+  };
+  // An edge of unknown polarity that the tracked frames have not shown
+  // for a while (most likely no contrast there, which an unknown shade
+  // cannot predict): its landmark goes last, tracked only when too few of
+  // the others are found.
+  auto never_seen = [&](const EdgePolarityEvidence& e, int polarity) {
+    return polarity == 0 && e.last_learned == 0 && e.misses >= opt_.polarity_forget_misses;
+  };
+  auto seen = [&](const PredictedLandmark& p) {
+    const LandmarkPolarity& lp = polarity_[static_cast<size_t>(p.index)];
+    return !(never_seen(lp.v, p.v_polarity) || never_seen(lp.h, p.h_polarity));
+  };
+  std::vector<PredictedLandmark> ordered = prediction.First();
+  prepare(&ordered);
+  const int n_first = static_cast<int>(ordered.size());
+  bool have_rest = !prediction.HasMore();
+  auto add_rest = [&]() {
+    std::vector<PredictedLandmark> rest = prediction.Rest();
+    prepare(&rest);
+    ordered.insert(ordered.end(), rest.begin(), rest.end());
+    have_rest = true;
+    std::stable_partition(ordered.begin(), ordered.end(), seen);
+  };
+  // Unseen ones among the chosen give their places to the rest; without
+  // any, the chosen stay first whatever the rest holds.
+  if (!std::all_of(ordered.begin(), ordered.end(), seen)) {
+    if (have_rest)
+      std::stable_partition(ordered.begin(), ordered.end(), seen);
+    else
+      add_rest();
+  }
+  std::vector<LandmarkMeasurement> meas(ordered.size());
   const int threads = ThreadCount(opt_.num_threads);
   auto measure = [&](int begin, int end) {
     // Landmarks are independent: track them in parallel.
@@ -269,7 +288,10 @@ void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, c
   for (int i = 0; i < n_first; ++i) found += meas[i].found;
   // Too few of the chosen ones (occluded, off their edges): track the rest.
   int used = n_first;
-  if (found < std::max(opt_.triangulation.min_landmarks + 3, n_first / 2) && n_first < n_all) {
+  if (found < std::max(opt_.triangulation.min_landmarks + 3, n_first / 2) && prediction.HasMore()) {
+    if (!have_rest) add_rest();
+    const int n_all = static_cast<int>(ordered.size());
+    meas.resize(ordered.size());
     measure(n_first, n_all);
     used = n_all;
   }
