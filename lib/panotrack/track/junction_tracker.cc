@@ -100,10 +100,23 @@ struct JunctionTracker::HorizontalEdge {
 
 namespace {
 
-double Median(std::vector<double>&& v) {
-  if (v.empty()) return 0.0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
+// Reorders v.
+double Median(std::vector<double>* v) {
+  if (v->empty()) return 0.0;
+  std::nth_element(v->begin(), v->begin() + v->size() / 2, v->end());
+  return (*v)[v->size() / 2];
+}
+
+// The edge searches' working lists, kept per thread from one landmark to
+// the next: a few small allocations per edge otherwise.
+struct EdgeScratch {
+  std::vector<Step> steps;
+  std::vector<double> offsets, sorted, values;
+  std::vector<TrackingVote> votes;
+};
+EdgeScratch& ThreadScratch() {
+  thread_local EdgeScratch scratch;
+  return scratch;
 }
 
 }  // namespace
@@ -117,8 +130,9 @@ bool JunctionTracker::FindVerticalEdge(const PredictedLandmark& p, double half, 
   edge->ramp_px = RampAllowance(p.tangential_motion_px);
   const double v_len = std::abs(p.v_radius - p.corner_radius);
   const double v_spacing = std::max(o.sample_spacing_px, (v_len - 2 * o.corner_gap_px) / o.max_samples);
-  std::vector<Step> v_steps;
-  v_steps.reserve(static_cast<size_t>(o.max_samples));
+  EdgeScratch& scratch = ThreadScratch();
+  std::vector<Step>& v_steps = scratch.steps;
+  v_steps.clear();
   const Heading heading(p.azimuth);
   for (double d = o.corner_gap_px; d < v_len - o.corner_gap_px && static_cast<int>(v_steps.size()) < o.max_samples;
        d += v_spacing) {
@@ -134,16 +148,16 @@ bool JunctionTracker::FindVerticalEdge(const PredictedLandmark& p, double half, 
     return false;
   }
   // Truncated median: the contiguous steps near the median azimuth.
-  std::vector<double> offsets;  // tangential offsets from the prediction, px
-  offsets.reserve(v_steps.size());
+  std::vector<double>& offsets = scratch.offsets;  // tangential offsets from the prediction, px
+  offsets.clear();
   for (const Step& st : v_steps) offsets.push_back(wrap_angle(st.azimuth - p.azimuth) * st.radius);
-  std::vector<double> sorted = offsets;
-  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-  const double median = sorted[sorted.size() / 2];
+  std::vector<double>& sorted = scratch.sorted;
+  sorted = offsets;
+  const double median = Median(&sorted);
   double sum_dtheta = 0.0;
   int n_in = 0;
-  std::vector<double> strengths;
-  strengths.reserve(v_steps.size());
+  std::vector<double>& strengths = scratch.values;
+  strengths.clear();
   // A blurred edge is located less precisely: widen the truncation with it.
   const double truncation = o.truncation_px + 0.1 * edge->ramp_px;
   for (size_t k = 0; k < v_steps.size(); ++k) {
@@ -159,12 +173,11 @@ bool JunctionTracker::FindVerticalEdge(const PredictedLandmark& p, double half, 
   }
   edge->azimuth = wrap_angle(p.azimuth + sum_dtheta / n_in);
   edge->n_points = n_in;
-  edge->contrast = Median(std::move(strengths));
-  std::vector<double> widths;
-  widths.reserve(v_steps.size());
+  edge->contrast = Median(&strengths);
+  std::vector<double>& widths = scratch.values;
+  widths.clear();
   for (const Step& st : v_steps) widths.push_back(st.width_px);
-  std::nth_element(widths.begin(), widths.begin() + widths.size() / 2, widths.end());
-  m->edge_width_px = widths[widths.size() / 2];
+  m->edge_width_px = Median(&widths);
   return true;
 }
 
@@ -194,10 +207,11 @@ bool JunctionTracker::FindHorizontalEdge(const PredictedLandmark& p, double half
   const double gap = o.corner_gap_px / p.corner_radius;
   const double h_spacing =
       std::max(o.sample_spacing_px / p.corner_radius, (arc - 2 * gap) / o.max_horizontal_samples);
-  std::vector<TrackingVote> votes;
-  std::vector<Step> h_steps;
-  votes.reserve(static_cast<size_t>(o.max_horizontal_samples));
-  h_steps.reserve(static_cast<size_t>(o.max_horizontal_samples));
+  EdgeScratch& scratch = ThreadScratch();
+  std::vector<TrackingVote>& votes = scratch.votes;
+  std::vector<Step>& h_steps = scratch.steps;
+  votes.clear();
+  h_steps.clear();
   for (double dt = gap; dt < arc - gap && static_cast<int>(votes.size()) < o.max_horizontal_samples;
        dt += h_spacing) {
     const double theta = wrap_angle(p.azimuth + edge->side * dt);
@@ -222,14 +236,14 @@ bool JunctionTracker::FindHorizontalEdge(const PredictedLandmark& p, double half
   }
   m->r_main = edge->fit.r_main;
   m->theta_main = edge->fit.theta_main;
-  std::vector<double> strengths;
-  strengths.reserve(h_steps.size());
+  std::vector<double>& strengths = scratch.values;
+  strengths.clear();
   m->edge_points.reserve(m->edge_points.size() + h_steps.size());
   for (const Step& st : h_steps) {
     m->edge_points.push_back(st.px);
     strengths.push_back(st.strength);
   }
-  edge->contrast = Median(std::move(strengths));
+  edge->contrast = Median(&strengths);
   edge->nearest_azimuth = h_steps.front().azimuth;
   return true;
 }
