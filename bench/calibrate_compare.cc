@@ -339,6 +339,7 @@ void CrossValidate(const std::vector<pano::BoardView>& views, const pano::Target
           const pano::BoardPoseFit f = pano::FitBoardPose(v, board, r.calib.sensor, eo);
           if (!f.ok) {
             ++m.score.failed_boards;
+            std::printf("  fold %d %s: held-out %s not fitted: %s\n", fold, m.name, v.file.c_str(), f.failure.c_str());
             continue;
           }
           s2 += f.rms_px * f.rms_px * f.corners_used;
@@ -400,9 +401,11 @@ void CrossValidate(const std::vector<pano::BoardView>& views, const pano::Target
                 "%.3f .. %.3f px (spread %.3f px)\n",
                 *fmin, *fmax, 100.0 * (*fmax / *fmin - 1.0), *rmin, *rmax, *rmax - *rmin);
   }
+  // Over the models that fitted every held-out board (a held-out RMS over
+  // fewer boards is not comparable).
   double best = INFINITY;
   for (const Method& m : methods)
-    if (m.options) best = std::min(best, m.score.Held());
+    if (m.options && m.score.failed_boards == 0) best = std::min(best, m.score.Held());
   std::printf("  best panotrack held-out / omnidir held-out: %.3f\n", best / methods.back().score.Held());
   if (focals.empty() || !gauge) return;
 

@@ -24,8 +24,8 @@ bool HaveAvx2() {
   return have;
 }
 
-// Samples k0.. of a line inside the image, eight at a time, each pixel pair
-// fetched by one 4-byte gather (the row's pixels ix .. ix + 3). The caller
+// The n samples of a line inside the image, eight at a time, each pixel
+// pair fetched by one 4-byte gather (the row's pixels ix .. ix + 3). The caller
 // guarantees that those reads stay inside the image's buffer: no sample in
 // its last three rows. AVX2 without FMA: every product rounds as in the
 // scalar blend.
