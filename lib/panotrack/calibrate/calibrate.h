@@ -28,10 +28,12 @@
 #include <opencv2/core.hpp>
 
 #include <array>
+#include <cmath>
 #include <string>
 #include <vector>
 
 #include "panotrack/io/calibration.h"
+#include "panotrack/calibrate/limb.h"
 #include "panotrack/io/targets.h"
 #include "panotrack/sensor/sensor.h"
 
@@ -79,6 +81,12 @@ struct CalibrateOptions {
   // model (where the squares are straight, so the detector's curvature bias
   // goes), then the model is fitted again. 0: off.
   int refine_passes = 1;
+  // Measure the mirror's limb (a sphere's silhouette, limb.h) in the images
+  // after the first fit and fit it along with the corners: it separates the
+  // sphere's centre off the axis from the principal point, which the boards
+  // alone trade against each other. Skipped (with a note) where the limb is
+  // not clean in enough of the images.
+  bool use_limb = false;
   // Corner weighting (corner_weights.h): corners whose squares are squeezed
   // below this many pixels (near a mirror's limb) count less in the fit, most
   // of all along the bisector of an acute crossing, as their position is less
@@ -186,6 +194,8 @@ struct CalibrationResult {
   // images, and steps that failed and were skipped (a refit, a search).
   std::vector<std::string> warnings;
   std::string init_summary;  // how the initialisation went
+  LimbObservation limb;      // the limb fitted (empty: none)
+  double limb_rms_px = NAN;  // the limb points' RMS distance from the fitted limb
   int iterations = 0;
   double seconds_detect = 0.0;
   double seconds_fit = 0.0;
@@ -243,6 +253,8 @@ struct InitialEstimate {
   // Other starts worth refining (the conic's hyperboloid basin); the better
   // final fit is kept.
   std::vector<InitialEstimate> alternatives;
+  // The mirror's limb, fitted along with the corners when not empty.
+  LimbObservation limb;
 };
 // Throws pano::Error with the reason when the initialisation fails.
 InitialEstimate Initialize(const std::vector<BoardView>& views, const TargetBoard& board,
