@@ -10,7 +10,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <optional>
 #include <sstream>
@@ -288,7 +287,6 @@ void AddLimb(const Pipeline& p, InitialEstimate* start) {
   if (p.limb.Empty()) return;
   const double corner_sigma = p.res.rms_px / std::sqrt(2.0);
   start->limb.weight = std::clamp(corner_sigma / p.limb.point_sigma_px, 0.1, 100.0);
-  if (const char* w = std::getenv("PANO_LIMB_WEIGHT")) start->limb.weight = std::atof(w);
 }
 
 // Measures the mirror's limb near where the current fit puts it.

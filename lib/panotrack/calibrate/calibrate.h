@@ -1,9 +1,10 @@
 // Sensor calibration from chessboard images (`panocalib calibrate`).
 //
 // Pipeline (docs/calibration.md):
-//   1. DetectBoards: findChessboardCornersSB on each raw image (quick search,
-//      then exhaustive); images where the board is not found are listed (and
-//      retried in step 4). A ChArUco board: detectMarkers and
+//   1. DetectBoards: findChessboardCornersSB on each raw image (the quick
+//      search; the exhaustive one where it fails only when too few boards
+//      were found for step 4 to take over); images where the board is not
+//      found are listed (and retried in step 4). A ChArUco board: detectMarkers and
 //      interpolateCornersCharuco (lib/panotrack/charuco), keeping views with
 //      enough corners (EnoughCorners), each corner with its id.
 //   2. Initialise: a linear central-camera initialisation (after Scaramuzza:
@@ -82,10 +83,12 @@ struct CalibrateOptions {
   // goes), then the model is fitted again. 0: off.
   int refine_passes = 1;
   // Measure the mirror's limb (a sphere's silhouette, limb.h) in the images
-  // after the first fit and fit it along with the corners: it separates the
-  // sphere's centre off the axis from the principal point, which the boards
-  // alone trade against each other. Skipped (with a note) where the limb is
-  // not clean in enough of the images.
+  // after the first fit and fit it along with the corners in the last refit.
+  // Off by default: with estimated poses and k1, k2 free it does not pin the
+  // sphere's centre (the boards leave a valley of focal length, mirror size
+  // and lens distortion along which the limb fits as well), and it pulls the
+  // focal length along that valley (faulty-rig: +0.5 % -> +1.7..3.5 %).
+  // Skipped (with a warning) where the limb is not clean in enough images.
   bool use_limb = false;
   // Corner weighting (corner_weights.h): corners whose squares are squeezed
   // below this many pixels (near a mirror's limb) count less in the fit, most
