@@ -448,14 +448,27 @@ void RefineThroughModel(Pipeline* p) {
     if (RefineCornersThroughModel(p->images, p->targets.board, p->res.calib.sensor, &views,
                                   p->options.Threads()) == 0)
       break;
-    InitialEstimate start = StartFrom(p->res, "refit on corners refined through the model; " + p->res.init_summary);
-    AddLimb(*p, &start);
+    const InitialEstimate start =
+        StartFrom(p->res, "refit on corners refined through the model; " + p->res.init_summary);
     std::optional<CalibrationResult> again =
         TryRefit("the refit on corners refined through the model", views, p->targets.board, start,
                  p->poses_known, p->targets.units, p->options, &p->carried);
     if (!again) break;
     p->res = std::move(*again);
   }
+}
+
+// Step 6 (on request): the last fit again with the mirror's limb, its points
+// weighted against the refined corners' scatter.
+void RefitWithLimb(Pipeline* p) {
+  if (p->limb.Empty()) return;
+  InitialEstimate start = StartFrom(p->res, "refit with the mirror's limb; " + p->res.init_summary);
+  AddLimb(*p, &start);
+  std::optional<CalibrationResult> again = TryRefit("the refit with the mirror's limb", p->res.views,
+                                                    p->targets.board, start, p->poses_known, p->targets.units,
+                                                    p->options, &p->carried);
+  if (again) p->res = std::move(*again);
+  else p->limb = LimbObservation();
 }
 
 // The final result: the images without a board, every carried warning, the
@@ -531,7 +544,7 @@ CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>
   StepClock clock(options.verbose);
   CheckImages(targets, images);
   Pipeline p(targets, images, options);
-  p.det = DetectBoards(targets, images, options);
+  p.det = DetectBoards(targets, images, options, /*defer_to_unwarped=*/true);
   clock.Done("raw detection");
   p.poses_known = targets.AllPosesKnown() && !options.ignore_known_poses;
   CheckViewCount(p.det.views.size(), images.size(), p.poses_known, options, p.det.not_found_files,
@@ -549,6 +562,8 @@ CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>
   }
   RefineThroughModel(&p);
   clock.Done("corner refinement and refit");
+  RefitWithLimb(&p);
+  clock.Done("refit with the limb");
   return Complete(&p, clock);
 }
 

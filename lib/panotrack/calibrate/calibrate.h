@@ -23,6 +23,8 @@
 //      cornerSubPix in the raw image; when any is found the fit is repeated.
 //   5. RefineCornersThroughModel: every corner located again on the board
 //      plane through the fitted model, then the final fit.
+//   6. On request (CalibrateOptions::use_limb, the sphere): the mirror's limb,
+//      measured after step 3 (limb.h), fitted with the corners.
 #pragma once
 
 #include <Eigen/Core>
@@ -83,7 +85,7 @@ struct CalibrateOptions {
   // goes), then the model is fitted again. 0: off.
   int refine_passes = 1;
   // Measure the mirror's limb (a sphere's silhouette, limb.h) in the images
-  // after the first fit and fit it along with the corners in the last refit.
+  // after the first fit and fit it along with the corners in one more refit.
   // Off by default: with estimated poses and k1, k2 free it does not pin the
   // sphere's centre (the boards leave a valley of focal length, mirror size
   // and lens distortion along which the limb fits as well), and it pulls the
@@ -227,10 +229,14 @@ TargetSet ReadTargetInput(const std::string& path, const TargetInputBoard& input
 // Frames in a video, counted by reading it (containers' counts are estimates).
 int CountVideoFrames(const std::string& path);
 
-// Step 1: raw-image detection (in parallel over images, options.Threads()).
-// Throws when an image cannot be read or the images differ in size.
+// Step 1: raw-image detection (in parallel over images, options.Threads()):
+// the quick search, then the exhaustive one where it fails. defer_to_unwarped
+// (the pipeline's choice): no exhaustive search when the quick one found half
+// the boards (4 at least) and options.unwarp_fallback is on, as step 4 finds
+// the rest faster. Throws when an image cannot be read or the images differ
+// in size.
 DetectionResult DetectBoards(const TargetSet& targets, const std::vector<cv::Mat>& images,
-                             const CalibrateOptions& options);
+                             const CalibrateOptions& options, bool defer_to_unwarped = false);
 
 // Detection in virtual perspective views unwarped through `sensor`, corners
 // mapped back to the raw image and refined there. `distance` is a typical

@@ -217,7 +217,7 @@ bool FindRaw(const cv::Mat& image, const TargetBoard& board, bool exhaustive, st
 }  // namespace
 
 DetectionResult DetectBoards(const TargetSet& targets, const std::vector<cv::Mat>& images,
-                             const CalibrateOptions& options) {
+                             const CalibrateOptions& options, bool defer_to_unwarped) {
   const auto t0 = std::chrono::steady_clock::now();
   if (images.size() != targets.images.size()) throw Error("corner detection: internal: image count");
   DetectionResult det;
@@ -232,11 +232,13 @@ DetectionResult DetectBoards(const TargetSet& targets, const std::vector<cv::Mat
   ParallelFor(
       n, [&](int i) { ok[i] = FindRaw(images[i], targets.board, false, &found[i], &found_ids[i], &failures[i]); },
       true, options.Threads());
-  // The exhaustive search where the quick one failed, unless the boards found
-  // are enough for a fit whose unwarped views find the rest (faster and
-  // surer for boards squeezed near the limb, where both raw searches fail).
+  // The exhaustive search where the quick one failed, unless deferred: the
+  // boards found are enough for a fit whose unwarped views find the rest
+  // (faster, and surer for boards squeezed near the limb, where both raw
+  // searches fail).
   const int n_found = static_cast<int>(std::count(ok.begin(), ok.end(), 1));
-  if (!targets.board.IsCharuco() && (!options.unwarp_fallback || n_found < std::max(4, n / 2))) {
+  const bool defer = defer_to_unwarped && options.unwarp_fallback && n_found >= std::max(4, n / 2);
+  if (!targets.board.IsCharuco() && !defer) {
     std::vector<int> retry;
     for (int i = 0; i < n; ++i)
       if (!ok[i]) retry.push_back(i);
