@@ -19,7 +19,7 @@ void AddCalibrateCommand(CLI::App& app) {
     std::string targets, out, lut, report, model = "sphere", distortion = "auto", free = "none";
     double huber = 1.0, max_rms = 5.0, full_weight = CalibrateOptions().full_weight_px;
     int max_iterations = 200, threads = 0, asphere_terms = 2;
-    bool no_aspect = false, ignore_poses = false, no_unwarp = false, verbose = false;
+    bool no_aspect = false, ignore_poses = false, no_unwarp = false, limb = false, verbose = false;
   };
   auto o = std::make_shared<Opts>();
   // Input without a target file: the board on the command line.
@@ -88,6 +88,8 @@ void AddCalibrateCommand(CLI::App& app) {
   cmd->add_flag("--fix-aspect", o->no_aspect, "Hold the pixel aspect ratio at 1");
   cmd->add_flag("--ignore-poses", o->ignore_poses, "Estimate the board poses even when the target file gives them");
   cmd->add_flag("--no-unwarp", o->no_unwarp, "Do not retry images without a board in unwarped views");
+  cmd->add_flag("--limb", o->limb,
+                "Sphere: measure the mirror's limb (its silhouette) in the images and fit it with the corners");
   cmd->add_option("-j,--jobs,--threads", o->threads, "Threads for the fit and the image searches (0: every core)")
       ->capture_default_str();
   cmd->add_flag("-v,--verbose", o->verbose,
@@ -136,6 +138,7 @@ void AddCalibrateCommand(CLI::App& app) {
     opt.fit_aspect = !o->no_aspect;
     opt.ignore_known_poses = o->ignore_poses;
     opt.unwarp_fallback = !o->no_unwarp;
+    opt.use_limb = o->limb;
     opt.num_threads = o->threads;
     opt.verbose = o->verbose;
     opt.Check();

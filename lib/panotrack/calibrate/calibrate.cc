@@ -279,7 +279,26 @@ struct Pipeline {
   DetectionResult det;
   CalibrationResult res;
   std::vector<std::string> carried;
+  LimbObservation limb;  // the mirror's limb, once measured
 };
+
+// The limb for a refit's start, its points weighted against the corners'
+// scatter in the current fit (both then count in the same pixels).
+void AddLimb(const Pipeline& p, InitialEstimate* start) {
+  start->limb = p.limb;
+  if (p.limb.Empty()) return;
+  const double corner_sigma = p.res.rms_px / std::sqrt(2.0);
+  start->limb.weight = std::clamp(corner_sigma / p.limb.point_sigma_px, 0.1, 100.0);
+}
+
+// Measures the mirror's limb near where the current fit puts it.
+void MeasureLimbStep(Pipeline* p) {
+  if (!p->options.use_limb || p->res.calib.sensor.model != MirrorModel::kSphere) return;
+  p->limb = MeasureLimb(p->images, p->res.calib.sensor, LimbOptions(), p->options.Threads());
+  if (p->limb.Empty())
+    p->carried.push_back("the mirror's limb is not clean in enough of the images: the sphere's centre off the "
+                         "axis and the principal point rest on the boards alone");
+}
 
 void CheckImages(const TargetSet& targets, const std::vector<cv::Mat>& images) {
   if (images.size() != targets.images.size()) throw Error("calibration: one image per target entry expected");
@@ -441,11 +460,28 @@ void RefineThroughModel(Pipeline* p) {
   }
 }
 
+// Step 6 (on request): the last fit again with the mirror's limb, its points
+// weighted against the refined corners' scatter.
+void RefitWithLimb(Pipeline* p) {
+  if (p->limb.Empty()) return;
+  InitialEstimate start = StartFrom(p->res, "refit with the mirror's limb; " + p->res.init_summary);
+  AddLimb(*p, &start);
+  std::optional<CalibrationResult> again = TryRefit("the refit with the mirror's limb", p->res.views,
+                                                    p->targets.board, start, p->poses_known, p->targets.units,
+                                                    p->options, &p->carried);
+  if (again) p->res = std::move(*again);
+  else p->limb = LimbObservation();
+}
+
 // The final result: the images without a board, every carried warning, the
 // calibration file's comment, the times.
 CalibrationResult Complete(Pipeline* p, const StepClock& clock) {
   CalibrationResult& res = p->res;
   res.not_found = p->det.not_found;
+  if (!p->limb.Empty()) {
+    res.limb = p->limb;
+    res.limb_rms_px = LimbRmsPx(p->limb, res.calib.sensor);
+  }
   res.not_found_files = p->det.not_found_files;
   for (const std::string& w : p->carried)
     if (std::find(res.warnings.begin(), res.warnings.end(), w) == res.warnings.end())
@@ -510,7 +546,7 @@ CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>
   StepClock clock(options.verbose);
   CheckImages(targets, images);
   Pipeline p(targets, images, options);
-  p.det = DetectBoards(targets, images, options);
+  p.det = DetectBoards(targets, images, options, /*defer_to_unwarped=*/true);
   clock.Done("raw detection");
   p.poses_known = targets.AllPosesKnown() && !options.ignore_known_poses;
   CheckViewCount(p.det.views.size(), images.size(), p.poses_known, options, p.det.not_found_files,
@@ -520,12 +556,16 @@ CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>
   p.res = CalibrateViews(p.det.views, targets.board, p.det.image_width, p.det.image_height, targets.units,
                          options);
   clock.Done("initialisation and first fit");
+  MeasureLimbStep(&p);
+  clock.Done("limb");
   if (options.unwarp_fallback && !p.det.not_found.empty()) {
     RetryUnwarped(&p);
     clock.Done("unwarped detection and refit");
   }
   RefineThroughModel(&p);
   clock.Done("corner refinement and refit");
+  RefitWithLimb(&p);
+  clock.Done("refit with the limb");
   return Complete(&p, clock);
 }
 
@@ -548,6 +588,11 @@ std::string Summary(const CalibrationResult& r) {
     o << "  rim_radius        " << s.params.rim_radius << " (set to cover the image; not fitted)\n";
   std::snprintf(line, sizeof line, "RMS reprojection error %.4f px over %zu boards\n", r.rms_px, r.views.size());
   o << line;
+  if (!r.limb.Empty()) {
+    std::snprintf(line, sizeof line, "mirror limb: %zu points from %d images, RMS %.4f px (a point's sigma %.3f px)\n",
+                  r.limb.points.size(), r.limb.images_used, r.limb_rms_px, r.limb.point_sigma_px);
+    o << line;
+  }
   for (size_t i = 0; i < r.views.size(); ++i) {
     std::snprintf(line, sizeof line, "  %-24s %8.4f px  (%s)\n", r.views[i].file.c_str(), r.image_rms[i],
                   r.views[i].method.c_str());

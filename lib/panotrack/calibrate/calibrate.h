@@ -1,9 +1,10 @@
 // Sensor calibration from chessboard images (`panocalib calibrate`).
 //
 // Pipeline (docs/calibration.md):
-//   1. DetectBoards: findChessboardCornersSB on each raw image (quick search,
-//      then exhaustive); images where the board is not found are listed (and
-//      retried in step 4). A ChArUco board: detectMarkers and
+//   1. DetectBoards: findChessboardCornersSB on each raw image (the quick
+//      search; the exhaustive one where it fails only when too few boards
+//      were found for step 4 to take over); images where the board is not
+//      found are listed (and retried in step 4). A ChArUco board: detectMarkers and
 //      interpolateCornersCharuco (lib/panotrack/charuco), keeping views with
 //      enough corners (EnoughCorners), each corner with its id.
 //   2. Initialise: a linear central-camera initialisation (after Scaramuzza:
@@ -22,16 +23,20 @@
 //      cornerSubPix in the raw image; when any is found the fit is repeated.
 //   5. RefineCornersThroughModel: every corner located again on the board
 //      plane through the fitted model, then the final fit.
+//   6. On request (CalibrateOptions::use_limb, the sphere): the mirror's limb,
+//      measured after step 3 (limb.h), fitted with the corners.
 #pragma once
 
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
 #include <array>
+#include <cmath>
 #include <string>
 #include <vector>
 
 #include "panotrack/io/calibration.h"
+#include "panotrack/calibrate/limb.h"
 #include "panotrack/io/targets.h"
 #include "panotrack/sensor/sensor.h"
 
@@ -83,6 +88,15 @@ struct CalibrateOptions {
   // model (where the squares are straight, so the detector's curvature bias
   // goes), then the model is fitted again. 0: off.
   int refine_passes = 1;
+  // Measure the mirror's limb (a sphere's silhouette, limb.h) in the images
+  // after the first fit and fit it along with the corners in one more refit.
+  // Off by default: with estimated poses and k1, k2 free it does not pin the
+  // sphere's centre (the boards leave a valley of focal length, mirror size
+  // and lens distortion along which the limb fits as well), and it pulls the
+  // fit along that valley (faulty-rig, 14 boards, k1 and k2 free: focal
+  // +0.5 % -> +3.5 %, the centre's error 0.70 -> 1.20 mm).
+  // Skipped (with a warning) where the limb is not clean in enough images.
+  bool use_limb = false;
   // Corner weighting (corner_weights.h): corners whose squares are squeezed
   // below this many pixels (near a mirror's limb) count less in the fit, most
   // of all along the bisector of an acute crossing, as their position is less
@@ -190,6 +204,8 @@ struct CalibrationResult {
   // images, and steps that failed and were skipped (a refit, a search).
   std::vector<std::string> warnings;
   std::string init_summary;  // how the initialisation went
+  LimbObservation limb;      // the limb fitted (empty: none)
+  double limb_rms_px = NAN;  // the limb points' RMS distance from the fitted limb
   int iterations = 0;
   double seconds_detect = 0.0;
   double seconds_fit = 0.0;
@@ -218,10 +234,14 @@ TargetSet ReadTargetInput(const std::string& path, const TargetInputBoard& input
 // Frames in a video, counted by reading it (containers' counts are estimates).
 int CountVideoFrames(const std::string& path);
 
-// Step 1: raw-image detection (in parallel over images, options.Threads()).
-// Throws when an image cannot be read or the images differ in size.
+// Step 1: raw-image detection (in parallel over images, options.Threads()):
+// the quick search, then the exhaustive one where it fails. defer_to_unwarped
+// (the pipeline's choice): no exhaustive search when the quick one found half
+// the boards (4 at least) and options.unwarp_fallback is on, as step 4 finds
+// the rest faster. Throws when an image cannot be read or the images differ
+// in size.
 DetectionResult DetectBoards(const TargetSet& targets, const std::vector<cv::Mat>& images,
-                             const CalibrateOptions& options);
+                             const CalibrateOptions& options, bool defer_to_unwarped = false);
 
 // Detection in virtual perspective views unwarped through `sensor`, corners
 // mapped back to the raw image and refined there. `distance` is a typical
@@ -247,6 +267,8 @@ struct InitialEstimate {
   // Other starts worth refining (the conic's hyperboloid basin); the better
   // final fit is kept.
   std::vector<InitialEstimate> alternatives;
+  // The mirror's limb, fitted along with the corners when not empty.
+  LimbObservation limb;
 };
 // Throws pano::Error with the reason when the initialisation fails.
 InitialEstimate Initialize(const std::vector<BoardView>& views, const TargetBoard& board,

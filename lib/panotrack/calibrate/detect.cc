@@ -184,7 +184,7 @@ bool CharucoCorners(const CharucoDetection& d, const TargetBoard& board, std::ve
 // The board in a raw image; false when not found, and then `failure` says
 // why when the search raised an error. A ChArUco board's corners come with
 // their ids (a chessboard's: none, the full grid).
-bool FindRaw(const cv::Mat& image, const TargetBoard& board, std::vector<Eigen::Vector2d>* corners,
+bool FindRaw(const cv::Mat& image, const TargetBoard& board, bool exhaustive, std::vector<Eigen::Vector2d>* corners,
              std::vector<int>* ids, std::string* failure) {
   if (board.IsCharuco()) {
     try {
@@ -196,17 +196,16 @@ bool FindRaw(const cv::Mat& image, const TargetBoard& board, std::vector<Eigen::
   }
   std::vector<cv::Point2f> c;
   bool ok = false;
-  // The quick search first (a third of the time), the exhaustive one where
-  // it fails; the corners' accuracy comes later (RefineCornersThroughModel).
-  for (const int flags : {0, cv::CALIB_CB_EXHAUSTIVE | cv::CALIB_CB_ACCURACY}) {
-    try {
-      SeedDetector();
-      ok = cv::findChessboardCornersSB(image, cv::Size(board.cols, board.rows), c, flags);
-    } catch (const cv::Exception& e) {
-      ok = false;
-      if (failure->empty()) *failure = OpenCvReason(e);
-    }
-    if (ok) break;
+  // The quick search (a third of the time of the exhaustive one, which the
+  // caller runs where this fails and the model cannot help); the corners'
+  // accuracy comes later (RefineCornersThroughModel).
+  const int flags = exhaustive ? cv::CALIB_CB_EXHAUSTIVE | cv::CALIB_CB_ACCURACY : 0;
+  try {
+    SeedDetector();
+    ok = cv::findChessboardCornersSB(image, cv::Size(board.cols, board.rows), c, flags);
+  } catch (const cv::Exception& e) {
+    ok = false;
+    if (failure->empty()) *failure = OpenCvReason(e);
   }
   if (ok) failure->clear();
   if (!ok || c.size() != static_cast<size_t>(board.cols * board.rows)) return false;
@@ -218,7 +217,7 @@ bool FindRaw(const cv::Mat& image, const TargetBoard& board, std::vector<Eigen::
 }  // namespace
 
 DetectionResult DetectBoards(const TargetSet& targets, const std::vector<cv::Mat>& images,
-                             const CalibrateOptions& options) {
+                             const CalibrateOptions& options, bool defer_to_unwarped) {
   const auto t0 = std::chrono::steady_clock::now();
   if (images.size() != targets.images.size()) throw Error("corner detection: internal: image count");
   DetectionResult det;
@@ -231,8 +230,26 @@ DetectionResult DetectBoards(const TargetSet& targets, const std::vector<cv::Mat
   std::vector<std::string> failures(n);
   std::vector<char> ok(n, 0);
   ParallelFor(
-      n, [&](int i) { ok[i] = FindRaw(images[i], targets.board, &found[i], &found_ids[i], &failures[i]); }, true,
-      options.Threads());
+      n, [&](int i) { ok[i] = FindRaw(images[i], targets.board, false, &found[i], &found_ids[i], &failures[i]); },
+      true, options.Threads());
+  // The exhaustive search where the quick one failed, unless deferred: the
+  // boards found are enough for a fit whose unwarped views find the rest
+  // (faster, and surer for boards squeezed near the limb, where both raw
+  // searches fail).
+  const int n_found = static_cast<int>(std::count(ok.begin(), ok.end(), 1));
+  const bool defer = defer_to_unwarped && options.unwarp_fallback && n_found >= std::max(4, n / 2);
+  if (!targets.board.IsCharuco() && !defer) {
+    std::vector<int> retry;
+    for (int i = 0; i < n; ++i)
+      if (!ok[i]) retry.push_back(i);
+    ParallelFor(
+        static_cast<int>(retry.size()),
+        [&](int k) {
+          const int i = retry[k];
+          ok[i] = FindRaw(images[i], targets.board, true, &found[i], &found_ids[i], &failures[i]);
+        },
+        true, options.Threads());
+  }
   for (int i = 0; i < n; ++i) {
     if (ok[i]) {
       det.views.push_back(calib_internal::ViewOfImage(targets, i, found[i], "raw"));
@@ -332,8 +349,9 @@ bool DetectInView(const cv::Mat& image, const TargetBoard& board, const VirtualV
   } else {
     try {
       SeedDetector();
-      ok = cv::findChessboardCornersSB(view, cv::Size(board.cols, board.rows), c,
-                                       cv::CALIB_CB_NORMALIZE_IMAGE | cv::CALIB_CB_ACCURACY);
+      // Without CALIB_CB_ACCURACY (three times the time): the corners are
+      // refined in the raw image and then through the model.
+      ok = cv::findChessboardCornersSB(view, cv::Size(board.cols, board.rows), c, cv::CALIB_CB_NORMALIZE_IMAGE);
     } catch (const cv::Exception& e) {
       ok = false;
       *failure = OpenCvReason(e);

@@ -12,6 +12,7 @@
 
 #include "panotrack/calibrate/calibrate.h"
 #include "panotrack/calibrate/internal.h"
+#include "panotrack/calibrate/limb.h"
 #include "panotrack/core/error.h"
 
 namespace pano {
@@ -146,6 +147,7 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
   if (n_obs < n_total * 9 / 10)
     throw Error("calibration fit: the initial model cannot see " + std::to_string(n_invisible) + " of " +
                 std::to_string(n_total) + " corners (initialisation failed)");
+  AddLimbResiduals(&problem, init.limb, s.data(), f.data());  // the mirror's limb, when measured
 
   ceres::Solver::Options so;
   so.linear_solver_type = poses_known ? ceres::DENSE_QR : ceres::DENSE_SCHUR;
