@@ -110,6 +110,19 @@ bool PlausibleParams(const SensorParams<T>& p) {
          p.curvature_radius > T(0) && p.vertex_distance > T(0);
 }
 
+// Faults of a plausible rig (the fit rejects steps outside: a free decentre
+// may wander off where the data hardly constrain it): the mirror's offset
+// within half its curvature radius, tilts within 20 degrees.
+template <typename T>
+bool PlausibleFaults(const GeneralSensorParams<T>& g) {
+  const T& dx = g.faults.mirror_offset[0];
+  const T& dy = g.faults.mirror_offset[1];
+  if (!(dx * dx + dy * dy < T(0.25) * g.aligned.curvature_radius * g.aligned.curvature_radius)) return false;
+  for (const T* a : {g.faults.camera_tilt, g.faults.sensor_tilt})
+    if (!(a[0] * a[0] + a[1] * a[1] < T(0.12))) return false;
+  return true;
+}
+
 // A board pose as the fit's parameter block: angle-axis, then translation.
 inline std::array<double, 6> PackPose(const Eigen::Vector3d& rvec, const Eigen::Vector3d& tvec) {
   return {rvec.x(), rvec.y(), rvec.z(), tvec.x(), tvec.y(), tvec.z()};
@@ -218,14 +231,7 @@ struct GeneralCornerCost {
     if (!PlausibleParams(g.aligned)) return false;
     g.aligned.rim_radius = T(RimForRadius(g.aligned.template cast<double>(), cap / scalar_value(g.aligned.focal_px)));
     g.faults = FaultsFromBlock(faults);
-    // Steps beyond a plausible rig are rejected (a free decentre may wander
-    // off where the data hardly constrain it): offset within half the
-    // curvature radius, tilts within 20 degrees.
-    const T& dx = g.faults.mirror_offset[0];
-    const T& dy = g.faults.mirror_offset[1];
-    if (!(dx * dx + dy * dy < T(0.25) * g.aligned.curvature_radius * g.aligned.curvature_radius)) return false;
-    for (const T* a : {g.faults.camera_tilt, g.faults.sensor_tilt})
-      if (!(a[0] * a[0] + a[1] * a[1] < T(0.12))) return false;
+    if (!PlausibleFaults(g)) return false;
     T Xs[3];
     BoardPointInSensor(pose, X, Xs);
     T u, v;
@@ -270,12 +276,7 @@ struct AsphereCornerCost {
     T u, v;
     if (general) {
       g.faults = FaultsFromBlock(faults);
-      // The bounds of GeneralCornerCost.
-      const T& dx = g.faults.mirror_offset[0];
-      const T& dy = g.faults.mirror_offset[1];
-      if (!(dx * dx + dy * dy < T(0.25) * g.aligned.curvature_radius * g.aligned.curvature_radius)) return false;
-      for (const T* a : {g.faults.camera_tilt, g.faults.sensor_tilt})
-        if (!(a[0] * a[0] + a[1] * a[1] < T(0.12))) return false;
+      if (!PlausibleFaults(g)) return false;
       if (!project_general(g, Xs, &u, &v)) return false;
     } else if (!project(g.aligned, Xs, &u, &v)) {
       return false;
