@@ -120,6 +120,15 @@ void rotate_transposed(const T* R, const T* x, T* y) {
 template <typename T>
 bool general_mirror_hit(const SensorParams<T>& p, const T& dx, const T& dy, const T& a, const T& b, T* Q) {
   using std::sqrt;
+  // The hit at ray parameter t, if it lies within the mirror's rim.
+  const auto hit_at = [&](const T& t) {
+    Q[0] = t * a;
+    Q[1] = t * b;
+    Q[2] = t;
+    if (!(p.rim_radius > T(0))) return true;
+    const T sx = Q[0] - dx, sy = Q[1] - dy;
+    return !(sx * sx + sy * sy > p.rim_radius * p.rim_radius);
+  };
   if (!is_conic_profile(p)) {
     // Even asphere: the hit in double, then one Newton step in T on
     // H(t) = zv + w(u(t)) - t (Jet derivatives by the implicit function theorem).
@@ -138,14 +147,7 @@ bool general_mirror_hit(const SensorParams<T>& p, const T& dx, const T& dy, cons
       if (!asphere_sag(p, ex * ex + ey * ey, &w, static_cast<T*>(nullptr))) return false;
       t = T(t0) - (p.vertex_distance + w - T(t0)) / T(dH);
     }
-    Q[0] = t * a;
-    Q[1] = t * b;
-    Q[2] = t;
-    if (p.rim_radius > T(0)) {
-      const T sx = Q[0] - dx, sy = Q[1] - dy;
-      if (sx * sx + sy * sy > p.rim_radius * p.rim_radius) return false;
-    }
-    return true;
+    return hit_at(t);
   }
   const T& R = p.curvature_radius;
   const T& zv = p.vertex_distance;
@@ -160,15 +162,7 @@ bool general_mirror_hit(const SensorParams<T>& p, const T& dx, const T& dy, cons
   if (disc < T(0)) return false;
   const T den = q + sqrt(disc);
   if (!(den > T(0))) return false;
-  const T t = zv + C / den;  // stable form of the smaller root
-  Q[0] = t * a;
-  Q[1] = t * b;
-  Q[2] = t;
-  if (p.rim_radius > T(0)) {
-    const T sx = Q[0] - dx, sy = Q[1] - dy;
-    if (sx * sx + sy * sy > p.rim_radius * p.rim_radius) return false;
-  }
-  return true;
+  return hit_at(zv + C / den);  // stable form of the smaller root
 }
 
 // Hit and reflected unit direction r of the camera ray (a, b, 1), M frame.
