@@ -35,6 +35,7 @@
 
 #include "panotrack/calibrate/calibrate.h"
 #include "panotrack/calibrate/evaluate.h"
+#include "panotrack/calibrate/model_selection.h"
 #include "panotrack/calibrate/internal.h"
 #include "panotrack/calibrate/omnidir_peer.h"
 #include "panotrack/io/targets.h"
@@ -171,36 +172,17 @@ bool OmnidirHeldOut(const pano::OmnidirFit& f, const pano::BoardView& v, const s
   return true;
 }
 
-// Pooled figures of one method over the folds.
-struct CvScore {
-  double train_s2 = 0, held_s2 = 0;
-  size_t train_n = 0, held_n = 0;
-  int failed_boards = 0;
-  std::vector<double> fold_train, fold_held;
-  // Held-out boards fitted: file -> (sum of squared errors, corners).
-  std::map<std::string, std::pair<double, size_t>> boards;
-  // Held-out RMS over the boards in `common` only (every method fitted them).
-  double HeldOn(const std::set<std::string>& common) const {
-    double s2 = 0;
-    size_t n = 0;
-    for (const auto& [file, e] : boards)
-      if (common.count(file)) {
-        s2 += e.first;
-        n += e.second;
-      }
-    return n ? std::sqrt(s2 / n) : NAN;
-  }
-  void AddFold(double train_rms, size_t train_corners, double held_s2_fold, size_t held_n_fold) {
-    train_s2 += train_rms * train_rms * train_corners;
-    train_n += train_corners;
-    held_s2 += held_s2_fold;
-    held_n += held_n_fold;
-    fold_train.push_back(train_rms);
-    fold_held.push_back(held_n_fold ? std::sqrt(held_s2_fold / held_n_fold) : NAN);
-  }
-  double Train() const { return train_n ? std::sqrt(train_s2 / train_n) : NAN; }
-  double Held() const { return held_n ? std::sqrt(held_s2 / held_n) : NAN; }
-};
+// Held-out RMS over the boards in `common` only (every method fitted them).
+double HeldOn(const pano::ModelScore& score, const std::set<std::string>& common) {
+  double s2 = 0;
+  size_t n = 0;
+  for (const auto& [file, e] : score.board_errors)
+    if (common.count(file)) {
+      s2 += e.first;
+      n += e.second;
+    }
+  return n ? std::sqrt(s2 / n) : NAN;
+}
 
 size_t CornerCount(const std::vector<pano::BoardView>& views) {
   size_t n = 0;
@@ -294,7 +276,7 @@ void CrossValidate(const std::vector<pano::BoardView>& views, const pano::Target
   struct Method {
     const char* name;
     const pano::CalibrateOptions* options;  // null: omnidir
-    CvScore score;
+    pano::ModelScore score;
   };
   std::vector<Method> methods = {{"panotrack conic (k1,k2)", &conic, {}},
                                  {"panotrack conic, least sq.", &conic_ls, {}},
@@ -313,84 +295,69 @@ void CrossValidate(const std::vector<pano::BoardView>& views, const pano::Target
   for (int fold = 0; fold < folds; ++fold) {
     std::vector<pano::BoardView> train, held;
     for (size_t i = 0; i < views.size(); ++i) (static_cast<int>(i) % folds == fold ? held : train).push_back(views[i]);
-    if (held.empty()) continue;
     trains.push_back(train);
     helds.push_back(held);
-    for (Method& m : methods) {
-      double s2 = 0;
-      size_t n = 0;
-      if (m.options) {
-        pano::CalibrationResult r;
-        try {
-          r = pano::CalibrateViews(train, board, W, H, units, *m.options);
-        } catch (const std::exception& e) {
-          // A fit that fails (e.g. an asphere bent out of convexity) scores
-          // none of its held-out boards.
-          std::printf("  fold %d %s: fit failed (%s)\n", fold, m.name, e.what());
-          m.score.failed_boards += static_cast<int>(held.size());
-          m.score.fold_train.push_back(NAN);
-          m.score.fold_held.push_back(NAN);
-          continue;
-        }
-        pano::EvaluateOptions eo;
-        eo.huber_px = m.options->huber_px;
-        eo.full_weight_px = m.options->full_weight_px;
-        for (const pano::BoardView& v : held) {
-          const pano::BoardPoseFit f = pano::FitBoardPose(v, board, r.calib.sensor, eo);
-          if (!f.ok) {
-            ++m.score.failed_boards;
-            std::printf("  fold %d %s: held-out %s not fitted: %s\n", fold, m.name, v.file.c_str(), f.failure.c_str());
-            continue;
-          }
-          s2 += f.rms_px * f.rms_px * f.corners_used;
-          n += static_cast<size_t>(f.corners_used);
-          m.score.boards[v.file] = {f.rms_px * f.rms_px * f.corners_used, static_cast<size_t>(f.corners_used)};
-        }
-        m.score.AddFold(r.rms_px, CornerCount(train), s2, n);
-        if (m.options->model == pano::MirrorModel::kAsphere) {
-          const pano::SensorParams<double>& p = r.calib.sensor.params;
+  }
+  for (Method& m : methods) {
+    if (m.options) {
+      m.score = pano::CrossValidateModel(views, board, W, H, units, *m.options, folds,
+                                         [&](int fold, const pano::CalibrationResult& r) {
+        const pano::SensorParams<double>& p = r.calib.sensor.params;
+        if (m.options->model == pano::MirrorModel::kAsphere)
           std::printf("  fold %d %s: a4 %.5f a6 %.5f (K %.4f) train %.4f px\n", fold, m.name, p.asphere_a4,
                       p.asphere_a6, p.conic_constant, r.rms_px);
-        }
-        if (m.options == &conic) {
-          const pano::SensorParams<double>& p = r.calib.sensor.params;
-          const double r0 = RadiusAtElevation(r.calib.sensor, 0.0);
-          focals.push_back(p.focal_px);
-          conic_fits.push_back(r);
-          r0s.push_back(r0);
-          std::printf("  fold %d: focal %8.2f  R %9.4f  K %8.4f  vertex %9.4f | %.3f %.3f %.3f px\n", fold,
-                      p.focal_px, p.curvature_radius, p.conic_constant, p.vertex_distance,
-                      RadiusAtElevation(r.calib.sensor, -M_PI / 6), r0, RadiusAtElevation(r.calib.sensor, M_PI / 6));
-        }
-      } else {
-        const pano::OmnidirFit f = pano::FitOmnidir(train, board, cv::Size(W, H));
-        for (const pano::BoardView& v : held) {
-          double s2b = 0;
-          size_t nb = 0;
-          if (!OmnidirHeldOut(f, v, pts, &s2b, &nb)) {
-            ++m.score.failed_boards;
-            continue;
-          }
-          s2 += s2b;
-          n += nb;
-          m.score.boards[v.file] = {s2b, nb};
-        }
-        // omnidir's training RMS is over the boards it kept.
-        m.score.AddFold(f.rms_px, CornerCount(train) * f.images_used / train.size(), s2, n);
-      }
+        if (m.options != &conic) return;
+        const double r0 = RadiusAtElevation(r.calib.sensor, 0.0);
+        focals.push_back(p.focal_px);
+        conic_fits.push_back(r);
+        r0s.push_back(r0);
+        std::printf("  fold %d: focal %8.2f  R %9.4f  K %8.4f  vertex %9.4f | %.3f %.3f %.3f px\n", fold,
+                    p.focal_px, p.curvature_radius, p.conic_constant, p.vertex_distance,
+                    RadiusAtElevation(r.calib.sensor, -M_PI / 6), r0, RadiusAtElevation(r.calib.sensor, M_PI / 6));
+      });
+      if (!m.score.failure.empty()) std::printf("  %s: first failure: %s\n", m.name, m.score.failure.c_str());
+      continue;
     }
+    double train_s2 = 0, held_s2 = 0;
+    size_t train_n = 0, held_n = 0;
+    for (int fold = 0; fold < folds; ++fold) {
+      const pano::OmnidirFit f = pano::FitOmnidir(trains[fold], board, cv::Size(W, H));
+      // omnidir's training RMS is over the boards it kept.
+      const size_t kept = CornerCount(trains[fold]) * f.images_used / trains[fold].size();
+      train_s2 += f.rms_px * f.rms_px * kept;
+      train_n += kept;
+      double s2 = 0;
+      size_t n = 0;
+      for (const pano::BoardView& v : helds[fold]) {
+        double s2b = 0;
+        size_t nb = 0;
+        if (!OmnidirHeldOut(f, v, pts, &s2b, &nb)) {
+          ++m.score.failed_boards;
+          continue;
+        }
+        s2 += s2b;
+        n += nb;
+        m.score.board_errors[v.file] = {s2b, nb};
+      }
+      held_s2 += s2;
+      held_n += n;
+      m.score.fold_heldout_rms_px.push_back(n ? std::sqrt(s2 / n) : NAN);
+    }
+    m.score.training_rms_px = train_n ? std::sqrt(train_s2 / train_n) : NAN;
+    m.score.heldout_rms_px = held_n ? std::sqrt(held_s2 / held_n) : NAN;
   }
   // The boards every method could fit when held out: the fair comparison
   // when some model fails on some (its fit does not reach them).
   std::set<std::string> common;
   for (const pano::BoardView& v : views) common.insert(v.file);
   for (const Method& m : methods)
-    for (auto it = common.begin(); it != common.end();) it = m.score.boards.count(*it) ? std::next(it) : common.erase(it);
+    for (auto it = common.begin(); it != common.end();)
+      it = m.score.board_errors.count(*it) ? std::next(it) : common.erase(it);
   std::printf("  %-28s %10s %10s %14s   per fold held-out\n", "", "train RMS", "held-out", "common boards");
   for (const Method& m : methods) {
-    std::printf("  %-28s %8.4f px %8.4f px %8.4f px (%zu)  ", m.name, m.score.Train(), m.score.Held(),
-                m.score.HeldOn(common), common.size());
-    for (double h : m.score.fold_held) std::printf(" %.3f", h);
+    std::printf("  %-28s %8.4f px %8.4f px %8.4f px (%zu)  ", m.name, m.score.training_rms_px,
+                m.score.heldout_rms_px, HeldOn(m.score, common), common.size());
+    for (double h : m.score.fold_heldout_rms_px) std::printf(" %.3f", h);
     if (m.score.failed_boards) std::printf("  (%d held-out boards not fitted)", m.score.failed_boards);
     std::printf("\n");
   }
@@ -405,15 +372,16 @@ void CrossValidate(const std::vector<pano::BoardView>& views, const pano::Target
   // fewer boards is not comparable).
   double best = INFINITY;
   for (const Method& m : methods)
-    if (m.options && m.score.failed_boards == 0) best = std::min(best, m.score.Held());
-  std::printf("  best panotrack held-out / omnidir held-out: %.3f\n", best / methods.back().score.Held());
+    if (m.options && m.score.failed_boards == 0) best = std::min(best, m.score.heldout_rms_px);
+  std::printf("  best panotrack held-out / omnidir held-out: %.3f\n", best / methods.back().score.heldout_rms_px);
   if (focals.empty() || !gauge) return;
 
   // Gauge: every fold's conic with the focal length held at the folds' median.
   std::vector<double> sorted = focals;
   std::sort(sorted.begin(), sorted.end());
   const double f_held = sorted[sorted.size() / 2];
-  CvScore held_focal;
+  double train_s2 = 0, held_s2 = 0;
+  size_t train_n = 0, held_n = 0;
   std::printf("  conic with the focal held at %.2f px (the folds' median), the rest refitted:\n", f_held);
   for (size_t k = 0; k < conic_fits.size(); ++k) {
     double train_rms = NAN;
@@ -427,14 +395,18 @@ void CrossValidate(const std::vector<pano::BoardView>& views, const pano::Target
       s2 += f.rms_px * f.rms_px * f.corners_used;
       n += static_cast<size_t>(f.corners_used);
     }
-    held_focal.AddFold(train_rms, CornerCount(trains[k]), s2, n);
+    train_s2 += train_rms * train_rms * CornerCount(trains[k]);
+    train_n += CornerCount(trains[k]);
+    held_s2 += s2;
+    held_n += n;
     const pano::SensorParams<double>& p = sensor.params;
     std::printf("  fold %zu: R %9.4f  K %8.4f  vertex %9.4f | horizon %.3f px | train %.4f (free %.4f) held-out "
                 "%.4f (free %.4f) px\n",
                 k, p.curvature_radius, p.conic_constant, p.vertex_distance, RadiusAtElevation(sensor, 0.0),
-                train_rms, conic_fits[k].rms_px, held_focal.fold_held.back(), methods[0].score.fold_held[k]);
+                train_rms, conic_fits[k].rms_px, n ? std::sqrt(s2 / n) : NAN, methods[0].score.fold_heldout_rms_px[k]);
   }
-  std::printf("  %-28s %8.4f px %8.4f px\n", "conic, focal held", held_focal.Train(), held_focal.Held());
+  std::printf("  %-28s %8.4f px %8.4f px\n", "conic, focal held", std::sqrt(train_s2 / train_n),
+              std::sqrt(held_s2 / held_n));
 }
 
 }  // namespace

@@ -62,7 +62,9 @@ void AddCalibrateCommand(CLI::App& app) {
   cmd->add_option("--report", o->report, "Also write a report PNG (per-image RMS, residual vectors)");
   cmd->add_option("--model", o->model,
                   "Mirror profile: sphere (spec section 2), conic (quadric of revolution) or asphere (the conic "
-                  "plus even-asphere terms a4, a6, for a mirror whose maker does not publish its shape)")
+                  "plus even-asphere terms a4, a6, for a mirror whose maker does not publish its shape), or auto "
+                  "(the simplest of these whose error on boards left out of the fit is within 1 % of the best, "
+                  "by 5-fold cross-validation: about 20 more fits, minutes rather than seconds)")
       ->capture_default_str();
   cmd->add_option("--asphere-terms", o->asphere_terms, "Even-asphere terms fitted with --model asphere: 1 (a4) or 2 (a4, a6)")
       ->capture_default_str();
@@ -116,7 +118,8 @@ void AddCalibrateCommand(CLI::App& app) {
     if (o->model == "sphere") opt.model = MirrorModel::kSphere;
     else if (o->model == "conic") opt.model = MirrorModel::kConic;
     else if (o->model == "asphere") opt.model = MirrorModel::kAsphere;
-    else throw Error("--model: expected sphere, conic or asphere, got '" + o->model + "'");
+    else if (o->model == "auto") opt.select_model = true;
+    else throw Error("--model: expected sphere, conic, asphere or auto, got '" + o->model + "'");
     opt.asphere_terms = o->asphere_terms;
     if (o->distortion == "auto") opt.distortion_terms = -1;
     else if (o->distortion == "0" || o->distortion == "1" || o->distortion == "2") opt.distortion_terms = std::stoi(o->distortion);
@@ -141,6 +144,8 @@ void AddCalibrateCommand(CLI::App& app) {
     opt.use_limb = o->limb;
     opt.num_threads = o->threads;
     opt.verbose = o->verbose;
+    if (opt.select_model && !run->quiet)
+      opt.on_progress = [](const std::string& step) { std::fprintf(stderr, "panocalib: model selection: %s\n", step.c_str()); };
     opt.Check();
     TargetInputBoard input;
     input.board_given = !bo->board.empty();

@@ -1,5 +1,6 @@
 // The calibration pipeline: options, orchestration, outputs and summary.
 #include "panotrack/calibrate/calibrate.h"
+#include "panotrack/calibrate/model_selection.h"
 #include "panotrack/config.h"
 
 #include <ceres/rotation.h>
@@ -69,6 +70,10 @@ void CalibrateOptions::Check() const {
     throw Error("--model: expected sphere, conic or asphere");
   if (asphere_terms < 1 || asphere_terms > 2)
     throw Error("--asphere-terms: expected 1 (a4) or 2 (a4, a6), got " + std::to_string(asphere_terms));
+  if (select_model && (selection_folds < 2 || selection_folds > 100))
+    throw Error("model selection: expected 2..100 folds, got " + std::to_string(selection_folds));
+  if (select_model && !(selection_margin >= 0.0 && selection_margin < 1.0))
+    throw Error("model selection: expected a margin in [0, 1)");
   if (distortion_terms < -1 || distortion_terms > 2)
     throw Error("--distortion: expected 0, 1 or 2 radial terms, got " + std::to_string(distortion_terms));
   if (!(huber_px >= 0.0) || !std::isfinite(huber_px))
@@ -274,7 +279,7 @@ struct Pipeline {
       : targets(t), images(im), options(o) {}
   const TargetSet& targets;
   const std::vector<cv::Mat>& images;
-  const CalibrateOptions& options;
+  CalibrateOptions options;  // with the model chosen, when the user asked for a choice
   bool poses_known = false;
   DetectionResult det;
   CalibrationResult res;
@@ -460,6 +465,19 @@ void RefineThroughModel(Pipeline* p) {
   }
 }
 
+// On request (CalibrateOptions::select_model): the candidates scored by
+// cross-validation on the corners refined so far, the chosen one fitted to
+// them from its own initialisation and its corners refined through it.
+ModelSelection SelectModelAndRefit(Pipeline* p, const CalibrateOptions& options) {
+  const Sensor& s = p->res.calib.sensor;
+  ModelSelection sel = SelectMirrorModel(p->res.views, p->targets.board, s.image_width, s.image_height,
+                                         p->targets.units, options);
+  p->options = ModelCandidates(options)[sel.chosen];
+  p->res = CalibrateViews(p->res.views, p->targets.board, s.image_width, s.image_height, p->targets.units, p->options);
+  RefineThroughModel(p);
+  return sel;
+}
+
 // Step 6 (on request): the last fit again with the mirror's limb, its points
 // weighted against the refined corners' scatter.
 void RefitWithLimb(Pipeline* p) {
@@ -553,8 +571,13 @@ CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>
                  targets.board.IsCharuco());
   p.carried = InputWarnings(p.det.views, options);
   p.carried.insert(p.carried.end(), p.det.warnings.begin(), p.det.warnings.end());
+  // A model to be chosen: the conic, which holds the sphere, takes the
+  // steps up to the corners refined through it, on which the candidates are
+  // then scored (the detector's own corners are biased by a pixel on a
+  // curved mirror's squeezed squares, far more than profiles differ).
+  if (options.select_model) p.options = ModelCandidates(options)[1];
   p.res = CalibrateViews(p.det.views, targets.board, p.det.image_width, p.det.image_height, targets.units,
-                         options);
+                         p.options);
   clock.Done("initialisation and first fit");
   MeasureLimbStep(&p);
   clock.Done("limb");
@@ -564,9 +587,17 @@ CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>
   }
   RefineThroughModel(&p);
   clock.Done("corner refinement and refit");
+  ModelSelection selection;
+  if (options.select_model) {
+    selection = SelectModelAndRefit(&p, options);
+    clock.Done("model selection and refit");
+  }
   RefitWithLimb(&p);
   clock.Done("refit with the limb");
-  return Complete(&p, clock);
+  CalibrationResult res = Complete(&p, clock);
+  res.model_scores = std::move(selection.scores);
+  res.model_chosen = selection.chosen;
+  return res;
 }
 
 std::string Summary(const CalibrationResult& r) {
@@ -603,6 +634,7 @@ std::string Summary(const CalibrationResult& r) {
     for (const std::string& f : r.not_found_files) o << " " << f;
     o << "\n";
   }
+  if (!r.model_scores.empty()) o << ModelSelectionTable(r.model_scores, r.model_chosen);
   std::snprintf(line, sizeof line, "time: detection %.2f s, fit %.2f s\n", r.seconds_detect, r.seconds_fit);
   o << line;
   for (const std::string& w : r.warnings) o << "warning: " << w << "\n";

@@ -32,7 +32,10 @@
 
 #include <array>
 #include <cmath>
+#include <functional>
+#include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "panotrack/io/calibration.h"
@@ -70,6 +73,16 @@ struct CalibrateOptions {
   MirrorModel model = MirrorModel::kSphere;
   // Even-asphere terms fitted with model asphere: 1 (a4) or 2 (a4, a6).
   int asphere_terms = 2;
+  // Choose model and asphere_terms by cross-validation over the boards
+  // found (model_selection.h) instead of taking them as given: the simplest
+  // profile whose held-out RMS is within selection_margin (a fraction) of
+  // the best, from selection_folds folds.
+  bool select_model = false;
+  int selection_folds = 5;
+  double selection_margin = 0.01;
+  // Progress of the long steps (the model selection's fits), one short line
+  // each; empty: none.
+  std::function<void(const std::string&)> on_progress;
   // Lens radial distortion terms fitted: -1 automatic (0 for sphere, 2 for
   // conic and asphere), else 0, 1 (k1) or 2 (k1, k2).
   int distortion_terms = -1;
@@ -189,6 +202,21 @@ struct ParameterEstimate {
   bool fixed = false;
 };
 
+// One mirror profile's cross-validation over the boards (model_selection.h).
+struct ModelScore {
+  MirrorModel model = MirrorModel::kSphere;
+  int asphere_terms = 0;              // fitted even-asphere terms (asphere only)
+  std::string name;                   // "sphere", "conic", "asphere (a4)", "asphere (a4, a6)"
+  double training_rms_px = NAN;       // pooled over the folds' fits
+  double heldout_rms_px = NAN;        // pooled over the held-out boards scored
+  int heldout_boards = 0;             // held-out boards scored
+  int failed_boards = 0;              // held-out boards not scored (fit or pose failed)
+  std::vector<double> fold_heldout_rms_px;  // per fold; NaN where its fit failed
+  // Held-out board file -> (sum of squared corner errors in px^2, corners).
+  std::map<std::string, std::pair<double, size_t>> board_errors;
+  std::string failure;                // the first failure, when any
+};
+
 struct CalibrationResult {
   Calibration calib;  // sensor, units, extras (stddevs, RMS, per-image RMS)
   bool poses_known = false;
@@ -207,6 +235,10 @@ struct CalibrationResult {
   LimbObservation limb;      // the limb fitted (empty: none)
   double limb_rms_px = NAN;  // the limb points' RMS distance from the fitted limb
   int iterations = 0;
+  // With CalibrateOptions::select_model: every candidate's score and the
+  // chosen one's index (-1: no selection was made).
+  std::vector<ModelScore> model_scores;
+  int model_chosen = -1;
   double seconds_detect = 0.0;
   double seconds_fit = 0.0;
 };

@@ -24,6 +24,19 @@ std::string CalibrationSummaryJson(const CalibrationResult& r, const Calibration
     parameters[p.name] = {{"value", p.value},
                           {"stddev", std::isfinite(p.stddev) ? json(p.stddev) : json(nullptr)},
                           {"fixed", p.fixed}};
+  // The cross-validation behind --model auto (null: the model was given).
+  json selection = nullptr;
+  if (!r.model_scores.empty()) {
+    json candidates = json::array();
+    for (const ModelScore& m : r.model_scores)
+      candidates.push_back({{"model", m.name},
+                            {"training_rms_px", std::isfinite(m.training_rms_px) ? json(m.training_rms_px) : json(nullptr)},
+                            {"heldout_rms_px", std::isfinite(m.heldout_rms_px) ? json(m.heldout_rms_px) : json(nullptr)},
+                            {"heldout_boards", m.heldout_boards},
+                            {"failed_boards", m.failed_boards}});
+    selection = {{"chosen", r.model_chosen >= 0 ? json(r.model_scores[r.model_chosen].name) : json(nullptr)},
+                 {"candidates", candidates}};
+  }
   json written = json::object();
   if (!outputs.calibration.empty()) written["calibration"] = outputs.calibration;
   if (!outputs.lut.empty()) written["lut"] = outputs.lut;
@@ -32,6 +45,7 @@ std::string CalibrationSummaryJson(const CalibrationResult& r, const Calibration
                   {"version", PANO_VERSION},
                   {"command_line", command_line},
                   {"model", mirror_model_name(s.model)},
+                  {"model_selection", selection},
                   {"image_width", s.image_width},
                   {"image_height", s.image_height},
                   {"poses_known", r.poses_known},
