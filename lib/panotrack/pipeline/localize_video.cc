@@ -167,6 +167,7 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
   const TrackingTables tables =
       res.pending_tables.valid() ? res.pending_tables.get() : TrackingTables{res.table, res.ph_tables};
   Localizer loc(res.calib, res.map, tables.table, opt.localizer, tables.ph_tables);
+  if (res.relocalization_index) loc.ShareRelocalizationIndex(res.relocalization_index);
   if (job.init)
     loc.Reset(*job.init, /*hint=*/true);
   else

@@ -56,6 +56,9 @@ struct SharedResources {
   // LocalizeVideo waits for them once its input is open and decoding, so
   // that a table build overlaps the decoder's start.
   std::shared_future<TrackingTables> pending_tables;
+  // The room-wide search's index, built once for all inputs (null: each
+  // input's localiser builds its own).
+  std::shared_ptr<SharedRelocalizationIndex> relocalization_index;
 };
 
 // How each input is processed.

@@ -262,6 +262,7 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
     res.calib.lut_resolved.clear();
   }
   res.map = ReadMap(opt.map_path);
+  res.relocalization_index = std::make_shared<SharedRelocalizationIndex>();
   if (res.calib.units != res.map.units)
     throw Error(opt.map_path + ": units '" + res.map.units + "' differ from the calibration's '" +
                 res.calib.units + "' (" + opt.calib_path + ")");

@@ -386,9 +386,13 @@ bool Localizer::TrackFrom(const Pose2& pose, double search_px, FrameResult* fr,
 }
 
 bool Localizer::Relocalize(const cv::Mat& grey, FrameResult* fr, TriangulationResult* tri) const {
-  if (!relocalization_index_)
-    relocalization_index_ = std::make_unique<const RelocalizationIndex>(
-        calib_.sensor, *table_, map_, scene_, landmarks_, opt_.prediction, opt_.relocalize, opt_.num_threads);
+  if (!relocalization_index_) {
+    const auto build = [this] {
+      return std::make_unique<const RelocalizationIndex>(calib_.sensor, *table_, map_, scene_, landmarks_,
+                                                         opt_.prediction, opt_.relocalize, opt_.num_threads);
+    };
+    relocalization_index_ = shared_index_ ? shared_index_->Get(build) : build();
+  }
   const std::vector<PoseHypothesis> hyps = relocalization_index_->Hypotheses(grey, opt_.num_threads);
   // With the map's polarities, then (while the images have not confirmed
   // them) with either.

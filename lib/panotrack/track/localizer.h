@@ -229,6 +229,12 @@ class Localizer {
   // states, a fixed-lag smoother's): the same for an aligned rig.
   Pose2 RobotPose(const Pose2& tracked) const { return view_ ? view_->RobotPose(tracked) : tracked; }
   const std::vector<Landmark>& landmarks() const { return landmarks_; }
+  // The room-wide search's index from `shared` (built by whichever
+  // localiser needs it first), for localisers of the same calibration, map
+  // and options: the inputs of one run.
+  void ShareRelocalizationIndex(std::shared_ptr<SharedRelocalizationIndex> shared) {
+    shared_index_ = std::move(shared);
+  }
   // Per landmark (as landmarks()): what the tracked frames showed of its
   // edges' polarities.
   const std::vector<LandmarkPolarity>& polarity() const { return polarity_; }
@@ -313,7 +319,8 @@ class Localizer {
   std::vector<Landmark> landmarks_;
   std::unique_ptr<LandmarkTracker> tracker_;
   // Built on the first room-wide search (a tracked run never needs it).
-  mutable std::unique_ptr<const RelocalizationIndex> relocalization_index_;
+  mutable std::shared_ptr<const RelocalizationIndex> relocalization_index_;
+  std::shared_ptr<SharedRelocalizationIndex> shared_index_;  // null: the localiser's own
   AzimuthCompass compass_;
   std::vector<float> last_signature_;
   Pose2 initial_;

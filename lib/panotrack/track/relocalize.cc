@@ -192,4 +192,11 @@ std::vector<PoseHypothesis> RelocalizationIndex::Hypotheses(const cv::Mat& grey,
   return out;
 }
 
+std::shared_ptr<const RelocalizationIndex> SharedRelocalizationIndex::Get(
+    const std::function<std::unique_ptr<const RelocalizationIndex>()>& build) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!index_) index_ = build();
+  return index_;
+}
+
 }  // namespace pano

@@ -6,6 +6,10 @@
 #pragma once
 
 #include <opencv2/core.hpp>
+
+#include <functional>
+#include <memory>
+#include <mutex>
 #include <vector>
 
 #include "panotrack/scene/map.h"
@@ -88,6 +92,21 @@ class RelocalizationIndex {
   std::vector<Pixel> pixels_;
   std::vector<Eigen::Vector2d> positions_;
   std::vector<std::vector<int>> edge_bins_;  // per position: distinct vertical edges
+};
+
+// One index for the localisers of a run's inputs, which share the sensor,
+// map and options: the first that needs it builds it (on its thread, with
+// its threads) and the others wait for it instead of building their own.
+class SharedRelocalizationIndex {
+ public:
+  // The index, from `build` on the first call; a build that throws leaves
+  // none, and the next call tries again.
+  std::shared_ptr<const RelocalizationIndex> Get(
+      const std::function<std::unique_ptr<const RelocalizationIndex>()>& build);
+
+ private:
+  std::mutex mutex_;
+  std::shared_ptr<const RelocalizationIndex> index_;
 };
 
 }  // namespace pano
