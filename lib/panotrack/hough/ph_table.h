@@ -61,7 +61,37 @@ class PhTable {
   // height Z at R_i, |dtheta| beyond dtheta_max, or the line's foot outside
   // the E table.
   inline bool Main(double r_i, double dtheta, double* r_main) const {
-    return Lookup(forward_, r_i, dtheta, r_main);
+    MainRow row;
+    return RowAt(r_i, &row) && MainOnRow(row, dtheta, r_main);
+  }
+  // Main split in two for many dtheta at one R_i: the table rows around R_i
+  // once (RowAt; false where R_i is off the table, so Main is false for any
+  // dtheta), then MainOnRow per dtheta, bit-identical to Main.
+  struct MainRow {
+    const float* nodes = nullptr;  // row ix; row ix + 1 follows
+    float tx = 0.0f;               // weight of row ix + 1
+  };
+  inline bool RowAt(double r_i, MainRow* row) const {
+    const double fx = r_i * inv_r_step_;
+    if (!(fx >= 0.0) || fx > n_r_ - 1) return false;
+    int ix = static_cast<int>(fx);
+    if (ix > n_r_ - 2) ix = n_r_ - 2;
+    row->nodes = &forward_[static_cast<size_t>(ix) * n_dt_];  // row ix: contiguous in dtheta
+    row->tx = static_cast<float>(fx - ix);
+    return true;
+  }
+  inline bool MainOnRow(const MainRow& row, double dtheta, double* r_main) const {
+    const double fy = std::abs(dtheta) * inv_dt_step_;
+    if (!(fy >= 0.0) || fy > n_dt_ - 1) return false;
+    int iy = static_cast<int>(fy);
+    if (iy > n_dt_ - 2) iy = n_dt_ - 2;
+    const float tx = row.tx, ty = static_cast<float>(fy - iy);
+    const float* a = row.nodes + iy;
+    const float* b = a + n_dt_;
+    const float v = (1.0f - tx) * ((1.0f - ty) * a[0] + ty * a[1]) + tx * ((1.0f - ty) * b[0] + ty * b[1]);
+    if (std::isnan(v)) return false;
+    *r_main = v;
+    return true;
   }
   // R_i = PH^-1(R_main, dtheta) (Eqn 6): the predicted curve's radius at
   // image azimuth theta_main + dtheta, composed exactly as
@@ -74,22 +104,6 @@ class PhTable {
   bool SliceDistance(double radius, double* distance) const;
 
  private:
-  inline bool Lookup(const std::vector<float>& g, double r, double dt, double* out) const {
-    const double fx = r * inv_r_step_;
-    const double fy = std::abs(dt) * inv_dt_step_;
-    if (!(fx >= 0.0) || !(fy >= 0.0) || fx > n_r_ - 1 || fy > n_dt_ - 1) return false;
-    int ix = static_cast<int>(fx), iy = static_cast<int>(fy);
-    if (ix > n_r_ - 2) ix = n_r_ - 2;
-    if (iy > n_dt_ - 2) iy = n_dt_ - 2;
-    const float tx = static_cast<float>(fx - ix), ty = static_cast<float>(fy - iy);
-    const float* a = &g[static_cast<size_t>(ix) * n_dt_ + iy];  // row ix: contiguous in dtheta
-    const float* b = a + n_dt_;
-    const float v = (1.0f - tx) * ((1.0f - ty) * a[0] + ty * a[1]) + tx * ((1.0f - ty) * b[0] + ty * b[1]);
-    if (std::isnan(v)) return false;
-    *out = v;
-    return true;
-  }
-
   double height_ = 0.0;
   PhTableOptions options_;
   double r_max_ = 0.0;

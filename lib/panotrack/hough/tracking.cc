@@ -14,27 +14,33 @@ namespace pano {
 namespace {
 
 void CheckWindow(const TrackingWindow& w) {
-  const std::string what = "TrackHorizontalLine: window";
+  // The message is built only when thrown: this runs for every tracked edge.
+  auto fail = [](const char* why) { throw Error(std::string("TrackHorizontalLine: window: ") + why); };
   const double vals[] = {w.r_main, w.theta_main, w.r_halfwidth, w.theta_halfwidth, w.r_bin,
                          w.theta_bin, w.max_abs_dtheta, w.inlier_r_bins, w.min_score};
   for (double v : vals)
-    if (!std::isfinite(v)) throw Error(what + ": a parameter is not a finite number (NaN or infinity)");
+    if (!std::isfinite(v)) fail("a parameter is not a finite number (NaN or infinity)");
   if (std::isnan(w.theta_min) || std::isnan(w.theta_max))
-    throw Error(what + ": theta_min/theta_max: NaN (use infinity for no bound)");
+    fail("theta_min/theta_max: NaN (use infinity for no bound)");
   if (!(w.r_bin > 0.0) || !(w.theta_bin > 0.0))
-    throw Error(what + ": r_bin/theta_bin: expected positive bin sizes (zero-size accumulator)");
+    fail("r_bin/theta_bin: expected positive bin sizes (zero-size accumulator)");
   if (w.r_halfwidth < 0.0 || w.theta_halfwidth < 0.0)
-    throw Error(what + ": r_halfwidth/theta_halfwidth: expected non-negative half-widths");
-  if (!(w.theta_halfwidth < M_PI / 2))
-    throw Error(what + ": theta_halfwidth: expected less than pi/2");
+    fail("r_halfwidth/theta_halfwidth: expected non-negative half-widths");
+  if (!(w.theta_halfwidth < M_PI / 2)) fail("theta_halfwidth: expected less than pi/2");
   const double nr = 2.0 * std::ceil(w.r_halfwidth / w.r_bin) + 1.0;
   const double nt = 2.0 * std::ceil(w.theta_halfwidth / w.theta_bin) + 1.0;
-  if (nr * nt > 1e6) throw Error(what + ": more than 1e6 accumulator bins");
+  if (nr * nt > 1e6) fail("more than 1e6 accumulator bins");
 }
+
+// Per point: its table rows (PhTable::RowAt), looked up once per call.
+struct PointRow {
+  PhTable::MainRow row;
+  bool ok = false;
+};
 
 // Robust Gauss-Newton on e_k = PH(R_k, T - theta_k) - R (Eqns 7-8), Tukey
 // biweight of scale c. The derivative de/dT is the table's central difference.
-bool RefineRobust(const PhTable& table, const TrackingVote* pts, size_t n, double dt_cap,
+bool RefineRobust(const PhTable& table, const TrackingVote* pts, const PointRow* rows, size_t n, double dt_cap,
                   double r_lo, double r_hi, double t_lo, double t_hi, double c,
                   int iterations, double tol_r, double* R, double* T, double* sig_r,
                   double* sig_t) {
@@ -51,8 +57,9 @@ bool RefineRobust(const PhTable& table, const TrackingVote* pts, size_t n, doubl
       const double dt = wrap_angle(t - pts[k].azimuth);
       if (!(std::abs(dt) + h < dt_cap)) continue;
       double pm, pp, p0;
-      if (!table.Main(pts[k].radius, dt, &p0) || !table.Main(pts[k].radius, dt - h, &pm) ||
-          !table.Main(pts[k].radius, dt + h, &pp))
+      const PhTable::MainRow& row = rows[k].row;
+      if (!rows[k].ok || !table.MainOnRow(row, dt, &p0) || !table.MainOnRow(row, dt - h, &pm) ||
+          !table.MainOnRow(row, dt + h, &pp))
         continue;
       const double e = p0 - r;
       if (!(std::abs(e) < c)) continue;
@@ -119,7 +126,6 @@ TrackingResult TrackHorizontalLine(const PhTable& table, const TrackingWindow& w
   const double dt_cap = std::min(w.max_abs_dtheta, table.dtheta_max());
 
   // Columns allowed by theta_min..theta_max (counter-clockwise arc).
-  thread_local std::vector<float> acc, smooth;
   thread_local std::vector<unsigned char> col_ok;
   col_ok.assign(nt, 1);
   if (std::isfinite(w.theta_min) && std::isfinite(w.theta_max)) {
@@ -129,12 +135,31 @@ TrackingResult TrackHorizontalLine(const PhTable& table, const TrackingWindow& w
       col_ok[c] = off > 0.0 && off < span;
     }
   }
-  acc.assign(static_cast<size_t>(nt) * nr, 0.0f);  // [theta][R]
+  // The accumulator [theta][R] stays all zero between calls: only the cells
+  // a call votes into (a small part of the window) are cleared afterwards.
+  thread_local std::vector<float> acc;
+  const size_t n_cells = static_cast<size_t>(nt) * nr;
+  if (acc.size() < n_cells) acc.resize(n_cells, 0.0f);
+  int c_min = nt, c_max = -1, x_min = nr, x_max = -1;  // voted box
+  struct ClearVotes {
+    float* acc;
+    int nr;
+    const int &c_min, &c_max, &x_min, &x_max;
+    ~ClearVotes() {
+      for (int c = c_min; c <= c_max; ++c)
+        std::fill(acc + static_cast<size_t>(c) * nr + x_min, acc + static_cast<size_t>(c) * nr + x_max + 1, 0.0f);
+    }
+  } clear_votes{acc.data(), nr, c_min, c_max, x_min, x_max};
+  thread_local std::vector<PointRow> rows;
+  rows.resize(n_points);
 
   TrackingResult res;
   double total_weight = 0.0;
   for (size_t i = 0; i < n_points; ++i) {
     const TrackingVote& p = points[i];
+    PointRow& pr = rows[i];
+    pr.ok = table.RowAt(p.radius, &pr.row);  // Eqn 7 along R_i
+    if (!pr.ok) continue;
     const float wt = static_cast<float>(p.weight);
     const double dt0 = wrap_angle(t_lo - p.azimuth);  // dtheta of column 0 (Eqn 8)
     bool voted = false;
@@ -142,7 +167,7 @@ TrackingResult TrackHorizontalLine(const PhTable& table, const TrackingWindow& w
       const double dt = dt0 + c * w.theta_bin;
       if (!col_ok[c] || !(std::abs(dt) < dt_cap)) continue;
       double rm;
-      if (!table.Main(p.radius, dt, &rm)) continue;  // Eqn 7
+      if (!table.MainOnRow(pr.row, dt, &rm)) continue;  // Eqn 7
       const double x = (rm - r_lo) * inv_r_bin;
       if (!(x > -1.0) || !(x < nr)) continue;
       const int i0 = static_cast<int>(std::floor(x));
@@ -150,6 +175,10 @@ TrackingResult TrackHorizontalLine(const PhTable& table, const TrackingWindow& w
       float* row = &acc[static_cast<size_t>(c) * nr];
       if (i0 >= 0) row[i0] += wt * (1.0f - f);
       if (i0 + 1 < nr) row[i0 + 1] += wt * f;
+      x_min = std::min(x_min, std::max(i0, 0));
+      x_max = std::max(x_max, std::min(i0 + 1, nr - 1));
+      if (!voted) c_min = std::min(c_min, c);
+      c_max = std::max(c_max, c);
       voted = true;
     }
     if (voted) {
@@ -159,13 +188,24 @@ TrackingResult TrackHorizontalLine(const PhTable& table, const TrackingWindow& w
   }
   if (res.n_votes == 0 || !(total_weight > 0.0)) return res;
 
-  const std::vector<float>* grid = &acc;
+  // Cells beyond the voted box (smoothed: one cell more) are zero, and the
+  // peak, if positive, lies inside: smoothing and searching the box gives
+  // the whole window's result.
+  PeakFit fit;
   if (w.smooth) {
-    smooth.assign(acc.size(), 0.0f);
-    SmoothBinomial3x3(acc.data(), nt, nr, smooth.data());
-    grid = &smooth;
+    thread_local std::vector<float> smooth, rows_pass;
+    const int y0 = std::max(c_min - 1, 0), y1 = std::min(c_max + 1, nt - 1);
+    const int x0 = std::max(x_min - 1, 0), x1 = std::min(x_max + 1, nr - 1);
+    const int by = y1 - y0 + 1, bx = x1 - x0 + 1;
+    smooth.resize(static_cast<size_t>(by) * bx);
+    rows_pass.resize(smooth.size());
+    SmoothBinomial3x3Separable(&acc[static_cast<size_t>(y0) * nr + x0], by, bx, nr, rows_pass.data(),
+                               smooth.data());
+    fit = FindAndRefinePeakInBlock(smooth.data(), by, bx, bx, y0, x0, nt, nr);
+  } else {
+    fit = FindAndRefinePeakInBlock(&acc[static_cast<size_t>(c_min) * nr + x_min], c_max - c_min + 1,
+                                   x_max - x_min + 1, nr, c_min, x_min, nt, nr);
   }
-  const PeakFit fit = FindAndRefinePeak(grid->data(), nt, nr);
   if (!(fit.value > 0.0f)) return res;
   res.peak = fit.value;
   res.at_border = fit.at_border;
@@ -182,7 +222,7 @@ TrackingResult TrackHorizontalLine(const PhTable& table, const TrackingWindow& w
     while (c_first < nt - 1 && !col_ok[c_first]) ++c_first;
     while (c_last > 0 && !col_ok[c_last]) --c_last;
     if (c_last < c_first) c_last = c_first;
-    if (RefineRobust(table, points, n_points, dt_cap, r_lo - 0.5 * w.r_bin,
+    if (RefineRobust(table, points, rows.data(), n_points, dt_cap, r_lo - 0.5 * w.r_bin,
                      r_lo + (nr - 0.5) * w.r_bin, t_lo + (c_first - 0.5) * w.theta_bin,
                      t_lo + (c_last + 0.5) * w.theta_bin, w.refine_scale_bins * w.r_bin,
                      w.refine_iterations, 1e-3 * w.r_bin, &R, &T, &sr, &st)) {
@@ -200,7 +240,7 @@ TrackingResult TrackHorizontalLine(const PhTable& table, const TrackingWindow& w
     const TrackingVote& p = points[i];
     const double dt = wrap_angle(res.theta_main - p.azimuth);
     double rm;
-    if (!(std::abs(dt) < dt_cap) || !table.Main(p.radius, dt, &rm)) continue;
+    if (!(std::abs(dt) < dt_cap) || !rows[i].ok || !table.MainOnRow(rows[i].row, dt, &rm)) continue;
     if (std::abs(rm - res.r_main) <= tol) {
       inlier_w += p.weight;
       ++res.n_inliers;
