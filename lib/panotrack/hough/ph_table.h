@@ -70,6 +70,7 @@ class PhTable {
   struct MainRow {
     const float* nodes = nullptr;  // row ix; row ix + 1 follows
     float tx = 0.0f;               // weight of row ix + 1
+    float sx = 1.0f;               // 1 - tx: weight of row ix
   };
   inline bool RowAt(double r_i, MainRow* row) const {
     const double fx = r_i * inv_r_step_;
@@ -78,17 +79,18 @@ class PhTable {
     if (ix > n_r_ - 2) ix = n_r_ - 2;
     row->nodes = &forward_[static_cast<size_t>(ix) * n_dt_];  // row ix: contiguous in dtheta
     row->tx = static_cast<float>(fx - ix);
+    row->sx = 1.0f - row->tx;
     return true;
   }
   inline bool MainOnRow(const MainRow& row, double dtheta, double* r_main) const {
     const double fy = std::abs(dtheta) * inv_dt_step_;
-    if (!(fy >= 0.0) || fy > n_dt_ - 1) return false;
+    if (!(fy >= 0.0) || fy > last_dt_node_) return false;
     int iy = static_cast<int>(fy);
     if (iy > n_dt_ - 2) iy = n_dt_ - 2;
-    const float tx = row.tx, ty = static_cast<float>(fy - iy);
+    const float ty = static_cast<float>(fy - iy), sy = 1.0f - ty;
     const float* a = row.nodes + iy;
     const float* b = a + n_dt_;
-    const float v = (1.0f - tx) * ((1.0f - ty) * a[0] + ty * a[1]) + tx * ((1.0f - ty) * b[0] + ty * b[1]);
+    const float v = row.sx * (sy * a[0] + ty * a[1]) + row.tx * (sy * b[0] + ty * b[1]);
     if (std::isnan(v)) return false;
     *r_main = v;
     return true;
@@ -108,6 +110,7 @@ class PhTable {
   PhTableOptions options_;
   double r_max_ = 0.0;
   int n_r_ = 0, n_dt_ = 0;
+  double last_dt_node_ = 0.0;  // n_dt_ - 1
   double inv_r_step_ = 0.0, inv_dt_step_ = 0.0;
   std::vector<float> forward_;  // PH:    [R_i node][dtheta node], NaN undefined
   // 1-D slices at Z: D at R nodes (step r_step / 8), R at log D nodes.

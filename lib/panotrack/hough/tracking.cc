@@ -140,21 +140,22 @@ TrackingResult TrackHorizontalLine(const PhTable& table, const TrackingWindow& w
   thread_local std::vector<float> acc;
   const size_t n_cells = static_cast<size_t>(nt) * nr;
   if (acc.size() < n_cells) acc.resize(n_cells, 0.0f);
-  int c_min = nt, c_max = -1, x_min = nr, x_max = -1;  // voted box
-  struct ClearVotes {
+  // The voted box, cleared on every way out.
+  struct VotedBox {
     float* acc;
     int nr;
-    const int &c_min, &c_max, &x_min, &x_max;
-    ~ClearVotes() {
+    int c_min, c_max, x_min, x_max;
+    ~VotedBox() {
       for (int c = c_min; c <= c_max; ++c)
         std::fill(acc + static_cast<size_t>(c) * nr + x_min, acc + static_cast<size_t>(c) * nr + x_max + 1, 0.0f);
     }
-  } clear_votes{acc.data(), nr, c_min, c_max, x_min, x_max};
+  } box{acc.data(), nr, nt, -1, nr, -1};
   thread_local std::vector<PointRow> rows;
   rows.resize(n_points);
 
   TrackingResult res;
   double total_weight = 0.0;
+  const double nr_bins = nr;
   for (size_t i = 0; i < n_points; ++i) {
     const TrackingVote& p = points[i];
     PointRow& pr = rows[i];
@@ -162,26 +163,29 @@ TrackingResult TrackHorizontalLine(const PhTable& table, const TrackingWindow& w
     if (!pr.ok) continue;
     const float wt = static_cast<float>(p.weight);
     const double dt0 = wrap_angle(t_lo - p.azimuth);  // dtheta of column 0 (Eqn 8)
-    bool voted = false;
+    int c_first = -1, c_last = -1, i_lo = nr, i_hi = -1;
     for (int c = 0; c < nt; ++c) {
       const double dt = dt0 + c * w.theta_bin;
       if (!col_ok[c] || !(std::abs(dt) < dt_cap)) continue;
       double rm;
       if (!table.MainOnRow(pr.row, dt, &rm)) continue;  // Eqn 7
       const double x = (rm - r_lo) * inv_r_bin;
-      if (!(x > -1.0) || !(x < nr)) continue;
-      const int i0 = static_cast<int>(std::floor(x));
+      if (!(x > -1.0) || !(x < nr_bins)) continue;
+      const int i0 = x >= 0.0 ? static_cast<int>(x) : -1;  // floor(x) on (-1, nr)
       const float f = static_cast<float>(x - i0);
       float* row = &acc[static_cast<size_t>(c) * nr];
       if (i0 >= 0) row[i0] += wt * (1.0f - f);
       if (i0 + 1 < nr) row[i0 + 1] += wt * f;
-      x_min = std::min(x_min, std::max(i0, 0));
-      x_max = std::max(x_max, std::min(i0 + 1, nr - 1));
-      if (!voted) c_min = std::min(c_min, c);
-      c_max = std::max(c_max, c);
-      voted = true;
+      i_lo = std::min(i_lo, i0);
+      i_hi = std::max(i_hi, i0);
+      if (c_first < 0) c_first = c;
+      c_last = c;
     }
-    if (voted) {
+    if (c_last >= 0) {
+      box.c_min = std::min(box.c_min, c_first);
+      box.c_max = std::max(box.c_max, c_last);
+      box.x_min = std::min(box.x_min, std::max(i_lo, 0));
+      box.x_max = std::max(box.x_max, std::min(i_hi + 1, nr - 1));
       ++res.n_votes;
       total_weight += p.weight;
     }
@@ -194,8 +198,8 @@ TrackingResult TrackHorizontalLine(const PhTable& table, const TrackingWindow& w
   PeakFit fit;
   if (w.smooth) {
     thread_local std::vector<float> smooth, rows_pass;
-    const int y0 = std::max(c_min - 1, 0), y1 = std::min(c_max + 1, nt - 1);
-    const int x0 = std::max(x_min - 1, 0), x1 = std::min(x_max + 1, nr - 1);
+    const int y0 = std::max(box.c_min - 1, 0), y1 = std::min(box.c_max + 1, nt - 1);
+    const int x0 = std::max(box.x_min - 1, 0), x1 = std::min(box.x_max + 1, nr - 1);
     const int by = y1 - y0 + 1, bx = x1 - x0 + 1;
     smooth.resize(static_cast<size_t>(by) * bx);
     rows_pass.resize(smooth.size());
@@ -203,8 +207,9 @@ TrackingResult TrackHorizontalLine(const PhTable& table, const TrackingWindow& w
                                smooth.data());
     fit = FindAndRefinePeakInBlock(smooth.data(), by, bx, bx, y0, x0, nt, nr);
   } else {
-    fit = FindAndRefinePeakInBlock(&acc[static_cast<size_t>(c_min) * nr + x_min], c_max - c_min + 1,
-                                   x_max - x_min + 1, nr, c_min, x_min, nt, nr);
+    fit = FindAndRefinePeakInBlock(&acc[static_cast<size_t>(box.c_min) * nr + box.x_min],
+                                   box.c_max - box.c_min + 1, box.x_max - box.x_min + 1, nr, box.c_min,
+                                   box.x_min, nt, nr);
   }
   if (!(fit.value > 0.0f)) return res;
   res.peak = fit.value;
