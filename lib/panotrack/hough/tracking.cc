@@ -56,13 +56,14 @@ bool RefineRobust(const PhTable& table, const TrackingVote* pts, const PointRow*
     for (size_t k = 0; k < n; ++k) {
       const double dt = wrap_angle(t - pts[k].azimuth);
       if (!(std::abs(dt) + h < dt_cap)) continue;
+      // A point needs PH at dt - h and dt + h only when its residual is
+      // within the scale (it is skipped otherwise either way).
       double pm, pp, p0;
       const PhTable::MainRow& row = rows[k].row;
-      if (!rows[k].ok || !table.MainOnRow(row, dt, &p0) || !table.MainOnRow(row, dt - h, &pm) ||
-          !table.MainOnRow(row, dt + h, &pp))
-        continue;
+      if (!rows[k].ok || !table.MainOnRow(row, dt, &p0)) continue;
       const double e = p0 - r;
       if (!(std::abs(e) < c)) continue;
+      if (!table.MainOnRow(row, dt - h, &pm) || !table.MainOnRow(row, dt + h, &pp)) continue;
       const double u = e / c;
       const double wk = pts[k].weight * (1 - u * u) * (1 - u * u);
       const double g = (pp - pm) / (2 * h);  // de/dT; de/dR = -1
