@@ -28,6 +28,43 @@ void SmoothBinomial3x3(const T* g, int ny, int nx, T* out) {
   }
 }
 
+// SmoothBinomial3x3 of the ny x nx block of g whose rows lie g_stride apart,
+// zero outside the block, without its per-cell branches: a row pass into
+// h_scratch (ny * nx values), then a column pass into out (ny x nx,
+// contiguous). Each output is the same sum in the same order, so the result
+// is bit-identical to SmoothBinomial3x3 of the block.
+template <typename T>
+void SmoothBinomial3x3Separable(const T* g, int ny, int nx, size_t g_stride, T* h_scratch, T* out) {
+  if (ny <= 0 || nx <= 0) return;
+  for (int y = 0; y < ny; ++y) {
+    const T* row = g + static_cast<size_t>(y) * g_stride;
+    T* h = h_scratch + static_cast<size_t>(y) * nx;
+    if (nx == 1) {
+      h[0] = T(2) * row[0];
+      continue;
+    }
+    h[0] = T(2) * row[0] + row[1];
+    for (int x = 1; x + 1 < nx; ++x) h[x] = (T(2) * row[x] + row[x - 1]) + row[x + 1];
+    h[nx - 1] = T(2) * row[nx - 1] + row[nx - 2];
+  }
+  // s = 0; s += 1 * h[y-1]; s += 2 * h[y]; s += 1 * h[y+1] (each where it exists).
+  for (int y = 0; y < ny; ++y) {
+    const T* hm = h_scratch + static_cast<size_t>(y > 0 ? y - 1 : y) * nx;
+    const T* h0 = h_scratch + static_cast<size_t>(y) * nx;
+    const T* hp = h_scratch + static_cast<size_t>(y + 1 < ny ? y + 1 : y) * nx;
+    T* o = out + static_cast<size_t>(y) * nx;
+    if (y > 0 && y + 1 < ny) {
+      for (int x = 0; x < nx; ++x) o[x] = (((T(0) + hm[x]) + T(2) * h0[x]) + hp[x]) / T(16);
+    } else if (y > 0) {
+      for (int x = 0; x < nx; ++x) o[x] = ((T(0) + hm[x]) + T(2) * h0[x]) / T(16);
+    } else if (y + 1 < ny) {
+      for (int x = 0; x < nx; ++x) o[x] = ((T(0) + T(2) * h0[x]) + hp[x]) / T(16);
+    } else {
+      for (int x = 0; x < nx; ++x) o[x] = (T(0) + T(2) * h0[x]) / T(16);
+    }
+  }
+}
+
 struct PeakFit {
   double x = 0.0, y = 0.0;  // refined position in bins (column, row)
   float value = 0.0f;       // grid value at the integer peak
@@ -100,6 +137,51 @@ PeakFit FindAndRefinePeak(const T* g, int ny, int nx) {
   out.at_border = (ny > 1 && (iy == 0 || iy == ny - 1)) || (nx > 1 && (ix == 0 || ix == nx - 1));
   double f[3][3];
   Neighbourhood(g, ny, nx, iy, ix, false, f);
+  double ox = 0, oy = 0;
+  RefineOffset(f, &ox, &oy);
+  out.x = ix + ox;
+  out.y = iy + oy;
+  return out;
+}
+
+// FindAndRefinePeak of an ny x nx grid that is zero outside one block: the
+// by x bx values at `block` (rows `stride` apart) whose first cell is grid
+// cell (y0, x0). The same result as FindAndRefinePeak of the whole grid
+// whenever the block's maximum is positive (otherwise the peak is the
+// block's first maximum, not the grid's). Positions are grid positions.
+template <typename T>
+PeakFit FindAndRefinePeakInBlock(const T* block, int by, int bx, size_t stride, int y0, int x0,
+                                 int ny, int nx) {
+  PeakFit out;
+  int best_y = 0, best_x = 0;
+  T best_v = block[0];
+  for (int y = 0; y < by; ++y) {
+    const T* row = block + static_cast<size_t>(y) * stride;
+    for (int x = 0; x < bx; ++x)
+      if (row[x] > best_v) {
+        best_v = row[x];
+        best_y = y;
+        best_x = x;
+      }
+  }
+  const int iy = y0 + best_y, ix = x0 + best_x;
+  out.value = static_cast<float>(best_v);
+  out.at_border = (ny > 1 && (iy == 0 || iy == ny - 1)) || (nx > 1 && (ix == 0 || ix == nx - 1));
+  // Neighbourhood as FindAndRefinePeak's: outside the grid the centre repeats.
+  const double centre = static_cast<double>(best_v);
+  double f[3][3];
+  for (int dy = -1; dy <= 1; ++dy)
+    for (int dx = -1; dx <= 1; ++dx) {
+      const int yy = iy + dy, xx = ix + dx;
+      double v = centre;
+      if (yy >= 0 && yy < ny && xx >= 0 && xx < nx) {
+        const int ry = yy - y0, rx = xx - x0;
+        v = ry >= 0 && ry < by && rx >= 0 && rx < bx
+                ? static_cast<double>(block[static_cast<size_t>(ry) * stride + rx])
+                : 0.0;
+      }
+      f[dy + 1][dx + 1] = v;
+    }
   double ox = 0, oy = 0;
   RefineOffset(f, &ox, &oy);
   out.x = ix + ox;

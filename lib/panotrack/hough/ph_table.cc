@@ -60,6 +60,7 @@ PhTable PhTable::Build(const RadiusTable& table, double height, const PhTableOpt
   t.r_max_ = table.sensor().limb_radius();
   t.n_r_ = static_cast<int>(std::ceil(t.r_max_ / options.r_step)) + 1;
   t.n_dt_ = static_cast<int>(std::ceil(options.dtheta_max / options.dtheta_step)) + 1;
+  t.last_dt_node_ = t.n_dt_ - 1;
   if (static_cast<double>(t.n_r_) * t.n_dt_ > 5e7)
     throw Error(what + ": more than 5e7 nodes; use larger r_step / dtheta_step");
   t.inv_r_step_ = 1.0 / options.r_step;

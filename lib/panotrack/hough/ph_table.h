@@ -61,7 +61,39 @@ class PhTable {
   // height Z at R_i, |dtheta| beyond dtheta_max, or the line's foot outside
   // the E table.
   inline bool Main(double r_i, double dtheta, double* r_main) const {
-    return Lookup(forward_, r_i, dtheta, r_main);
+    MainRow row;
+    return RowAt(r_i, &row) && MainOnRow(row, dtheta, r_main);
+  }
+  // Main split in two for many dtheta at one R_i: the table rows around R_i
+  // once (RowAt; false where R_i is off the table, so Main is false for any
+  // dtheta), then MainOnRow per dtheta, bit-identical to Main.
+  struct MainRow {
+    const float* nodes = nullptr;  // row ix; row ix + 1 follows
+    float tx = 0.0f;               // weight of row ix + 1
+    float sx = 1.0f;               // 1 - tx: weight of row ix
+  };
+  inline bool RowAt(double r_i, MainRow* row) const {
+    const double fx = r_i * inv_r_step_;
+    if (!(fx >= 0.0) || fx > n_r_ - 1) return false;
+    int ix = static_cast<int>(fx);
+    if (ix > n_r_ - 2) ix = n_r_ - 2;
+    row->nodes = &forward_[static_cast<size_t>(ix) * n_dt_];  // row ix: contiguous in dtheta
+    row->tx = static_cast<float>(fx - ix);
+    row->sx = 1.0f - row->tx;
+    return true;
+  }
+  inline bool MainOnRow(const MainRow& row, double dtheta, double* r_main) const {
+    const double fy = std::abs(dtheta) * inv_dt_step_;
+    if (!(fy >= 0.0) || fy > last_dt_node_) return false;
+    int iy = static_cast<int>(fy);
+    if (iy > n_dt_ - 2) iy = n_dt_ - 2;
+    const float ty = static_cast<float>(fy - iy), sy = 1.0f - ty;
+    const float* a = row.nodes + iy;
+    const float* b = a + n_dt_;
+    const float v = row.sx * (sy * a[0] + ty * a[1]) + row.tx * (sy * b[0] + ty * b[1]);
+    if (std::isnan(v)) return false;
+    *r_main = v;
+    return true;
   }
   // R_i = PH^-1(R_main, dtheta) (Eqn 6): the predicted curve's radius at
   // image azimuth theta_main + dtheta, composed exactly as
@@ -74,26 +106,11 @@ class PhTable {
   bool SliceDistance(double radius, double* distance) const;
 
  private:
-  inline bool Lookup(const std::vector<float>& g, double r, double dt, double* out) const {
-    const double fx = r * inv_r_step_;
-    const double fy = std::abs(dt) * inv_dt_step_;
-    if (!(fx >= 0.0) || !(fy >= 0.0) || fx > n_r_ - 1 || fy > n_dt_ - 1) return false;
-    int ix = static_cast<int>(fx), iy = static_cast<int>(fy);
-    if (ix > n_r_ - 2) ix = n_r_ - 2;
-    if (iy > n_dt_ - 2) iy = n_dt_ - 2;
-    const float tx = static_cast<float>(fx - ix), ty = static_cast<float>(fy - iy);
-    const float* a = &g[static_cast<size_t>(ix) * n_dt_ + iy];  // row ix: contiguous in dtheta
-    const float* b = a + n_dt_;
-    const float v = (1.0f - tx) * ((1.0f - ty) * a[0] + ty * a[1]) + tx * ((1.0f - ty) * b[0] + ty * b[1]);
-    if (std::isnan(v)) return false;
-    *out = v;
-    return true;
-  }
-
   double height_ = 0.0;
   PhTableOptions options_;
   double r_max_ = 0.0;
   int n_r_ = 0, n_dt_ = 0;
+  double last_dt_node_ = 0.0;  // n_dt_ - 1
   double inv_r_step_ = 0.0, inv_dt_step_ = 0.0;
   std::vector<float> forward_;  // PH:    [R_i node][dtheta node], NaN undefined
   // 1-D slices at Z: D at R nodes (step r_step / 8), R at log D nodes.

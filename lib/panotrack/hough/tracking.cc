@@ -14,27 +14,33 @@ namespace pano {
 namespace {
 
 void CheckWindow(const TrackingWindow& w) {
-  const std::string what = "TrackHorizontalLine: window";
+  // The message is built only when thrown: this runs for every tracked edge.
+  auto fail = [](const char* why) { throw Error(std::string("TrackHorizontalLine: window: ") + why); };
   const double vals[] = {w.r_main, w.theta_main, w.r_halfwidth, w.theta_halfwidth, w.r_bin,
                          w.theta_bin, w.max_abs_dtheta, w.inlier_r_bins, w.min_score};
   for (double v : vals)
-    if (!std::isfinite(v)) throw Error(what + ": a parameter is not a finite number (NaN or infinity)");
+    if (!std::isfinite(v)) fail("a parameter is not a finite number (NaN or infinity)");
   if (std::isnan(w.theta_min) || std::isnan(w.theta_max))
-    throw Error(what + ": theta_min/theta_max: NaN (use infinity for no bound)");
+    fail("theta_min/theta_max: NaN (use infinity for no bound)");
   if (!(w.r_bin > 0.0) || !(w.theta_bin > 0.0))
-    throw Error(what + ": r_bin/theta_bin: expected positive bin sizes (zero-size accumulator)");
+    fail("r_bin/theta_bin: expected positive bin sizes (zero-size accumulator)");
   if (w.r_halfwidth < 0.0 || w.theta_halfwidth < 0.0)
-    throw Error(what + ": r_halfwidth/theta_halfwidth: expected non-negative half-widths");
-  if (!(w.theta_halfwidth < M_PI / 2))
-    throw Error(what + ": theta_halfwidth: expected less than pi/2");
+    fail("r_halfwidth/theta_halfwidth: expected non-negative half-widths");
+  if (!(w.theta_halfwidth < M_PI / 2)) fail("theta_halfwidth: expected less than pi/2");
   const double nr = 2.0 * std::ceil(w.r_halfwidth / w.r_bin) + 1.0;
   const double nt = 2.0 * std::ceil(w.theta_halfwidth / w.theta_bin) + 1.0;
-  if (nr * nt > 1e6) throw Error(what + ": more than 1e6 accumulator bins");
+  if (nr * nt > 1e6) fail("more than 1e6 accumulator bins");
 }
+
+// Per point: its table rows (PhTable::RowAt), looked up once per call.
+struct PointRow {
+  PhTable::MainRow row;
+  bool ok = false;
+};
 
 // Robust Gauss-Newton on e_k = PH(R_k, T - theta_k) - R (Eqns 7-8), Tukey
 // biweight of scale c. The derivative de/dT is the table's central difference.
-bool RefineRobust(const PhTable& table, const TrackingVote* pts, size_t n, double dt_cap,
+bool RefineRobust(const PhTable& table, const TrackingVote* pts, const PointRow* rows, size_t n, double dt_cap,
                   double r_lo, double r_hi, double t_lo, double t_hi, double c,
                   int iterations, double tol_r, double* R, double* T, double* sig_r,
                   double* sig_t) {
@@ -50,12 +56,14 @@ bool RefineRobust(const PhTable& table, const TrackingVote* pts, size_t n, doubl
     for (size_t k = 0; k < n; ++k) {
       const double dt = wrap_angle(t - pts[k].azimuth);
       if (!(std::abs(dt) + h < dt_cap)) continue;
+      // A point needs PH at dt - h and dt + h only when its residual is
+      // within the scale (it is skipped otherwise either way).
       double pm, pp, p0;
-      if (!table.Main(pts[k].radius, dt, &p0) || !table.Main(pts[k].radius, dt - h, &pm) ||
-          !table.Main(pts[k].radius, dt + h, &pp))
-        continue;
+      const PhTable::MainRow& row = rows[k].row;
+      if (!rows[k].ok || !table.MainOnRow(row, dt, &p0)) continue;
       const double e = p0 - r;
       if (!(std::abs(e) < c)) continue;
+      if (!table.MainOnRow(row, dt - h, &pm) || !table.MainOnRow(row, dt + h, &pp)) continue;
       const double u = e / c;
       const double wk = pts[k].weight * (1 - u * u) * (1 - u * u);
       const double g = (pp - pm) / (2 * h);  // de/dT; de/dR = -1
@@ -119,7 +127,6 @@ TrackingResult TrackHorizontalLine(const PhTable& table, const TrackingWindow& w
   const double dt_cap = std::min(w.max_abs_dtheta, table.dtheta_max());
 
   // Columns allowed by theta_min..theta_max (counter-clockwise arc).
-  thread_local std::vector<float> acc, smooth;
   thread_local std::vector<unsigned char> col_ok;
   col_ok.assign(nt, 1);
   if (std::isfinite(w.theta_min) && std::isfinite(w.theta_max)) {
@@ -129,43 +136,82 @@ TrackingResult TrackHorizontalLine(const PhTable& table, const TrackingWindow& w
       col_ok[c] = off > 0.0 && off < span;
     }
   }
-  acc.assign(static_cast<size_t>(nt) * nr, 0.0f);  // [theta][R]
+  // The accumulator [theta][R] stays all zero between calls: only the cells
+  // a call votes into (a small part of the window) are cleared afterwards.
+  thread_local std::vector<float> acc;
+  const size_t n_cells = static_cast<size_t>(nt) * nr;
+  if (acc.size() < n_cells) acc.resize(n_cells, 0.0f);
+  // The voted box, cleared on every way out.
+  struct VotedBox {
+    float* acc;
+    int nr;
+    int c_min, c_max, x_min, x_max;
+    ~VotedBox() {
+      for (int c = c_min; c <= c_max; ++c)
+        std::fill(acc + static_cast<size_t>(c) * nr + x_min, acc + static_cast<size_t>(c) * nr + x_max + 1, 0.0f);
+    }
+  } box{acc.data(), nr, nt, -1, nr, -1};
+  thread_local std::vector<PointRow> rows;
+  rows.resize(n_points);
 
   TrackingResult res;
   double total_weight = 0.0;
+  const double nr_bins = nr;
   for (size_t i = 0; i < n_points; ++i) {
     const TrackingVote& p = points[i];
+    PointRow& pr = rows[i];
+    pr.ok = table.RowAt(p.radius, &pr.row);  // Eqn 7 along R_i
+    if (!pr.ok) continue;
     const float wt = static_cast<float>(p.weight);
     const double dt0 = wrap_angle(t_lo - p.azimuth);  // dtheta of column 0 (Eqn 8)
-    bool voted = false;
+    int c_first = -1, c_last = -1, i_lo = nr, i_hi = -1;
     for (int c = 0; c < nt; ++c) {
       const double dt = dt0 + c * w.theta_bin;
       if (!col_ok[c] || !(std::abs(dt) < dt_cap)) continue;
       double rm;
-      if (!table.Main(p.radius, dt, &rm)) continue;  // Eqn 7
+      if (!table.MainOnRow(pr.row, dt, &rm)) continue;  // Eqn 7
       const double x = (rm - r_lo) * inv_r_bin;
-      if (!(x > -1.0) || !(x < nr)) continue;
-      const int i0 = static_cast<int>(std::floor(x));
+      if (!(x > -1.0) || !(x < nr_bins)) continue;
+      const int i0 = x >= 0.0 ? static_cast<int>(x) : -1;  // floor(x) on (-1, nr)
       const float f = static_cast<float>(x - i0);
       float* row = &acc[static_cast<size_t>(c) * nr];
       if (i0 >= 0) row[i0] += wt * (1.0f - f);
       if (i0 + 1 < nr) row[i0 + 1] += wt * f;
-      voted = true;
+      i_lo = std::min(i_lo, i0);
+      i_hi = std::max(i_hi, i0);
+      if (c_first < 0) c_first = c;
+      c_last = c;
     }
-    if (voted) {
+    if (c_last >= 0) {
+      box.c_min = std::min(box.c_min, c_first);
+      box.c_max = std::max(box.c_max, c_last);
+      box.x_min = std::min(box.x_min, std::max(i_lo, 0));
+      box.x_max = std::max(box.x_max, std::min(i_hi + 1, nr - 1));
       ++res.n_votes;
       total_weight += p.weight;
     }
   }
   if (res.n_votes == 0 || !(total_weight > 0.0)) return res;
 
-  const std::vector<float>* grid = &acc;
+  // Cells beyond the voted box (smoothed: one cell more) are zero, and the
+  // peak, if positive, lies inside: smoothing and searching the box gives
+  // the whole window's result.
+  PeakFit fit;
   if (w.smooth) {
-    smooth.assign(acc.size(), 0.0f);
-    SmoothBinomial3x3(acc.data(), nt, nr, smooth.data());
-    grid = &smooth;
+    thread_local std::vector<float> smooth, rows_pass;
+    const int y0 = std::max(box.c_min - 1, 0), y1 = std::min(box.c_max + 1, nt - 1);
+    const int x0 = std::max(box.x_min - 1, 0), x1 = std::min(box.x_max + 1, nr - 1);
+    const int by = y1 - y0 + 1, bx = x1 - x0 + 1;
+    smooth.resize(static_cast<size_t>(by) * bx);
+    rows_pass.resize(smooth.size());
+    SmoothBinomial3x3Separable(&acc[static_cast<size_t>(y0) * nr + x0], by, bx, nr, rows_pass.data(),
+                               smooth.data());
+    fit = FindAndRefinePeakInBlock(smooth.data(), by, bx, bx, y0, x0, nt, nr);
+  } else {
+    fit = FindAndRefinePeakInBlock(&acc[static_cast<size_t>(box.c_min) * nr + box.x_min],
+                                   box.c_max - box.c_min + 1, box.x_max - box.x_min + 1, nr, box.c_min,
+                                   box.x_min, nt, nr);
   }
-  const PeakFit fit = FindAndRefinePeak(grid->data(), nt, nr);
   if (!(fit.value > 0.0f)) return res;
   res.peak = fit.value;
   res.at_border = fit.at_border;
@@ -182,7 +228,7 @@ TrackingResult TrackHorizontalLine(const PhTable& table, const TrackingWindow& w
     while (c_first < nt - 1 && !col_ok[c_first]) ++c_first;
     while (c_last > 0 && !col_ok[c_last]) --c_last;
     if (c_last < c_first) c_last = c_first;
-    if (RefineRobust(table, points, n_points, dt_cap, r_lo - 0.5 * w.r_bin,
+    if (RefineRobust(table, points, rows.data(), n_points, dt_cap, r_lo - 0.5 * w.r_bin,
                      r_lo + (nr - 0.5) * w.r_bin, t_lo + (c_first - 0.5) * w.theta_bin,
                      t_lo + (c_last + 0.5) * w.theta_bin, w.refine_scale_bins * w.r_bin,
                      w.refine_iterations, 1e-3 * w.r_bin, &R, &T, &sr, &st)) {
@@ -200,7 +246,7 @@ TrackingResult TrackHorizontalLine(const PhTable& table, const TrackingWindow& w
     const TrackingVote& p = points[i];
     const double dt = wrap_angle(res.theta_main - p.azimuth);
     double rm;
-    if (!(std::abs(dt) < dt_cap) || !table.Main(p.radius, dt, &rm)) continue;
+    if (!(std::abs(dt) < dt_cap) || !rows[i].ok || !table.MainOnRow(rows[i].row, dt, &rm)) continue;
     if (std::abs(rm - res.r_main) <= tol) {
       inlier_w += p.weight;
       ++res.n_inliers;

@@ -217,8 +217,10 @@ bool JunctionTracker::FindHorizontalEdge(const PredictedLandmark& p, double half
     const double theta = wrap_angle(p.azimuth + edge->side * dt);
     double r_pred;
     if (!ph.Curve(p.r_main, wrap_angle(theta - p.theta_main), &r_pred)) continue;
-    // A tangential smear moves a curved edge radially by its slope.
-    const double ramp = RampAllowance(p.radial_motion_px + RadialSlope(ph, p, theta) * edge->along_blur_px);
+    // A tangential smear moves a curved edge radially by its slope (no
+    // smear: no slope needed).
+    const double along = edge->along_blur_px > 0.0 ? RadialSlope(ph, p, theta) * edge->along_blur_px : 0.0;
+    const double ramp = RampAllowance(p.radial_motion_px + along);
     edge->ramp_px = std::max(edge->ramp_px, ramp);
     Step st;
     if (!LinearStep(grey_, sensor_, o, step_baseline_, r_pred, Heading(theta), half, edge->polarity, true, &st, ramp)) continue;
