@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <utility>
 
 #include "panotrack/core/error.h"
 #include "panotrack/core/parallel.h"
@@ -122,6 +123,7 @@ void Localizer::Reset(const Pose2& robot_initial, bool hint) {
   frame_pose_ = initial;
   last_signature_.clear();
   model_heading_error_ = compass_heading_error_ = -1.0;
+  prediction_error_frames_ = 0;
   polarity_.assign(landmarks_.size(), LandmarkPolarity{});
   object_contradicted_.assign(landmarks_.empty() ? 0 : static_cast<size_t>(landmarks_.back().object) + 1, 0);
   map_contradicted_ = map_confirmed_ = false;
@@ -569,8 +571,7 @@ std::optional<Pose2> Localizer::CompassPose(const Pose2& pred) const {
 bool Localizer::CompassFirst(const Pose2& pred, const Pose2& by_compass) const {
   // Translation biases the compass by a few degrees in a small room: it
   // goes first only where it has been the better guide.
-  return compass_heading_error_ >= 0 && model_heading_error_ >= 0 &&
-         compass_heading_error_ < model_heading_error_ &&
+  return prediction_error_frames_ >= 10 && compass_heading_error_ < 0.5 * model_heading_error_ &&
          std::abs(wrap_angle(by_compass.theta - pred.theta)) > opt_.compass_first_turn;
 }
 
@@ -580,6 +581,7 @@ void Localizer::UpdatePredictionErrors(const Pose2& model_pred, const FrameResul
   auto update = [](double* mean, double error) { *mean = *mean < 0 ? error : 0.9 * *mean + 0.1 * error; };
   update(&model_heading_error_, std::abs(wrap_angle(tri.pose.theta - model_pred.theta)));
   update(&compass_heading_error_, std::abs(wrap_angle(tri.pose.theta - *compass_heading_)));
+  ++prediction_error_frames_;
 }
 
 void Localizer::TrackPredictions(const Pose2& pred, FrameResult* fr, TriangulationResult* tri) const {
@@ -592,15 +594,28 @@ void Localizer::TrackPredictions(const Pose2& pred, FrameResult* fr, Triangulati
   // has been the better guide and the two disagree by a turn the model's
   // windows would miss, the compass goes first (CompassFirst).
   std::vector<Pose2> predictions{pred};
-  if (const std::optional<Pose2> by_compass = CompassPose(pred))
-    predictions.insert(CompassFirst(pred, *by_compass) ? predictions.begin() : predictions.end(), *by_compass);
+  const std::optional<Pose2> by_compass = CompassPose(pred);
+  const bool compass_first = by_compass && CompassFirst(pred, *by_compass);
+  if (by_compass) predictions.insert(compass_first ? predictions.begin() : predictions.end(), *by_compass);
+  // A pose found from the compass's heading that lies nearer the model's
+  // (the compass misled) is kept only when the model's finds none.
+  std::optional<std::pair<FrameResult, TriangulationResult>> misled;
   for (const Pose2& p : predictions) {
     Measure(p, search, fr);
     *tri = Solve(*fr, p);
-    if (Acceptable(*fr, *tri)) {
-      fr->predicted_pose = p;
-      return;
+    if (!Acceptable(*fr, *tri)) continue;
+    fr->predicted_pose = p;
+    if (compass_first && &p == &predictions.front() &&
+        std::abs(wrap_angle(tri->pose.theta - p.theta)) > std::abs(wrap_angle(tri->pose.theta - pred.theta))) {
+      misled.emplace(*fr, *tri);
+      continue;
     }
+    return;
+  }
+  if (misled) {
+    *fr = std::move(misled->first);
+    *tri = misled->second;
+    return;
   }
   // A sudden lurch moves the edges beyond the search: widen it within the
   // same frame before declaring the frame lost.
@@ -733,6 +748,7 @@ void Localizer::HoldForConfirmation(const Pose2& pose, int frame) {
   n_lost_ = 0;  // the confirming frame searches as narrowly as a tracked one
   last_signature_.clear();
   model_heading_error_ = compass_heading_error_ = -1.0;
+  prediction_error_frames_ = 0;
   held_ = true;
   // Held poses that keep failing to confirm back off like failed searches.
   next_relocalize_frame_ = relocalize_failures_ >= 3 ? BackedOffRelocalizeFrame(frame) : 0;

@@ -89,7 +89,8 @@ struct LocalizerOptions {
   // The compass's heading is tried before the motion model's when the two
   // differ by more than this (radians; the model's prediction would mostly
   // miss the search windows) and the compass has predicted the solved
-  // headings better than the model on recent frames: a fast turn then
+  // headings clearly better than the model on recent frames (under half its
+  // mean error, over ten frames or more since the start): a fast turn then
   // costs one search instead of a failed one and a retry.
   double compass_first_turn = 3.0 * M_PI / 180;
   // A solution is accepted only with a bearing RMS below this (radians) and
@@ -356,6 +357,7 @@ class Localizer {
   std::optional<double> compass_heading_;  // this frame's (CompassHeading)
   double model_heading_error_ = -1.0;      // UpdatePredictionErrors
   double compass_heading_error_ = -1.0;
+  int prediction_error_frames_ = 0;        // accepted frames in those means
   int next_relocalize_frame_ = 0;
   int relocalize_failures_ = 0;
   // The bearing noise of recent good frames (radians), for the integrity test.
