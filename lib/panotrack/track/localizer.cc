@@ -596,6 +596,7 @@ void Localizer::TrackPredictions(const Pose2& pred, FrameResult* fr, Triangulati
   std::vector<Pose2> predictions{pred};
   const std::optional<Pose2> by_compass = CompassPose(pred);
   const bool compass_first = by_compass && CompassFirst(pred, *by_compass);
+  fr->compass_first = compass_first;
   if (by_compass) predictions.insert(compass_first ? predictions.begin() : predictions.end(), *by_compass);
   // A pose found from the compass's heading that lies nearer the model's
   // (the compass misled) is kept only when the model's finds none.

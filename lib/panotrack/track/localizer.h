@@ -178,6 +178,7 @@ struct FrameResult {
   PoseRow row;
   Pose2 predicted_pose;
   bool relocalized = false;     // the pose came from the room-wide search
+  bool compass_first = false;   // the compass's heading was tried before the motion model's
   bool unconfirmed = false;     // ... found, but held back for the next frame to confirm
   double innovation = -1.0;     // squared Mahalanobis distance from the prediction (-1: none)
   IntegrityReport integrity;    // of the reported pose
