@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/Core>
+
 #include "panotrack/core/error.h"
 
 namespace pano {
@@ -96,11 +98,12 @@ double AzimuthCompass::Rotation(const std::vector<float>& prev, const std::vecto
   // without a division in the inner loop (which then vectorises).
   std::vector<float> prev2(3 * bins_);
   for (int k = 0; k < 3; ++k) std::copy(prev.begin(), prev.end(), prev2.begin() + k * bins_);
+  // Eigen's dot product sums in vector lanes (a strict left-to-right float
+  // sum does not vectorise): a few times fewer instructions, and the
+  // correlations differ only in their last bits.
+  const Eigen::Map<const Eigen::VectorXf> cur_vec(cur.data(), bins_);
   auto corr_at = [&](int s) {
-    const float* p2 = prev2.data() + bins_ + s;
-    float c = 0;
-    for (int i = 0; i < bins_; ++i) c += cur[i] * p2[i];
-    return static_cast<double>(c);
+    return static_cast<double>(cur_vec.dot(Eigen::Map<const Eigen::VectorXf>(prev2.data() + bins_ + s, bins_)));
   };
   int coarse = 0;
   double coarse_best = -1e300;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <utility>
 
 #include "panotrack/core/error.h"
 #include "panotrack/core/parallel.h"
@@ -28,6 +29,7 @@ void LocalizerOptions::Check() const {
     throw Error("localiser: exposure_fraction: expected 0..1");
   if (!(unknown_turn_per_frame >= 0.0 && unknown_turn_per_frame < M_PI))
     throw Error("localiser: unknown_turn_per_frame: expected 0..pi radians");
+  if (!(compass_first_turn >= 0.0)) throw Error("localiser: compass_first_turn: expected >= 0 radians");
   if (!(lost_search_growth >= 1.0)) throw Error("localiser: lost_search_growth: expected >= 1");
   if (relocalize_after < 0 || relocalize_min_landmarks < 3)
     throw Error("localiser: relocalize_after >= 0 and relocalize_min_landmarks >= 3 expected");
@@ -120,6 +122,8 @@ void Localizer::Reset(const Pose2& robot_initial, bool hint) {
   motion_updates_ = 0;
   frame_pose_ = initial;
   last_signature_.clear();
+  model_heading_error_ = compass_heading_error_ = -1.0;
+  prediction_error_frames_ = 0;
   polarity_.assign(landmarks_.size(), LandmarkPolarity{});
   object_contradicted_.assign(landmarks_.empty() ? 0 : static_cast<size_t>(landmarks_.back().object) + 1, 0);
   map_contradicted_ = map_confirmed_ = false;
@@ -552,40 +556,71 @@ Pose2 Localizer::PredictMotion(double time_s, const OdometryIncrement* odometry)
   return (opt_.constant_velocity && motion_updates_ >= 2) || odometry ? motion_.pose() : last_;
 }
 
-std::optional<Pose2> Localizer::CompassPose(const Pose2& pred, const std::vector<float>& signature) const {
+std::optional<double> Localizer::CompassHeading(const std::vector<float>& signature) const {
   if (!opt_.compass || last_signature_.empty() || !ever_tracked_) return std::nullopt;
   double score;
   const double turn = compass_.Rotation(last_signature_, signature, opt_.compass_max_rotation, &score);
-  Pose2 by_compass = pred;
-  by_compass.theta = wrap_angle(frame_pose_.theta + turn);
-  if (score < opt_.compass_min_score || std::abs(wrap_angle(by_compass.theta - pred.theta)) <= 0.5 * M_PI / 180)
+  if (score < opt_.compass_min_score) return std::nullopt;
+  return wrap_angle(frame_pose_.theta + turn);
+}
+
+std::optional<Pose2> Localizer::CompassPose(const Pose2& pred) const {
+  if (!compass_heading_ || std::abs(wrap_angle(*compass_heading_ - pred.theta)) <= 0.5 * M_PI / 180)
     return std::nullopt;
+  Pose2 by_compass = pred;
+  by_compass.theta = *compass_heading_;
   return by_compass;
 }
 
-void Localizer::TrackPredictions(const Pose2& pred, const std::vector<float>& signature, FrameResult* fr,
-                                 TriangulationResult* tri) const {
+bool Localizer::CompassFirst(const Pose2& pred, const Pose2& by_compass) const {
+  // Translation biases the compass by a few degrees in a small room: it
+  // goes first only where it has been the better guide.
+  return prediction_error_frames_ >= 10 && compass_heading_error_ < 0.5 * model_heading_error_ &&
+         std::abs(wrap_angle(by_compass.theta - pred.theta)) > opt_.compass_first_turn;
+}
+
+void Localizer::UpdatePredictionErrors(const Pose2& model_pred, const FrameResult& fr,
+                                       const TriangulationResult& tri) {
+  if (!compass_heading_ || fr.relocalized) return;
+  auto update = [](double* mean, double error) { *mean = *mean < 0 ? error : 0.9 * *mean + 0.1 * error; };
+  update(&model_heading_error_, std::abs(wrap_angle(tri.pose.theta - model_pred.theta)));
+  update(&compass_heading_error_, std::abs(wrap_angle(tri.pose.theta - *compass_heading_)));
+  ++prediction_error_frames_;
+}
+
+void Localizer::TrackPredictions(const Pose2& pred, FrameResult* fr, TriangulationResult* tri) const {
   const double search =
       std::min(opt_.max_search_px, opt_.search_px * std::pow(opt_.lost_search_growth, std::min(n_lost_, 8)));
   // The visual compass measures the turn since the last frame from the
   // images. Translation biases it by a few degrees in a small room, so the
   // motion model's prediction goes first and the compass's heading is
-  // tried (and computed) only when that fails: it keeps sudden turns in view.
+  // tried when that fails: it keeps sudden turns in view. Where the compass
+  // has been the better guide and the two disagree by a turn the model's
+  // windows would miss, the compass goes first (CompassFirst).
   std::vector<Pose2> predictions{pred};
-  Measure(pred, search, fr);
-  *tri = Solve(*fr, pred);
-  if (Acceptable(*fr, *tri)) {
-    fr->predicted_pose = pred;
+  const std::optional<Pose2> by_compass = CompassPose(pred);
+  const bool compass_first = by_compass && CompassFirst(pred, *by_compass);
+  fr->compass_first = compass_first;
+  if (by_compass) predictions.insert(compass_first ? predictions.begin() : predictions.end(), *by_compass);
+  // A pose found from the compass's heading that lies nearer the model's
+  // (the compass misled) is kept only when the model's finds none.
+  std::optional<std::pair<FrameResult, TriangulationResult>> misled;
+  for (const Pose2& p : predictions) {
+    Measure(p, search, fr);
+    *tri = Solve(*fr, p);
+    if (!Acceptable(*fr, *tri)) continue;
+    fr->predicted_pose = p;
+    if (compass_first && &p == &predictions.front() &&
+        std::abs(wrap_angle(tri->pose.theta - p.theta)) > std::abs(wrap_angle(tri->pose.theta - pred.theta))) {
+      misled.emplace(*fr, *tri);
+      continue;
+    }
     return;
   }
-  if (const std::optional<Pose2> by_compass = CompassPose(pred, signature)) {
-    predictions.push_back(*by_compass);
-    Measure(*by_compass, search, fr);
-    *tri = Solve(*fr, *by_compass);
-    if (Acceptable(*fr, *tri)) {
-      fr->predicted_pose = *by_compass;
-      return;
-    }
+  if (misled) {
+    *fr = std::move(misled->first);
+    *tri = misled->second;
+    return;
   }
   // A sudden lurch moves the edges beyond the search: widen it within the
   // same frame before declaring the frame lost.
@@ -717,6 +752,8 @@ void Localizer::HoldForConfirmation(const Pose2& pose, int frame) {
   n_good_ = 0;
   n_lost_ = 0;  // the confirming frame searches as narrowly as a tracked one
   last_signature_.clear();
+  model_heading_error_ = compass_heading_error_ = -1.0;
+  prediction_error_frames_ = 0;
   held_ = true;
   // Held poses that keep failing to confirm back off like failed searches.
   next_relocalize_frame_ = relocalize_failures_ >= 3 ? BackedOffRelocalizeFrame(frame) : 0;
@@ -814,10 +851,13 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
   bool accepted = false;
   std::vector<float> signature;  // the compass's, of this frame (for the next one too)
   if (opt_.compass) signature = compass_.Signature(grey);
+  compass_heading_.reset();
+  Pose2 model_pred = last_;
   if (known_start_ || ever_tracked_) {
     // Prediction from the motion model, then the visual compass's heading.
-    fr.predicted_pose = PredictMotion(time_s, odometry);
-    TrackPredictions(fr.predicted_pose, signature, &fr, &tri);
+    fr.predicted_pose = model_pred = PredictMotion(time_s, odometry);
+    compass_heading_ = CompassHeading(signature);
+    TrackPredictions(fr.predicted_pose, &fr, &tri);
     RefineAroundSolution(&fr, &tri);
     // A pose is reported only when its residuals are consistent and it
     // agrees with the motion so far; one the motion model did not expect (a
@@ -840,6 +880,7 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
   }
   fr.triangulation = tri;
   if (opt_.compass) last_signature_ = std::move(signature);
+  if (accepted) UpdatePredictionErrors(model_pred, fr, tri);
   RecordOutcome(&fr, tri, accepted, n_found);
   if (accepted) LearnPolarity(fr, tri);
   if (accepted) {

@@ -86,6 +86,13 @@ struct LocalizerOptions {
   bool compass = true;            // predict the heading with the visual compass
   double compass_max_rotation = 60.0 * M_PI / 180;  // per frame
   double compass_min_score = 0.5;
+  // The compass's heading is tried before the motion model's when the two
+  // differ by more than this (radians; the model's prediction would mostly
+  // miss the search windows) and the compass has predicted the solved
+  // headings clearly better than the model on recent frames (under half its
+  // mean error, over ten frames or more since the start): a fast turn then
+  // costs one search instead of a failed one and a retry.
+  double compass_first_turn = 3.0 * M_PI / 180;
   // A solution is accepted only with a bearing RMS below this (radians) and
   // at least this fraction of the predicted landmarks as inliers (when at
   // least 8 were predicted): a few wrong junctions can triangulate exactly.
@@ -171,6 +178,7 @@ struct FrameResult {
   PoseRow row;
   Pose2 predicted_pose;
   bool relocalized = false;     // the pose came from the room-wide search
+  bool compass_first = false;   // the compass's heading was tried before the motion model's
   bool unconfirmed = false;     // ... found, but held back for the next frame to confirm
   double innovation = -1.0;     // squared Mahalanobis distance from the prediction (-1: none)
   IntegrityReport integrity;    // of the reported pose
@@ -284,11 +292,18 @@ class Localizer {
   // the motion model's prediction for time t (started at the first frame);
   Pose2 PredictMotion(double time_s, const OdometryIncrement* odometry);
   // tracking from that prediction, then from the visual compass's heading
-  // (CompassPose, from this frame's azimuthal `signature`), then with wider
-  // searches until accepted;
-  void TrackPredictions(const Pose2& pred, const std::vector<float>& signature, FrameResult* fr,
-                        TriangulationResult* tri) const;
-  std::optional<Pose2> CompassPose(const Pose2& pred, const std::vector<float>& signature) const;
+  // (CompassPose), then with wider searches until accepted;
+  void TrackPredictions(const Pose2& pred, FrameResult* fr, TriangulationResult* tri) const;
+  // The compass's heading for this frame (from the previous frame's pose
+  // and this frame's azimuthal `signature`), when its score is good enough.
+  std::optional<double> CompassHeading(const std::vector<float>& signature) const;
+  // `pred` turned to this frame's compass heading, when it differs.
+  std::optional<Pose2> CompassPose(const Pose2& pred) const;
+  // Whether the compass's heading goes before the prediction `pred`.
+  bool CompassFirst(const Pose2& pred, const Pose2& by_compass) const;
+  // Running mean heading errors of the two predictions against accepted
+  // poses (radians; -1: none yet).
+  void UpdatePredictionErrors(const Pose2& model_pred, const FrameResult& fr, const TriangulationResult& tri);
   // narrow passes around the solved pose when landmarks were off-centre;
   void RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) const;
   // the room-wide search after relocalize_after lost frames;
@@ -347,6 +362,10 @@ class Localizer {
   int motion_updates_ = 0;             // poses fused since the model (re)started
   bool motion_stepped_ = false;        // the model took a step at this frame
   Pose2 frame_pose_;                   // the estimate at the previous frame (for the compass)
+  std::optional<double> compass_heading_;  // this frame's (CompassHeading)
+  double model_heading_error_ = -1.0;      // UpdatePredictionErrors
+  double compass_heading_error_ = -1.0;
+  int prediction_error_frames_ = 0;        // accepted frames in those means
   int next_relocalize_frame_ = 0;
   int relocalize_failures_ = 0;
   // The bearing noise of recent good frames (radians), for the integrity test.
