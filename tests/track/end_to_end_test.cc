@@ -91,7 +91,10 @@ TEST_CASE("long-run's fast turns: the compass's heading goes first where the mod
   const AccuracySummary never = run(M_PI, &n_never);
   INFO(FormatAccuracy(a, "units") << "; model first always: " << FormatAccuracy(never, "units"));
   CHECK(n_never == 0);
-  CHECK(n_first == 19);  // measured
+  // Measured 19; the switch compares float headings, so a compiler's
+  // rounding may move a frame or two across it.
+  CHECK(n_first >= 16);
+  CHECK(n_first <= 22);
   CHECK(a.tracked == 80);
   CHECK(never.tracked == 80);
   CHECK(a.outliers == never.outliers);
