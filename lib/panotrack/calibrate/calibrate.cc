@@ -575,7 +575,10 @@ CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>
   // steps up to the corners refined through it, on which the candidates are
   // then scored (the detector's own corners are biased by a pixel on a
   // curved mirror's squeezed squares, far more than profiles differ).
-  if (options.select_model) p.options = ModelCandidates(options)[1];
+  if (options.select_model) {
+    p.options.select_model = false;
+    p.options.model = MirrorModel::kConic;
+  }
   p.res = CalibrateViews(p.det.views, targets.board, p.det.image_width, p.det.image_height, targets.units,
                          p.options);
   clock.Done("initialisation and first fit");

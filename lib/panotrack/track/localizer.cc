@@ -121,9 +121,7 @@ void Localizer::Reset(const Pose2& robot_initial, bool hint) {
   bearing_sigma_ = 0.0;
   motion_updates_ = 0;
   frame_pose_ = initial;
-  last_signature_.clear();
-  model_heading_error_ = compass_heading_error_ = -1.0;
-  prediction_error_frames_ = 0;
+  ForgetCompassHistory();
   polarity_.assign(landmarks_.size(), LandmarkPolarity{});
   object_contradicted_.assign(landmarks_.empty() ? 0 : static_cast<size_t>(landmarks_.back().object) + 1, 0);
   map_contradicted_ = map_confirmed_ = false;
@@ -572,6 +570,12 @@ std::optional<Pose2> Localizer::CompassPose(const Pose2& pred) const {
   return by_compass;
 }
 
+void Localizer::ForgetCompassHistory() {
+  last_signature_.clear();
+  model_heading_error_ = compass_heading_error_ = -1.0;
+  prediction_error_frames_ = 0;
+}
+
 bool Localizer::CompassFirst(const Pose2& pred, const Pose2& by_compass) const {
   // Translation biases the compass by a few degrees in a small room: it
   // goes first only where it has been the better guide.
@@ -751,9 +755,7 @@ void Localizer::HoldForConfirmation(const Pose2& pose, int frame) {
   motion_updates_ = 0;
   n_good_ = 0;
   n_lost_ = 0;  // the confirming frame searches as narrowly as a tracked one
-  last_signature_.clear();
-  model_heading_error_ = compass_heading_error_ = -1.0;
-  prediction_error_frames_ = 0;
+  ForgetCompassHistory();
   held_ = true;
   // Held poses that keep failing to confirm back off like failed searches.
   next_relocalize_frame_ = relocalize_failures_ >= 3 ? BackedOffRelocalizeFrame(frame) : 0;

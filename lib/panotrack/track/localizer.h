@@ -304,6 +304,9 @@ class Localizer {
   // Running mean heading errors of the two predictions against accepted
   // poses (radians; -1: none yet).
   void UpdatePredictionErrors(const Pose2& model_pred, const FrameResult& fr, const TriangulationResult& tri);
+  // A new start: the previous frame's compass signature and the running
+  // heading errors no longer apply.
+  void ForgetCompassHistory();
   // narrow passes around the solved pose when landmarks were off-centre;
   void RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) const;
   // the room-wide search after relocalize_after lost frames;
