@@ -338,6 +338,42 @@ bool JunctionTracker::LocateJunction(const PhTable& ph, const VerticalEdge& v, c
   return true;
 }
 
+LandmarkMeasurement JunctionTracker::MeasureAzimuth(const PredictedLandmark& p, double search_px) const {
+  LandmarkMeasurement m;
+  const double half = std::max(search_px, 2.0);
+  const int signs[2] = {p.v_polarity == 0 ? 1 : p.v_polarity, -1};
+  const int n_signs = p.v_polarity == 0 ? 2 : 1;
+  VerticalEdge best;
+  for (int k = 0; k < n_signs; ++k) {
+    VerticalEdge edge;
+    LandmarkMeasurement trial;
+    if (!FindVerticalEdge(p, half, signs[k], &edge, &trial)) {
+      if (!m.found) m.why = trial.why;
+      continue;
+    }
+    // Edges of either sign at different places: which is the landmark's
+    // only the junction could tell.
+    if (m.found) {
+      if (std::abs(wrap_angle(edge.azimuth - best.azimuth)) * p.corner_radius > opt_.junction_tolerance_px) {
+        LandmarkMeasurement none;
+        none.why = "ambiguous: vertical edges of either polarity";
+        return none;
+      }
+      continue;
+    }
+    best = edge;
+    m = trial;
+    m.found = true;
+    m.v_polarity = signs[k];
+    m.v_contrast = edge.contrast;
+  }
+  if (!m.found) return m;
+  m.azimuth = best.azimuth;
+  m.radius = p.corner_radius;
+  m.weight = 1.0;
+  return m;
+}
+
 LandmarkMeasurement JunctionTracker::Measure(const PredictedLandmark& p, double search_px) const {
   LandmarkMeasurement m;
   const double half = std::max(search_px, 2.0);

@@ -42,6 +42,9 @@ class JunctionTracker : public LandmarkTracker {
                   const JunctionOptions& options);
   void BeginFrame(const cv::Mat& grey) override { grey_ = grey; }
   LandmarkMeasurement Measure(const PredictedLandmark& p, double search_px) const override;
+  // The vertical edge only (its azimuth is the landmark's).
+  LandmarkMeasurement MeasureAzimuth(const PredictedLandmark& p, double search_px) const override;
+  bool MeasuresAzimuthCheaply() const override { return true; }
 
  private:
   struct VerticalEdge;                         // the steps of Measure and what they find

@@ -25,6 +25,7 @@ void LocalizerOptions::Check() const {
   if (max_landmarks != 0 && max_landmarks < 3) throw Error("localiser: max_landmarks: expected 0 or >= 3");
   if (refine_passes < 0 || refine_passes > 5) throw Error("localiser: refine_passes: expected 0..5");
   if (!(refine_threshold_px >= 0.0)) throw Error("localiser: refine_threshold_px: expected >= 0");
+  if (!(coarse_to_fine_rate >= 0.0)) throw Error("localiser: coarse_to_fine_rate: expected >= 0");
   if (!(exposure_fraction >= 0.0 && exposure_fraction <= 1.0))
     throw Error("localiser: exposure_fraction: expected 0..1");
   if (!(unknown_turn_per_frame >= 0.0 && unknown_turn_per_frame < M_PI))
@@ -107,6 +108,7 @@ void Localizer::Reset(const Pose2& robot_initial, bool hint) {
   initial_ = last_ = initial;
   frame_motion_ = Pose2{0, 0, 0};
   blur_fraction_ = opt_.exposure_fraction;
+  recentre_rate_ = 0.0;
   n_good_ = 0;
   n_lost_ = 0;
   started_ = true;
@@ -216,7 +218,7 @@ void Localizer::LearnPolarity(const FrameResult& fr, const TriangulationResult& 
 }
 
 void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, const Pose2* solved_motion,
-                        bool either) const {
+                        bool either, bool azimuth_only) const {
   out->either_polarity = either;
   // The motion over the last frame interval; unknown: the fastest turn.
   const bool known = motion_updates_ >= 2 || solved_motion;
@@ -278,7 +280,8 @@ void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, c
 #pragma omp parallel for schedule(dynamic, 1) num_threads(threads) if (end - begin > 4)
     for (int i = begin; i < end; ++i) {
       try {
-        meas[i] = tracker_->Measure(ordered[i], search_px);
+        meas[i] = azimuth_only ? tracker_->MeasureAzimuth(ordered[i], search_px)
+                               : tracker_->Measure(ordered[i], search_px);
       } catch (...) {
         errors[static_cast<size_t>(i - begin)] = std::current_exception();
       }
@@ -592,7 +595,8 @@ void Localizer::UpdatePredictionErrors(const Pose2& model_pred, const FrameResul
   ++prediction_error_frames_;
 }
 
-void Localizer::TrackPredictions(const Pose2& pred, FrameResult* fr, TriangulationResult* tri) const {
+void Localizer::TrackPredictions(const Pose2 pred, FrameResult* fr, TriangulationResult* tri) const {
+  // `pred` by value: the caller passes fr->predicted_pose, which this sets.
   const double search =
       std::min(opt_.max_search_px, opt_.search_px * std::pow(opt_.lost_search_growth, std::min(n_lost_, 8)));
   // The visual compass measures the turn since the last frame from the
@@ -655,24 +659,51 @@ std::optional<Pose2> Localizer::SolvedMotion(const Pose2& pose) const {
   return Pose2{pose.x - frame_pose_.x, pose.y - frame_pose_.y, wrap_angle(pose.theta - frame_pose_.theta)};
 }
 
-void Localizer::RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) const {
+double Localizer::MaxShiftPx(const FrameResult& fr) {
+  double max_shift = 0.0;
+  for (size_t i = 0; i < fr.predicted.size(); ++i)
+    if (fr.measurements[i].found)
+      max_shift = std::max(max_shift, std::abs(wrap_angle(fr.measurements[i].azimuth - fr.predicted[i].azimuth)) *
+                                          fr.predicted[i].corner_radius);
+  return max_shift;
+}
+
+bool Localizer::CoarseToFineUseful() const {
+  return tracker_->MeasuresAzimuthCheaply() && opt_.refine_passes > 0 && n_lost_ == 0 &&
+         recentre_rate_ > opt_.coarse_to_fine_rate;
+}
+
+bool Localizer::TrackCoarseToFine(const Pose2 pred, FrameResult* fr, TriangulationResult* tri,
+                                  bool* recentred) const {
+  const std::optional<Pose2> by_compass = CompassPose(pred);
+  const Pose2 start = by_compass && CompassFirst(pred, *by_compass) ? *by_compass : pred;
+  FrameResult coarse;
+  Measure(start, opt_.search_px, &coarse, nullptr, false, true);
+  const TriangulationResult first = Solve(coarse, start);
+  if (!Acceptable(coarse, first)) return false;
+  *recentred = MaxShiftPx(coarse) > opt_.refine_threshold_px;
+  const std::optional<Pose2> solved = SolvedMotion(first.pose);
+  Measure(first.pose, opt_.refine_search_px, fr, solved ? &*solved : nullptr);
+  *tri = Solve(*fr, first.pose);
+  if (!Acceptable(*fr, *tri)) return false;
+  fr->predicted_pose = start;
+  fr->compass_first = start.theta != pred.theta;
+  fr->coarse_to_fine = true;
+  return true;
+}
+
+bool Localizer::RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) const {
   // How far the found landmarks lie from their predictions (px).
-  double max_shift = 0.0, max_radius = 0.0;
-  for (size_t i = 0; i < fr->predicted.size(); ++i) {
-    max_radius = std::max(max_radius, fr->predicted[i].corner_radius);
-    if (fr->measurements[i].found)
-      max_shift =
-          std::max(max_shift, std::abs(wrap_angle(fr->measurements[i].azimuth - fr->predicted[i].azimuth)) *
-                                  fr->predicted[i].corner_radius);
-  }
+  const double max_shift = MaxShiftPx(*fr);
+  double max_radius = 0.0;
+  for (const PredictedLandmark& p : fr->predicted) max_radius = std::max(max_radius, p.corner_radius);
   // A turn faster or slower than predicted blurs the edges more or less
   // than the search allowed for: measure again with the solved motion.
   std::optional<Pose2> solved = SolvedMotion(tri->pose);
   const double turn_error = solved ? std::abs(wrap_angle(solved->theta - frame_motion_.theta)) : 0.0;
   const bool blur_mispredicted = turn_error * max_radius * blur_fraction_ > opt_.refine_threshold_px;
-  for (int pass = 0; pass < opt_.refine_passes && (max_shift > opt_.refine_threshold_px || blur_mispredicted) &&
-                     Acceptable(*fr, *tri);
-       ++pass) {
+  const bool off_centre = max_shift > opt_.refine_threshold_px || blur_mispredicted;
+  for (int pass = 0; pass < opt_.refine_passes && off_centre && Acceptable(*fr, *tri); ++pass) {
     FrameResult again;
     solved = SolvedMotion(tri->pose);
     Measure(tri->pose, opt_.refine_search_px, &again, solved ? &*solved : nullptr, fr->either_polarity);
@@ -682,6 +713,7 @@ void Localizer::RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) 
     fr->measurements = std::move(again.measurements);
     *tri = tri2;
   }
+  return off_centre;
 }
 
 bool Localizer::ViewUnlikePrediction(const FrameResult& fr, const TriangulationResult& tri) const {
@@ -855,12 +887,17 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
   if (opt_.compass) signature = compass_.Signature(grey);
   compass_heading_.reset();
   Pose2 model_pred = last_;
+  bool recentred = false;  // the landmarks lay off their predictions
   if (known_start_ || ever_tracked_) {
     // Prediction from the motion model, then the visual compass's heading.
     fr.predicted_pose = model_pred = PredictMotion(time_s, odometry);
     compass_heading_ = CompassHeading(signature);
-    TrackPredictions(fr.predicted_pose, &fr, &tri);
-    RefineAroundSolution(&fr, &tri);
+    if (!(CoarseToFineUseful() && TrackCoarseToFine(fr.predicted_pose, &fr, &tri, &recentred))) {
+      TrackPredictions(fr.predicted_pose, &fr, &tri);
+      recentred = RefineAroundSolution(&fr, &tri);
+    } else {
+      RefineAroundSolution(&fr, &tri);
+    }
     // A pose is reported only when its residuals are consistent and it
     // agrees with the motion so far; one the motion model did not expect (a
     // sudden stop or turn) only on strong evidence, as a relocalised one.
@@ -883,6 +920,7 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
   fr.triangulation = tri;
   if (opt_.compass) last_signature_ = std::move(signature);
   if (accepted) UpdatePredictionErrors(model_pred, fr, tri);
+  if (accepted && !fr.relocalized) recentre_rate_ = 0.9 * recentre_rate_ + 0.1 * recentred;
   RecordOutcome(&fr, tri, accepted, n_found);
   if (accepted) LearnPolarity(fr, tri);
   if (accepted) {

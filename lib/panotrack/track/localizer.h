@@ -82,6 +82,12 @@ struct LocalizerOptions {
   // The second pass runs only when some landmark was found further than
   // this from its prediction (px): otherwise the windows were centred.
   double refine_threshold_px = 1.0;
+  // Where more than this fraction of the recent frames (a running mean over
+  // about ten) needed that second pass (fast, uneven turns), the first pass
+  // measures only the landmarks' azimuths (the junction tracker's vertical
+  // edges, a quarter of the work) and the full pass runs around the pose
+  // they give: one full pass a frame instead of two. Above 1: never.
+  double coarse_to_fine_rate = 0.5;
   bool constant_velocity = true;  // predict with the last frame-to-frame motion
   bool compass = true;            // predict the heading with the visual compass
   double compass_max_rotation = 60.0 * M_PI / 180;  // per frame
@@ -179,6 +185,7 @@ struct FrameResult {
   Pose2 predicted_pose;
   bool relocalized = false;     // the pose came from the room-wide search
   bool compass_first = false;   // the compass's heading was tried before the motion model's
+  bool coarse_to_fine = false;  // tracked azimuths first, then in full around their pose
   bool unconfirmed = false;     // ... found, but held back for the next frame to confirm
   double innovation = -1.0;     // squared Mahalanobis distance from the prediction (-1: none)
   IntegrityReport integrity;    // of the reported pose
@@ -256,8 +263,9 @@ class Localizer {
   // (after a first solve); it sets the expected blur of each edge.
   // `either`: edges whose map polarity no tracked frame has confirmed are
   // searched with either sign.
+  // `azimuth_only`: the tracker's MeasureAzimuth (a first estimate).
   void Measure(const Pose2& pose, double search_px, FrameResult* out, const Pose2* motion = nullptr,
-               bool either = false) const;
+               bool either = false, bool azimuth_only = false) const;
   // The polarity to search an edge for: the map's while the images do not
   // contradict it, else the one learned, else 0 (either).
   int SearchPolarity(const EdgePolarityEvidence& e, int map_polarity, int object, bool either) const;
@@ -293,7 +301,7 @@ class Localizer {
   Pose2 PredictMotion(double time_s, const OdometryIncrement* odometry);
   // tracking from that prediction, then from the visual compass's heading
   // (CompassPose), then with wider searches until accepted;
-  void TrackPredictions(const Pose2& pred, FrameResult* fr, TriangulationResult* tri) const;
+  void TrackPredictions(Pose2 pred, FrameResult* fr, TriangulationResult* tri) const;
   // The compass's heading for this frame (from the previous frame's pose
   // and this frame's azimuthal `signature`), when its score is good enough.
   std::optional<double> CompassHeading(const std::vector<float>& signature) const;
@@ -307,8 +315,16 @@ class Localizer {
   // A new start: the previous frame's compass signature and the running
   // heading errors no longer apply.
   void ForgetCompassHistory();
-  // narrow passes around the solved pose when landmarks were off-centre;
-  void RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) const;
+  // or, where most recent frames needed a second pass, coarse to fine: the
+  // landmarks' azimuths alone from the prediction, then the full
+  // measurement around the pose they give; false when either fails;
+  bool TrackCoarseToFine(Pose2 pred, FrameResult* fr, TriangulationResult* tri, bool* recentred) const;
+  bool CoarseToFineUseful() const;
+  // The largest distance (px) of a found landmark from its prediction.
+  static double MaxShiftPx(const FrameResult& fr);
+  // narrow passes around the solved pose when landmarks were off-centre
+  // (returns whether they were);
+  bool RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) const;
   // the room-wide search after relocalize_after lost frames;
   // `at_once`: the view is not the predicted one (ViewUnlikePrediction).
   bool RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, FrameResult* fr, TriangulationResult* tri);
@@ -351,6 +367,9 @@ class Localizer {
   // of an edge the camera does not move across (the optics' blur, px).
   double blur_fraction_ = 1.0;
   double still_edge_width_px_ = 1.5;
+  // Running mean over the tracked frames of whether the landmarks lay off
+  // their predictions (a second pass was due): CoarseToFineUseful.
+  double recentre_rate_ = 0.0;
   void UpdateBlurEstimate(const FrameResult& fr);
   int n_good_ = 0;   // consecutive good frames (for the velocity model)
   int n_lost_ = 0;   // consecutive lost frames

@@ -44,6 +44,15 @@ class LandmarkTracker {
   // search_px: expected image motion of the landmark since the prediction.
   // Must be safe to call concurrently for different landmarks.
   virtual LandmarkMeasurement Measure(const PredictedLandmark& p, double search_px) const = 0;
+  // The landmark's azimuth alone, for a first estimate of the pose that a
+  // full Measure around it then confirms: a tracker may skip what only
+  // validates the landmark (the junction tracker: the horizontal edge and
+  // the junction). By default the full measurement.
+  virtual LandmarkMeasurement MeasureAzimuth(const PredictedLandmark& p, double search_px) const {
+    return Measure(p, search_px);
+  }
+  // Whether MeasureAzimuth costs clearly less than Measure.
+  virtual bool MeasuresAzimuthCheaply() const { return false; }
 };
 
 }  // namespace pano
