@@ -8,6 +8,7 @@
 #include <cstring>
 #include <limits>
 
+#include "panotrack/core/angles.h"
 #include "panotrack/core/atomic_file.h"
 #include "panotrack/core/error.h"
 #include "panotrack/scene/map.h"
@@ -180,7 +181,7 @@ RadiusTable RadiusTable::Build(const Sensor& sensor, const LutRanges& ranges, co
 bool RadiusTable::radius(double D, double Z, double* R) const {
   if (!(D > 0.0)) return false;
   const double fx = (std::log(D) - log_d_min_) / log_d_step_;
-  const double fy = (std::atan2(Z, D) - elev_min_) / elev_step_;
+  const double fy = (fast_atan2(Z, D) - elev_min_) / elev_step_;
   return Bilinear(forward_, size_.n_distance, size_.n_elevation, fx, fy, R);
 }
 

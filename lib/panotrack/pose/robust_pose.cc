@@ -38,7 +38,7 @@ double BearingResidual(const BearingObservation& o, const Pose2& pose, Eigen::Ve
     const double r2 = dx * dx + dy * dy;
     *jacobian = Eigen::Vector3d(dy / r2, -dx / r2, -1.0);
   }
-  return wrap_angle(std::atan2(dy, dx) - pose.theta - o.bearing);
+  return wrap_angle(fast_atan2(dy, dx) - pose.theta - o.bearing);
 }
 
 // ---------------------------------------------------------------------------

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "panotrack/core/angles.h"
 #include "panotrack/core/error.h"
 
 namespace pano {
@@ -37,10 +38,15 @@ double SumDist2(const std::vector<BearingObservation>& obs, double h) {
 
 bool PositionFromBearings(const std::vector<BearingObservation>& obs, double heading,
                           Eigen::Vector2d* position, double* sum_dist2) {
+  // The lines once for both sums (their sin and cos are most of the cost).
+  thread_local std::vector<Eigen::Vector3d> lines;
+  lines.resize(obs.size());
   double saa = 0, sbb = 0, sab = 0, sac = 0, sbc = 0;
-  for (const BearingObservation& o : obs) {
-    double a, b, c;
-    Line(o, heading, &a, &b, &c);
+  for (size_t i = 0; i < obs.size(); ++i) {
+    const BearingObservation& o = obs[i];
+    Eigen::Vector3d& line = lines[i];
+    Line(o, heading, &line.x(), &line.y(), &line.z());
+    const double a = line.x(), b = line.y(), c = line.z();
     const double w = o.weight;
     saa += w * a * a;
     sbb += w * b * b;
@@ -57,11 +63,9 @@ bool PositionFromBearings(const std::vector<BearingObservation>& obs, double hea
   // Eqn 2, evaluated as the sum of squared distances it expands: the
   // expanded form cancels catastrophically near the minimum.
   double sum = 0.0;
-  for (const BearingObservation& o : obs) {
-    double a, b, c;
-    Line(o, heading, &a, &b, &c);
-    const double d = a * x + b * y + c;
-    sum += o.weight * d * d;
+  for (size_t i = 0; i < obs.size(); ++i) {
+    const double d = lines[i].x() * x + lines[i].y() * y + lines[i].z();
+    sum += obs[i].weight * d * d;
   }
   *sum_dist2 = sum;
   return true;
@@ -107,7 +111,7 @@ bool RefineOnBearings(const std::vector<BearingObservation>& obs, const std::vec
       const double dx = o.landmark.x() - pose->x, dy = o.landmark.y() - pose->y;
       const double r2 = dx * dx + dy * dy;
       if (!(r2 > 0)) return false;
-      const double r = wrap_angle(std::atan2(dy, dx) - pose->theta - o.bearing);
+      const double r = wrap_angle(fast_atan2(dy, dx) - pose->theta - o.bearing);
       // d atan2(dy, dx) / d(x, y) = (dy, -dx) / r2
       const Eigen::Vector3d J(dy / r2, -dx / r2, -1.0);
       const double w_huber = std::abs(r) <= opt.huber ? 1.0 : opt.huber / std::abs(r);
@@ -191,7 +195,7 @@ TriangulationResult Triangulate(const std::vector<BearingObservation>& obs, cons
       for (size_t k = 0; k < use.size(); ++k) {
         const BearingObservation& o = obs[use[k]];
         const double r = std::abs(wrap_angle(
-            std::atan2(o.landmark.y() - pose.y, o.landmark.x() - pose.x) - pose.theta - o.bearing));
+            fast_atan2(o.landmark.y() - pose.y, o.landmark.x() - pose.x) - pose.theta - o.bearing));
         if (r > worst_r) {
           worst_r = r;
           worst = static_cast<int>(k);
@@ -233,7 +237,7 @@ TriangulationResult Triangulate(const std::vector<BearingObservation>& obs, cons
   for (size_t i = 0; i < obs.size(); ++i) {
     const BearingObservation& o = obs[i];
     res.bearing_residuals[i] = wrap_angle(
-        std::atan2(o.landmark.y() - pose.y, o.landmark.x() - pose.x) - pose.theta - o.bearing);
+        fast_atan2(o.landmark.y() - pose.y, o.landmark.x() - pose.x) - pose.theta - o.bearing);
   }
   for (int i : use) {
     double a, b, c;

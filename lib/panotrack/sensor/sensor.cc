@@ -3,13 +3,19 @@
 #include <cmath>
 #include <sstream>
 
+#include "panotrack/core/angles.h"
 #include "panotrack/core/error.h"
 
 namespace pano {
 
 Eigen::Vector3d sensor_from_world(const Pose2& pose, double sensor_height,
                                   const Eigen::Vector3d& pw) {
-  const double c = std::cos(pose.theta), s = std::sin(pose.theta);
+  return sensor_from_world(pose, Eigen::Vector2d(std::cos(pose.theta), std::sin(pose.theta)), sensor_height, pw);
+}
+
+Eigen::Vector3d sensor_from_world(const Pose2& pose, const Eigen::Vector2d& cos_sin, double sensor_height,
+                                  const Eigen::Vector3d& pw) {
+  const double c = cos_sin.x(), s = cos_sin.y();
   const double dx = pw.x() - pose.x, dy = pw.y() - pose.y;
   return {c * dx + s * dy, -s * dx + c * dy, pw.z() - sensor_height};
 }
@@ -127,7 +133,7 @@ bool Sensor::inverse_image_radius(double radius, double Z, double* D) const {
 void Sensor::to_polar(double u, double v, double* radius, double* azimuth) const {
   const double du = u - params.cx, dv = (v - params.cy) / params.aspect;
   *radius = std::sqrt(du * du + dv * dv);
-  *azimuth = std::atan2(dv, du);
+  *azimuth = fast_atan2(dv, du);
 }
 
 Eigen::Vector2d Sensor::from_polar(double radius, double azimuth) const {

@@ -23,6 +23,9 @@ struct Pose2 {
 // above the floor.
 Eigen::Vector3d sensor_from_world(const Pose2& pose, double sensor_height,
                                   const Eigen::Vector3d& point_world);
+// ... for many points seen from one pose: cos_sin = (cos, sin) of pose.theta.
+Eigen::Vector3d sensor_from_world(const Pose2& pose, const Eigen::Vector2d& cos_sin, double sensor_height,
+                                  const Eigen::Vector3d& point_world);
 Eigen::Vector3d world_from_sensor(const Pose2& pose, double sensor_height,
                                   const Eigen::Vector3d& point_sensor);
 // Rotates a sensor-frame direction into the world frame.

@@ -91,7 +91,9 @@ namespace {
 // (cheap: projections and table look-ups) ...
 struct PredictionContext {
   PredictionContext(const Map& map, const Sensor& sensor, const Pose2& pose, const PredictionOptions& opt)
-      : eye(pose.x, pose.y, map.sensor_height + sensor.params.vertex_distance), cam(pose.x, pose.y) {
+      : eye(pose.x, pose.y, map.sensor_height + sensor.params.vertex_distance),
+        cam(pose.x, pose.y),
+        cos_sin(std::cos(pose.theta), std::sin(pose.theta)) {
     const double limb = sensor.limb_radius();
     r_lo = opt.min_radius_fraction * limb;
     r_hi = limb - opt.max_radius_margin;
@@ -99,6 +101,7 @@ struct PredictionContext {
   // The mirror's vertex approximates where the scene is seen from.
   Eigen::Vector3d eye;
   Eigen::Vector2d cam;
+  Eigen::Vector2d cos_sin;  // of the pose's heading, for sensor_from_world
   double r_lo, r_hi;
 };
 
@@ -112,13 +115,13 @@ bool PredictGeometry(const Landmark& l, int idx, const Map& map, const Sensor& s
   PredictedLandmark& p = *out;
   p.index = idx;
   p.landmark = &l;
-  const Eigen::Vector3d c = sensor_from_world(pose, map.sensor_height, l.corner);
-  const Eigen::Vector3d h = sensor_from_world(pose, map.sensor_height, l.h_end);
-  const Eigen::Vector3d v = sensor_from_world(pose, map.sensor_height, l.v_end);
+  const Eigen::Vector3d c = sensor_from_world(pose, ctx.cos_sin, map.sensor_height, l.corner);
+  const Eigen::Vector3d h = sensor_from_world(pose, ctx.cos_sin, map.sensor_height, l.h_end);
+  const Eigen::Vector3d v = sensor_from_world(pose, ctx.cos_sin, map.sensor_height, l.v_end);
   p.distance = c.head<2>().norm();
   if (!(p.distance > 0.0) || !table.radius(p.distance, c.z(), &p.corner_radius)) return false;
   if (p.corner_radius < ctx.r_lo || p.corner_radius > ctx.r_hi) return false;
-  p.azimuth = sensor.image_azimuth(std::atan2(c.y(), c.x()));
+  p.azimuth = sensor.image_azimuth(fast_atan2(c.y(), c.x()));
   p.corner_px = sensor.from_polar(p.corner_radius, p.azimuth);
   if (!sensor.inside_image(p.corner_px, opt.image_margin)) return false;
   // Vertical edge: radial, from the corner to the other end (clamped to the
@@ -135,8 +138,8 @@ bool PredictGeometry(const Landmark& l, int idx, const Map& map, const Sensor& s
   const double d_main = foot.norm();
   p.h_height = c.z();
   if (!(d_main > 0.0) || !table.radius(d_main, p.h_height, &p.r_main)) return false;
-  p.theta_main = sensor.image_azimuth(std::atan2(foot.y(), foot.x()));
-  p.h_end_azimuth = sensor.image_azimuth(std::atan2(h.y(), h.x()));
+  p.theta_main = sensor.image_azimuth(fast_atan2(foot.y(), foot.x()));
+  p.h_end_azimuth = sensor.image_azimuth(fast_atan2(h.y(), h.x()));
   const double dtheta_edge = wrap_angle(p.h_end_azimuth - p.azimuth);
   if (std::abs(dtheta_edge) * p.corner_radius < opt.min_edge_px) return false;
   p.inside_azimuth_sign = dtheta_edge > 0 ? 1 : -1;
@@ -269,7 +272,7 @@ void SetImageMotion(const Map& map, const Sensor& sensor, const RadiusTable& tab
                     const Pose2& previous, double fraction, std::vector<PredictedLandmark>* predicted) {
   for (PredictedLandmark& p : *predicted) {
     const Eigen::Vector3d c = sensor_from_world(previous, map.sensor_height, p.landmark->corner);
-    const double azimuth = sensor.image_azimuth(std::atan2(c.y(), c.x()));
+    const double azimuth = sensor.image_azimuth(fast_atan2(c.y(), c.x()));
     double radius;
     if (!table.radius(c.head<2>().norm(), c.z(), &radius)) radius = p.corner_radius;
     p.full_tangential_motion_px = std::abs(wrap_angle(p.azimuth - azimuth)) * p.corner_radius;
