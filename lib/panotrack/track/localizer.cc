@@ -892,16 +892,28 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
     // Prediction from the motion model, then the visual compass's heading.
     fr.predicted_pose = model_pred = PredictMotion(time_s, odometry);
     compass_heading_ = CompassHeading(signature);
-    if (!(CoarseToFineUseful() && TrackCoarseToFine(fr.predicted_pose, &fr, &tri, &recentred))) {
-      TrackPredictions(fr.predicted_pose, &fr, &tri);
-      recentred = RefineAroundSolution(&fr, &tri);
-    } else {
-      RefineAroundSolution(&fr, &tri);
-    }
     // A pose is reported only when its residuals are consistent and it
     // agrees with the motion so far; one the motion model did not expect (a
     // sudden stop or turn) only on strong evidence, as a relocalised one.
-    accepted = Acceptable(fr, tri) && Consistent(&fr, tri) && (AgreesWithMotion(&fr, tri) || Corroborated(fr, tri));
+    auto acceptable = [&] {
+      return Acceptable(fr, tri) && Consistent(&fr, tri) && (AgreesWithMotion(&fr, tri) || Corroborated(fr, tri));
+    };
+    // Coarse to fine where it pays; what it does not accept (the azimuths
+    // alone misled, under heavy blur) is tracked the full way.
+    const Pose2 pred = fr.predicted_pose;
+    if (CoarseToFineUseful() && TrackCoarseToFine(pred, &fr, &tri, &recentred)) {
+      RefineAroundSolution(&fr, &tri);
+      accepted = acceptable();
+    }
+    if (!accepted) {
+      const PoseRow row = fr.row;
+      fr = FrameResult();
+      fr.row = row;
+      fr.predicted_pose = pred;
+      TrackPredictions(pred, &fr, &tri);
+      recentred = RefineAroundSolution(&fr, &tri);
+      accepted = acceptable();
+    }
     // A held relocalised pose is confirmed only on as much evidence as a
     // relocalised pose needs (the frame is nearly the same image).
     if (held_) {
