@@ -66,29 +66,33 @@ TEST_CASE("panoloc's video path: H.264 video in, pose CSV out, accuracy against 
   CHECK(std::filesystem::exists(o.plot));
 }
 
+// Tracks the rendered frames from the first true pose with `opt`, and counts
+// the frames whose FrameResult has `flag` set.
+AccuracySummary TrackCounting(const test::RenderedCase& r, const LocalizerOptions& opt, bool FrameResult::*flag,
+                              int* n_flagged) {
+  Localizer loc(r.c.calib, r.c.map, r.table, opt);
+  loc.Reset(r.c.poses.front());
+  std::vector<PoseRow> rows;
+  *n_flagged = 0;
+  for (size_t i = 0; i < r.frames.size(); ++i) {
+    const FrameResult fr = loc.Process(r.frames[i], static_cast<int>(i), i / r.c.fps);
+    *n_flagged += fr.*flag;
+    rows.push_back(fr.row);
+  }
+  return CompareToGroundTruth(rows, r.truth);
+}
+
 TEST_CASE("long-run's fast turns: the compass's heading goes first where the model's would miss, as accurate",
           "[compass_first]") {
   // Turns of up to 10 degrees per frame that change from frame to frame:
   // the constant-velocity model's heading misses the search windows on many
   // frames, the compass's rarely.
   const test::RenderedCase r = test::RenderPreset("long-run", 80);
-  auto run = [&](double compass_first_turn, int* n_first) {
-    LocalizerOptions opt;
-    opt.compass_first_turn = compass_first_turn;
-    Localizer loc(r.c.calib, r.c.map, r.table, opt);
-    loc.Reset(r.c.poses.front());
-    std::vector<PoseRow> rows;
-    *n_first = 0;
-    for (size_t i = 0; i < r.frames.size(); ++i) {
-      const FrameResult fr = loc.Process(r.frames[i], static_cast<int>(i), i / r.c.fps);
-      *n_first += fr.compass_first;
-      rows.push_back(fr.row);
-    }
-    return CompareToGroundTruth(rows, r.truth);
-  };
+  LocalizerOptions never_opt;
+  never_opt.compass_first_turn = M_PI;
   int n_first = 0, n_never = 0;
-  const AccuracySummary a = run(LocalizerOptions().compass_first_turn, &n_first);
-  const AccuracySummary never = run(M_PI, &n_never);
+  const AccuracySummary a = TrackCounting(r, LocalizerOptions(), &FrameResult::compass_first, &n_first);
+  const AccuracySummary never = TrackCounting(r, never_opt, &FrameResult::compass_first, &n_never);
   INFO(FormatAccuracy(a, "units") << "; model first always: " << FormatAccuracy(never, "units"));
   CHECK(n_never == 0);
   // Measured 19; the switch compares float headings, so a compiler's
@@ -98,8 +102,8 @@ TEST_CASE("long-run's fast turns: the compass's heading goes first where the mod
   CHECK(a.tracked == 80);
   CHECK(never.tracked == 80);
   CHECK(a.outliers == never.outliers);
-  CHECK(a.rms <= 0.0140);  // measured 0.01363 units; model first: 0.01363
-  CHECK(a.max <= 0.082);   // measured 0.0795 (both)
+  CHECK(a.rms <= 0.0109);  // measured 0.01057 units; model first: 0.01039
+  CHECK(a.max <= 0.061);   // measured 0.0589 (both)
   CHECK(a.rms <= 1.02 * never.rms);
   WARN("long-run 80 frames, compass first on " << n_first << ": " << FormatAccuracy(a, "units")
                                                << "; model first: " << FormatAccuracy(never, "units"));
@@ -111,24 +115,11 @@ TEST_CASE("long-run's fast turns: azimuths first where most frames need a second
   // these frames: the azimuth-only first pass and one full pass around its
   // pose replace a full pass and a refinement.
   const test::RenderedCase r = test::RenderPreset("long-run", 80);
-  auto run = [&](double rate, int* n_coarse) {
-    LocalizerOptions opt;
-    opt.coarse_to_fine_rate = rate;
-    Localizer loc(r.c.calib, r.c.map, r.table, opt);
-    loc.Reset(r.c.poses.front());
-    std::vector<PoseRow> rows;
-    *n_coarse = 0;
-    for (size_t i = 0; i < r.frames.size(); ++i) {
-      const FrameResult fr = loc.Process(r.frames[i], static_cast<int>(i), i / r.c.fps);
-      *n_coarse += fr.coarse_to_fine;
-      if (fr.coarse_to_fine) CHECK(fr.row.status == PoseStatus::kOk);
-      rows.push_back(fr.row);
-    }
-    return CompareToGroundTruth(rows, r.truth);
-  };
+  LocalizerOptions never_opt;
+  never_opt.coarse_to_fine_rate = 2.0;
   int n_coarse = 0, n_never = 0;
-  const AccuracySummary a = run(LocalizerOptions().coarse_to_fine_rate, &n_coarse);
-  const AccuracySummary never = run(2.0, &n_never);
+  const AccuracySummary a = TrackCounting(r, LocalizerOptions(), &FrameResult::coarse_to_fine, &n_coarse);
+  const AccuracySummary never = TrackCounting(r, never_opt, &FrameResult::coarse_to_fine, &n_never);
   INFO(FormatAccuracy(a, "units") << "; full passes only: " << FormatAccuracy(never, "units"));
   CHECK(n_never == 0);
   // Measured 48 (it starts once ten frames or so have needed a second pass).
@@ -137,8 +128,8 @@ TEST_CASE("long-run's fast turns: azimuths first where most frames need a second
   CHECK(a.tracked == 80);
   CHECK(never.tracked == 80);
   CHECK(a.outliers == never.outliers);
-  CHECK(a.rms <= 0.0141);  // measured 0.01379 units; full passes only: 0.01363
-  CHECK(a.max <= 0.082);   // measured 0.0795 (both)
+  CHECK(a.rms <= 0.0109);  // measured 0.01057 units; full passes only: 0.01031
+  CHECK(a.max <= 0.061);   // measured 0.0589 (both)
   CHECK(a.rms <= 1.03 * never.rms);
   WARN("long-run 80 frames, coarse to fine on " << n_coarse << ": " << FormatAccuracy(a, "units")
                                                  << "; full passes only: " << FormatAccuracy(never, "units"));
