@@ -133,10 +133,12 @@ std::string ModelSelectionTable(const std::vector<ModelScore>& scores, int chose
   char line[200];
   for (size_t i = 0; i < scores.size(); ++i) {
     const ModelScore& s = scores[i];
-    std::snprintf(line, sizeof line, "  %-18s training %7.4f px  held-out %7.4f px", s.name.c_str(), s.training_rms_px,
-                  s.heldout_rms_px);
-    if (!std::isfinite(s.heldout_rms_px))
-      std::snprintf(line, sizeof line, "  %-18s training %7.4f px  held-out      -   ", s.name.c_str(), s.training_rms_px);
+    if (std::isfinite(s.heldout_rms_px))
+      std::snprintf(line, sizeof line, "  %-18s training %7.4f px  held-out %7.4f px", s.name.c_str(),
+                    s.training_rms_px, s.heldout_rms_px);
+    else
+      std::snprintf(line, sizeof line, "  %-18s training %7.4f px  held-out      -   ", s.name.c_str(),
+                    s.training_rms_px);
     out += line;
     if (s.failed_boards) out += "  (" + std::to_string(s.failed_boards) + " held-out boards not mapped)";
     if (static_cast<int>(i) == chosen) out += "  <- chosen";

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cmath>
+#include <limits>
 
 namespace pano {
 
@@ -40,7 +41,7 @@ inline double fast_atan2(double y, double x) {
   const double ax = std::abs(x), ay = std::abs(y);
   const bool steep = ay > ax;
   const double num = steep ? ax : ay, den = steep ? ay : ax;
-  if (!(den > 0.0 && den <= 1.79e308)) return std::atan2(y, x);  // zero, infinite or NaN
+  if (!(den > 0.0 && den <= std::numeric_limits<double>::max())) return std::atan2(y, x);  // zero, inf or NaN
   const double t = num / den;  // in [0, 1]
   const int i = static_cast<int>(t * 16.0 + 0.5);
   const double c = i * (1.0 / 16.0);

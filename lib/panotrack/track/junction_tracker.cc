@@ -338,11 +338,23 @@ bool JunctionTracker::LocateJunction(const PhTable& ph, const VerticalEdge& v, c
   return true;
 }
 
+namespace {
+
+// The step signs an edge of `polarity` is searched for: its own, or for an
+// unknown polarity (0) either, +1 first. Returns how many.
+int SearchSigns(const int& polarity, const int** signs) {
+  static constexpr int kEither[2] = {1, -1};
+  *signs = polarity == 0 ? kEither : &polarity;
+  return polarity == 0 ? 2 : 1;
+}
+
+}  // namespace
+
 LandmarkMeasurement JunctionTracker::MeasureAzimuth(const PredictedLandmark& p, double search_px) const {
   LandmarkMeasurement m;
   const double half = std::max(search_px, 2.0);
-  const int signs[2] = {p.v_polarity == 0 ? 1 : p.v_polarity, -1};
-  const int n_signs = p.v_polarity == 0 ? 2 : 1;
+  const int* signs;
+  const int n_signs = SearchSigns(p.v_polarity, &signs);
   VerticalEdge best;
   for (int k = 0; k < n_signs; ++k) {
     VerticalEdge edge;
@@ -379,10 +391,8 @@ LandmarkMeasurement JunctionTracker::Measure(const PredictedLandmark& p, double 
   const double half = std::max(search_px, 2.0);
   // An edge of unknown polarity (0) is searched for a step of either sign;
   // the pair that forms a junction wins.
-  static constexpr int kEither[2] = {1, -1};
-  const int* const v_signs = p.v_polarity == 0 ? kEither : &p.v_polarity;
-  const int* const h_signs = p.h_polarity == 0 ? kEither : &p.h_polarity;
-  const int n_v_signs = p.v_polarity == 0 ? 2 : 1, n_h_signs = p.h_polarity == 0 ? 2 : 1;
+  const int *v_signs, *h_signs;
+  const int n_v_signs = SearchSigns(p.v_polarity, &v_signs), n_h_signs = SearchSigns(p.h_polarity, &h_signs);
   struct Vertical {
     VerticalEdge edge;
     LandmarkMeasurement m;

@@ -676,7 +676,8 @@ bool Localizer::CoarseToFineUseful() const {
 bool Localizer::TrackCoarseToFine(const Pose2 pred, FrameResult* fr, TriangulationResult* tri,
                                   bool* recentred) const {
   const std::optional<Pose2> by_compass = CompassPose(pred);
-  const Pose2 start = by_compass && CompassFirst(pred, *by_compass) ? *by_compass : pred;
+  const bool compass_first = by_compass && CompassFirst(pred, *by_compass);
+  const Pose2 start = compass_first ? *by_compass : pred;
   FrameResult coarse;
   Measure(start, opt_.search_px, &coarse, nullptr, false, true);
   const TriangulationResult first = Solve(coarse, start);
@@ -687,7 +688,7 @@ bool Localizer::TrackCoarseToFine(const Pose2 pred, FrameResult* fr, Triangulati
   *tri = Solve(*fr, first.pose);
   if (!Acceptable(*fr, *tri)) return false;
   fr->predicted_pose = start;
-  fr->compass_first = start.theta != pred.theta;
+  fr->compass_first = compass_first;
   fr->coarse_to_fine = true;
   return true;
 }
