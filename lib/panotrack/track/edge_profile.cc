@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cmath>
 
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#include "panotrack/core/cpu_features.h"
+
+#ifdef PANO_HAVE_X86_TARGETS
 #include <immintrin.h>
 #define PANO_EDGE_PROFILE_AVX2 1
 #endif
@@ -19,11 +21,6 @@ inline float Blend(float fx, float fy, float p00, float p01, float p10, float p1
 }
 
 #ifdef PANO_EDGE_PROFILE_AVX2
-bool HaveAvx2() {
-  static const bool have = __builtin_cpu_supports("avx2");
-  return have;
-}
-
 // The n samples of a line inside the image, eight at a time, each pixel
 // pair fetched by one 4-byte gather (the row's pixels ix .. ix + 3). The caller
 // guarantees that those reads stay inside the image's buffer: no sample in

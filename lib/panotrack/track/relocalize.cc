@@ -6,8 +6,13 @@
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
+#include "panotrack/core/cpu_features.h"
 #include "panotrack/core/error.h"
 #include "panotrack/core/parallel.h"
+
+#ifdef PANO_HAVE_X86_TARGETS
+#include <immintrin.h>
+#endif
 
 namespace pano {
 
@@ -36,41 +41,71 @@ std::vector<int> EdgeBinsAt(const Eigen::Vector2d& position, int bins, const Sen
 
 }  // namespace
 
-HeadingSearch::HeadingSearch(const std::vector<float>& hist, int block)
-    : bins_(static_cast<int>(hist.size())), block_(block), hist2_(2 * hist.size()), block_max2_(2 * hist.size()) {
-  if (bins_ < 1 || block_ < 1) throw Error("heading search: expected a histogram and a block of >= 1 bins");
-  for (int i = 0; i < 2 * bins_; ++i) {
-    hist2_[static_cast<size_t>(i)] = hist[static_cast<size_t>(i % bins_)];
-    float m = hist2_[static_cast<size_t>(i)];
-    for (int j = 1; j < block_; ++j) m = std::max(m, hist[static_cast<size_t>(((i - j) % bins_ + bins_) % bins_)]);
-    block_max2_[static_cast<size_t>(i)] = m;
+HeadingSearch::HeadingSearch(const std::vector<float>& hist)
+    : bins_(static_cast<int>(hist.size())), reversed2_(2 * hist.size()) {
+  if (bins_ < 1) throw Error("heading search: expected a histogram of >= 1 bins");
+  for (int j = 0; j < 2 * bins_; ++j) reversed2_[static_cast<size_t>(j)] = hist[static_cast<size_t>((2 * bins_ - j) % bins_)];
+}
+
+namespace {
+
+// out[t] = sum over k of runs[offsets[k] + t], t < n, summed in double in
+// the order of k (every path below gives the same bits).
+void SumRuns(const float* runs, const std::vector<int>& offsets, int n, double* out) {
+  std::fill(out, out + n, 0.0);
+  for (int offset : offsets) {
+    const float* run = runs + offset;
+    for (int t = 0; t < n; ++t) out[t] += run[t];
   }
 }
 
-double HeadingSearch::Score(const std::vector<int>& edge_bins, const float* values, int t) const {
-  double sum = 0;
-  for (int b : edge_bins) sum += values[b - t + bins_];  // azimuths at heading t: those at 0 minus t
-  return sum - 0.15 * edge_bins.size();
+#ifdef PANO_HAVE_X86_TARGETS
+// The same, 32 headings at a time held in registers across the runs.
+__attribute__((target("avx2"))) void SumRunsAvx2(const float* runs, const std::vector<int>& offsets, int n,
+                                                 double* out) {
+  constexpr int kLanes = 4, kRegisters = 8, kChunk = kLanes * kRegisters;
+  int t0 = 0;
+  for (; t0 + kChunk <= n; t0 += kChunk) {
+    __m256d acc[kRegisters];
+    for (__m256d& a : acc) a = _mm256_setzero_pd();
+    for (int offset : offsets) {
+      const float* run = runs + offset + t0;
+      for (int r = 0; r < kRegisters; ++r)
+        acc[r] = _mm256_add_pd(acc[r], _mm256_cvtps_pd(_mm_loadu_ps(run + kLanes * r)));
+    }
+    for (int r = 0; r < kRegisters; ++r) _mm256_storeu_pd(out + t0 + kLanes * r, acc[r]);
+  }
+  std::fill(out + t0, out + n, 0.0);
+  for (int offset : offsets)
+    for (int t = t0; t < n; ++t) out[t] += runs[offset + t];
 }
+#endif
+
+}  // namespace
 
 int HeadingSearch::Best(const std::vector<int>& edge_bins, double* best_score) const {
+  // Every heading at once: edge bin b adds hist[b - t] to heading t, a
+  // contiguous run of the reversed histogram. Summed in double in the
+  // edges' order, as one heading at a time would: the same scores.
+  thread_local std::vector<int> offsets;
+  thread_local std::vector<double> sum;
+  offsets.clear();
+  for (int b : edge_bins) offsets.push_back(bins_ - b);
+  sum.resize(static_cast<size_t>(bins_));
+#ifdef PANO_HAVE_X86_TARGETS
+  if (HaveAvx2())
+    SumRunsAvx2(reversed2_.data(), offsets, bins_, sum.data());
+  else
+#endif
+    SumRuns(reversed2_.data(), offsets, bins_, sum.data());
+  const double penalty = 0.15 * edge_bins.size();
   *best_score = 0.0;
-  const int n_blocks = (bins_ + block_ - 1) / block_;
-  std::vector<double> bounds(static_cast<size_t>(n_blocks));
-  for (int k = 0; k < n_blocks; ++k) bounds[static_cast<size_t>(k)] = Score(edge_bins, block_max2_.data(), k * block_);
   int best_t = -1;
-  for (;;) {
-    // The unsearched block with the highest bound (the lowest among equals).
-    const int k = static_cast<int>(std::max_element(bounds.begin(), bounds.end()) - bounds.begin());
-    const double bound = bounds[static_cast<size_t>(k)];
-    if (bound < *best_score || bound <= 0.0) break;
-    bounds[static_cast<size_t>(k)] = -std::numeric_limits<double>::infinity();
-    for (int t = k * block_; t < std::min(bins_, (k + 1) * block_); ++t) {
-      const double score = Score(edge_bins, hist2_.data(), t);
-      if (score > *best_score || (best_t >= 0 && score == *best_score && t < best_t)) {
-        *best_score = score;
-        best_t = t;
-      }
+  for (int t = 0; t < bins_; ++t) {
+    const double score = sum[static_cast<size_t>(t)] - penalty;
+    if (score > *best_score) {  // the lowest of equal headings
+      *best_score = score;
+      best_t = t;
     }
   }
   return best_t;
@@ -170,7 +205,7 @@ std::vector<PoseHypothesis> RelocalizationIndex::Hypotheses(const cv::Mat& grey,
   if (opt_.support_cap > 0)
     for (float& h : hist) h = static_cast<float>(std::min<double>(h, opt_.support_cap) / opt_.support_cap);
   const int bins = static_cast<int>(hist.size());
-  const HeadingSearch search(hist, 8);
+  const HeadingSearch search(hist);
   std::vector<PoseHypothesis> scored(positions_.size());
 #pragma omp parallel for schedule(dynamic, 16) num_threads(ThreadCount(num_threads))
   for (int i = 0; i < static_cast<int>(positions_.size()); ++i)

@@ -34,22 +34,21 @@ struct RelocalizeOptions {
 // The best heading for a set of predicted vertical edges (azimuth bins at
 // heading 0): the heading bin t maximising the sum over the edges of
 // hist[b - t], less 0.15 per edge (a pose that predicts edges where there
-// are none is worse). Branch and bound: a block of `block` bins scores at
-// most the sum of the histogram's maxima over the block, so only the blocks
-// whose bound reaches the best score so far are searched bin by bin; the
-// result is the exhaustive search's (block 1), the lowest bin among equals.
+// are none is worse). Every heading is scored, all at once (vector adds
+// over the histogram): faster than a branch and bound over blocks of
+// headings at the histogram's resolution, and exhaustive.
 class HeadingSearch {
  public:
-  HeadingSearch(const std::vector<float>& hist, int block);
-  // The best bin and its score; -1 (score 0) when no heading scores above 0.
+  explicit HeadingSearch(const std::vector<float>& hist);
+  // The best bin and its score (the lowest bin among equals); -1 (score 0)
+  // when no heading scores above 0.
   int Best(const std::vector<int>& edge_bins, double* score) const;
 
  private:
-  double Score(const std::vector<int>& edge_bins, const float* values, int t) const;
-  int bins_, block_;
-  // Twice over, so that bin b - t + bins needs no wrapping; block_max2_[i]
-  // is the maximum of hist over bins i - block + 1 .. i.
-  std::vector<float> hist2_, block_max2_;
+  int bins_;
+  // hist reversed, twice over: reversed2_[j] = hist[-j mod bins], so that
+  // the bins b - t of headings t = 0, 1, ... are one contiguous run.
+  std::vector<float> reversed2_;
 };
 
 struct PoseHypothesis {
