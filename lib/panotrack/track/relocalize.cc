@@ -44,7 +44,8 @@ std::vector<int> EdgeBinsAt(const Eigen::Vector2d& position, int bins, const Sen
 HeadingSearch::HeadingSearch(const std::vector<float>& hist)
     : bins_(static_cast<int>(hist.size())), reversed2_(2 * hist.size()) {
   if (bins_ < 1) throw Error("heading search: expected a histogram of >= 1 bins");
-  for (int j = 0; j < 2 * bins_; ++j) reversed2_[static_cast<size_t>(j)] = hist[static_cast<size_t>((2 * bins_ - j) % bins_)];
+  for (int j = 0; j < 2 * bins_; ++j)
+    reversed2_[static_cast<size_t>(j)] = hist[static_cast<size_t>((2 * bins_ - j) % bins_)];
 }
 
 namespace {
@@ -59,8 +60,48 @@ void SumRuns(const float* runs, const std::vector<int>& offsets, int n, double* 
   }
 }
 
+// The first t of the largest score sum[t] - penalty when above 0, with
+// that score in *best; -1 (*best 0) when none is above 0.
+int FirstBest(const double* sum, int n, double penalty, double* best) {
+  *best = 0.0;
+  int best_t = -1;
+  for (int t = 0; t < n; ++t) {
+    const double score = sum[t] - penalty;
+    if (score > *best) {
+      *best = score;
+      best_t = t;
+    }
+  }
+  return best_t;
+}
+
 #ifdef PANO_HAVE_X86_TARGETS
-// The same, 32 headings at a time held in registers across the runs.
+// The same, four scores at a time: their maximum, then the first score
+// that equals it (the one the scalar scan keeps).
+__attribute__((target("avx2"))) int FirstBestAvx2(const double* sum, int n, double penalty, double* best) {
+  const __m256d vpenalty = _mm256_set1_pd(penalty);
+  __m256d vmax = _mm256_setzero_pd();
+  int t = 0;
+  for (; t + 4 <= n; t += 4) vmax = _mm256_max_pd(vmax, _mm256_sub_pd(_mm256_loadu_pd(sum + t), vpenalty));
+  double lanes[4];
+  _mm256_storeu_pd(lanes, vmax);
+  double top = std::max(std::max(lanes[0], lanes[1]), std::max(lanes[2], lanes[3]));
+  for (; t < n; ++t) top = std::max(top, sum[t] - penalty);
+  *best = 0.0;
+  if (!(top > 0.0)) return -1;
+  *best = top;
+  const __m256d vtop = _mm256_set1_pd(top);
+  for (t = 0; t + 4 <= n; t += 4) {
+    const __m256d score = _mm256_sub_pd(_mm256_loadu_pd(sum + t), vpenalty);
+    const int mask = _mm256_movemask_pd(_mm256_cmp_pd(score, vtop, _CMP_EQ_OQ));
+    if (mask) return t + __builtin_ctz(static_cast<unsigned>(mask));
+  }
+  for (; t < n; ++t)
+    if (sum[t] - penalty == top) return t;
+  return -1;  // not reached: top is one of the scores
+}
+
+// SumRuns, 32 headings at a time held in registers across the runs.
 __attribute__((target("avx2"))) void SumRunsAvx2(const float* runs, const std::vector<int>& offsets, int n,
                                                  double* out) {
   constexpr int kLanes = 4, kRegisters = 8, kChunk = kLanes * kRegisters;
@@ -92,23 +133,15 @@ int HeadingSearch::Best(const std::vector<int>& edge_bins, double* best_score) c
   offsets.clear();
   for (int b : edge_bins) offsets.push_back(bins_ - b);
   sum.resize(static_cast<size_t>(bins_));
-#ifdef PANO_HAVE_X86_TARGETS
-  if (HaveAvx2())
-    SumRunsAvx2(reversed2_.data(), offsets, bins_, sum.data());
-  else
-#endif
-    SumRuns(reversed2_.data(), offsets, bins_, sum.data());
   const double penalty = 0.15 * edge_bins.size();
-  *best_score = 0.0;
-  int best_t = -1;
-  for (int t = 0; t < bins_; ++t) {
-    const double score = sum[static_cast<size_t>(t)] - penalty;
-    if (score > *best_score) {  // the lowest of equal headings
-      *best_score = score;
-      best_t = t;
-    }
+#ifdef PANO_HAVE_X86_TARGETS
+  if (HaveAvx2()) {
+    SumRunsAvx2(reversed2_.data(), offsets, bins_, sum.data());
+    return FirstBestAvx2(sum.data(), bins_, penalty, best_score);
   }
-  return best_t;
+#endif
+  SumRuns(reversed2_.data(), offsets, bins_, sum.data());
+  return FirstBest(sum.data(), bins_, penalty, best_score);
 }
 
 namespace {
