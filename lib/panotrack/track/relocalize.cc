@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
-#include <limits>
 #include <opencv2/imgproc.hpp>
 
 #include "panotrack/core/cpu_features.h"
