@@ -131,7 +131,9 @@ TEST_CASE("standard input that goes silent times out, and closing does not wait 
   // waits for data (else this case never ends).
   {
     StdinFeed feed(first_half, true);
-    FrameSource source("-", size_t(64) << 20, 1e6);
+    FrameSourceOptions options;
+    options.live_timeout_s = 1e6;
+    FrameSource source("-", options);
     cv::Mat grey;
     for (int i = 0; i < 3; ++i) {
       REQUIRE(source.Read(&grey));

@@ -24,7 +24,9 @@ TEST_CASE("frames held by the caller stay intact after the decoder reuses its bu
   std::vector<cv::Mat> held;
   {
     // A small prefetch queue: the decoder recycles its buffers many times.
-    FrameSource source(path, 1);
+    FrameSourceOptions options;
+    options.prefetch_bytes = 1;
+    FrameSource source(path, options);
     cv::Mat grey;
     double t;
     for (int frame = 0; source.Read(&grey, &t); ++frame) {

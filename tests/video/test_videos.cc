@@ -97,7 +97,9 @@ void ScribbleFile(const std::string& from, const std::string& to, double fractio
 ReadOutcome ReadAll(const std::string& path, double live_timeout_s) {
   ReadOutcome out;
   try {
-    FrameSource source(path, size_t(64) << 20, live_timeout_s);
+    FrameSourceOptions options;
+    options.live_timeout_s = live_timeout_s;
+    FrameSource source(path, options);
     out.frame_count = source.frame_count();
     cv::Mat grey;
     double t;

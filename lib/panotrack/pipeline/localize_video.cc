@@ -12,6 +12,7 @@
 #include <utility>
 
 #include "panotrack/core/error.h"
+#include "panotrack/core/thread_priority.h"
 #include "panotrack/io/pose_csv.h"
 #include "panotrack/io/tum.h"
 #include "panotrack/pipeline/debug_draw.h"
@@ -155,6 +156,14 @@ std::optional<OdometryIncrement> OdometryBetween(const std::vector<OdometrySampl
   return Between(samples, std::clamp(t0, first, last), std::clamp(t1, first, last), options);
 }
 
+// The tracker's priority while it keeps up with decoding: idle when no
+// decoded frame waits, normal from this many waiting frames on (at most half
+// the prefetch queue, so that decoding never stops for a full queue while
+// the tracker is idle). The backlog absorbs the tracker's costly frames
+// (relocalisation); it also bounds what is left to track when decoding ends.
+constexpr int kIdleWhileWaiting = 0;
+constexpr int kNormalFromWaiting = 32;
+
 // The per-frame loop; fills the counts of `sum` and returns the rows that
 // the plot and the accuracy summary need (the smoothed CSV's in
 // `smoothed_rows`, when the job asks for one and its accuracy): none when
@@ -185,6 +194,11 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
   const bool keep_std = !job.plot.empty();  // the plot draws the standard deviations
   double previous_time = 0.0;
   cv::Mat decoded, resized;
+  std::optional<LagPriority> priority;
+  if (opt.track_in_decoding_gaps && !FrameSource::IsLive(job.input)) {
+    if (opt.localizer.num_threads != 1) throw Error("track_in_decoding_gaps: expects localizer.num_threads 1");
+    priority.emplace(kIdleWhileWaiting, std::min(kNormalFromWaiting, source->prefetch_frames() / 2));
+  }
   sum->end = VideoEnd::kDone;
   for (int frame = 0;; ++frame) {
     if (opt.cancel && opt.cancel->load()) {
@@ -199,6 +213,7 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
       sum->error = "decode error at frame " + std::to_string(frame) + ": " + e.what();
       break;
     }
+    if (priority) priority->Update(source->frames_waiting());
     const cv::Size tracked = TrackedSize(decoded.cols, decoded.rows, opt.scale);
     if (tracked.width != s.image_width || tracked.height != s.image_height) {
       sum->end = VideoEnd::kIncomplete;
@@ -257,7 +272,9 @@ void LocalizeInto(const VideoJob& job, const SharedResources& res, const VideoRu
                   VideoSummary* sum) {
   std::vector<PoseRow> gt;
   if (!job.gt.empty()) gt = ReadPoseCsv(job.gt);
-  FrameSource source(job.input);
+  FrameSourceOptions source_options;
+  source_options.decoder_threads = opt.decoder_threads;
+  FrameSource source(job.input, source_options);
   const Sensor& s = res.calib.sensor;
   const cv::Size tracked = TrackedSize(source.width(), source.height(), opt.scale);
   if (tracked.width != s.image_width || tracked.height != s.image_height)

@@ -64,6 +64,14 @@ struct SharedResources {
 // How each input is processed.
 struct VideoRunOptions {
   LocalizerOptions localizer;  // num_threads: threads of the per-frame loops
+  // FFmpeg's decoding threads per input; 0: FFmpeg's choice (a thread per
+  // core, and one more).
+  int decoder_threads = 0;
+  // Inputs other than live ones are tracked at idle priority while the
+  // tracker keeps up with decoding (core/thread_priority.h): decoding, the
+  // slower of the two, keeps the cores, and tracking fills the gaps that
+  // its threads leave. Needs localizer.num_threads == 1.
+  bool track_in_decoding_gaps = false;
   // > 0: time_s = frame / fps, for inputs without timestamps; 0: the input's
   // timestamps, else frame / its frame rate, else frame / 10.
   double fps = 0.0;

@@ -289,6 +289,12 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
   // a decoding thread of its own: leave it a core, since OpenMP's spinning
   // barriers collapse when the cores are oversubscribed.
   if (run.localizer.num_threads == 0) run.localizer.num_threads = std::max(1, threads / n_jobs - 1);
+  // FFmpeg's frame threads: as many as the input's share of the cores (one
+  // more, FFmpeg's choice, makes them wait on each other: 12 % slower on
+  // 2 cores). Where the tracker has a single thread it runs in the gaps
+  // that decoding leaves.
+  run.decoder_threads = std::max(1, threads / n_jobs);
+  run.track_in_decoding_gaps = run.localizer.num_threads == 1;
   // The E(D,Z) table (from the cache, or built) and one set of PH tables for
   // every input (they depend on the sensor and the map's edge heights only),
   // made while the inputs open and start decoding (LocalizeVideo waits).

@@ -82,7 +82,7 @@ std::string DecodeError(const std::string& name, long frame, const std::string& 
 }
 }  // namespace
 
-FrameSource::FrameSource(const std::string& path, size_t prefetch_bytes, double live_timeout_s)
+FrameSource::FrameSource(const std::string& path, const FrameSourceOptions& options)
     : path_(path), name_(InputName(path)), capacity_(8) {
   UseDefaultDecoderLogging();
   std::error_code ec;
@@ -99,7 +99,7 @@ FrameSource::FrameSource(const std::string& path, size_t prefetch_bytes, double 
     if (files_.empty()) throw Error(path + ": no images match this pattern");
     count_ = static_cast<int>(files_.size());
   } else {
-    OpenVideo(live_timeout_s);
+    OpenVideo(options.live_timeout_s, options.decoder_threads);
   }
   if (!ReadDirect(&first_) || first_.image.empty())
     throw Error(name_ + ": no frames (empty or corrupt input)");
@@ -114,18 +114,18 @@ FrameSource::FrameSource(const std::string& path, size_t prefetch_bytes, double 
   width_ = grey.cols;
   height_ = grey.rows;
   capacity_ =
-      static_cast<int>(std::clamp<size_t>(prefetch_bytes / std::max<size_t>(frame_bytes, 1), 8, 4096));
+      static_cast<int>(std::clamp<size_t>(options.prefetch_bytes / std::max<size_t>(frame_bytes, 1), 8, 4096));
   if (!(fps_ > 0.0 && fps_ < 1e4)) fps_ = 0.0;
   worker_ = std::thread([this] { Decode(); });
 }
 
-void FrameSource::OpenVideo(double live_timeout_s) {
+void FrameSource::OpenVideo(double live_timeout_s, int decoder_threads) {
   const bool live = IsLive(path_);
   std::error_code ec;
   if (!live && !fs::exists(path_, ec)) throw Error(path_ + ": no such file");
   luma_ = std::make_unique<LumaDecoder>();
   std::string why;
-  if (luma_->Open(path_, &why, live ? live_timeout_s : 0.0)) {
+  if (luma_->Open(path_, &why, live ? live_timeout_s : 0.0, decoder_threads)) {
     fps_ = luma_->fps();
     if (!live) count_ = static_cast<int>(luma_->frame_count());
     return;
@@ -264,6 +264,11 @@ void FrameSource::Decode() {
     queue_.push_back(std::move(frame));
     cv_.notify_all();
   }
+}
+
+int FrameSource::frames_waiting() {
+  std::lock_guard<std::mutex> lock(mu_);
+  return static_cast<int>(queue_.size());
 }
 
 bool FrameSource::Read(cv::Mat* grey) {

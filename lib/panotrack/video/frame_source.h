@@ -30,15 +30,23 @@
 
 namespace pano {
 
+struct FrameSourceOptions {
+  // Decoding runs ahead by up to this many bytes of frames (at least 8
+  // frames), so that it goes on while the tracker starts up.
+  size_t prefetch_bytes = size_t(64) << 20;
+  // A stream (IsLive) that delivers no data for this long fails with "no
+  // data for ... s", at opening or later.
+  double live_timeout_s = 10.0;
+  // FFmpeg's decoding threads for videos and streams; 0: FFmpeg's choice
+  // (a thread per core, and one more).
+  int decoder_threads = 0;
+};
+
 class FrameSource {
  public:
   // Opens the input and reads its first frame; throws pano::Error naming the
-  // input when it cannot be opened or holds no frame. Decoding runs ahead by
-  // up to `prefetch_bytes` of frames (at least 8), so that it goes on while
-  // the tracker starts up. A stream (IsLive) that delivers no data for
-  // `live_timeout_s` fails with "no data for ... s", at opening or later.
-  explicit FrameSource(const std::string& path, size_t prefetch_bytes = size_t(64) << 20,
-                       double live_timeout_s = 10.0);
+  // input when it cannot be opened or holds no frame.
+  explicit FrameSource(const std::string& path, const FrameSourceOptions& options = {});
   ~FrameSource();
   FrameSource(const FrameSource&) = delete;
   FrameSource& operator=(const FrameSource&) = delete;
@@ -67,13 +75,16 @@ class FrameSource {
   int height() const { return height_; }
   double fps() const { return fps_; }         // 0 when unknown (image folders)
   int frame_count() const { return count_; }  // -1 when unknown (and for live inputs)
+  // Frames decoded and waiting for Read(): how far the consumer lags.
+  int frames_waiting();
+  int prefetch_frames() const { return capacity_; }  // the most that wait
 
  private:
   struct Frame {
     cv::Mat image;  // as decoded
     double time_s;
   };
-  void OpenVideo(double live_timeout_s);
+  void OpenVideo(double live_timeout_s, int decoder_threads);
   void OpenCamera();
   bool ReadDirect(Frame* frame);  // the next frame as decoded
   bool ReadCapture(Frame* frame);

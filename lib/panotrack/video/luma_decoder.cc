@@ -15,6 +15,7 @@ extern "C" {
 #include <unistd.h>
 #endif
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <cmath>
@@ -311,7 +312,7 @@ bool LumaDecoderAvailable() { return true; }
 LumaDecoder::LumaDecoder() = default;
 LumaDecoder::~LumaDecoder() = default;
 
-bool LumaDecoder::Open(const std::string& path, std::string* reason, double io_timeout_s) {
+bool LumaDecoder::Open(const std::string& path, std::string* reason, double io_timeout_s, int num_threads) {
   UseDefaultDecoderLogging();
   static std::once_flag network_once;
   std::call_once(network_once, [] { avformat_network_init(); });
@@ -362,7 +363,7 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, double io_t
     *reason = "cannot set up the decoder";
     return false;
   }
-  d.codec->thread_count = 0;  // FFmpeg's choice, as OpenCV's capture does
+  d.codec->thread_count = std::max(0, num_threads);
   if (avcodec_open2(d.codec, decoder, nullptr) < 0) {
     *reason = "cannot open the decoder";
     return false;
@@ -412,7 +413,7 @@ struct LumaDecoder::Impl {};
 bool LumaDecoderAvailable() { return false; }
 LumaDecoder::LumaDecoder() = default;
 LumaDecoder::~LumaDecoder() = default;
-bool LumaDecoder::Open(const std::string&, std::string* reason, double) {
+bool LumaDecoder::Open(const std::string&, std::string* reason, double, int) {
   *reason = "built without FFmpeg";
   return false;
 }

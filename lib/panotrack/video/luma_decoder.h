@@ -35,7 +35,9 @@ class LumaDecoder {
   // container_opened() the caller can fall back to cv::VideoCapture. "-" is
   // standard input. With io_timeout_s > 0 (streams), opening and every wait
   // for data give up after that long instead of blocking for ever.
-  bool Open(const std::string& path, std::string* reason, double io_timeout_s = 0.0);
+  // `num_threads`: FFmpeg's decoding threads; 0: FFmpeg's choice (a thread
+  // per core, and one more).
+  bool Open(const std::string& path, std::string* reason, double io_timeout_s = 0.0, int num_threads = 0);
   // Next frame's luma as CV_8UC1 and, when time_s is given, its presentation
   // time in seconds from the first frame's; false at the clean end (or after
   // Abort()). Throws pano::Error as above. Not a copy: *grey shares the
