@@ -119,6 +119,17 @@ bool SampleLine(const cv::Mat& grey, const Eigen::Vector2d& start, const Eigen::
 
 namespace {
 
+// std::lround of a finite value well inside int's range, inline: the
+// baseline x86-64 has no rounding instruction, so std::lround is a library
+// call. Halves round away from zero, as std::lround's.
+inline int RoundToInt(double x) {
+  int r = static_cast<int>(x);  // towards zero
+  const double fraction = x - r;  // exact
+  if (fraction >= 0.5) ++r;
+  else if (fraction <= -0.5) --r;
+  return r;
+}
+
 float MeanOf(const float* p, int n, int a, int b) {
   a = std::clamp(a, 0, n - 1);
   b = std::clamp(b, 0, n - 1);
@@ -217,7 +228,7 @@ bool FindStep(const float* p, int n, int polarity, int baseline, double min_step
     if (!(sgn * (right - left) > 0.5 * min_step)) return false;
     // The ramp's extent: where the normalised profile leaves 0 and 1
     // (allowing for noise), plus the optics' tails.
-    const int c = static_cast<int>(std::lround(loc));
+    const int c = RoundToInt(loc);
     if (c < w + 4 || c > n - 1 - w - 4) return false;
     const float inv = 1.0f / (right - left);
     int a = c, b = c;

@@ -182,13 +182,21 @@ std::vector<PredictedLandmark> PredictLandmarks(const std::vector<Landmark>& lan
                                                 const Map& map, const Scene& scene,
                                                 const Sensor& sensor, const RadiusTable& table,
                                                 const Pose2& pose, const PredictionOptions& opt) {
+  return PredictLandmarks(landmarks, map, scene, sensor, table, pose, opt, nullptr);
+}
+
+std::vector<PredictedLandmark> PredictLandmarks(const std::vector<Landmark>& landmarks,
+                                                const Map& map, const Scene& scene,
+                                                const Sensor& sensor, const RadiusTable& table,
+                                                const Pose2& pose, const PredictionOptions& opt,
+                                                const WantedLandmark& wanted) {
   std::vector<PredictedLandmark> out;
   out.reserve(landmarks.size());
   const PredictionContext ctx(map, sensor, pose, opt);
   for (size_t idx = 0; idx < landmarks.size(); ++idx) {
     PredictedLandmark p;
     if (PredictGeometry(landmarks[idx], static_cast<int>(idx), map, sensor, table, pose, opt, ctx, &p) &&
-        PredictVisibility(scene, opt, ctx.eye, &p))
+        (!wanted || wanted(p, out)) && PredictVisibility(scene, opt, ctx.eye, &p))
       out.push_back(p);
   }
   return out;

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -96,6 +97,16 @@ std::vector<PredictedLandmark> PredictLandmarks(const std::vector<Landmark>& lan
                                                 const Map& map, const Scene& scene,
                                                 const Sensor& sensor, const RadiusTable& table,
                                                 const Pose2& pose, const PredictionOptions& opt);
+// The same, for the landmarks that `wanted` accepts, given their geometry
+// and the landmarks predicted before them: the others are left out before
+// the scene's ray casts (most of the cost).
+using WantedLandmark =
+    std::function<bool(const PredictedLandmark& candidate, const std::vector<PredictedLandmark>& predicted)>;
+std::vector<PredictedLandmark> PredictLandmarks(const std::vector<Landmark>& landmarks,
+                                                const Map& map, const Scene& scene,
+                                                const Sensor& sensor, const RadiusTable& table,
+                                                const Pose2& pose, const PredictionOptions& opt,
+                                                const WantedLandmark& wanted);
 
 // Sets each predicted landmark's image motion (tangential_motion_px,
 // radial_motion_px) for a camera that moved from `previous` to the pose the

@@ -27,14 +27,21 @@ namespace {
 std::vector<int> EdgeBinsAt(const Eigen::Vector2d& position, int bins, const Sensor& sensor,
                             const RadiusTable& table, const Map& map, const Scene& scene,
                             const std::vector<Landmark>& landmarks, const PredictionOptions& prediction) {
-  const std::vector<PredictedLandmark> pred =
-      PredictLandmarks(landmarks, map, scene, sensor, table, Pose2{position.x(), position.y(), 0.0}, prediction);
+  auto bin_of = [bins](const PredictedLandmark& p) {
+    const int b = static_cast<int>(std::floor((p.azimuth + M_PI) / (2 * M_PI) * bins));
+    return (b % bins + bins) % bins;
+  };
+  // A landmark on an edge already seen (its rectangle's other corner) adds
+  // nothing: it is left out before the ray casts that would check it.
+  auto on_new_edge = [&](const PredictedLandmark& candidate, const std::vector<PredictedLandmark>& predicted) {
+    const int b = bin_of(candidate);
+    return std::none_of(predicted.begin(), predicted.end(),
+                        [&](const PredictedLandmark& p) { return bin_of(p) == b; });
+  };
   std::vector<int> edge_bins;
-  for (const PredictedLandmark& p : pred) {
-    int b = static_cast<int>(std::floor((p.azimuth + M_PI) / (2 * M_PI) * bins));
-    b = (b % bins + bins) % bins;
-    if (std::find(edge_bins.begin(), edge_bins.end(), b) == edge_bins.end()) edge_bins.push_back(b);
-  }
+  for (const PredictedLandmark& p : PredictLandmarks(landmarks, map, scene, sensor, table,
+                                                     Pose2{position.x(), position.y(), 0.0}, prediction, on_new_edge))
+    edge_bins.push_back(bin_of(p));
   return edge_bins;
 }
 
