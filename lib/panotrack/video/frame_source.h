@@ -32,8 +32,11 @@ namespace pano {
 
 struct FrameSourceOptions {
   // Decoding runs ahead by up to this many bytes of frames (at least 8
-  // frames), so that it goes on while the tracker starts up.
-  size_t prefetch_bytes = size_t(64) << 20;
+  // frames), so that it goes on while the tracker starts up or works
+  // through a costly frame. Also the bound on the memory that frames
+  // waiting take, which a long run reaches sooner or later: 16 MiB (64
+  // frames of 500 x 500) absorbs a relocalisation as well as 64 MiB did.
+  size_t prefetch_bytes = size_t(16) << 20;
   // A stream (IsLive) that delivers no data for this long fails with "no
   // data for ... s", at opening or later.
   double live_timeout_s = 10.0;
