@@ -3,6 +3,7 @@
 // good ones, and time_s from the input's timestamps.
 #include <catch2/catch.hpp>
 #include <omp.h>
+#include <sched.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -11,6 +12,8 @@
 #include <mutex>
 
 #include "panotrack/core/error.h"
+#include "panotrack/io/calibration.h"
+#include "panotrack/io/map.h"
 #include "panotrack/io/pose_csv.h"
 #include "panotrack/pipeline/panoloc.h"
 #include "pipeline_fixture.h"
@@ -162,6 +165,38 @@ TEST_CASE("thread counts are options: the caller's OpenMP setting is left alone"
   REQUIRE(s.size() == 1);
   CHECK(s[0].ok);
   CHECK(after == 37);
+}
+
+TEST_CASE("tracking in the decoder's gaps: the same rows, the thread's normal priority back afterwards",
+          "[threads]") {
+  const test::SmallCase& c = test::GetSmallCase();
+  const std::string dir = Scratch("pipeline_gaps");
+  SharedResources res;
+  res.calib = ReadCalibration(c.calib);
+  res.calib_path = c.calib;
+  res.map = ReadMap(c.map);
+  res.table = TableForMap(res.calib, res.map, true);
+  VideoJob job;
+  job.input = c.video;
+  job.init = c.init;
+  VideoRunOptions run;
+  run.localizer.num_threads = 1;
+  run.decoder_threads = 2;
+  job.output = dir + "/normal.csv";
+  const VideoSummary normal = LocalizeVideo(job, res, run);
+  run.track_in_decoding_gaps = true;
+  job.output = dir + "/gaps.csv";
+  const VideoSummary gaps = LocalizeVideo(job, res, run);
+  INFO(normal.error << gaps.error);
+  REQUIRE(normal.ok);
+  REQUIRE(gaps.ok);
+  CHECK(gaps.n_ok == normal.n_ok);
+  CHECK(test::ReadText(dir + "/gaps.csv") == test::ReadText(dir + "/normal.csv"));
+  CHECK(sched_getscheduler(0) == SCHED_OTHER);
+  // More than one thread per frame is refused: threads it started while idle
+  // would keep the idle priority.
+  run.localizer.num_threads = 2;
+  CHECK_FALSE(LocalizeVideo(job, res, run).ok);
 }
 
 TEST_CASE("an input whose folder cannot be read fails alone; the others are done", "[bad_folder]") {
