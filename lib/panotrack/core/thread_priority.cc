@@ -31,7 +31,7 @@ void LagPriority::Update(int waiting) {
   else if (idle_ && waiting >= normal_from_) Switch(false);
 }
 
-bool LagPriority::Switch(bool to_idle) {
+void LagPriority::Switch([[maybe_unused]] bool to_idle) {
 #ifdef __linux__
   // Back from SCHED_IDLE to SCHED_OTHER at the same nice value needs no
   // privilege (sched(7)).
@@ -39,12 +39,10 @@ bool LagPriority::Switch(bool to_idle) {
   if (sched_setscheduler(static_cast<pid_t>(thread_), to_idle ? SCHED_IDLE : SCHED_OTHER, &param) == 0) {
     idle_ = to_idle;
     ++switches_;
-    return true;
+  } else if (to_idle) {
+    thread_ = 0;  // refused (a sandbox's seccomp filter): stay at the normal priority
   }
-  if (!to_idle) return false;
-  thread_ = 0;  // refused (a sandbox's seccomp filter): stay at the normal priority
 #endif
-  return false;
 }
 
 }  // namespace pano

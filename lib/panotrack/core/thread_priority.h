@@ -30,7 +30,7 @@ class LagPriority {
   int switches() const { return switches_; }  // to idle and back, counted each
 
  private:
-  bool Switch(bool to_idle);
+  void Switch(bool to_idle);
   int idle_at_most_, normal_from_;
   long thread_ = 0;  // the consumer's thread id; 0: priority left alone
   bool idle_ = false;

@@ -22,15 +22,18 @@ void RelocalizeOptions::Check() const {
 
 namespace {
 
+// The histogram bin of an image azimuth in (-pi, pi].
+int AzimuthBin(double azimuth, int bins) {
+  const int b = static_cast<int>(std::floor((azimuth + M_PI) / (2 * M_PI) * bins));
+  return (b % bins + bins) % bins;
+}
+
 // The distinct vertical edges seen from a position (a rectangle's two
 // corners share one), as azimuth bins at heading 0.
 std::vector<int> EdgeBinsAt(const Eigen::Vector2d& position, int bins, const Sensor& sensor,
                             const RadiusTable& table, const Map& map, const Scene& scene,
                             const std::vector<Landmark>& landmarks, const PredictionOptions& prediction) {
-  auto bin_of = [bins](const PredictedLandmark& p) {
-    const int b = static_cast<int>(std::floor((p.azimuth + M_PI) / (2 * M_PI) * bins));
-    return (b % bins + bins) % bins;
-  };
+  auto bin_of = [bins](const PredictedLandmark& p) { return AzimuthBin(p.azimuth, bins); };
   // A landmark on an edge already seen (its rectangle's other corner) adds
   // nothing: it is left out before the ray casts that would check it.
   auto on_new_edge = [&](const PredictedLandmark& candidate, const std::vector<PredictedLandmark>& predicted) {
@@ -177,8 +180,7 @@ RelocalizationIndex::RelocalizationIndex(const Sensor& sensor, const RadiusTable
       double r, az;
       sensor.to_polar(u, v, &r, &az);
       if (r < 0.3 * limb || r > 0.97 * limb) continue;
-      const int b = static_cast<int>(std::floor((az + M_PI) / (2 * M_PI) * bins));
-      pixels_.push_back({v * cols_ + u, v, (b % bins + bins) % bins, static_cast<float>(std::cos(az)),
+      pixels_.push_back({v * cols_ + u, v, AzimuthBin(az, bins), static_cast<float>(std::cos(az)),
                          static_cast<float>(std::sin(az))});
     }
   Eigen::Vector2d lo, hi;
