@@ -2,8 +2,10 @@
 #include <catch2/catch.hpp>
 
 #include <thread>
+#include <vector>
 
 #include "panotrack/core/error.h"
+#include "panotrack/core/parallel.h"
 #include "panotrack/core/thread_priority.h"
 #include "test_skip.h"
 
@@ -86,6 +88,39 @@ TEST_CASE("lag_priority: a policy set by the user is left alone; bad thresholds 
     }
     CHECK(Policy() == SCHED_BATCH);
   });
+#endif
+}
+
+TEST_CASE("worker threads: started before the caller goes idle, they keep its normal priority",
+          "[worker_threads]") {
+#if !defined(__linux__) || !defined(_OPENMP)
+  return test::Skip("scheduling policies are Linux's; worker threads OpenMP's");
+#else
+  // The policy of each thread of a two-thread loop run while the caller is idle.
+  auto loop_policies = [] {
+    std::vector<int> policy(2, -1);
+#pragma omp parallel num_threads(2)
+    policy[static_cast<size_t>(omp_get_thread_num())] = Policy();
+    return policy;
+  };
+  bool refused = false;
+  std::vector<int> started_idle, started_before;
+  OnOwnThread([&] {
+    LagPriority priority(0, 4);
+    priority.Update(0);
+    refused = !priority.idle();
+    started_idle = loop_policies();  // OpenMP starts its worker here
+  });
+  if (refused) return test::Skip("this system refuses SCHED_IDLE");
+  OnOwnThread([&] {
+    StartWorkerThreads(2);
+    LagPriority priority(0, 4);
+    priority.Update(0);
+    started_before = loop_policies();
+  });
+  // Why StartWorkerThreads exists: a worker started by an idle thread stays idle.
+  CHECK(started_idle == std::vector<int>{SCHED_IDLE, SCHED_IDLE});
+  CHECK(started_before == std::vector<int>{SCHED_IDLE, SCHED_OTHER});
 #endif
 }
 

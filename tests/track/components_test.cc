@@ -325,7 +325,7 @@ void CheckSameRows(const std::vector<PoseRow>& a, const std::vector<PoseRow>& b)
   }
 }
 
-TEST_CASE("localiser threads: identical trajectories for 1, 2 and 4 threads, through a kidnapping",
+TEST_CASE("localiser threads: identical trajectories for 1, 2 and 4 threads (and a search on 3), through a kidnapping",
           "[threads]") {
   // Frames 27..36 of the kidnap preset: tracking, the jump at frame 30
   // (relocalised at once), tracking again: every parallel loop of the localiser.
@@ -348,9 +348,16 @@ TEST_CASE("localiser threads: identical trajectories for 1, 2 and 4 threads, thr
       opt.num_threads = threads;
       CheckSameRows(one, test::Localize(r, opt, r.c.poses[27]));
     }
+    // Frames tracked on one thread, the room-wide search on three.
+    opt.num_threads = 1;
+    opt.search_threads = 3;
+    CheckSameRows(one, test::Localize(r, opt, r.c.poses[27]));
   }
   LocalizerOptions bad;
   bad.num_threads = -1;
+  CHECK_THROWS_AS(Localizer(r.c.calib, r.c.map, r.table, bad), Error);
+  bad.num_threads = 1;
+  bad.search_threads = -1;
   CHECK_THROWS_AS(Localizer(r.c.calib, r.c.map, r.table, bad), Error);
 }
 

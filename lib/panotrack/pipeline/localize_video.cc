@@ -12,6 +12,7 @@
 #include <utility>
 
 #include "panotrack/core/error.h"
+#include "panotrack/core/parallel.h"
 #include "panotrack/core/thread_priority.h"
 #include "panotrack/io/pose_csv.h"
 #include "panotrack/io/tum.h"
@@ -197,6 +198,8 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
   std::optional<LagPriority> priority;
   if (opt.track_in_decoding_gaps && !FrameSource::IsLive(job.input)) {
     if (opt.localizer.num_threads != 1) throw Error("track_in_decoding_gaps: expects localizer.num_threads 1");
+    // The room-wide search's threads keep this thread's normal priority.
+    StartWorkerThreads(ThreadCount(opt.localizer.search_threads > 0 ? opt.localizer.search_threads : 1));
     priority.emplace(kIdleWhileWaiting, std::min(kNormalFromWaiting, source->prefetch_frames() / 2));
   }
   sum->end = VideoEnd::kDone;

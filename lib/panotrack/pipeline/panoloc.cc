@@ -294,6 +294,9 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
   // 2 cores). Where the tracker has a single thread it runs in the gaps
   // that decoding leaves.
   run.decoder_threads = std::max(1, threads / n_jobs);
+  // A room-wide search holds up its input's frames (the decoder stops once
+  // its queue is full): it takes the input's whole share of the cores.
+  if (run.localizer.search_threads == 0) run.localizer.search_threads = std::max(1, threads / n_jobs);
   run.track_in_decoding_gaps = run.localizer.num_threads == 1;
   // The E(D,Z) table (from the cache, or built) and one set of PH tables for
   // every input (they depend on the sensor and the map's edge heights only),

@@ -35,6 +35,7 @@ void LocalizerOptions::Check() const {
   if (relocalize_after < 0 || relocalize_min_landmarks < 3)
     throw Error("localiser: relocalize_after >= 0 and relocalize_min_landmarks >= 3 expected");
   if (num_threads < 0) throw Error("localiser: num_threads: expected 0 (all cores) or more");
+  if (search_threads < 0) throw Error("localiser: search_threads: expected 0 (num_threads) or more");
   if (!(relocalize_unseen_fraction >= 0 && relocalize_unseen_fraction <= 1))
     throw Error("localiser: relocalize_unseen_fraction: expected 0..1");
   if (relocalize_max_interval < 1) throw Error("localiser: relocalize_max_interval: expected >= 1");
@@ -273,7 +274,8 @@ void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, c
       add_rest();
   }
   std::vector<LandmarkMeasurement> meas(ordered.size());
-  const int threads = ThreadCount(opt_.num_threads);
+  // Inside a parallel search each hypothesis is measured on its own thread.
+  const int threads = InParallelRegion() ? 1 : ThreadCount(opt_.num_threads);
   auto measure = [&](int begin, int end) {
     // Landmarks are independent: track them in parallel.
     std::vector<std::exception_ptr> errors(static_cast<size_t>(end - begin));
@@ -394,11 +396,11 @@ bool Localizer::Relocalize(const cv::Mat& grey, FrameResult* fr, TriangulationRe
   if (!relocalization_index_) {
     const auto build = [this] {
       return std::make_unique<const RelocalizationIndex>(calib_.sensor, *table_, map_, scene_, landmarks_,
-                                                         opt_.prediction, opt_.relocalize, opt_.num_threads);
+                                                         opt_.prediction, opt_.relocalize, SearchThreads());
     };
     relocalization_index_ = shared_index_ ? shared_index_->Get(build) : build();
   }
-  const std::vector<PoseHypothesis> hyps = relocalization_index_->Hypotheses(grey, opt_.num_threads);
+  const std::vector<PoseHypothesis> hyps = relocalization_index_->Hypotheses(grey, SearchThreads());
   // With the map's polarities, then (while the images have not confirmed
   // them) with either.
   return RelocalizeWith(hyps, false, fr, tri) || (EitherFallbackUseful() && RelocalizeWith(hyps, true, fr, tri));
@@ -414,16 +416,23 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
     FrameResult fr;
     TriangulationResult tri;
   };
+  // Each hypothesis tracked on its own (in parallel), kept in their order.
+  std::vector<std::optional<Verified>> tracked(hyps.size());
+  ParallelFor(
+      static_cast<int>(hyps.size()),
+      [&](int i) {
+        Verified v;
+        // The normal search first: a wide one invites wrong edges.
+        const Pose2& pose = hyps[static_cast<size_t>(i)].pose;
+        if (!TrackFrom(pose, opt_.search_px, &v.fr, &v.tri, either) &&
+            !TrackFrom(pose, opt_.max_search_px, &v.fr, &v.tri, either))
+          return;
+        if (EnoughForRelocalized(v.fr, v.tri)) tracked[static_cast<size_t>(i)] = std::move(v);
+      },
+      true, SearchThreads());
   std::vector<Verified> verified;
-  for (const PoseHypothesis& h : hyps) {
-    Verified v;
-    // The normal search first: a wide one invites wrong edges.
-    if (!TrackFrom(h.pose, opt_.search_px, &v.fr, &v.tri, either) &&
-        !TrackFrom(h.pose, opt_.max_search_px, &v.fr, &v.tri, either))
-      continue;
-    if (!EnoughForRelocalized(v.fr, v.tri)) continue;
-    verified.push_back(std::move(v));
-  }
+  for (std::optional<Verified>& v : tracked)
+    if (v) verified.push_back(std::move(*v));
   if (verified.empty()) return false;
   auto count = [](const Verified& v) { return static_cast<int>(v.tri.inliers.size()); };
   const auto best = std::max_element(verified.begin(), verified.end(),
@@ -760,6 +769,10 @@ double Localizer::ChosenLandmarks(const FrameResult& fr) const {
   // More are tracked when few of the chosen ones are found.
   return static_cast<double>(opt_.max_landmarks > 0 ? std::min<size_t>(fr.predicted.size(), opt_.max_landmarks)
                                                      : fr.predicted.size());
+}
+
+int Localizer::SearchThreads() const {
+  return ThreadCount(opt_.search_threads > 0 ? opt_.search_threads : opt_.num_threads);
 }
 
 int Localizer::BackedOffRelocalizeFrame(int frame) const {

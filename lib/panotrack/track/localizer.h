@@ -151,6 +151,11 @@ struct LocalizerOptions {
   // cores unless OMP_NUM_THREADS says otherwise). Set per localiser, never
   // process-wide; the results do not depend on it.
   int num_threads = 0;
+  // Threads of the room-wide search (its index, and the hypotheses it
+  // verifies, each one tracked on a thread of its own); 0: num_threads.
+  // Searches are rare and long: where the frames are tracked on one thread,
+  // a search may still use the cores the decoder leaves it.
+  int search_threads = 0;
   // Edge polarities learned from the images (where the map's shade is
   // unknown or the images contradict it): a sign is learned after this many
   // tracked frames in a row show it; one not found in polarity_forget_misses
@@ -336,6 +341,7 @@ class Localizer {
   double ChosenLandmarks(const FrameResult& fr) const;
   // the frame before which no room-wide search runs after the recent failures;
   int BackedOffRelocalizeFrame(int frame) const;
+  int SearchThreads() const;  // of the room-wide search
   // whether a relocalised pose has the inliers a room-wide search requires;
   bool EnoughForRelocalized(const FrameResult& fr, const TriangulationResult& tri) const;
   // tracking restarts from a relocalised pose that the next frame must confirm;
