@@ -146,8 +146,8 @@ struct LocalizerOptions {
   double unknown_turn_per_frame = 12.0 * M_PI / 180;
   double lost_search_growth = 1.5;  // search widens by this after a lost frame
   double max_search_px = 20.0;
-  // Threads of the per-frame parallel loops (landmarks, relocalisation
-  // hypotheses, the PH tables of its own cache); 0: OpenMP's default (all
+  // Threads of the per-frame parallel loops (landmarks, the PH tables of
+  // its own cache); 0: OpenMP's default (all
   // cores unless OMP_NUM_THREADS says otherwise). Set per localiser, never
   // process-wide; the results do not depend on it.
   int num_threads = 0;
