@@ -147,9 +147,9 @@ struct LocalizerOptions {
   double lost_search_growth = 1.5;  // search widens by this after a lost frame
   double max_search_px = 20.0;
   // Threads of the per-frame parallel loops (landmarks, the PH tables of
-  // its own cache); 0: OpenMP's default (all
-  // cores unless OMP_NUM_THREADS says otherwise). Set per localiser, never
-  // process-wide; the results do not depend on it.
+  // its own cache); 0: OpenMP's default (all cores unless OMP_NUM_THREADS
+  // says otherwise). Set per localiser, never process-wide; the results do
+  // not depend on it.
   int num_threads = 0;
   // Threads of the room-wide search (its index, and the hypotheses it
   // verifies, each one tracked on a thread of its own); 0: num_threads.
