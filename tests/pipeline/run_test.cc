@@ -10,6 +10,8 @@
 #include <filesystem>
 #include <fstream>
 #include <mutex>
+#include <thread>
+#include <vector>
 
 #include "panotrack/core/error.h"
 #include "panotrack/io/calibration.h"
@@ -197,6 +199,43 @@ TEST_CASE("tracking in the decoder's gaps: the same rows, the thread's normal pr
   // would keep the idle priority.
   run.localizer.num_threads = 2;
   CHECK_FALSE(LocalizeVideo(job, res, run).ok);
+}
+
+TEST_CASE("tracking in the decoder's gaps: a room-wide search on two threads, the same rows, no thread left idle",
+          "[threads]") {
+  const test::SmallCase& c = test::GetSmallCase();
+  const std::string dir = Scratch("pipeline_gaps_search");
+  SharedResources res;
+  res.calib = ReadCalibration(c.calib);
+  res.calib_path = c.calib;
+  res.map = ReadMap(c.map);
+  res.table = TableForMap(res.calib, res.map, true);
+  VideoJob job;
+  job.input = c.video;  // no start pose: the first frame is searched for
+  VideoRunOptions run;
+  run.localizer.num_threads = 1;
+  run.decoder_threads = 2;
+  job.output = dir + "/serial.csv";
+  const VideoSummary serial = LocalizeVideo(job, res, run);
+  // On a thread of its own: OpenMP's workers for it start during the run.
+  run.track_in_decoding_gaps = true;
+  run.localizer.search_threads = 2;
+  job.output = dir + "/gaps.csv";
+  VideoSummary gaps;
+  std::vector<int> idle_threads;
+  std::thread t([&] {
+    gaps = LocalizeVideo(job, res, run);
+    for (const auto& task : fs::directory_iterator("/proc/self/task")) {
+      const int tid = std::stoi(task.path().filename().string());
+      if (sched_getscheduler(tid) == SCHED_IDLE) idle_threads.push_back(tid);
+    }
+  });
+  t.join();
+  INFO(serial.error << gaps.error);
+  REQUIRE(serial.ok);
+  REQUIRE(gaps.ok);
+  CHECK(test::ReadText(dir + "/gaps.csv") == test::ReadText(dir + "/serial.csv"));
+  CHECK(idle_threads.empty());
 }
 
 TEST_CASE("an input whose folder cannot be read fails alone; the others are done", "[bad_folder]") {
