@@ -10,7 +10,10 @@
 #           pose) in one panoloc run with --jobs 2;
 #   hard    the long-run preset: 3000 frames, turns up to 10 degrees per
 #           frame, two kidnaps;
-#   short   the 66-frame paper-synthetic clip with a warm table cache.
+#   short   the 66-frame paper-synthetic clip with a warm table cache;
+#   search  120 frames of the same room at poses drawn from the noisy
+#           clip's path in a fixed shuffled order: every frame a kidnap,
+#           found by a room-wide search (its cost, not a target).
 # The floor is `ffmpeg -threads 2 -i VIDEO -f null -`; for the batch, the
 # faster of the 4 videos one after another with 2 threads each and two at a
 # time with 1 thread each. panoloc runs with its defaults (--threads 0,
@@ -18,7 +21,7 @@
 # Also checks that the pose CSVs of repeated runs are identical.
 #
 # Usage: tools/bench_throughput.sh [BUILD_DIR [WORK_DIR]]
-# Environment: REPEAT (5), NOISE (4), CLIPS ("noisy hires batch hard short"),
+# Environment: REPEAT (5), NOISE (4), CLIPS ("noisy hires batch hard short search"),
 #   PANOLOC_ARGS (extra panoloc options, e.g. "--method vertex").
 set -euo pipefail
 
@@ -26,7 +29,7 @@ BUILD=${1:-build}
 WORK=${2:-$(mktemp -d -t pano_bench_throughput_XXXXXX)}
 REPEAT=${REPEAT:-5}
 NOISE=${NOISE:-4}
-CLIPS=${CLIPS:-"noisy hires batch hard short"}
+CLIPS=${CLIPS:-"noisy hires batch hard short search"}
 read -r -a EXTRA <<<"${PANOLOC_ARGS:-}"
 PANOLOC=$BUILD/bin/panoloc
 PANOSIM=$BUILD/bin/panosim
@@ -51,6 +54,13 @@ path_times() {  # K OUT
       awk -F, 'NR > 1 {print $3 "," $4 "," $5}' "$WORK/ps66/gt.csv" | tac
     done; } >"$2"
 }
+# 120 poses of the noisy clip's path in a fixed shuffled order (7919 k
+# modulo the prime 1321 permutes 1 .. 1320).
+path_jumps() {  # OUT
+  { echo "x,y,theta"
+    awk -F, 'NR > 1 {print ((NR * 7919) % 1321) "," $0}' "$WORK/path1320.csv" | sort -t, -k1,1n | awk 'NR <= 120' |
+      cut -d, -f2-; } >"$1"
+}
 render() {
   [[ -f $WORK/ps66/video.mp4 ]] || "$PANOSIM" sequence --preset paper-synthetic -o "$WORK/ps66" -q --force
   if [[ ! -f $WORK/noisy/video.mp4 ]]; then
@@ -74,6 +84,11 @@ render() {
     encode "$WORK/noisy/frames" $((q * 330)) 330 "$WORK/batch/q$q.mp4"
   done
   [[ -f $WORK/hard/video.mp4 ]] || "$PANOSIM" sequence --preset long-run -o "$WORK/hard" -q --force
+  if [[ ! -f $WORK/search/video.mp4 ]]; then
+    path_jumps "$WORK/jumps120.csv"
+    "$PANOSIM" sequence --map "$WORK/ps66/map.yaml" --calib "$WORK/ps66/calib.yaml" --trajectory "$WORK/jumps120.csv" \
+      --noise "$NOISE" -o "$WORK/search" -q --force
+  fi
 }
 
 measure() {  # wall seconds of a command
@@ -90,7 +105,7 @@ decode_serial() { for v in "$@"; do decode "$v"; done; }
 panoloc_cmd() {  # CLIP OUT_DIR
   local d=$WORK/$1 calib=$WORK/$1/calib.yaml
   case $1 in
-    noisy | hard) echo "$PANOLOC" --calib "$calib" --map "$d/map.yaml" "$d/video.mp4" -o "$2/poses.csv" ;;
+    noisy | hard | search) echo "$PANOLOC" --calib "$calib" --map "$d/map.yaml" "$d/video.mp4" -o "$2/poses.csv" ;;
     hires) echo "$PANOLOC" --calib "$WORK/calib1600.yaml" --map "$WORK/ps66/map.yaml" "$d/video.mp4" -o "$2/poses.csv" ;;
     short) echo "$PANOLOC" --calib "$WORK/ps66/calib.yaml" --map "$WORK/ps66/map.yaml" "$WORK/ps66/video.mp4" \
       -o "$2/poses.csv" ;;
@@ -99,7 +114,7 @@ panoloc_cmd() {  # CLIP OUT_DIR
   esac
 }
 frames_of() {
-  case $1 in noisy | batch) echo 1320 ;; hires) echo 660 ;; hard) echo 3000 ;; short) echo 66 ;; esac
+  case $1 in noisy | batch) echo 1320 ;; hires) echo 660 ;; hard) echo 3000 ;; short) echo 66 ;; search) echo 120 ;; esac
 }
 
 render
