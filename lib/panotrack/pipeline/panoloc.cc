@@ -295,8 +295,10 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
   // that decoding leaves.
   run.decoder_threads = std::max(1, threads / n_jobs);
   // A room-wide search holds up its input's frames (the decoder stops once
-  // its queue is full): it takes the input's whole share of the cores.
-  if (run.localizer.search_threads == 0) run.localizer.search_threads = std::max(1, threads / n_jobs);
+  // its queue is full): as many threads as the per-frame loops, and both of
+  // an input's two cores where those have one.
+  if (run.localizer.search_threads == 0)
+    run.localizer.search_threads = std::max(run.localizer.num_threads, std::min(2, threads / n_jobs));
   run.track_in_decoding_gaps = run.localizer.num_threads == 1;
   // The E(D,Z) table (from the cache, or built) and one set of PH tables for
   // every input (they depend on the sensor and the map's edge heights only),
