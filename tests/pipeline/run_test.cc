@@ -169,15 +169,21 @@ TEST_CASE("thread counts are options: the caller's OpenMP setting is left alone"
   CHECK(after == 37);
 }
 
-TEST_CASE("tracking in the decoder's gaps: the same rows, the thread's normal priority back afterwards",
-          "[threads]") {
-  const test::SmallCase& c = test::GetSmallCase();
-  const std::string dir = Scratch("pipeline_gaps");
+// What LocalizeVideo shares between inputs, for the small case.
+SharedResources SmallCaseResources(const test::SmallCase& c) {
   SharedResources res;
   res.calib = ReadCalibration(c.calib);
   res.calib_path = c.calib;
   res.map = ReadMap(c.map);
   res.table = TableForMap(res.calib, res.map, true);
+  return res;
+}
+
+TEST_CASE("tracking in the decoder's gaps: the same rows, the thread's normal priority back afterwards",
+          "[threads]") {
+  const test::SmallCase& c = test::GetSmallCase();
+  const std::string dir = Scratch("pipeline_gaps");
+  const SharedResources res = SmallCaseResources(c);
   VideoJob job;
   job.input = c.video;
   job.init = c.init;
@@ -205,11 +211,7 @@ TEST_CASE("tracking in the decoder's gaps: a room-wide search on two threads, th
           "[threads]") {
   const test::SmallCase& c = test::GetSmallCase();
   const std::string dir = Scratch("pipeline_gaps_search");
-  SharedResources res;
-  res.calib = ReadCalibration(c.calib);
-  res.calib_path = c.calib;
-  res.map = ReadMap(c.map);
-  res.table = TableForMap(res.calib, res.map, true);
+  const SharedResources res = SmallCaseResources(c);
   VideoJob job;
   job.input = c.video;  // no start pose: the first frame is searched for
   VideoRunOptions run;
