@@ -35,21 +35,6 @@ inline bool InParallelRegion() {
 #endif
 }
 
-// Starts the calling thread's OpenMP team of `num_threads` now. OpenMP keeps
-// its worker threads for the caller's later parallel loops, and they take the
-// caller's scheduling policy as it is when they start: before the caller
-// lowers its own priority for a while.
-inline void StartWorkerThreads(int num_threads) {
-  // A body the compiler cannot drop (it removes an empty region).
-  std::vector<char> started(static_cast<size_t>(std::max(num_threads, 1)), 0);
-#pragma omp parallel num_threads(num_threads) if (num_threads > 1)
-  {
-#ifdef _OPENMP
-    started[static_cast<size_t>(omp_get_thread_num())] = 1;
-#endif
-  }
-}
-
 // After a loop: rethrows the exception of the lowest index, if any, so the
 // error is the same whatever the thread count.
 inline void RethrowFirst(const std::vector<std::exception_ptr>& errors) {

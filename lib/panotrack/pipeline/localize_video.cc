@@ -12,7 +12,6 @@
 #include <utility>
 
 #include "panotrack/core/error.h"
-#include "panotrack/core/parallel.h"
 #include "panotrack/core/thread_priority.h"
 #include "panotrack/io/pose_csv.h"
 #include "panotrack/io/tum.h"
@@ -199,7 +198,7 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
   if (opt.track_in_decoding_gaps && !FrameSource::IsLive(job.input)) {
     if (opt.localizer.num_threads != 1) throw Error("track_in_decoding_gaps: expects localizer.num_threads 1");
     // The room-wide search's threads keep this thread's normal priority.
-    StartWorkerThreads(ThreadCount(opt.localizer.search_threads > 0 ? opt.localizer.search_threads : 1));
+    StartWorkerThreads(SearchThreadCount(opt.localizer));
     priority.emplace(kIdleWhileWaiting, std::min(kNormalFromWaiting, source->prefetch_frames() / 2));
   }
   sum->end = VideoEnd::kDone;

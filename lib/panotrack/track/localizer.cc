@@ -63,6 +63,10 @@ void LocalizerOptions::Check() const {
 }
 
 
+int SearchThreadCount(const LocalizerOptions& options) {
+  return ThreadCount(options.search_threads > 0 ? options.search_threads : options.num_threads);
+}
+
 std::shared_ptr<PhTableCache> MakeTrackingPhTables(std::shared_ptr<const RadiusTable> table,
                                                    int num_threads) {
   // 0.5 px x 0.5 degree nodes: within 0.006 px of the exact PH, and quick
@@ -396,11 +400,12 @@ bool Localizer::Relocalize(const cv::Mat& grey, FrameResult* fr, TriangulationRe
   if (!relocalization_index_) {
     const auto build = [this] {
       return std::make_unique<const RelocalizationIndex>(calib_.sensor, *table_, map_, scene_, landmarks_,
-                                                         opt_.prediction, opt_.relocalize, SearchThreads());
+                                                         opt_.prediction, opt_.relocalize,
+                                                         SearchThreadCount(opt_));
     };
     relocalization_index_ = shared_index_ ? shared_index_->Get(build) : build();
   }
-  const std::vector<PoseHypothesis> hyps = relocalization_index_->Hypotheses(grey, SearchThreads());
+  const std::vector<PoseHypothesis> hyps = relocalization_index_->Hypotheses(grey, SearchThreadCount(opt_));
   // With the map's polarities, then (while the images have not confirmed
   // them) with either.
   return RelocalizeWith(hyps, false, fr, tri) || (EitherFallbackUseful() && RelocalizeWith(hyps, true, fr, tri));
@@ -429,7 +434,7 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
           return;
         if (EnoughForRelocalized(v.fr, v.tri)) tracked[static_cast<size_t>(i)] = std::move(v);
       },
-      true, SearchThreads());
+      true, SearchThreadCount(opt_));
   std::vector<Verified> verified;
   for (std::optional<Verified>& v : tracked)
     if (v) verified.push_back(std::move(*v));
@@ -769,10 +774,6 @@ double Localizer::ChosenLandmarks(const FrameResult& fr) const {
   // More are tracked when few of the chosen ones are found.
   return static_cast<double>(opt_.max_landmarks > 0 ? std::min<size_t>(fr.predicted.size(), opt_.max_landmarks)
                                                      : fr.predicted.size());
-}
-
-int Localizer::SearchThreads() const {
-  return ThreadCount(opt_.search_threads > 0 ? opt_.search_threads : opt_.num_threads);
 }
 
 int Localizer::BackedOffRelocalizeFrame(int frame) const {

@@ -206,6 +206,10 @@ struct FrameResult {
   bool either_polarity = false;
 };
 
+// The threads of the localiser's room-wide search: options.search_threads,
+// else num_threads (0: OpenMP's default).
+int SearchThreadCount(const LocalizerOptions& options);
+
 // The PH tables the junction tracker uses, built per edge height on first use
 // with `num_threads` threads (0: OpenMP's default).
 std::shared_ptr<PhTableCache> MakeTrackingPhTables(std::shared_ptr<const RadiusTable> table,
@@ -341,7 +345,6 @@ class Localizer {
   double ChosenLandmarks(const FrameResult& fr) const;
   // the frame before which no room-wide search runs after the recent failures;
   int BackedOffRelocalizeFrame(int frame) const;
-  int SearchThreads() const;  // of the room-wide search
   // whether a relocalised pose has the inliers a room-wide search requires;
   bool EnoughForRelocalized(const FrameResult& fr, const TriangulationResult& tri) const;
   // tracking restarts from a relocalised pose that the next frame must confirm;
