@@ -181,13 +181,6 @@ int SpreadSector(const PredictedLandmark& p, int max_count) {
 std::vector<PredictedLandmark> PredictLandmarks(const std::vector<Landmark>& landmarks,
                                                 const Map& map, const Scene& scene,
                                                 const Sensor& sensor, const RadiusTable& table,
-                                                const Pose2& pose, const PredictionOptions& opt) {
-  return PredictLandmarks(landmarks, map, scene, sensor, table, pose, opt, nullptr);
-}
-
-std::vector<PredictedLandmark> PredictLandmarks(const std::vector<Landmark>& landmarks,
-                                                const Map& map, const Scene& scene,
-                                                const Sensor& sensor, const RadiusTable& table,
                                                 const Pose2& pose, const PredictionOptions& opt,
                                                 const WantedLandmark& wanted) {
   std::vector<PredictedLandmark> out;

@@ -89,24 +89,21 @@ struct PredictionOptions {
   void Check() const;
 };
 
-// Predicts the landmarks in view from `pose`: inside the image and the
-// mirror's annulus, not hidden by map surfaces, with contrast on both edges
-// (or an unknown shade on either side of an edge).
-// Image radii come from the E(D,Z) table (within 0.002 px of the model).
-std::vector<PredictedLandmark> PredictLandmarks(const std::vector<Landmark>& landmarks,
-                                                const Map& map, const Scene& scene,
-                                                const Sensor& sensor, const RadiusTable& table,
-                                                const Pose2& pose, const PredictionOptions& opt);
-// The same, for the landmarks that `wanted` accepts, given their geometry
-// and the landmarks predicted before them: the others are left out before
-// the scene's ray casts (most of the cost).
+// Which landmarks PredictLandmarks keeps, given a candidate's geometry and
+// the landmarks predicted before it (null: all).
 using WantedLandmark =
     std::function<bool(const PredictedLandmark& candidate, const std::vector<PredictedLandmark>& predicted)>;
+
+// Predicts the landmarks in view from `pose`: inside the image and the
+// mirror's annulus, not hidden by map surfaces, with contrast on both edges
+// (or an unknown shade on either side of an edge); with `wanted`, only those
+// it accepts, the others left out before the scene's ray casts (most of the
+// cost). Image radii come from the E(D,Z) table (within 0.002 px of the model).
 std::vector<PredictedLandmark> PredictLandmarks(const std::vector<Landmark>& landmarks,
                                                 const Map& map, const Scene& scene,
                                                 const Sensor& sensor, const RadiusTable& table,
                                                 const Pose2& pose, const PredictionOptions& opt,
-                                                const WantedLandmark& wanted);
+                                                const WantedLandmark& wanted = nullptr);
 
 // Sets each predicted landmark's image motion (tangential_motion_px,
 // radial_motion_px) for a camera that moved from `previous` to the pose the

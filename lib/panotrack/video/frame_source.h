@@ -35,7 +35,7 @@ struct FrameSourceOptions {
   // frames), so that it goes on while the tracker starts up or works
   // through a costly frame. Also the bound on the memory that frames
   // waiting take, which a long run reaches sooner or later: 16 MiB (64
-  // frames of 500 x 500) absorbs a relocalisation as well as 64 MiB did.
+  // frames of 500 x 500) runs as fast as 64 MiB did, and keeps memory flat.
   size_t prefetch_bytes = size_t(16) << 20;
   // A stream (IsLive) that delivers no data for this long fails with "no
   // data for ... s", at opening or later.
