@@ -11,6 +11,7 @@
 #include "test_rng.h"
 #include "panotrack/track/compass.h"
 #include "panotrack/track/edge_profile.h"
+#include "panotrack/track/junction_tracker.h"
 #include "panotrack/track/relocalize.h"
 #include "track_fixture.h"
 
@@ -208,6 +209,70 @@ TEST_CASE("step detector: a motion-blurred ramp at its centre", "[edge_step]") {
     CHECK(e.strength == Approx(100.0).margin(0.5));
     CHECK(e.width == Approx(0.7 * width).margin(1.0));  // between the 15 % and 85 % levels
   }
+}
+
+// Paints the image at polar coordinates (radius, azimuth) from `source`'s
+// pixel at the polar offsets given (px along the radius, px across it).
+void CopyPolar(const Sensor& s, const cv::Mat& source, double r_from, double r_to, double half_width,
+               double azimuth, double dr, double dt, cv::Mat* image) {
+  for (double r = std::min(r_from, r_to); r <= std::max(r_from, r_to); r += 0.25)
+    for (double t = -half_width; t <= half_width; t += 0.25) {
+      const Eigen::Vector2d to = s.from_polar(r, azimuth + t / r);
+      const Eigen::Vector2d from = s.from_polar(r + dr, azimuth + (t + dt) / r);
+      image->at<uchar>(static_cast<int>(std::lround(to.y())), static_cast<int>(std::lround(to.x()))) =
+          source.at<uchar>(static_cast<int>(std::lround(from.y())), static_cast<int>(std::lround(from.x())));
+    }
+}
+
+TEST_CASE("junction tracker: a landmark only where its edges meet at the junction", "[junction]") {
+  const test::RenderedCase r = test::RenderPreset("paper-synthetic", 1);
+  const Sensor& s = r.c.calib.sensor;
+  const std::vector<Landmark> lms = LandmarksFromMap(r.c.map);
+  const Scene scene = Scene::FromMap(r.c.map, true);
+  const Pose2 pose = r.truth[0].pose;
+  std::vector<PredictedLandmark> pred = PredictLandmarks(lms, r.c.map, scene, s, *r.table, pose, PredictionOptions());
+  SetImageMotion(r.c.map, s, *r.table, pose, 0.0, &pred);
+  JunctionTracker tracker(s, MakeTrackingPhTables(r.table, 1), JunctionOptions());
+  const cv::Mat& frame = r.frames[0];
+  // A vertical edge of 40 px or more, found where predicted.
+  const PredictedLandmark* chosen = nullptr;
+  tracker.BeginFrame(frame);
+  for (const PredictedLandmark& p : pred) {
+    const LandmarkMeasurement m = tracker.Measure(p, 8.0);
+    if (m.found && std::abs(p.v_radius - p.corner_radius) > 40 &&
+        std::abs(wrap_angle(m.azimuth - p.azimuth)) * p.corner_radius < 0.3) {
+      chosen = &p;
+      break;
+    }
+  }
+  REQUIRE(chosen != nullptr);
+  const PredictedLandmark& p = *chosen;
+  const int direction = p.v_radius > p.corner_radius ? 1 : -1;  // the edge runs this way from the corner
+  // The vertical edge cut back: 9 px nearest the junction painted with what
+  // lies 12 px further along it (the face and the background either side).
+  cv::Mat cut = frame.clone();
+  CopyPolar(s, frame, p.corner_radius + direction * 1.5, p.corner_radius + direction * 9.0, 3.0, p.azimuth,
+            direction * 12.0, 6.0 * p.inside_azimuth_sign, &cut);
+  tracker.BeginFrame(cut);
+  LandmarkMeasurement m = tracker.Measure(p, 8.0);
+  CHECK_FALSE(m.found);
+  CHECK(std::string(m.why) == "edges do not meet");
+  // Cut back by 2 px only: within the tolerance (3 px), still a junction.
+  cut = frame.clone();
+  CopyPolar(s, frame, p.corner_radius + direction * 0.5, p.corner_radius + direction * 2.0, 3.0, p.azimuth,
+            direction * 12.0, 6.0 * p.inside_azimuth_sign, &cut);
+  tracker.BeginFrame(cut);
+  m = tracker.Measure(p, 8.0);
+  CHECK(m.found);
+  // The vertical edge drawn on past the junction (what lies 12 px along it,
+  // copied 2 to 9 px beyond the corner): not this landmark's corner.
+  cv::Mat past = frame.clone();
+  CopyPolar(s, frame, p.corner_radius - direction * 2.0, p.corner_radius - direction * 9.0, 4.0, p.azimuth,
+            direction * 16.0, 0.0, &past);
+  tracker.BeginFrame(past);
+  m = tracker.Measure(p, 8.0);
+  CHECK_FALSE(m.found);
+  CHECK(std::string(m.why) == "vertical edge runs past the junction");
 }
 
 TEST_CASE("visual compass: the rotation between two frames at one position", "[compass]") {

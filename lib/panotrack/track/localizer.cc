@@ -26,6 +26,8 @@ void LocalizerOptions::Check() const {
   if (refine_passes < 0 || refine_passes > 5) throw Error("localiser: refine_passes: expected 0..5");
   if (!(refine_threshold_px >= 0.0)) throw Error("localiser: refine_threshold_px: expected >= 0");
   if (!(coarse_to_fine_rate >= 0.0)) throw Error("localiser: coarse_to_fine_rate: expected >= 0");
+  if (coarse_landmarks != 0 && coarse_landmarks < 3)
+    throw Error("localiser: coarse_landmarks: expected 0 or >= 3");
   if (!(exposure_fraction >= 0.0 && exposure_fraction <= 1.0))
     throw Error("localiser: exposure_fraction: expected 0..1");
   if (!(unknown_turn_per_frame >= 0.0 && unknown_turn_per_frame < M_PI))
@@ -62,6 +64,17 @@ void LocalizerOptions::Check() const {
   motion.Check();
 }
 
+
+namespace {
+
+// The landmarks of coarse-to-fine's first pass (0: all in view).
+int CoarseLandmarks(const LocalizerOptions& options) {
+  if (options.coarse_landmarks == 0) return options.max_landmarks;
+  return options.max_landmarks == 0 ? options.coarse_landmarks
+                                    : std::min(options.coarse_landmarks, options.max_landmarks);
+}
+
+}  // namespace
 
 int SearchThreadCount(const LocalizerOptions& options) {
   return ThreadCount(options.search_threads > 0 ? options.search_threads : options.num_threads);
@@ -235,7 +248,7 @@ void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, c
   // The landmarks to track, spread in azimuth (SelectSpread): the chosen
   // ones first, the others only when they are needed.
   SpreadPrediction prediction(landmarks_, map_, scene_, calib_.sensor, *table_, pose, opt_.prediction,
-                              opt_.max_landmarks);
+                              azimuth_only ? CoarseLandmarks(opt_) : opt_.max_landmarks);
   // The polarities to search for (the map's, or what the images showed),
   // and the expected motion blur.
   auto prepare = [&](std::vector<PredictedLandmark>* batch) {

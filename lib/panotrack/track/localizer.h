@@ -88,6 +88,11 @@ struct LocalizerOptions {
   // edges, a quarter of the work) and the full pass runs around the pose
   // they give: one full pass a frame instead of two. Above 1: never.
   double coarse_to_fine_rate = 0.5;
+  // That first pass measures at most this many landmarks (spread in
+  // azimuth, within max_landmarks): it only centres the full pass's
+  // windows, which the azimuths of a few spread landmarks fix as well as
+  // those of all. 0: as many as max_landmarks.
+  int coarse_landmarks = 8;
   bool constant_velocity = true;  // predict with the last frame-to-frame motion
   bool compass = true;            // predict the heading with the visual compass
   double compass_max_rotation = 60.0 * M_PI / 180;  // per frame
