@@ -238,6 +238,7 @@ void Localizer::LearnPolarity(const FrameResult& fr, const TriangulationResult& 
 void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, const Pose2* solved_motion,
                         bool either, bool azimuth_only) const {
   out->either_polarity = either;
+  out->blur_motion = solved_motion ? std::optional<Pose2>(*solved_motion) : std::nullopt;
   // The motion over the last frame interval; unknown: the fastest turn.
   const bool known = motion_updates_ >= 2 || solved_motion;
   const Pose2 motion = solved_motion ? *solved_motion : known ? frame_motion_ : Pose2{0, 0, opt_.unknown_turn_per_frame};
@@ -725,10 +726,12 @@ bool Localizer::RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) 
   const double max_shift = MaxShiftPx(*fr);
   double max_radius = 0.0;
   for (const PredictedLandmark& p : fr->predicted) max_radius = std::max(max_radius, p.corner_radius);
-  // A turn faster or slower than predicted blurs the edges more or less
-  // than the search allowed for: measure again with the solved motion.
+  // A turn faster or slower than the measurement assumed (the motion
+  // model's, or a first pass's) blurs the edges more or less than the
+  // search allowed for: measure again with the solved motion.
   std::optional<Pose2> solved = SolvedMotion(tri->pose);
-  const double turn_error = solved ? std::abs(wrap_angle(solved->theta - frame_motion_.theta)) : 0.0;
+  const double assumed_turn = fr->blur_motion ? fr->blur_motion->theta : frame_motion_.theta;
+  const double turn_error = solved ? std::abs(wrap_angle(solved->theta - assumed_turn)) : 0.0;
   const bool blur_mispredicted = turn_error * max_radius * blur_fraction_ > opt_.refine_threshold_px;
   const bool off_centre = max_shift > opt_.refine_threshold_px || blur_mispredicted;
   for (int pass = 0; pass < opt_.refine_passes && off_centre && Acceptable(*fr, *tri); ++pass) {
@@ -739,6 +742,7 @@ bool Localizer::RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) 
     if (!Acceptable(again, tri2)) break;
     fr->predicted = std::move(again.predicted);
     fr->measurements = std::move(again.measurements);
+    fr->refined = true;
     *tri = tri2;
   }
   return off_centre;

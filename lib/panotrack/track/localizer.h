@@ -196,6 +196,7 @@ struct FrameResult {
   bool relocalized = false;     // the pose came from the room-wide search
   bool compass_first = false;   // the compass's heading was tried before the motion model's
   bool coarse_to_fine = false;  // tracked azimuths first, then in full around their pose
+  bool refined = false;         // measured again around the solved pose (windows or blur off)
   bool unconfirmed = false;     // ... found, but held back for the next frame to confirm
   double innovation = -1.0;     // squared Mahalanobis distance from the prediction (-1: none)
   IntegrityReport integrity;    // of the reported pose
@@ -209,6 +210,10 @@ struct FrameResult {
   // Measured with every edge whose polarity the images have not confirmed
   // taken with either sign (the map's polarities found nothing).
   bool either_polarity = false;
+  // The motion over the frame interval that the measurement's blur allowance
+  // came from, when it was a solved one (a first pass's pose); absent: the
+  // motion model's.
+  std::optional<Pose2> blur_motion;
 };
 
 // The threads of the localiser's room-wide search: options.search_threads,
