@@ -41,13 +41,8 @@ int WrongOk(const std::vector<PoseRow>& rows, const std::vector<PoseRow>& truth,
 // The first 40 frames of the motion-blur preset through the localiser:
 // every frame tracked, RMS and heading RMS within the bounds, nothing wrong
 // reported ok.
-const test::RenderedCase& MotionBlurCase() {
-  static const test::RenderedCase r = RenderSequence("motion-blur", 40);
-  return r;
-}
-
 void CheckMotionBlur(TrackingMethod method, double max_rms_cm, double max_heading_rms_deg) {
-  const test::RenderedCase& r = MotionBlurCase();
+  static const test::RenderedCase r = RenderSequence("motion-blur", 40);
   LocalizerOptions o;
   o.method = method;
   const std::vector<PoseRow> rows = test::Localize(r, o, r.c.poses.front());

@@ -238,7 +238,7 @@ void Localizer::LearnPolarity(const FrameResult& fr, const TriangulationResult& 
 void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, const Pose2* solved_motion,
                         bool either, bool azimuth_only) const {
   out->either_polarity = either;
-  out->blur_motion = solved_motion ? std::optional<Pose2>(*solved_motion) : std::nullopt;
+  out->blur_turn = solved_motion ? std::optional<double>(solved_motion->theta) : std::nullopt;
   // The motion over the last frame interval; unknown: the fastest turn.
   const bool known = motion_updates_ >= 2 || solved_motion;
   const Pose2 motion = solved_motion ? *solved_motion : known ? frame_motion_ : Pose2{0, 0, opt_.unknown_turn_per_frame};
@@ -730,7 +730,7 @@ bool Localizer::RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) 
   // model's, or a first pass's) blurs the edges more or less than the
   // search allowed for: measure again with the solved motion.
   std::optional<Pose2> solved = SolvedMotion(tri->pose);
-  const double assumed_turn = fr->blur_motion ? fr->blur_motion->theta : frame_motion_.theta;
+  const double assumed_turn = fr->blur_turn.value_or(frame_motion_.theta);
   const double turn_error = solved ? std::abs(wrap_angle(solved->theta - assumed_turn)) : 0.0;
   const bool blur_mispredicted = turn_error * max_radius * blur_fraction_ > opt_.refine_threshold_px;
   const bool off_centre = max_shift > opt_.refine_threshold_px || blur_mispredicted;

@@ -210,10 +210,10 @@ struct FrameResult {
   // Measured with every edge whose polarity the images have not confirmed
   // taken with either sign (the map's polarities found nothing).
   bool either_polarity = false;
-  // The motion over the frame interval that the measurement's blur allowance
-  // came from, when it was a solved one (a first pass's pose); absent: the
-  // motion model's.
-  std::optional<Pose2> blur_motion;
+  // The turn over the frame interval (radians) that the measurement's blur
+  // allowance came from, when it was a solved one (a first pass's pose);
+  // absent: the motion model's.
+  std::optional<double> blur_turn;
 };
 
 // The threads of the localiser's room-wide search: options.search_threads,
