@@ -11,9 +11,6 @@
 #ifdef __linux__
 #include <sched.h>
 #endif
-#ifdef _OPENMP
-#include <omp.h>
-#endif
 
 namespace pano {
 namespace {
@@ -90,43 +87,6 @@ TEST_CASE("lag_priority: a policy set by the user is left alone; bad thresholds 
     }
     CHECK(Policy() == SCHED_BATCH);
   });
-#endif
-}
-
-TEST_CASE("worker threads: started on the caller's policy, idle or normal", "[worker_threads]") {
-#if !defined(__linux__) || !defined(_OPENMP)
-  return test::Skip("scheduling policies are Linux's; worker threads OpenMP's");
-#else
-  // The policies of a two-thread loop's threads; empty where OpenMP gave
-  // the loop fewer threads (OMP_THREAD_LIMIT, OMP_DYNAMIC).
-  auto loop_policies = [] {
-    std::vector<int> policy(2, -1);
-    int team = 0;
-#pragma omp parallel num_threads(2)
-    {
-#pragma omp single
-      team = omp_get_num_threads();
-      if (omp_get_thread_num() < 2) policy[static_cast<size_t>(omp_get_thread_num())] = Policy();
-    }
-    return team == 2 ? policy : std::vector<int>();
-  };
-  bool refused = false;
-  std::vector<int> while_idle, normal_again;
-  OnOwnThread([&] {
-    LagPriority priority(0, 4);
-    priority.Update(0);
-    refused = !priority.idle();
-    if (refused) return;
-    StartWorkerThreads(2);  // the worker starts idle
-    while_idle = loop_policies();
-    priority.Update(4);
-    StartWorkerThreads(2);  // the same worker, normal again
-    normal_again = loop_policies();
-  });
-  if (refused) return test::Skip("this system refuses SCHED_IDLE");
-  if (while_idle.empty() || normal_again.empty()) return test::Skip("OpenMP gave a loop fewer than two threads");
-  CHECK(while_idle == std::vector<int>{SCHED_IDLE, SCHED_IDLE});
-  CHECK(normal_again == std::vector<int>{SCHED_OTHER, SCHED_OTHER});
 #endif
 }
 

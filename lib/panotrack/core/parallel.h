@@ -1,4 +1,4 @@
-// Thread counts and OpenMP loops that let exceptions out. Each loop takes
+// Thread counts and parallel loops that let exceptions out. Each loop takes
 // its thread count from its caller's options (a num_threads clause), never
 // from a process-wide setting, and catches every iteration's exception (one
 // escaping an OpenMP region would end the program); the one of the lowest
@@ -6,7 +6,10 @@
 #pragma once
 
 #include <algorithm>
+#include <atomic>
 #include <exception>
+#include <system_error>
+#include <thread>
 #include <vector>
 
 #ifdef _OPENMP
@@ -25,9 +28,16 @@ inline int ThreadCount(int requested) {
 #endif
 }
 
-// Whether the caller runs on a thread of an active parallel region: a loop
-// nested there runs on that thread alone.
+namespace internal {
+// Set on the threads of a ParallelForOnOwnThreads loop while they run it.
+inline thread_local bool in_own_threads_loop = false;
+}  // namespace internal
+
+// Whether the caller runs on a thread of an active parallel region (an
+// OpenMP one or a ParallelForOnOwnThreads loop): a loop nested there runs on
+// that thread alone.
 inline bool InParallelRegion() {
+  if (internal::in_own_threads_loop) return true;
 #ifdef _OPENMP
   return omp_in_parallel() != 0;
 #else
@@ -57,6 +67,47 @@ void ParallelFor(int n, Body&& body, bool parallel = true, int num_threads = 0) 
       errors[static_cast<size_t>(k)] = std::current_exception();
     }
   }
+  RethrowFirst(errors);
+}
+
+// body(k) for k in [0, n) on `num_threads` threads (0: ThreadCount's
+// default): the caller and threads started for this loop alone, joined at
+// its end, each taking the next `chunk` indices whenever it is free. For
+// loops that run now and then beside other busy threads (a room-wide search
+// beside the video decoder): OpenMP's workers stay after a loop and, by
+// libgomp's default wait policy, spin for a few milliseconds on the cores
+// the others need. The threads start on the caller's scheduling policy (the
+// pthreads default, inherited). Nested in a parallel region it runs on the
+// calling thread. Needs no OpenMP.
+template <typename Body>
+void ParallelForOnOwnThreads(int n, Body&& body, int num_threads = 0, int chunk = 1) {
+  std::vector<std::exception_ptr> errors(n > 0 ? static_cast<size_t>(n) : 0);
+  chunk = std::max(1, chunk);
+  std::atomic<int> next{0};
+  auto work = [&] {
+    const bool outer = internal::in_own_threads_loop;
+    internal::in_own_threads_loop = true;
+    for (int begin; (begin = next.fetch_add(chunk)) < n;)
+      for (int k = begin; k < std::min(n, begin + chunk); ++k) {
+        try {
+          body(k);
+        } catch (...) {
+          errors[static_cast<size_t>(k)] = std::current_exception();
+        }
+      }
+    internal::in_own_threads_loop = outer;
+  };
+  const int threads = InParallelRegion() ? 1 : std::min(ThreadCount(num_threads), (std::max(n, 0) + chunk - 1) / chunk);
+  std::vector<std::thread> helpers;
+  for (int t = 1; t < threads; ++t) {
+    try {
+      helpers.emplace_back(work);
+    } catch (const std::system_error&) {
+      break;  // no more threads to be had: the ones started (and the caller) do the rest
+    }
+  }
+  work();
+  for (std::thread& h : helpers) h.join();
   RethrowFirst(errors);
 }
 

@@ -7,9 +7,6 @@
 #include <sys/syscall.h>
 #include <unistd.h>
 #endif
-#ifdef _OPENMP
-#include <omp.h>
-#endif
 
 namespace pano {
 
@@ -44,20 +41,6 @@ void LagPriority::Switch([[maybe_unused]] bool to_idle) {
     ++switches_;
   } else if (to_idle) {
     thread_ = 0;  // refused (a sandbox's seccomp filter): stay at the normal priority
-  }
-#endif
-}
-
-void StartWorkerThreads([[maybe_unused]] int num_threads) {
-#if defined(__linux__) && defined(_OPENMP)
-  if (num_threads < 2) return;
-  sched_param param{};
-  const int policy = sched_getscheduler(0);
-  if (policy < 0 || sched_getparam(0, &param) != 0) return;
-#pragma omp parallel num_threads(num_threads)
-  {
-    // Advice: a policy the worker may not take leaves it as it is.
-    if (omp_get_thread_num() != 0 && sched_getscheduler(0) != policy) sched_setscheduler(0, policy, &param);
   }
 #endif
 }

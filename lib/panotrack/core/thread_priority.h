@@ -12,11 +12,11 @@ namespace pano {
 // work on the machine starves still gets its fair share after
 // `normal_from` items.
 //
-// Threads that the consumer starts while idle would inherit the idle
-// priority and keep it: it starts none (its OpenMP loops' workers are
-// started beforehand, StartWorkerThreads below). Elsewhere than on Linux,
-// or where the thread runs under a policy other than the default (set with
-// chrt), the priority is left alone.
+// Threads that the consumer starts inherit the policy it has at the time
+// (pthreads' default): ones that outlive a switch, such as OpenMP's pooled
+// workers, keep the old one. Elsewhere than on Linux, or where the thread
+// runs under a policy other than the default (set with chrt), the priority
+// is left alone.
 class LagPriority {
  public:
   LagPriority(int idle_at_most, int normal_from);
@@ -36,14 +36,5 @@ class LagPriority {
   bool idle_ = false;
   int switches_ = 0;
 };
-
-// Starts the calling thread's OpenMP team of `num_threads` now, each worker
-// on the caller's scheduling policy as it is now. OpenMP keeps the workers
-// for the caller's later parallel loops, and a worker keeps the policy it
-// has: one started while the caller was idle would stay idle, and a runtime
-// may hand over a worker that another thread left idle. Called before a
-// LagPriority makes the caller idle, the loops' workers keep its normal
-// priority. Without OpenMP, or elsewhere than on Linux, it does nothing.
-void StartWorkerThreads(int num_threads);
 
 }  // namespace pano

@@ -197,8 +197,8 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
   std::optional<LagPriority> priority;
   if (opt.track_in_decoding_gaps && !FrameSource::IsLive(job.input)) {
     if (opt.localizer.num_threads != 1) throw Error("track_in_decoding_gaps: expects localizer.num_threads 1");
-    // The room-wide search's threads keep this thread's normal priority.
-    StartWorkerThreads(SearchThreadCount(opt.localizer));
+    // (The per-landmark loops then run on this thread alone; the room-wide
+    // search starts its threads for each search, at this thread's priority.)
     priority.emplace(kIdleWhileWaiting, std::min(kNormalFromWaiting, source->prefetch_frames() / 2));
   }
   sum->end = VideoEnd::kDone;

@@ -437,7 +437,7 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
   };
   // Each hypothesis tracked on its own (in parallel), kept in their order.
   std::vector<std::optional<Verified>> tracked(hyps.size());
-  ParallelFor(
+  ParallelForOnOwnThreads(
       static_cast<int>(hyps.size()),
       [&](int i) {
         Verified v;
@@ -448,7 +448,7 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
           return;
         if (EnoughForRelocalized(v.fr, v.tri)) tracked[static_cast<size_t>(i)] = std::move(v);
       },
-      true, SearchThreadCount(opt_));
+      SearchThreadCount(opt_));
   std::vector<Verified> verified;
   for (std::optional<Verified>& v : tracked)
     if (v) verified.push_back(std::move(*v));

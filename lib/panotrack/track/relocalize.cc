@@ -194,16 +194,11 @@ RelocalizationIndex::RelocalizationIndex(const Sensor& sensor, const RadiusTable
           map.IsFree(x, y + margin) && map.IsFree(x, y - margin))
         positions_.emplace_back(x, y);
   edge_bins_.resize(positions_.size());
-  std::vector<std::exception_ptr> errors(positions_.size());
-#pragma omp parallel for schedule(dynamic, 4) num_threads(ThreadCount(num_threads))
-  for (int i = 0; i < static_cast<int>(positions_.size()); ++i) {
-    try {
-      edge_bins_[i] = EdgeBinsAt(positions_[i], bins, sensor, table, map, scene, landmarks, prediction);
-    } catch (...) {
-      errors[static_cast<size_t>(i)] = std::current_exception();
-    }
-  }
-  RethrowFirst(errors);
+  // Built when a run first searches, beside the decoder: threads of its own.
+  ParallelForOnOwnThreads(
+      static_cast<int>(positions_.size()),
+      [&](int i) { edge_bins_[i] = EdgeBinsAt(positions_[i], bins, sensor, table, map, scene, landmarks, prediction); },
+      num_threads, 4);
 }
 
 std::vector<float> RelocalizationIndex::RadialEdgeHistogram(const cv::Mat& grey) const {
@@ -248,9 +243,9 @@ std::vector<PoseHypothesis> RelocalizationIndex::Hypotheses(const cv::Mat& grey,
   const int bins = static_cast<int>(hist.size());
   const HeadingSearch search(hist);
   std::vector<PoseHypothesis> scored(positions_.size());
-#pragma omp parallel for schedule(dynamic, 16) num_threads(ThreadCount(num_threads))
-  for (int i = 0; i < static_cast<int>(positions_.size()); ++i)
-    scored[i] = BestHeadingAt(positions_[i], edge_bins_[i], search, bins);
+  ParallelForOnOwnThreads(
+      static_cast<int>(positions_.size()),
+      [&](int i) { scored[i] = BestHeadingAt(positions_[i], edge_bins_[i], search, bins); }, num_threads, 16);
   std::stable_sort(scored.begin(), scored.end(),
                    [](const PoseHypothesis& a, const PoseHypothesis& b) { return a.score > b.score; });
   // Distinct hypotheses: at least two grid steps or 20 degrees apart.
