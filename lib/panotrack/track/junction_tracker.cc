@@ -158,6 +158,7 @@ bool JunctionTracker::FindVerticalEdge(const PredictedLandmark& p, double half, 
   int n_in = 0;
   std::vector<double>& strengths = scratch.values;
   strengths.clear();
+  m->edge_points.reserve(m->edge_points.size() + v_steps.size());
   // A blurred edge is located less precisely: widen the truncation with it.
   const double truncation = o.truncation_px + 0.1 * edge->ramp_px;
   for (size_t k = 0; k < v_steps.size(); ++k) {
