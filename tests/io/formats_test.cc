@@ -4,10 +4,13 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <cstdio>
+#include <random>
 #include <filesystem>
 #include <fstream>
 
 #include "expect_error.h"
+#include "panotrack/core/angles.h"
 #include "panotrack/core/atomic_file.h"
 #include "panotrack/core/error.h"
 #include "panotrack/io/calibration.h"
@@ -181,6 +184,50 @@ TEST_CASE("map: a landmark's shade is optional (unknown), written back only when
                                                    "    to: [40, 199]\n    z: [20, 60]\n"));
   REQUIRE(d.distractors.size() == 1);
   CHECK(d.distractors[0].shade == MapRectangle().shade);
+}
+
+TEST_CASE("pose CSV: a row's text is printf's (%.6f, %.4f, %.6g), whatever the values", "[pose_csv]") {
+  // The formatting as printf writes it, the reference.
+  auto printf_row = [](const PoseRow& r) {
+    char buf[1024];
+    if (r.status == PoseStatus::kLost)
+      std::snprintf(buf, sizeof buf, "%d,%.6f,,,,%s,%d,", r.frame, r.time_s, pose_status_name(r.status),
+                    r.n_landmarks);
+    else
+      std::snprintf(buf, sizeof buf, "%d,%.6f,%.4f,%.4f,%.6f,%s,%d,%.4f", r.frame, r.time_s, r.pose.x, r.pose.y,
+                    wrap_angle(r.pose.theta), pose_status_name(r.status), r.n_landmarks, r.residual);
+    std::string s = buf;
+    for (double e : r.extra) {
+      s += ',';
+      if (std::isfinite(e)) {
+        std::snprintf(buf, sizeof buf, "%.6g", e);
+        s += buf;
+      }
+    }
+    return s;
+  };
+  std::mt19937 rng(20261130);
+  std::uniform_real_distribution<double> mantissa(-1.0, 1.0);
+  std::uniform_int_distribution<int> exponent(-12, 12);
+  auto value = [&] { return mantissa(rng) * std::pow(10.0, exponent(rng)); };
+  const std::vector<double> special = {0.0,    -0.0,    0.00005, -0.00005, 0.000049999, 1e-300, -1e300,
+                                       1e308,  123.45675, 2.5e-7, 999999.5, 0.12345650, std::nan(""),
+                                       HUGE_VAL, -HUGE_VAL};
+  for (int k = 0; k < 3000; ++k) {
+    PoseRow r;
+    r.frame = k * 7919 % 100003;
+    const bool pick_special = k % 3 == 0;
+    auto next = [&](size_t i) { return pick_special ? special[(k + i) % special.size()] : value(); };
+    r.time_s = std::abs(next(0));
+    r.pose = {next(1), next(2), next(3)};
+    r.status = k % 5 == 0 ? PoseStatus::kLost : k % 5 == 1 ? PoseStatus::kInit : PoseStatus::kOk;
+    r.n_landmarks = k % 40;
+    r.residual = std::abs(next(4));
+    r.extra = {next(5), next(6), next(7), next(8)};
+    const std::string want = printf_row(r), got = FormatPoseRow(r);
+    INFO("row " << k);
+    REQUIRE(got == want);
+  }
 }
 
 TEST_CASE("pose CSV: rows written and flushed one by one, read back; bad files", "[pose_csv]") {

@@ -85,29 +85,24 @@ double ShadeTowards(const Scene& scene, const Eigen::Vector3d& eye, const Eigen:
 
 }  // namespace
 
+internal::PredictionContext::PredictionContext(const Map& map, const Sensor& sensor, const Pose2& pose,
+                                               const PredictionOptions& opt)
+    : eye(pose.x, pose.y, map.sensor_height + sensor.params.vertex_distance),
+      cam(pose.x, pose.y),
+      cos_sin(std::cos(pose.theta), std::sin(pose.theta)) {
+  const double limb = sensor.limb_radius();
+  r_lo = opt.min_radius_fraction * limb;
+  r_hi = limb - opt.max_radius_margin;
+}
+
 namespace {
 
-// What PredictLandmarks computes per landmark, in two steps: the geometry
-// (cheap: projections and table look-ups) ...
-struct PredictionContext {
-  PredictionContext(const Map& map, const Sensor& sensor, const Pose2& pose, const PredictionOptions& opt)
-      : eye(pose.x, pose.y, map.sensor_height + sensor.params.vertex_distance),
-        cam(pose.x, pose.y),
-        cos_sin(std::cos(pose.theta), std::sin(pose.theta)) {
-    const double limb = sensor.limb_radius();
-    r_lo = opt.min_radius_fraction * limb;
-    r_hi = limb - opt.max_radius_margin;
-  }
-  // The mirror's vertex approximates where the scene is seen from.
-  Eigen::Vector3d eye;
-  Eigen::Vector2d cam;
-  Eigen::Vector2d cos_sin;  // of the pose's heading, for sensor_from_world
-  double r_lo, r_hi;
-};
+using internal::PredictionContext;
 
-bool PredictGeometry(const Landmark& l, int idx, const Map& map, const Sensor& sensor, const RadiusTable& table,
-                     const Pose2& pose, const PredictionOptions& opt, const PredictionContext& ctx,
-                     PredictedLandmark* out) {
+// The geometry in two steps: where the corner lies (its distance and
+// azimuth; a box's corner seen from behind its faces fails) ...
+bool PredictPlacement(const Landmark& l, int idx, const Map& map, const Sensor& sensor, const Pose2& pose,
+                      const PredictionContext& ctx, PredictedLandmark* out) {
   if (l.box) {
     const Eigen::Vector2d to_cam = ctx.cam - l.corner.head<2>();
     if (!(to_cam.dot(l.face_normal) > 0.0) || to_cam.dot(l.other_face_normal) > 0.0) return false;
@@ -116,12 +111,23 @@ bool PredictGeometry(const Landmark& l, int idx, const Map& map, const Sensor& s
   p.index = idx;
   p.landmark = &l;
   const Eigen::Vector3d c = sensor_from_world(pose, ctx.cos_sin, map.sensor_height, l.corner);
+  p.distance = c.head<2>().norm();
+  if (!(p.distance > 0.0)) return false;
+  p.azimuth = sensor.image_azimuth(fast_atan2(c.y(), c.x()));
+  return true;
+}
+
+// ... then its image (the table's radii, inside the annulus and the image,
+// both edges long enough), after PredictPlacement.
+bool PredictImage(const Map& map, const Sensor& sensor, const RadiusTable& table, const Pose2& pose,
+                  const PredictionOptions& opt, const PredictionContext& ctx, PredictedLandmark* out) {
+  PredictedLandmark& p = *out;
+  const Landmark& l = *p.landmark;
+  const Eigen::Vector3d c = sensor_from_world(pose, ctx.cos_sin, map.sensor_height, l.corner);
   const Eigen::Vector3d h = sensor_from_world(pose, ctx.cos_sin, map.sensor_height, l.h_end);
   const Eigen::Vector3d v = sensor_from_world(pose, ctx.cos_sin, map.sensor_height, l.v_end);
-  p.distance = c.head<2>().norm();
-  if (!(p.distance > 0.0) || !table.radius(p.distance, c.z(), &p.corner_radius)) return false;
+  if (!table.radius(p.distance, c.z(), &p.corner_radius)) return false;
   if (p.corner_radius < ctx.r_lo || p.corner_radius > ctx.r_hi) return false;
-  p.azimuth = sensor.image_azimuth(fast_atan2(c.y(), c.x()));
   p.corner_px = sensor.from_polar(p.corner_radius, p.azimuth);
   if (!sensor.inside_image(p.corner_px, opt.image_margin)) return false;
   // Vertical edge: radial, from the corner to the other end (clamped to the
@@ -145,6 +151,13 @@ bool PredictGeometry(const Landmark& l, int idx, const Map& map, const Sensor& s
   p.inside_azimuth_sign = dtheta_edge > 0 ? 1 : -1;
   p.inside_radius_sign = v.z() > c.z() ? 1 : -1;
   return true;
+}
+
+bool PredictGeometry(const Landmark& l, int idx, const Map& map, const Sensor& sensor, const RadiusTable& table,
+                     const Pose2& pose, const PredictionOptions& opt, const PredictionContext& ctx,
+                     PredictedLandmark* out) {
+  return PredictPlacement(l, idx, map, sensor, pose, ctx, out) &&
+         PredictImage(map, sensor, table, pose, opt, ctx, out);
 }
 
 // ... and the scene's ray casts (most of the cost): not hidden by map
@@ -198,14 +211,20 @@ std::vector<PredictedLandmark> PredictLandmarks(const std::vector<Landmark>& lan
 SpreadPrediction::SpreadPrediction(const std::vector<Landmark>& landmarks, const Map& map, const Scene& scene,
                                    const Sensor& sensor, const RadiusTable& table, const Pose2& pose,
                                    const PredictionOptions& opt, int max_count)
-    : scene_(scene), opt_(opt), max_count_(max_count) {
-  const PredictionContext ctx(map, sensor, pose, opt);
-  eye_ = ctx.eye;
+    : map_(map),
+      scene_(scene),
+      sensor_(sensor),
+      table_(table),
+      pose_(pose),
+      opt_(opt),
+      max_count_(max_count),
+      ctx_(map, sensor, pose, opt) {
+  // Where each corner lies, for the order; the rest of its geometry (table
+  // look-ups scattered through memory) only for those that Visible tests.
   candidates_.reserve(landmarks.size());
   for (size_t idx = 0; idx < landmarks.size(); ++idx) {
     PredictedLandmark p;
-    if (PredictGeometry(landmarks[idx], static_cast<int>(idx), map, sensor, table, pose, opt, ctx, &p))
-      candidates_.push_back(p);
+    if (PredictPlacement(landmarks[idx], static_cast<int>(idx), map, sensor, pose, ctx_, &p)) candidates_.push_back(p);
   }
   state_.assign(candidates_.size(), kUnknown);
   if (max_count_ <= 0) return;
@@ -244,7 +263,10 @@ SpreadPrediction::SpreadPrediction(const std::vector<Landmark>& landmarks, const
 
 bool SpreadPrediction::Visible(int i) {
   if (state_[i] == kUnknown) {
-    state_[i] = PredictVisibility(scene_, opt_, eye_, &candidates_[i]) ? kVisible : kHidden;
+    PredictedLandmark& p = candidates_[i];
+    state_[i] = PredictImage(map_, sensor_, table_, pose_, opt_, ctx_, &p) && PredictVisibility(scene_, opt_, ctx_.eye, &p)
+                    ? kVisible
+                    : kHidden;
   }
   return state_[i] == kVisible;
 }

@@ -117,6 +117,17 @@ void SetImageMotion(const Map& map, const Sensor& sensor, const RadiusTable& tab
 // the nearest of the rest; the others follow, nearest first.
 std::vector<PredictedLandmark> SelectSpread(std::vector<PredictedLandmark> all, int max_count);
 
+namespace internal {
+// What the predictions of every landmark from one pose share.
+struct PredictionContext {
+  PredictionContext(const Map& map, const Sensor& sensor, const Pose2& pose, const PredictionOptions& opt);
+  Eigen::Vector3d eye;      // the mirror's vertex: where the scene is seen from, nearly
+  Eigen::Vector2d cam;      // the robot's position
+  Eigen::Vector2d cos_sin;  // of the pose's heading, for sensor_from_world
+  double r_lo, r_hi;        // the annulus that predictions keep to (px)
+};
+}  // namespace internal
+
 // SelectSpread(PredictLandmarks(...), max_count) in two parts: its first
 // min(max_count, size) landmarks, then on demand the rest. The scene's ray
 // casts (occlusion and the shades beyond the edges: most of a prediction's
@@ -135,13 +146,17 @@ class SpreadPrediction {
   std::vector<PredictedLandmark> Rest();
 
  private:
-  bool Visible(int i);  // the scene's tests of candidates_[i], run once
+  bool Visible(int i);  // the image geometry's and the scene's tests of candidates_[i], run once
   enum State : char { kUnknown, kVisible, kHidden };
+  const Map& map_;
   const Scene& scene_;
+  const Sensor& sensor_;
+  const RadiusTable& table_;
+  Pose2 pose_;
   PredictionOptions opt_;
   int max_count_;
-  Eigen::Vector3d eye_;
-  std::vector<PredictedLandmark> candidates_;  // landmark order, the geometry's tests passed
+  internal::PredictionContext ctx_;
+  std::vector<PredictedLandmark> candidates_;  // landmark order, placed in front of the camera
   std::vector<State> state_;
   std::vector<int> by_distance_;  // candidates nearest first
   std::vector<char> taken_;       // in the first part
