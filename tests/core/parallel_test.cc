@@ -106,7 +106,11 @@ TEST_CASE("parallel_loop: no thread outlives the loop; they start on the caller'
     refused = sched_setscheduler(0, SCHED_IDLE, &param) != 0;
     if (refused) return;
     std::mutex m;
-    before = ProcessThreads();
+    // Threads joined before (earlier tests) may linger in /proc for a moment.
+    for (int i = 0; i < 200 && before != ProcessThreads(); ++i) {
+      before = ProcessThreads();
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
     ParallelForOnOwnThreads(
         3,
         [&](int) {
@@ -124,7 +128,7 @@ TEST_CASE("parallel_loop: no thread outlives the loop; they start on the caller'
   if (refused) return test::Skip("this system refuses SCHED_IDLE");
   CHECK(policies == std::vector<int>(3, SCHED_IDLE));
   CHECK(during > before);  // helpers were started ...
-  CHECK(after == before);  // ... and are gone
+  CHECK(after <= before);  // ... and are gone
 #endif
 }
 

@@ -8,7 +8,6 @@
 #include <algorithm>
 #include <atomic>
 #include <exception>
-#include <system_error>
 #include <thread>
 #include <vector>
 
@@ -99,11 +98,12 @@ void ParallelForOnOwnThreads(int n, Body&& body, int num_threads = 0, int chunk 
   };
   const int threads = InParallelRegion() ? 1 : std::min(ThreadCount(num_threads), (std::max(n, 0) + chunk - 1) / chunk);
   std::vector<std::thread> helpers;
+  helpers.reserve(static_cast<size_t>(std::max(0, threads - 1)));  // no reallocation once threads run
   for (int t = 1; t < threads; ++t) {
     try {
       helpers.emplace_back(work);
-    } catch (const std::system_error&) {
-      break;  // no more threads to be had: the ones started (and the caller) do the rest
+    } catch (...) {  // std::system_error, or std::bad_alloc for the thread's state
+      break;           // no more threads to be had: the ones started (and the caller) do the rest
     }
   }
   work();
