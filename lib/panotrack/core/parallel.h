@@ -17,20 +17,23 @@
 
 namespace pano {
 
+namespace internal {
+// Set on the threads of a ParallelForOnOwnThreads loop while they run it.
+inline thread_local bool in_own_threads_loop = false;
+}  // namespace internal
+
 // `requested` threads; 0 (or less): OpenMP's default, every core unless
-// OMP_NUM_THREADS says otherwise.
+// OMP_NUM_THREADS says otherwise. On a thread of a ParallelForOnOwnThreads
+// loop, 1: a loop nested there runs on that thread, as OpenMP runs a
+// nested region.
 inline int ThreadCount(int requested) {
+  if (internal::in_own_threads_loop) return 1;
 #ifdef _OPENMP
   return requested > 0 ? requested : std::max(1, omp_get_max_threads());
 #else
   return requested > 0 ? requested : 1;
 #endif
 }
-
-namespace internal {
-// Set on the threads of a ParallelForOnOwnThreads loop while they run it.
-inline thread_local bool in_own_threads_loop = false;
-}  // namespace internal
 
 // Whether the caller runs on a thread of an active parallel region (an
 // OpenMP one or a ParallelForOnOwnThreads loop): a loop nested there runs on

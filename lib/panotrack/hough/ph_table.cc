@@ -82,9 +82,7 @@ PhTable PhTable::Build(const RadiusTable& table, double height, const PhTableOpt
   t.slice_inv_r_step_ = kSliceSub / options.r_step;
   t.slice_d_.assign(n_slice_d, std::numeric_limits<double>::quiet_NaN());
   // The loops' bodies only evaluate the model (nothing throws).
-  // Inside a parallel loop (a table first needed by a room-wide search), on
-  // the calling thread alone.
-  const int threads = InParallelRegion() ? 1 : ThreadCount(options.num_threads);
+  const int threads = ThreadCount(options.num_threads);
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (int k = 0; k < n_slice; ++k) {
     const double D = std::exp(t.slice_log_d0_ + k * log_step);
