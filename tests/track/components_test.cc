@@ -264,6 +264,21 @@ TEST_CASE("junction tracker: a landmark only where its edges meet at the junctio
   tracker.BeginFrame(cut);
   m = tracker.Measure(p, 8.0);
   CHECK(m.found);
+  // The horizontal edge cut back instead: from the vertical edge to cut_px
+  // along it, painted with what lies 12 px beyond the corner (the
+  // background) as far into the face as a 3 px search reaches. Ending 9 px
+  // from the junction it lies beyond the tolerance; 2 px, within it.
+  const double along = p.inside_azimuth_sign / p.corner_radius;  // rad per px along the horizontal edge
+  for (const auto& [cut_px, meets] : {std::pair{9.0, false}, std::pair{2.0, true}}) {
+    cut = frame.clone();
+    CopyPolar(s, frame, p.corner_radius - direction * 4.0, p.corner_radius + direction * 8.0, 0.5 * cut_px,
+              p.azimuth + along * 0.5 * cut_px, -direction * 12.0, 0.0, &cut);
+    tracker.BeginFrame(cut);
+    m = tracker.Measure(p, 3.0);
+    INFO("horizontal edge cut back to " << cut_px << " px: " << m.why);
+    CHECK(m.found == meets);
+    if (!meets) CHECK(std::string(m.why) == "edges do not meet");
+  }
   // The vertical edge drawn on past the junction (what lies 12 px along it,
   // copied 2 to 9 px beyond the corner): not this landmark's corner.
   cv::Mat past = frame.clone();

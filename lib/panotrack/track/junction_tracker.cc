@@ -34,6 +34,14 @@ namespace {
 // allowing for them only lets marginal edges through.
 double RampAllowance(double ramp_px) { return ramp_px < 2.0 ? 0.0 : ramp_px; }
 
+// How many of the positions first, first + spacing, ... lie below `end`,
+// accumulated as the edge searches step through them.
+int PositionsBelow(double first, double spacing, double end) {
+  int n = 0;
+  for (double d = first; d < end; d += spacing) ++n;
+  return n;
+}
+
 struct Step {
   double radius, azimuth, strength, width_px;
   Eigen::Vector2d px;
@@ -134,8 +142,13 @@ bool JunctionTracker::FindVerticalEdge(const PredictedLandmark& p, double half, 
   std::vector<Step>& v_steps = scratch.steps;
   v_steps.clear();
   const Heading heading(p.azimuth);
-  for (double d = o.corner_gap_px; d < v_len - o.corner_gap_px && static_cast<int>(v_steps.size()) < o.max_samples;
-       d += v_spacing) {
+  // Once too few positions remain to find enough steps, the edge is lost.
+  const double v_end = v_len - o.corner_gap_px;
+  const int n_positions = PositionsBelow(o.corner_gap_px, v_spacing, v_end);
+  int position = 0;
+  for (double d = o.corner_gap_px; d < v_end && static_cast<int>(v_steps.size()) < o.max_samples;
+       d += v_spacing, ++position) {
+    if (static_cast<int>(v_steps.size()) + n_positions - position < o.min_vertical_points) break;
     Step st;
     const double r = p.corner_radius + edge->direction * d;
     // Tangential motion grows with the radius under rotation.
@@ -213,8 +226,11 @@ bool JunctionTracker::FindHorizontalEdge(const PredictedLandmark& p, double half
   std::vector<Step>& h_steps = scratch.steps;
   votes.clear();
   h_steps.clear();
+  const int n_positions = PositionsBelow(gap, h_spacing, arc - gap);
+  int position = 0;
   for (double dt = gap; dt < arc - gap && static_cast<int>(votes.size()) < o.max_horizontal_samples;
-       dt += h_spacing) {
+       dt += h_spacing, ++position) {
+    if (static_cast<int>(votes.size()) + n_positions - position < o.min_horizontal_points) break;
     const double theta = wrap_angle(p.azimuth + edge->side * dt);
     double r_pred;
     if (!ph.Curve(p.r_main, wrap_angle(theta - p.theta_main), &r_pred)) continue;
@@ -266,9 +282,33 @@ TrackingWindow JunctionTracker::HorizontalWindow(const PredictedLandmark& p, dou
   return w;
 }
 
-// End points by bisection between the last sample that found a step and one
-// beyond the junction that must not: first along the vertical edge (radius),
-bool JunctionTracker::VerticalEnd(const VerticalEdge& v, double r_junction, double* r_end,
+namespace {
+
+// Bisection for an edge's end between `in` (a step there) and `out` (none
+// there), `steps` halvings, the estimate the last interval's midpoint
+// (`midpoint`). Only whether that estimate lies within `tolerance` of the
+// junction matters (`offset`: signed distance from it), so the halving
+// stops once the whole interval lies on one side of that bound: every
+// further midpoint falls inside the interval.
+template <class HasStep, class Midpoint, class Offset>
+bool EndWithinTolerance(double in, double out, int steps, double tolerance, const HasStep& has_step,
+                        const Midpoint& midpoint, const Offset& offset) {
+  for (int k = 0;; ++k) {
+    const double a = offset(in), b = offset(out);
+    if (std::abs(a) <= tolerance && std::abs(b) <= tolerance) return true;
+    if ((a > tolerance && b > tolerance) || (a < -tolerance && b < -tolerance)) return false;
+    if (k == steps) return std::abs(offset(midpoint(in, out))) <= tolerance;
+    const double mid = midpoint(in, out);
+    (has_step(mid) ? in : out) = mid;
+  }
+}
+
+}  // namespace
+
+// The edges' ends at the junction, by bisection between the last sample that
+// found a step and one beyond the junction that must not: first along the
+// vertical edge (radius),
+bool JunctionTracker::VerticalEnd(const VerticalEdge& v, double r_junction, double tolerance, bool* meets,
                                   LandmarkMeasurement* m) const {
   const Heading heading(v.azimuth);
   auto has_step = [&](double r) {
@@ -276,22 +316,21 @@ bool JunctionTracker::VerticalEnd(const VerticalEdge& v, double r_junction, doub
     return LinearStep(grey_, sensor_, opt_, step_baseline_, r, heading, kProbeHalfPx, v.polarity, false, &st,
                       v.ramp_px * r / r_junction);
   };
-  double r_in = v.nearest_radius, r_out = r_junction - v.direction * (opt_.corner_gap_px + 1.5);
+  const double r_out = r_junction - v.direction * (opt_.corner_gap_px + 1.5);
   if (has_step(r_out)) {
     m->why = "vertical edge runs past the junction";
     return false;
   }
-  for (int k = 0; k < opt_.bisection_steps; ++k) {
-    const double mid = 0.5 * (r_in + r_out);
-    (has_step(mid) ? r_in : r_out) = mid;
-  }
-  *r_end = 0.5 * (r_in + r_out);
+  *meets = EndWithinTolerance(
+      v.nearest_radius, r_out, opt_.bisection_steps, tolerance, has_step,
+      [](double a, double b) { return 0.5 * (a + b); }, [&](double r) { return r - r_junction; });
   return true;
 }
 
-// then along the horizontal edge (azimuth, on its PH curve).
-bool JunctionTracker::HorizontalEnd(const PhTable& ph, const HorizontalEdge& h, double theta_v,
-                                    double r_junction, double* t_end, LandmarkMeasurement* m) const {
+// then along the horizontal edge (azimuth, on its PH curve); its bisection
+// only where it can still matter (`needed`).
+bool JunctionTracker::HorizontalEnd(const PhTable& ph, const HorizontalEdge& h, double theta_v, double r_junction,
+                                    double tolerance, bool needed, bool* meets, LandmarkMeasurement* m) const {
   auto has_step = [&](double theta) {
     double r;
     Step st;
@@ -301,18 +340,16 @@ bool JunctionTracker::HorizontalEnd(const PhTable& ph, const HorizontalEdge& h, 
   };
   // Motion blur smears the edge's end past the junction by up to half the
   // tangential motion.
-  double t_in = h.nearest_azimuth;
-  double t_out =
+  const double t_out =
       wrap_angle(theta_v - h.side * (opt_.corner_gap_px + 1.5 + 0.5 * h.along_blur_px) / r_junction);
   if (has_step(t_out)) {
     m->why = "horizontal edge runs past the junction";
     return false;
   }
-  for (int k = 0; k < opt_.bisection_steps; ++k) {
-    const double mid = wrap_angle(t_in + 0.5 * wrap_angle(t_out - t_in));
-    (has_step(mid) ? t_in : t_out) = mid;
-  }
-  *t_end = wrap_angle(t_in + 0.5 * wrap_angle(t_out - t_in));
+  *meets = needed && EndWithinTolerance(
+                         h.nearest_azimuth, t_out, opt_.bisection_steps, tolerance, has_step,
+                         [](double a, double b) { return wrap_angle(a + 0.5 * wrap_angle(b - a)); },
+                         [&](double theta) { return wrap_angle(theta - theta_v) * r_junction; });
   return true;
 }
 
@@ -324,13 +361,12 @@ bool JunctionTracker::LocateJunction(const PhTable& ph, const VerticalEdge& v, c
     m->why = "junction off the PH table";
     return false;
   }
-  double r_vertical_end, t_horizontal_end;
-  if (!VerticalEnd(v, r_junction, &r_vertical_end, m) ||
-      !HorizontalEnd(ph, h, v.azimuth, r_junction, &t_horizontal_end, m))
+  bool vertical_meets = false, horizontal_meets = false;
+  if (!VerticalEnd(v, r_junction, opt_.junction_tolerance_px + 0.5 * h.ramp_px, &vertical_meets, m) ||
+      !HorizontalEnd(ph, h, v.azimuth, r_junction, opt_.junction_tolerance_px + 0.5 * h.along_blur_px,
+                     vertical_meets, &horizontal_meets, m))
     return false;
-  if (std::abs(r_vertical_end - r_junction) > opt_.junction_tolerance_px + 0.5 * h.ramp_px ||
-      std::abs(wrap_angle(t_horizontal_end - v.azimuth)) * r_junction >
-          opt_.junction_tolerance_px + 0.5 * h.along_blur_px) {
+  if (!vertical_meets || !horizontal_meets) {
     m->why = "edges do not meet";
     return false;
   }

@@ -57,9 +57,12 @@ class JunctionTracker : public LandmarkTracker {
   bool FindHorizontalEdge(const PredictedLandmark& p, double half, const PhTable& ph, int polarity,
                           HorizontalEdge* edge, LandmarkMeasurement* m) const;
   static TrackingWindow HorizontalWindow(const PredictedLandmark& p, double half);
-  bool VerticalEnd(const VerticalEdge& v, double r_junction, double* r_end, LandmarkMeasurement* m) const;
+  // Whether each edge ends within `tolerance` of the junction at radius
+  // `r_junction` (`meets`); false when it runs past it.
+  bool VerticalEnd(const VerticalEdge& v, double r_junction, double tolerance, bool* meets,
+                   LandmarkMeasurement* m) const;
   bool HorizontalEnd(const PhTable& ph, const HorizontalEdge& h, double theta_v, double r_junction,
-                     double* t_end, LandmarkMeasurement* m) const;
+                     double tolerance, bool needed, bool* meets, LandmarkMeasurement* m) const;
   bool LocateJunction(const PhTable& ph, const VerticalEdge& v, const HorizontalEdge& h,
                       LandmarkMeasurement* m) const;
 
