@@ -5,12 +5,7 @@
 
 #include <Eigen/Core>
 
-#include "panotrack/core/cpu_features.h"
 #include "panotrack/core/error.h"
-
-#ifdef PANO_HAVE_X86_TARGETS
-#include <immintrin.h>
-#endif
 
 namespace pano {
 
@@ -50,78 +45,23 @@ AzimuthCompass::AzimuthCompass(const Sensor& s, int bins, double inner, double o
   pixel_offset_ = std::move(offset);
   pixel_row_ = std::move(row);
   pixel_bin_.clear();
-  for (int b = 0; b < bins_; ++b) slots_ = std::max(slots_, bin_begin_[b + 1] - bin_begin_[b]);
-  slot_offset_.assign(static_cast<size_t>(slots_) * bins_, -1);
-  slot_row_.assign(slot_offset_.size(), 0);
-  gather_ok_ = true;
-  for (int b = 0; b < bins_; ++b)
-    for (int i = bin_begin_[b]; i < bin_begin_[b + 1]; ++i) {
-      const size_t slot = static_cast<size_t>(i - bin_begin_[b]) * bins_ + b;
-      slot_offset_[slot] = pixel_offset_[i] - 3;
-      slot_row_[slot] = pixel_row_[i];
-      gather_ok_ = gather_ok_ && pixel_offset_[i] >= 3;
-    }
 }
 
-namespace {
-
-#ifdef PANO_HAVE_X86_TARGETS
-// Eight bins at a time, one gather per slot: each lane reads the 4 bytes
-// ending at its pixel and keeps the last (little-endian: the top byte).
-__attribute__((target("avx2"))) void BinSumsAvx2(const uchar* data, int row_padding, const int* slot_offset,
-                                                  const int* slot_row, int slots, int bins, int* sums) {
-  const __m256i none = _mm256_set1_epi32(-1), padding = _mm256_set1_epi32(row_padding);
-  const int* base = reinterpret_cast<const int*>(data);
-  for (int b0 = 0; b0 < bins; b0 += 8) {
-    __m256i sum = _mm256_setzero_si256();
-    for (int k = 0; k < slots; ++k) {
-      const size_t at = static_cast<size_t>(k) * bins + b0;
-      __m256i offset = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(slot_offset + at));
-      const __m256i valid = _mm256_cmpgt_epi32(offset, none);
-      if (row_padding != 0)
-        offset = _mm256_add_epi32(
-            offset, _mm256_mullo_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(slot_row + at)), padding));
-      const __m256i word = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), base, offset, valid, 1);
-      sum = _mm256_add_epi32(sum, _mm256_srli_epi32(word, 24));
-    }
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(sums + b0), sum);
-  }
-}
-#endif
-
-}  // namespace
-
-void AzimuthCompass::BinSums(const cv::Mat& grey, int* sums) const {
+std::vector<float> AzimuthCompass::Signature(const cv::Mat& grey) const {
+  if (grey.type() != CV_8UC1 || grey.cols != width_ || grey.rows != height_)
+    throw Error("compass: expected an 8-bit grey frame of the calibration's size");
+  std::vector<float> mean(bins_);
   const uchar* data = grey.ptr<uchar>(0);
   const int row_padding = static_cast<int>(grey.step[0]) - width_;  // 0 for a continuous frame
-#ifdef PANO_HAVE_X86_TARGETS
-  // Integer sums: the same in any order.
-  if (gather_ok_ && bins_ % 8 == 0 && HaveAvx2()) {
-    BinSumsAvx2(data, row_padding, slot_offset_.data(), slot_row_.data(), slots_, bins_, sums);
-    return;
-  }
-#endif
   for (int b = 0; b < bins_; ++b) {
+    // Integer sums of at most eight pixels: exact, as a double sum would be.
     int sum = 0;
     const int begin = bin_begin_[b], end = bin_begin_[b + 1];
     if (row_padding == 0)
       for (int i = begin; i < end; ++i) sum += data[pixel_offset_[i]];
     else
       for (int i = begin; i < end; ++i) sum += data[pixel_offset_[i] + pixel_row_[i] * row_padding];
-    sums[b] = sum;
-  }
-}
-
-std::vector<float> AzimuthCompass::Signature(const cv::Mat& grey) const {
-  if (grey.type() != CV_8UC1 || grey.cols != width_ || grey.rows != height_)
-    throw Error("compass: expected an 8-bit grey frame of the calibration's size");
-  // Integer sums of at most eight pixels: exact, as a double sum would be.
-  std::vector<int> sums(bins_);
-  BinSums(grey, sums.data());
-  std::vector<float> mean(bins_);
-  for (int b = 0; b < bins_; ++b) {
-    const int n = bin_begin_[b + 1] - bin_begin_[b];
-    mean[b] = n > 0 ? static_cast<float>(static_cast<double>(sums[b]) / n) : 0.0f;
+    mean[b] = end > begin ? static_cast<float>(static_cast<double>(sum) / (end - begin)) : 0.0f;
   }
   // High-pass: minus a moving average over 1/12 of the circle, so that
   // slow illumination changes do not pull the correlation.

@@ -37,15 +37,7 @@ class AzimuthCompass {
   std::vector<int> pixel_row_;     // its row (frames may have padded rows)
   std::vector<int> pixel_bin_;     // its azimuth bin (while building)
   std::vector<int> bin_begin_;     // bin b's samples: [bin_begin_[b], bin_begin_[b + 1])
-  // The same samples slot-major for the vector path: slot k of bin b at
-  // [k * bins_ + b], its pixel index less 3 (each is read as the last byte
-  // of a 4-byte gather), -1 where bin b has fewer than k + 1 samples.
-  std::vector<int> slot_offset_, slot_row_;
-  int slots_ = 0;
-  bool gather_ok_ = false;  // every pixel index >= 3: the gathers stay inside the frame
   int width_ = 0, height_ = 0;
-  // Per bin the sum of its samples' pixels.
-  void BinSums(const cv::Mat& grey, int* sums) const;
 };
 
 }  // namespace pano
