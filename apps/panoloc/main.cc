@@ -196,6 +196,11 @@ int main(int argc, char** argv) {
   app.add_option("-j,--jobs", o.jobs, "Inputs processed in parallel (0: as many as --threads allows)")
       ->group(run);
   app.add_option("--threads", o.num_threads, "Threads of the whole run (0: all cores)")->group(run);
+  app.add_option("--decode-memory", o.decode_memory_mib,
+                 "MiB of decoded frames that may wait per input so that two groups of pictures of an MP4 "
+                 "(H.264, HEVC) decode at once, for less CPU than FFmpeg's frame threads (0: never)")
+      ->capture_default_str()
+      ->group(run);
   app.add_flag("-q,--quiet", o.quiet, "No progress line, notes or summary (errors still on stderr)")
       ->group(run);
   app.add_flag("-v,--verbose", verbose,

@@ -95,11 +95,16 @@ void ScribbleFile(const std::string& from, const std::string& to, double fractio
 }
 
 ReadOutcome ReadAll(const std::string& path, double live_timeout_s) {
+  FrameSourceOptions options;
+  options.live_timeout_s = live_timeout_s;
+  return ReadAll(path, options);
+}
+
+ReadOutcome ReadAll(const std::string& path, const FrameSourceOptions& options, bool* gop_parallel) {
   ReadOutcome out;
   try {
-    FrameSourceOptions options;
-    options.live_timeout_s = live_timeout_s;
     FrameSource source(path, options);
+    if (gop_parallel) *gop_parallel = source.gop_parallel();
     out.frame_count = source.frame_count();
     cv::Mat grey;
     double t;

@@ -43,6 +43,9 @@ struct ReadOutcome {
   int frame_count = -2;  // frame_count(); -2 when the constructor failed
 };
 ReadOutcome ReadAll(const std::string& path, double live_timeout_s = 10.0);
+// The same with these options; `gop_parallel` (when given) is set to
+// whether the source decoded groups of pictures in parallel.
+ReadOutcome ReadAll(const std::string& path, const FrameSourceOptions& options, bool* gop_parallel = nullptr);
 // A loopback port of the given socket type (SOCK_STREAM, SOCK_DGRAM), bound
 // by the returned socket (close it to free the port). A TCP socket bound but
 // not listening refuses connections.

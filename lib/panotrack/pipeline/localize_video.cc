@@ -276,6 +276,7 @@ void LocalizeInto(const VideoJob& job, const SharedResources& res, const VideoRu
   if (!job.gt.empty()) gt = ReadPoseCsv(job.gt);
   FrameSourceOptions source_options;
   source_options.decoder_threads = opt.decoder_threads;
+  source_options.gop_parallel_bytes = opt.gop_parallel_bytes;
   FrameSource source(job.input, source_options);
   const Sensor& s = res.calib.sensor;
   const cv::Size tracked = TrackedSize(source.width(), source.height(), opt.scale);

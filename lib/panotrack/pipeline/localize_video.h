@@ -16,6 +16,7 @@
 #include "panotrack/scene/map.h"
 #include "panotrack/track/localizer.h"
 #include "panotrack/track/motion_model.h"
+#include "panotrack/video/frame_source.h"
 
 namespace pano {
 
@@ -67,6 +68,8 @@ struct VideoRunOptions {
   // FFmpeg's decoding threads per input; 0: FFmpeg's choice (a thread per
   // core, and one more).
   int decoder_threads = 0;
+  // FrameSourceOptions::gop_parallel_bytes.
+  size_t gop_parallel_bytes = FrameSourceOptions().gop_parallel_bytes;
   // Inputs other than live ones are tracked at idle priority while the
   // tracker keeps up with decoding (core/thread_priority.h): decoding, the
   // slower of the two, keeps the cores, and tracking fills the gaps that

@@ -38,6 +38,8 @@ void PanolocOptions::Check() const {
                 "(use --gt auto for several)");
   if (jobs < 0) throw Error("--jobs (jobs): expected 0 (as many as the threads allow) or more");
   if (num_threads < 0) throw Error("--threads (num_threads): expected 0 (all cores) or more");
+  if (decode_memory_mib < 0 || decode_memory_mib > (1 << 20))
+    throw Error("--decode-memory (decode_memory_mib): expected 0 to 1048576 MiB");
   if (fps < 0 || !std::isfinite(fps)) throw Error("--fps (fps): expected a positive number");
   if (!(scale > 0 && scale <= 1)) throw Error("--scale (scale): expected a factor in (0, 1]");
   if (smooth && out_dir.empty() && PoseCsvWriter::WritesDirectly(output))
@@ -294,6 +296,7 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
   // 2 cores). Where the tracker has a single thread it runs in the gaps
   // that decoding leaves.
   run.decoder_threads = std::max(1, threads / n_jobs);
+  run.gop_parallel_bytes = static_cast<size_t>(opt.decode_memory_mib) << 20;
   // A room-wide search holds up its input's frames (the decoder stops once
   // its queue is full): as many threads as the per-frame loops, and both of
   // an input's two cores where those have one.

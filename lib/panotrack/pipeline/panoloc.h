@@ -44,6 +44,9 @@ struct PanolocOptions {
   double scale = 1.0;
   int jobs = 0;                      // inputs processed at once; 0: as many as the threads allow
   int num_threads = 0;               // threads of the whole run; 0: all cores
+  // Decoded frames that may wait in memory per input (MiB) so that two
+  // groups of pictures decode at a time (FrameSourceOptions); 0: never.
+  int decode_memory_mib = 128;
   bool quiet = false;                // no notes on stderr
   // Folder of the E(D,Z) table cache (lut/table_cache.h): the table the map
   // needs is loaded from there, or built and stored there. Empty: built on

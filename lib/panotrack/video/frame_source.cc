@@ -99,7 +99,7 @@ FrameSource::FrameSource(const std::string& path, const FrameSourceOptions& opti
     if (files_.empty()) throw Error(path + ": no images match this pattern");
     count_ = static_cast<int>(files_.size());
   } else {
-    OpenVideo(options.live_timeout_s, options.decoder_threads);
+    OpenVideo(options);
   }
   if (!ReadDirect(&first_) || first_.image.empty())
     throw Error(name_ + ": no frames (empty or corrupt input)");
@@ -119,13 +119,14 @@ FrameSource::FrameSource(const std::string& path, const FrameSourceOptions& opti
   worker_ = std::thread([this] { Decode(); });
 }
 
-void FrameSource::OpenVideo(double live_timeout_s, int decoder_threads) {
+void FrameSource::OpenVideo(const FrameSourceOptions& options) {
+  const double live_timeout_s = options.live_timeout_s;
   const bool live = IsLive(path_);
   std::error_code ec;
   if (!live && !fs::exists(path_, ec)) throw Error(path_ + ": no such file");
   luma_ = std::make_unique<LumaDecoder>();
   std::string why;
-  if (luma_->Open(path_, &why, live ? live_timeout_s : 0.0, decoder_threads)) {
+  if (luma_->Open(path_, &why, live ? live_timeout_s : 0.0, options.decoder_threads, options.gop_parallel_bytes)) {
     fps_ = luma_->fps();
     if (!live) count_ = static_cast<int>(luma_->frame_count());
     return;

@@ -8,6 +8,7 @@
 extern "C" {
 #include <libavcodec/avcodec.h>
 #include <libavformat/avformat.h>
+#include <libavutil/imgutils.h>
 #include <libavutil/pixdesc.h>
 #include <libavutil/time.h>
 }
@@ -20,9 +21,13 @@ extern "C" {
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <condition_variable>
 #include <cstring>
+#include <deque>
 #include <mutex>
 #include <new>
+#include <thread>
+#include <vector>
 
 namespace pano {
 
@@ -113,6 +118,83 @@ bool WrapLuma(AVFrame* decoded, cv::Mat* grey) {
   return true;
 }
 
+// A segment decoded on its own starts at an IDR picture and holds at least
+// this many packets: fewer would make the decoders wait on each other.
+constexpr long kMinSegmentPackets = 16;
+// The decoded frames of the segment being read wait up to this many bytes.
+constexpr size_t kReadAheadBytes = size_t(16) << 20;
+
+// What a packet of an H.264 or HEVC stream holds, from its NAL units'
+// headers. `length_size`: the bytes of each unit's length prefix (avcC and
+// hvcC packets, as MP4 and Matroska store them).
+struct NalContents {
+  bool idr = false;             // an IDR picture: nothing after it refers to what came before
+  bool parameter_sets = false;  // SPS or PPS (and VPS for HEVC)
+};
+NalContents ScanNals(const AVPacket& packet, AVCodecID codec, int length_size) {
+  NalContents c;
+  const uint8_t* data = packet.data;
+  const long size = packet.size;
+  for (long pos = 0; pos + length_size < size;) {
+    unsigned long n = 0;
+    for (int i = 0; i < length_size; ++i) n = (n << 8) | data[pos + i];
+    pos += length_size;
+    if (n == 0 || n > static_cast<unsigned long>(size - pos)) break;
+    const uint8_t header = data[pos];
+    if (codec == AV_CODEC_ID_H264) {
+      const int type = header & 0x1f;
+      c.idr |= type == 5;
+      c.parameter_sets |= type == 7 || type == 8;
+    } else {
+      const int type = (header >> 1) & 0x3f;
+      c.idr |= type == 19 || type == 20;  // IDR_W_RADL, IDR_N_LP (not CRA: its leading pictures look back)
+      c.parameter_sets |= type >= 32 && type <= 34;
+    }
+    pos += static_cast<long>(n);
+  }
+  return c;
+}
+
+// The NAL length prefix of avcC / hvcC extradata; 0 for other streams
+// (start codes, other codecs), which are decoded in one piece.
+int NalLengthSize(const AVCodecParameters& par) {
+  const uint8_t* x = par.extradata;
+  if (!x || par.extradata_size < 1 || x[0] != 1) return 0;
+  if (par.codec_id == AV_CODEC_ID_H264 && par.extradata_size >= 7) return (x[4] & 3) + 1;
+  if (par.codec_id == AV_CODEC_ID_HEVC && par.extradata_size >= 23) return (x[21] & 3) + 1;
+  return 0;
+}
+
+// The longest group of pictures, in frames, from a container index that
+// lists every frame (MP4, MOV); 0 when it does not.
+long LongestGop(AVStream* st) {
+#if LIBAVFORMAT_VERSION_INT >= AV_VERSION_INT(58, 78, 100)
+  const int n = avformat_index_get_entries_count(st);
+  if (n < 2 || st->nb_frames != n) return 0;
+  long longest = 0, since_key = 0, keys = 0;
+  for (int i = 0; i < n; ++i) {
+    const AVIndexEntry* e = avformat_index_get_entry(st, i);
+    if (e && (e->flags & AVINDEX_KEYFRAME) && i > 0) {
+      longest = std::max(longest, since_key);
+      since_key = 0;
+    }
+    keys += e && (e->flags & AVINDEX_KEYFRAME);
+    ++since_key;
+  }
+  return keys >= 2 ? std::max(longest, since_key) : 0;
+#else
+  (void)st;
+  return 0;
+#endif
+}
+
+size_t FrameBytes(const AVFrame& f) {
+  size_t bytes = 0;
+  for (const AVBufferRef* b : f.buf)
+    if (b) bytes += b->size;
+  return bytes;
+}
+
 }  // namespace
 
 struct LumaDecoder::Impl {
@@ -138,7 +220,47 @@ struct LumaDecoder::Impl {
   std::atomic<bool> aborted{false}, timed_out{false};
   AVIOContext* stdin_io = nullptr;  // standard input, read by ReadStdin
 
+  // Groups of pictures decoded in parallel (see StartGopDecoding): the
+  // stream cut into segments that each start at an IDR picture, segment s
+  // decoded by gop_codecs[s % size] on a thread of its own, single-threaded
+  // (no frame threads' hand-over per frame), the frames handed out in order.
+  struct Segment {
+    std::deque<AVPacket*> packets;  // demuxed, not decoded yet
+    long n_packets = 0;
+    bool closed = false;          // all its packets are demuxed
+    std::deque<AVFrame*> frames;  // decoded, waiting for Read()
+    size_t frame_bytes = 0;
+    bool decoded = false;  // its decoder is through with it
+    std::string error;     // why its decoding stopped early (after `frames`)
+  };
+  bool gop = false;
+  AVCodecID codec_id = AV_CODEC_ID_NONE;
+  int nal_length_size = 0;
+  bool inband_parameter_sets = false;  // seen in a packet so far
+  size_t segment_bytes = 0;            // the decoded frames a segment may hold
+  std::vector<AVCodecContext*> gop_codecs;  // [0] is `codec`
+  std::vector<std::thread> gop_threads;
+  // Guards the demuxer and everything below (in GOP mode).
+  std::mutex gop_mu;
+  std::condition_variable gop_cv;
+  std::deque<Segment> segments;  // from the one Read() takes frames from
+  long first_segment = 0;        // its index
+  bool demux_ended = false, gop_stop = false;
+
   ~Impl() {
+    if (!gop_threads.empty()) {
+      {
+        std::lock_guard<std::mutex> lock(gop_mu);
+        gop_stop = true;
+      }
+      gop_cv.notify_all();
+      for (std::thread& t : gop_threads) t.join();
+    }
+    for (Segment& seg : segments) {
+      for (AVPacket* p : seg.packets) av_packet_free(&p);
+      for (AVFrame* f : seg.frames) av_frame_free(&f);
+    }
+    for (size_t i = 1; i < gop_codecs.size(); ++i) avcodec_free_context(&gop_codecs[i]);
     if (frame) av_frame_free(&frame);
     if (packet) av_packet_free(&packet);
     if (codec) avcodec_free_context(&codec);
@@ -194,8 +316,13 @@ struct LumaDecoder::Impl {
 
   [[noreturn]] void Fail(const std::string& why) {
     done = true;
-    throw Error(name + ": decode error at frame " + std::to_string(frames_out) + ": " +
-                (pending.empty() ? why : pending));
+    std::string reason = why;
+    {
+      std::unique_lock<std::mutex> lock(gop_mu, std::defer_lock);
+      if (gop) lock.lock();  // the demuxer may be setting `pending`
+      if (!pending.empty()) reason = pending;
+    }
+    throw Error(name + ": decode error at frame " + std::to_string(frames_out) + ": " + reason);
   }
 
   std::string Truncated() const {
@@ -218,9 +345,10 @@ struct LumaDecoder::Impl {
     flushing = true;
   }
 
-  // Sends the next packet of the video stream to the decoder, or starts
-  // flushing it at the end of the input or at a damaged packet.
-  void Feed() {
+  enum class PacketRead { kPacket, kEnd, kAborted };
+  // The next packet of the video stream into `packet`. kEnd at the end of
+  // the input or at a damaged packet (`pending` names a problem).
+  PacketRead ReadPacket() {
     int rd;
     ArmTimeout();
     while ((rd = av_read_frame(format, packet)) >= 0) {
@@ -232,22 +360,19 @@ struct LumaDecoder::Impl {
     deadline_us = 0;
     if (aborted) {
       if (rd >= 0) av_packet_unref(packet);
-      done = true;
-      return;
+      return PacketRead::kAborted;
     }
     if (rd >= 0 && (timed_out || (format->pb && format->pb->error < 0))) {
       // The demuxer hands out what it had buffered when the input stalled or
       // failed (a stream's partial last packet): its frame would be damaged.
       av_packet_unref(packet);
       pending = timed_out ? NoData() : "read failed (" + AvError(format->pb->error) + ")";
-      StartFlush();
-      return;
+      return PacketRead::kEnd;
     }
     if (rd >= 0 && (packet->flags & AV_PKT_FLAG_CORRUPT)) {
       av_packet_unref(packet);
       pending = format->pb && avio_feof(format->pb) ? Truncated() : "damaged packet in the container";
-      StartFlush();
-      return;
+      return PacketRead::kEnd;
     }
     if (rd < 0) {
       // Input errors may surface as an early end of file.
@@ -255,10 +380,24 @@ struct LumaDecoder::Impl {
       if (timed_out) pending = NoData();
       else if (rd != AVERROR_EOF) pending = "read failed (" + AvError(rd) + ")";
       else if (io_error < 0) pending = "read failed (" + AvError(io_error) + ")";
+      return PacketRead::kEnd;
+    }
+    ++packets_in;
+    return PacketRead::kPacket;
+  }
+
+  // Sends the next packet of the video stream to the decoder, or starts
+  // flushing it at the end of the input or at a damaged packet.
+  void Feed() {
+    const PacketRead read = ReadPacket();
+    if (read == PacketRead::kAborted) {
+      done = true;
+      return;
+    }
+    if (read == PacketRead::kEnd) {
       StartFlush();
       return;
     }
-    ++packets_in;
     const int sent = avcodec_send_packet(codec, packet);
     av_packet_unref(packet);
     // With frame threads the error belongs to the oldest packet in the
@@ -305,6 +444,175 @@ struct LumaDecoder::Impl {
     if (!WrapLuma(frame, grey)) Fail("out of memory");
     ++frames_out;
   }
+
+  // GOP mode: with gop_mu held (by `lock`), demuxes until segment s has a
+  // packet waiting or all its packets are out; null when the input ended
+  // before segment s began. A packet goes to the segment being demuxed; an
+  // IDR picture starts a new one once that has enough packets, unless the
+  // stream sent parameter sets of its own earlier and this picture does not
+  // repeat them (a decoder starting there would lack them).
+  Segment* DemuxFor(long s) {
+    for (;;) {
+      const long have = first_segment + static_cast<long>(segments.size());
+      if (s < have) {
+        Segment& seg = segments[static_cast<size_t>(s - first_segment)];
+        if (!seg.packets.empty() || seg.closed) return &seg;
+      } else if (demux_ended) {
+        return nullptr;
+      }
+      if (ReadPacket() != PacketRead::kPacket) {
+        demux_ended = true;
+        if (!segments.empty()) segments.back().closed = true;
+        gop_cv.notify_all();
+        continue;
+      }
+      const NalContents nals = ScanNals(*packet, codec_id, nal_length_size);
+      const bool parameter_sets_before = inband_parameter_sets;
+      inband_parameter_sets = inband_parameter_sets || nals.parameter_sets;
+      if ((packet->flags & AV_PKT_FLAG_KEY) && nals.idr && segments.back().n_packets >= kMinSegmentPackets &&
+          (nals.parameter_sets || !parameter_sets_before)) {
+        segments.back().closed = true;
+        segments.emplace_back();
+      }
+      AVPacket* queued = av_packet_alloc();
+      if (!queued) throw std::bad_alloc();
+      av_packet_move_ref(queued, packet);
+      segments.back().packets.push_back(queued);
+      ++segments.back().n_packets;
+      gop_cv.notify_all();
+    }
+  }
+
+  // GOP mode: decodes segment s (gop_mu held by `lock`, released while
+  // decoding) and leaves the decoder ready for another; what went wrong, or "".
+  std::string DecodeSegment(AVCodecContext* c, long s, AVFrame* out, std::unique_lock<std::mutex>& lock) {
+    auto failed = [&](const std::string& why) {
+      avcodec_flush_buffers(c);
+      if (!lock.owns_lock()) lock.lock();
+      return why;
+    };
+    for (bool flushing = false;;) {
+      AVPacket* p = nullptr;
+      if (!flushing) {
+        Segment* seg = DemuxFor(s);
+        if (!seg->packets.empty()) {
+          p = seg->packets.front();
+          seg->packets.pop_front();
+        }
+        flushing = p == nullptr;  // its packets are all out: drain the decoder
+      }
+      lock.unlock();
+      const int sent = avcodec_send_packet(c, p);
+      av_packet_free(&p);
+      if (sent < 0) return failed("corrupt data (" + AvError(sent) + ")");
+      for (;;) {
+        const int got = avcodec_receive_frame(c, out);
+        if (got == AVERROR(EAGAIN)) break;
+        if (got == AVERROR_EOF) return failed("");
+        if (got < 0) return failed("corrupt data (" + AvError(got) + ")");
+        AVFrame* decoded = av_frame_alloc();
+        if (!decoded) return failed("out of memory");
+        av_frame_move_ref(decoded, out);
+        const size_t bytes = FrameBytes(*decoded);
+        lock.lock();
+        Segment* seg = &segments[static_cast<size_t>(s - first_segment)];
+        // The next segment holds at most segment_bytes of frames (Open chose
+        // GOP mode because a group of pictures fits); the one Read() takes
+        // frames from runs ahead of it by no more than a single decoder would.
+        gop_cv.wait(lock, [&] {
+          const size_t limit = s == first_segment ? std::min(segment_bytes, kReadAheadBytes) : segment_bytes;
+          return gop_stop || seg->frames.empty() || seg->frame_bytes + bytes <= limit;
+        });
+        if (gop_stop) {
+          av_frame_free(&decoded);
+          return "";
+        }
+        seg->frames.push_back(decoded);
+        seg->frame_bytes += bytes;
+        gop_cv.notify_all();
+        lock.unlock();
+      }
+      lock.lock();
+      if (gop_stop) return "";
+    }
+  }
+
+  // GOP mode: decoder `worker`'s thread, decoding segments worker, worker +
+  // n, ... each once Read() has reached the segment before it.
+  void DecodeSegments(size_t worker) {
+    AVCodecContext* c = gop_codecs[worker];
+    const long n = static_cast<long>(gop_codecs.size());
+    AVFrame* out = av_frame_alloc();
+    std::unique_lock<std::mutex> lock(gop_mu);
+    for (long s = static_cast<long>(worker);; s += n) {
+      gop_cv.wait(lock, [&] { return gop_stop || s < first_segment + n; });
+      if (gop_stop) break;
+      std::string error;
+      Segment* seg = nullptr;
+      try {
+        seg = DemuxFor(s);
+        if (!seg) break;
+        error = out ? DecodeSegment(c, s, out, lock) : "out of memory";
+      } catch (const std::exception& e) {  // the thread's boundary
+        if (!lock.owns_lock()) lock.lock();
+        error = e.what();
+        if (!seg) {
+          demux_ended = true;
+          pending = error;
+          if (!segments.empty()) segments.back().closed = true;
+        }
+      }
+      if (seg) {
+        seg = &segments[static_cast<size_t>(s - first_segment)];
+        seg->error = error;
+        seg->decoded = true;
+      }
+      gop_cv.notify_all();
+      if (gop_stop || !seg) break;
+    }
+    av_frame_free(&out);
+  }
+
+  // GOP mode: Read().
+  bool ReadInOrder(cv::Mat* grey, double* time_s) {
+    std::unique_lock<std::mutex> lock(gop_mu);
+    for (;;) {
+      gop_cv.wait(lock, [&] {
+        return aborted || (segments.empty() ? demux_ended
+                                            : !segments.front().frames.empty() || segments.front().decoded);
+      });
+      if (aborted) {
+        done = true;
+        return false;
+      }
+      if (segments.empty()) {
+        lock.unlock();
+        done = true;
+        CheckComplete();
+        return false;
+      }
+      Segment& seg = segments.front();
+      if (!seg.frames.empty()) {
+        AVFrame* next = seg.frames.front();
+        seg.frames.pop_front();
+        seg.frame_bytes -= FrameBytes(*next);
+        gop_cv.notify_all();
+        lock.unlock();
+        av_frame_move_ref(frame, next);
+        av_frame_free(&next);
+        Deliver(grey, time_s);
+        return true;
+      }
+      if (!seg.error.empty()) {
+        const std::string error = seg.error;
+        lock.unlock();
+        Fail(error);
+      }
+      segments.pop_front();
+      ++first_segment;
+      gop_cv.notify_all();
+    }
+  }
 };
 
 bool LumaDecoderAvailable() { return true; }
@@ -312,7 +620,8 @@ bool LumaDecoderAvailable() { return true; }
 LumaDecoder::LumaDecoder() = default;
 LumaDecoder::~LumaDecoder() = default;
 
-bool LumaDecoder::Open(const std::string& path, std::string* reason, double io_timeout_s, int num_threads) {
+bool LumaDecoder::Open(const std::string& path, std::string* reason, double io_timeout_s, int num_threads,
+                       size_t gop_parallel_bytes) {
   UseDefaultDecoderLogging();
   static std::once_flag network_once;
   std::call_once(network_once, [] { avformat_network_init(); });
@@ -363,10 +672,37 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, double io_t
     *reason = "cannot set up the decoder";
     return false;
   }
-  d.codec->thread_count = std::max(0, num_threads);
-  if (avcodec_open2(d.codec, decoder, nullptr) < 0) {
-    *reason = "cannot open the decoder";
-    return false;
+  // Two groups of pictures at a time, each decoder single-threaded where
+  // there are two cores: FFmpeg's frame threads hand every frame over
+  // between threads, which costs a quarter more CPU on a cheap stream. Only
+  // files (the segments' frames wait in memory: a group of pictures must
+  // fit in gop_parallel_bytes, known from an index of every frame), H.264 or
+  // HEVC with their parameter sets out of band (length-prefixed NAL units).
+  const int threads = num_threads > 0 ? num_threads : static_cast<int>(std::thread::hardware_concurrency());
+  const AVCodecParameters& par = *st->codecpar;
+  const int frame_bytes = par.format >= 0 ? av_image_get_buffer_size(static_cast<AVPixelFormat>(par.format),
+                                                                      par.width, par.height, 1)
+                                          : -1;
+  const long longest_gop = LongestGop(st);
+  const bool gop = gop_parallel_bytes > 0 && io_timeout_s == 0.0 && path != "-" && threads >= 2 &&
+                   NalLengthSize(par) > 0 && frame_bytes > 0 && longest_gop > 0 &&
+                   static_cast<double>(longest_gop) * frame_bytes <= static_cast<double>(gop_parallel_bytes);
+  const int decoders = gop ? 2 : 1;
+  for (int i = 0; i < decoders; ++i) {
+    AVCodecContext* c = i == 0 ? d.codec : avcodec_alloc_context3(decoder);
+    if (i > 0) {
+      if (c) d.gop_codecs.push_back(c);
+      if (!c || avcodec_parameters_to_context(c, st->codecpar) < 0) {
+        *reason = "cannot set up the decoder";
+        return false;
+      }
+    }
+    c->thread_count = gop ? std::max(1, threads / decoders) : std::max(0, num_threads);
+    if (avcodec_open2(c, decoder, nullptr) < 0) {
+      *reason = "cannot open the decoder";
+      return false;
+    }
+    if (i == 0) d.gop_codecs.insert(d.gop_codecs.begin(), c);
   }
   // A stream may state its pixel format only with its first frame: Read()
   // checks every frame's.
@@ -380,11 +716,20 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, double io_t
     *reason = "out of memory";
     return false;
   }
+  if (gop) {
+    d.gop = true;
+    d.codec_id = par.codec_id;
+    d.nal_length_size = NalLengthSize(par);
+    d.segment_bytes = gop_parallel_bytes;
+    d.segments.emplace_back();
+    for (size_t i = 0; i < d.gop_codecs.size(); ++i) d.gop_threads.emplace_back([&d, i] { d.DecodeSegments(i); });
+  }
   return true;
 }
 
 bool LumaDecoder::Read(cv::Mat* grey, double* time_s) {
   Impl& d = *impl_;
+  if (d.gop) return !d.done && d.ReadInOrder(grey, time_s);
   while (!d.done) {
     const int got = avcodec_receive_frame(d.codec, d.frame);
     if (got == 0) {
@@ -404,8 +749,15 @@ bool LumaDecoder::Read(cv::Mat* grey, double* time_s) {
 }
 
 void LumaDecoder::Abort() {
-  if (impl_) impl_->aborted = true;
+  if (!impl_) return;
+  impl_->aborted = true;
+  if (impl_->gop) {
+    std::lock_guard<std::mutex> lock(impl_->gop_mu);
+    impl_->gop_cv.notify_all();
+  }
 }
+
+bool LumaDecoder::gop_parallel() const { return impl_ && impl_->gop; }
 
 #else  // !PANO_WITH_FFMPEG
 
@@ -413,12 +765,13 @@ struct LumaDecoder::Impl {};
 bool LumaDecoderAvailable() { return false; }
 LumaDecoder::LumaDecoder() = default;
 LumaDecoder::~LumaDecoder() = default;
-bool LumaDecoder::Open(const std::string&, std::string* reason, double, int) {
+bool LumaDecoder::Open(const std::string&, std::string* reason, double, int, size_t) {
   *reason = "built without FFmpeg";
   return false;
 }
 bool LumaDecoder::Read(cv::Mat*, double*) { return false; }
 void LumaDecoder::Abort() {}
+bool LumaDecoder::gop_parallel() const { return false; }
 
 #endif
 

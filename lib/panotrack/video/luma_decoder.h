@@ -36,8 +36,13 @@ class LumaDecoder {
   // standard input. With io_timeout_s > 0 (streams), opening and every wait
   // for data give up after that long instead of blocking for ever.
   // `num_threads`: FFmpeg's decoding threads; 0: FFmpeg's choice (a thread
-  // per core, and one more).
-  bool Open(const std::string& path, std::string* reason, double io_timeout_s = 0.0, int num_threads = 0);
+  // per core, and one more). With `gop_parallel_bytes` > 0 and at least two
+  // threads, a file whose index shows groups of pictures that fit in that
+  // many bytes of decoded frames (H.264 or HEVC as MP4 or MOV hold them) is
+  // decoded two groups at a time, each by its own decoder with half the
+  // threads (gop_parallel()); the frames come out the same, in order.
+  bool Open(const std::string& path, std::string* reason, double io_timeout_s = 0.0, int num_threads = 0,
+            size_t gop_parallel_bytes = 0);
   // Next frame's luma as CV_8UC1 and, when time_s is given, its presentation
   // time in seconds from the first frame's; false at the clean end (or after
   // Abort()). Throws pano::Error as above. Not a copy: *grey shares the
@@ -52,6 +57,8 @@ class LumaDecoder {
   // container is open, also when Open() then declines the pixel format.
   long frame_count() const { return frame_count_; }
   bool container_opened() const { return container_opened_; }
+  // Decoding two groups of pictures at a time (see Open).
+  bool gop_parallel() const;
 
  private:
   struct Impl;

@@ -1,0 +1,115 @@
+// Decoding groups of pictures in parallel hands out the same frames, with
+// the same times, in the same order as one decoder does, and fails on a
+// damaged or truncated file after the same good frames as a single-threaded
+// decoder, naming the same frame.
+#include <catch2/catch.hpp>
+#include <string>
+#include <vector>
+
+#include "test_paths.h"
+#include "test_skip.h"
+#include "test_videos.h"
+#include "panotrack/video/frame_source.h"
+#include "panotrack/video/luma_decoder.h"
+
+namespace pano {
+namespace {
+
+constexpr int kFrames = 62;
+
+FrameSourceOptions Options(bool gop_parallel) {
+  FrameSourceOptions options;
+  options.decoder_threads = 2;
+  options.gop_parallel_bytes = gop_parallel ? size_t(64) << 20 : 0;
+  return options;
+}
+
+TEST_CASE("groups of pictures decoded in parallel give the frames one decoder gives", "[gop_parallel]") {
+  if (!LumaDecoderAvailable()) return test::Skip("built without FFmpeg");
+  if (!test::HaveFfmpegTool()) return test::Skip("no ffmpeg command-line tool");
+  const std::string dir = test::ScratchDir("video_gop_parallel");
+  struct Encoding {
+    std::string file, args;
+    bool parallel;  // expected to be decoded in parallel
+  };
+  const std::vector<Encoding> encodings = {
+      // IDR pictures every 10 frames, B-frames reordered across them.
+      {"x264_g10.mp4", "-c:v libx264 -pix_fmt yuv420p -g 10 -bf 3", true},
+      {"x264_g20_nob.mp4", "-c:v libx264 -pix_fmt yuv420p -g 20 -bf 0", true},
+      // Parameter sets repeated in band at every IDR picture.
+      {"x264_headers.mp4", "-c:v libx264 -pix_fmt yuv420p -g 12 -x264-params repeat-headers=1", true},
+      // Keyframes that are no IDR pictures: one segment, decoded whole.
+      {"x264_open.mp4", "-c:v libx264 -pix_fmt yuv420p -g 10 -x264-params open-gop=1", true},
+      {"x265_g16.mp4", "-c:v libx265 -pix_fmt yuv420p -x265-params keyint=16:min-keyint=16:open-gop=0:log-level=0",
+       true},
+      // One group of pictures; other codecs and containers: one decoder.
+      {"x264_one_gop.mp4", "-c:v libx264 -pix_fmt yuv420p", false},
+      {"x264_g10.mkv", "-c:v libx264 -pix_fmt yuv420p -g 10", false},
+      {"mpeg4_g10.avi", "-c:v mpeg4 -q:v 2 -g 10", false},
+  };
+  for (const Encoding& e : encodings) {
+    const std::string path = dir + "/" + e.file;
+    test::MakeVideo(path, kFrames, e.args);
+    bool parallel = false, single = true;
+    const test::ReadOutcome p = test::ReadAll(path, Options(true), &parallel);
+    const test::ReadOutcome s = test::ReadAll(path, Options(false), &single);
+    INFO(path << ": " << p.error << " / " << s.error);
+    CHECK(parallel == e.parallel);
+    CHECK_FALSE(single);
+    CHECK(p.error.empty());
+    CHECK(s.error.empty());
+    CHECK(p.indices == test::Iota(kFrames));
+    CHECK(p.indices == s.indices);
+    CHECK(p.times == s.times);
+  }
+  // Groups of pictures larger than the memory allowed: one decoder.
+  FrameSourceOptions small = Options(true);
+  small.gop_parallel_bytes = 9 * test::kFrameWidth * test::kFrameHeight * 3 / 2;
+  bool parallel = true;
+  const test::ReadOutcome r = test::ReadAll(dir + "/x264_g10.mp4", small, &parallel);
+  CHECK_FALSE(parallel);
+  CHECK(r.indices == test::Iota(kFrames));
+  // A single thread: one decoder.
+  FrameSourceOptions one = Options(true);
+  one.decoder_threads = 1;
+  CHECK(test::ReadAll(dir + "/x264_g10.mp4", one, &parallel).indices == test::Iota(kFrames));
+  CHECK_FALSE(parallel);
+}
+
+TEST_CASE("groups of pictures decoded in parallel fail where one decoder fails", "[gop_parallel]") {
+  if (!LumaDecoderAvailable()) return test::Skip("built without FFmpeg");
+  if (!test::HaveFfmpegTool()) return test::Skip("no ffmpeg command-line tool");
+  const std::string dir = test::ScratchDir("video_gop_parallel_errors");
+  const std::string args = "-c:v libx264 -pix_fmt yuv420p -g 10 -movflags +faststart";
+  test::MakeVideo(dir + "/a.mp4", kFrames, args);
+  struct Case {
+    std::string file, reason;
+  };
+  test::CutFile(dir + "/a.mp4", dir + "/cut.mp4", 0.6);
+  test::ScribbleFile(dir + "/a.mp4", dir + "/scribbled.mp4", 0.5, 300);
+  const std::vector<Case> cases = {{"cut.mp4", "truncated file (container lists 62 frames)"},
+                                   {"scribbled.mp4", ""}};
+  for (const Case& c : cases) {
+    const std::string path = dir + "/" + c.file;
+    bool parallel = false;
+    const test::ReadOutcome p = test::ReadAll(path, Options(true), &parallel);
+    // One single-threaded decoder: FFmpeg's frame threads may miss that
+    // a frame was concealed.
+    FrameSourceOptions one = Options(false);
+    one.decoder_threads = 1;
+    const test::ReadOutcome s = test::ReadAll(path, one);
+    INFO(path << ": " << p.error << " / " << s.error);
+    CHECK(parallel);
+    const int k = static_cast<int>(p.indices.size());
+    CHECK(k > 10);
+    CHECK(k < kFrames);
+    CHECK(p.indices == test::Iota(k));
+    CHECK(p.error.find(path + ": decode error at frame " + std::to_string(k) + ": " + c.reason) == 0);
+    CHECK(p.error.find('\n') == std::string::npos);
+    CHECK(p.indices == s.indices);
+    CHECK(p.error == s.error);
+  }
+}
+
+}  // namespace
+}  // namespace pano
