@@ -188,12 +188,37 @@ long LongestGop(AVStream* st) {
 #endif
 }
 
-size_t FrameBytes(const AVFrame& f) {
-  size_t bytes = 0;
-  for (const AVBufferRef* b : f.buf)
-    if (b) bytes += b->size;
-  return bytes;
+// Copies the decoded frame's luma plane into *copy (rows packed), which
+// has its size.
+void CopyLuma(const AVFrame& decoded, cv::Mat* copy) {
+  for (int y = 0; y < decoded.height; ++y)
+    std::memcpy(copy->ptr<uchar>(y), decoded.data[0] + static_cast<ptrdiff_t>(y) * decoded.linesize[0],
+                static_cast<size_t>(decoded.width));
 }
+
+// Buffers for frames handed out as cv::Mat, used again once every cv::Mat
+// sharing one is released: a fresh allocation of a frame's size per frame
+// costs page faults on every frame. At most `max_bytes` are kept.
+class BufferPool {
+ public:
+  explicit BufferPool(size_t max_bytes) : max_bytes_(max_bytes) {}
+  // A buffer of rows x cols bytes that nothing else holds now. Thread-safe
+  // against the release of buffers handed out, not against other Take()s.
+  cv::Mat Take(int rows, int cols) {
+    for (const cv::Mat& b : buffers_)
+      if (b.rows == rows && b.cols == cols && __atomic_load_n(&b.u->refcount, __ATOMIC_ACQUIRE) == 1) return b;
+    cv::Mat fresh(rows, cols, CV_8UC1);
+    if (bytes_ + fresh.total() <= max_bytes_) {
+      buffers_.push_back(fresh);
+      bytes_ += fresh.total();
+    }
+    return fresh;
+  }
+
+ private:
+  size_t max_bytes_, bytes_ = 0;
+  std::vector<cv::Mat> buffers_;
+};
 
 }  // namespace
 
@@ -220,15 +245,31 @@ struct LumaDecoder::Impl {
   std::atomic<bool> aborted{false}, timed_out{false};
   AVIOContext* stdin_io = nullptr;  // standard input, read by ReadStdin
 
-  // Groups of pictures decoded in parallel (see StartGopDecoding): the
-  // stream cut into segments that each start at an IDR picture, segment s
-  // decoded by gop_codecs[s % size] on a thread of its own, single-threaded
-  // (no frame threads' hand-over per frame), the frames handed out in order.
+  // What Read() checks of a decoded frame before handing it out.
+  struct FrameInfo {
+    bool damaged = false;
+    int format = AV_PIX_FMT_NONE;
+    int64_t timestamp = AV_NOPTS_VALUE;  // best effort
+  };
+  static FrameInfo InfoOf(const AVFrame& f) {
+    return {(f.flags & AV_FRAME_FLAG_CORRUPT) || f.decode_error_flags != 0, f.format, f.best_effort_timestamp};
+  }
+
+  // Groups of pictures decoded in parallel (see Open): the stream cut into
+  // segments that each start at an IDR picture, segment s decoded by
+  // gop_codecs[s % size] on a thread of its own (no frame threads'
+  // hand-over per frame), the frames handed out in order. A frame waits as
+  // a packed copy of its luma plane: the decoders' own buffers (with their
+  // chroma planes and borders, about twice the size) go back to them at once.
+  struct DecodedFrame {
+    cv::Mat luma;  // empty for a frame Read() will refuse
+    FrameInfo info;
+  };
   struct Segment {
     std::deque<AVPacket*> packets;  // demuxed, not decoded yet
     long n_packets = 0;
-    bool closed = false;          // all its packets are demuxed
-    std::deque<AVFrame*> frames;  // decoded, waiting for Read()
+    bool closed = false;               // all its packets are demuxed
+    std::deque<DecodedFrame> frames;  // decoded, waiting for Read()
     size_t frame_bytes = 0;
     bool decoded = false;  // its decoder is through with it
     std::string error;     // why its decoding stopped early (after `frames`)
@@ -238,6 +279,7 @@ struct LumaDecoder::Impl {
   int nal_length_size = 0;
   bool inband_parameter_sets = false;  // seen in a packet so far
   size_t segment_bytes = 0;            // the decoded frames a segment may hold
+  std::unique_ptr<BufferPool> luma_buffers;  // for the frames' luma copies
   std::vector<AVCodecContext*> gop_codecs;  // [0] is `codec`
   std::vector<std::thread> gop_threads;
   // Guards the demuxer and everything below (in GOP mode).
@@ -256,10 +298,8 @@ struct LumaDecoder::Impl {
       gop_cv.notify_all();
       for (std::thread& t : gop_threads) t.join();
     }
-    for (Segment& seg : segments) {
+    for (Segment& seg : segments)
       for (AVPacket* p : seg.packets) av_packet_free(&p);
-      for (AVFrame* f : seg.frames) av_frame_free(&f);
-    }
     for (size_t i = 1; i < gop_codecs.size(); ++i) avcodec_free_context(&gop_codecs[i]);
     if (frame) av_frame_free(&frame);
     if (packet) av_packet_free(&packet);
@@ -421,8 +461,7 @@ struct LumaDecoder::Impl {
     }
   }
 
-  double FrameTime() {
-    const int64_t ts = frame->best_effort_timestamp;
+  double FrameTime(int64_t ts) {
     if (ts == AV_NOPTS_VALUE) return fps > 0.0 ? frames_out / fps : std::nan("");
     if (first_timestamp == AV_NOPTS_VALUE) first_timestamp = ts;
     return static_cast<double>(ts - first_timestamp) * av_q2d(time_base);
@@ -433,16 +472,22 @@ struct LumaDecoder::Impl {
   // frame, which goes back to the decoder's pool when the last cv::Mat
   // sharing it is released.
   void Deliver(cv::Mat* grey, double* time_s) {
-    const bool damaged = (frame->flags & AV_FRAME_FLAG_CORRUPT) || frame->decode_error_flags != 0;
-    const int pixel_format = frame->format;
-    if (damaged || (pixel_format != checked_format && !HasLumaPlane(pixel_format))) {
-      av_frame_unref(frame);
-      Fail(damaged ? "damaged frame (the decoder concealed errors in it)" : NoLumaPlane(pixel_format));
-    }
-    checked_format = pixel_format;
-    if (time_s) *time_s = FrameTime();
+    const FrameInfo info = InfoOf(*frame);
+    if (!Usable(info)) av_frame_unref(frame);
+    Check(info, time_s);
     if (!WrapLuma(frame, grey)) Fail("out of memory");
     ++frames_out;
+  }
+
+  bool Usable(const FrameInfo& info) const {
+    return !info.damaged && (info.format == checked_format || HasLumaPlane(info.format));
+  }
+  // Throws for a frame that is not to be handed out; else gives its time.
+  void Check(const FrameInfo& info, double* time_s) {
+    if (!Usable(info))
+      Fail(info.damaged ? "damaged frame (the decoder concealed errors in it)" : NoLumaPlane(info.format));
+    checked_format = info.format;
+    if (time_s) *time_s = FrameTime(info.timestamp);
   }
 
   // GOP mode: with gop_mu held (by `lock`), demuxes until segment s has a
@@ -510,10 +555,14 @@ struct LumaDecoder::Impl {
         if (got == AVERROR(EAGAIN)) break;
         if (got == AVERROR_EOF) return failed("");
         if (got < 0) return failed("corrupt data (" + AvError(got) + ")");
-        AVFrame* decoded = av_frame_alloc();
-        if (!decoded) return failed("out of memory");
-        av_frame_move_ref(decoded, out);
-        const size_t bytes = FrameBytes(*decoded);
+        DecodedFrame decoded{cv::Mat(), InfoOf(*out)};
+        const bool copied = !decoded.info.damaged && HasLumaPlane(decoded.info.format);
+        lock.lock();
+        if (copied) decoded.luma = luma_buffers->Take(out->height, out->width);
+        lock.unlock();
+        if (copied) CopyLuma(*out, &decoded.luma);
+        av_frame_unref(out);
+        const size_t bytes = decoded.luma.total();
         lock.lock();
         Segment* seg = &segments[static_cast<size_t>(s - first_segment)];
         // The next segment holds at most segment_bytes of frames (Open chose
@@ -523,11 +572,8 @@ struct LumaDecoder::Impl {
           const size_t limit = s == first_segment ? std::min(segment_bytes, kReadAheadBytes) : segment_bytes;
           return gop_stop || seg->frames.empty() || seg->frame_bytes + bytes <= limit;
         });
-        if (gop_stop) {
-          av_frame_free(&decoded);
-          return "";
-        }
-        seg->frames.push_back(decoded);
+        if (gop_stop) return "";
+        seg->frames.push_back(std::move(decoded));
         seg->frame_bytes += bytes;
         gop_cv.notify_all();
         lock.unlock();
@@ -553,9 +599,11 @@ struct LumaDecoder::Impl {
         seg = DemuxFor(s);
         if (!seg) break;
         error = out ? DecodeSegment(c, s, out, lock) : "out of memory";
-      } catch (const std::exception& e) {  // the thread's boundary
+      } catch (const std::exception& e) {  // the thread's boundary (an allocation failed)
         if (!lock.owns_lock()) lock.lock();
-        error = e.what();
+        const std::string what = e.what();
+        error = what.substr(0, what.find('\n'));
+        if (seg) avcodec_flush_buffers(c);
         if (!seg) {
           demux_ended = true;
           pending = error;
@@ -593,14 +641,14 @@ struct LumaDecoder::Impl {
       }
       Segment& seg = segments.front();
       if (!seg.frames.empty()) {
-        AVFrame* next = seg.frames.front();
+        DecodedFrame next = std::move(seg.frames.front());
         seg.frames.pop_front();
-        seg.frame_bytes -= FrameBytes(*next);
+        seg.frame_bytes -= next.luma.total();
         gop_cv.notify_all();
         lock.unlock();
-        av_frame_move_ref(frame, next);
-        av_frame_free(&next);
-        Deliver(grey, time_s);
+        Check(next.info, time_s);
+        *grey = std::move(next.luma);
+        ++frames_out;
         return true;
       }
       if (!seg.error.empty()) {
@@ -721,6 +769,8 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, double io_t
     d.codec_id = par.codec_id;
     d.nal_length_size = NalLengthSize(par);
     d.segment_bytes = gop_parallel_bytes;
+    // The frames of two segments and of a FrameSource's queue.
+    d.luma_buffers = std::make_unique<BufferPool>(gop_parallel_bytes + 2 * kReadAheadBytes);
     d.segments.emplace_back();
     for (size_t i = 0; i < d.gop_codecs.size(); ++i) d.gop_threads.emplace_back([&d, i] { d.DecodeSegments(i); });
   }
