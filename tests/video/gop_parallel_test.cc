@@ -64,16 +64,42 @@ TEST_CASE("groups of pictures decoded in parallel give the frames one decoder gi
   }
   // Groups of pictures larger than the memory allowed: one decoder.
   FrameSourceOptions small = Options(true);
-  small.gop_parallel_bytes = 9 * test::kFrameWidth * test::kFrameHeight * 3 / 2;
+  small.gop_parallel_bytes = 9 * test::kFrameWidth * test::kFrameHeight;  // 10-frame groups
   bool parallel = true;
   const test::ReadOutcome r = test::ReadAll(dir + "/x264_g10.mp4", small, &parallel);
   CHECK_FALSE(parallel);
   CHECK(r.indices == test::Iota(kFrames));
+  small.gop_parallel_bytes = 10 * test::kFrameWidth * test::kFrameHeight;
+  CHECK(test::ReadAll(dir + "/x264_g10.mp4", small, &parallel).indices == test::Iota(kFrames));
+  CHECK(parallel);
   // A single thread: one decoder.
   FrameSourceOptions one = Options(true);
   one.decoder_threads = 1;
   CHECK(test::ReadAll(dir + "/x264_g10.mp4", one, &parallel).indices == test::Iota(kFrames));
   CHECK_FALSE(parallel);
+}
+
+TEST_CASE("frames held by the caller stay intact while groups of pictures decode in parallel",
+          "[gop_parallel]") {
+  if (!LumaDecoderAvailable()) return test::Skip("built without FFmpeg");
+  if (!test::HaveFfmpegTool()) return test::Skip("no ffmpeg command-line tool");
+  const std::string path = test::ScratchDir("video_gop_parallel_held") + "/g10.mp4";
+  test::MakeVideo(path, kFrames, "-c:v libx264 -pix_fmt yuv420p -g 10");
+  // Every third frame held to the end, the others let go at once: the
+  // buffers of those are filled again, never those of the held ones.
+  FrameSource source(path, Options(true));
+  REQUIRE(source.gop_parallel());
+  std::vector<cv::Mat> held;
+  std::vector<int> seen;
+  cv::Mat grey;
+  for (int i = 0; source.Read(&grey); ++i) {
+    seen.push_back(test::FrameIndex(grey));
+    if (i % 3 == 0) held.push_back(grey);
+    grey.release();
+  }
+  CHECK(seen == test::Iota(kFrames));
+  REQUIRE(held.size() == (kFrames + 2) / 3);
+  for (size_t k = 0; k < held.size(); ++k) CHECK(test::FrameIndex(held[k]) == static_cast<int>(3 * k));
 }
 
 TEST_CASE("groups of pictures decoded in parallel fail where one decoder fails", "[gop_parallel]") {

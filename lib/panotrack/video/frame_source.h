@@ -43,10 +43,10 @@ struct FrameSourceOptions {
   // FFmpeg's decoding threads for videos and streams; 0: FFmpeg's choice
   // (a thread per core, and one more).
   int decoder_threads = 0;
-  // Files whose groups of pictures fit in this many bytes of decoded frames
+  // Files whose groups of pictures fit in this many bytes of luma planes
   // are decoded two groups at a time (LumaDecoder::Open), which spares the
   // frame threads' per-frame hand-over: a quarter less decoding CPU on a
-  // cheap stream. The frames of up to two groups wait in memory; 0: never.
+  // cheap stream. A group's frames wait in memory; 0: never.
   size_t gop_parallel_bytes = size_t(128) << 20;
 };
 

@@ -8,7 +8,6 @@
 extern "C" {
 #include <libavcodec/avcodec.h>
 #include <libavformat/avformat.h>
-#include <libavutil/imgutils.h>
 #include <libavutil/pixdesc.h>
 #include <libavutil/time.h>
 }
@@ -728,13 +727,11 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, double io_t
   // HEVC with their parameter sets out of band (length-prefixed NAL units).
   const int threads = num_threads > 0 ? num_threads : static_cast<int>(std::thread::hardware_concurrency());
   const AVCodecParameters& par = *st->codecpar;
-  const int frame_bytes = par.format >= 0 ? av_image_get_buffer_size(static_cast<AVPixelFormat>(par.format),
-                                                                      par.width, par.height, 1)
-                                          : -1;
+  const double luma_bytes = static_cast<double>(par.width) * par.height;  // what a waiting frame keeps
   const long longest_gop = LongestGop(st);
   const bool gop = gop_parallel_bytes > 0 && io_timeout_s == 0.0 && path != "-" && threads >= 2 &&
-                   NalLengthSize(par) > 0 && frame_bytes > 0 && longest_gop > 0 &&
-                   static_cast<double>(longest_gop) * frame_bytes <= static_cast<double>(gop_parallel_bytes);
+                   NalLengthSize(par) > 0 && luma_bytes > 0 && longest_gop > 0 &&
+                   longest_gop * luma_bytes <= static_cast<double>(gop_parallel_bytes);
   const int decoders = gop ? 2 : 1;
   for (int i = 0; i < decoders; ++i) {
     AVCodecContext* c = i == 0 ? d.codec : avcodec_alloc_context3(decoder);

@@ -37,10 +37,11 @@ class LumaDecoder {
   // for data give up after that long instead of blocking for ever.
   // `num_threads`: FFmpeg's decoding threads; 0: FFmpeg's choice (a thread
   // per core, and one more). With `gop_parallel_bytes` > 0 and at least two
-  // threads, a file whose index shows groups of pictures that fit in that
-  // many bytes of decoded frames (H.264 or HEVC as MP4 or MOV hold them) is
+  // threads, a file whose index shows groups of pictures whose luma planes
+  // fit in that many bytes (H.264 or HEVC as MP4 or MOV hold them) is
   // decoded two groups at a time, each by its own decoder with half the
-  // threads (gop_parallel()); the frames come out the same, in order.
+  // threads (gop_parallel()); the frames come out the same, in order, as
+  // packed copies of their luma planes that wait for Read().
   bool Open(const std::string& path, std::string* reason, double io_timeout_s = 0.0, int num_threads = 0,
             size_t gop_parallel_bytes = 0);
   // Next frame's luma as CV_8UC1 and, when time_s is given, its presentation
@@ -48,7 +49,8 @@ class LumaDecoder {
   // Abort()). Throws pano::Error as above. Not a copy: *grey shares the
   // decoder's buffer (rows `step` bytes apart, usually not continuous), which
   // returns to the decoder when the last cv::Mat sharing it is released. The
-  // decoder may still predict later frames from it: read it, never write it.
+  // decoder may still predict later frames from it (or, with GOP-parallel
+  // decoding, fill it again once released): read it, never write it.
   bool Read(cv::Mat* grey, double* time_s = nullptr);
   // From another thread: makes a Read() blocked on input return false.
   void Abort();
