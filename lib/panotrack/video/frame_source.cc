@@ -116,7 +116,8 @@ FrameSource::FrameSource(const std::string& path, const FrameSourceOptions& opti
   capacity_ =
       static_cast<int>(std::clamp<size_t>(options.prefetch_bytes / std::max<size_t>(frame_bytes, 1), 8, 4096));
   if (!(fps_ > 0.0 && fps_ < 1e4)) fps_ = 0.0;
-  worker_ = std::thread([this] { Decode(); });
+  // A decoder of groups of pictures decodes ahead on threads of its own.
+  if (!gop_parallel()) worker_ = std::thread([this] { Decode(); });
 }
 
 void FrameSource::OpenVideo(const FrameSourceOptions& options) {
@@ -268,6 +269,7 @@ void FrameSource::Decode() {
 }
 
 int FrameSource::frames_waiting() {
+  if (gop_parallel()) return luma_->frames_waiting();
   std::lock_guard<std::mutex> lock(mu_);
   return static_cast<int>(queue_.size());
 }
@@ -283,6 +285,11 @@ bool FrameSource::Read(cv::Mat* grey, double* time_s) {
     first_.image.release();
     *time_s = first_.time_s;
     have_first_ = false;
+    return true;
+  }
+  if (gop_parallel()) {
+    if (!luma_->Read(grey, time_s)) return false;
+    BringIntoCache(*grey);
     return true;
   }
   std::unique_lock<std::mutex> lock(mu_);

@@ -1,8 +1,9 @@
 // Frames from a video file, a folder of images (sorted by name), a printf
 // pattern ("frames/frame_%04d.png"), standard input ("-"), a camera
 // (/dev/video0) or a stream URL (rtsp://, udp://, http://...), converted to
-// 8-bit grey, decoded ahead on a thread of their own so that decoding
-// overlaps tracking. Videos and streams are decoded to their luma plane
+// 8-bit grey, decoded ahead on a thread of their own (or, for a file decoded
+// two groups of pictures at a time, on the decoders' threads) so that
+// decoding overlaps tracking. Videos and streams are decoded to their luma plane
 // directly where FFmpeg allows (LumaDecoder), else through cv::VideoCapture;
 // cameras through cv::VideoCapture's V4L2 backend.
 //

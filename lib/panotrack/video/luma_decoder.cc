@@ -122,6 +122,8 @@ bool WrapLuma(AVFrame* decoded, cv::Mat* grey) {
 constexpr long kMinSegmentPackets = 16;
 // The decoded frames of the segment being read wait up to this many bytes.
 constexpr size_t kReadAheadBytes = size_t(16) << 20;
+// Decoders of GOP mode, each on a segment of its own.
+constexpr int kGopDecoders = 2;
 
 // What a packet of an H.264 or HEVC stream holds, from its NAL units'
 // headers. `length_size`: the bytes of each unit's length prefix (avcC and
@@ -281,12 +283,21 @@ struct LumaDecoder::Impl {
   std::unique_ptr<BufferPool> luma_buffers;  // for the frames' luma copies
   std::vector<AVCodecContext*> gop_codecs;  // [0] is `codec`
   std::vector<std::thread> gop_threads;
-  // Guards the demuxer and everything below (in GOP mode).
+  // Guards the demuxer and everything below (in GOP mode). Each waiting
+  // thread has a condition of its own, so that a frame wakes only the
+  // thread it concerns (a shared one woke every waiter for every frame).
   std::mutex gop_mu;
-  std::condition_variable gop_cv;
+  std::condition_variable read_cv;                   // Read(): a frame or a segment's end
+  std::condition_variable decoder_cv[kGopDecoders];  // a decoder: room for frames, its turn
+  bool decoder_wants_room[kGopDecoders] = {};        // waiting for Read() to take frames
   std::deque<Segment> segments;  // from the one Read() takes frames from
   long first_segment = 0;        // its index
   bool demux_ended = false, gop_stop = false;
+
+  void NotifyAll() {
+    read_cv.notify_all();
+    for (std::condition_variable& c : decoder_cv) c.notify_all();
+  }
 
   ~Impl() {
     if (!gop_threads.empty()) {
@@ -294,7 +305,7 @@ struct LumaDecoder::Impl {
         std::lock_guard<std::mutex> lock(gop_mu);
         gop_stop = true;
       }
-      gop_cv.notify_all();
+      NotifyAll();
       for (std::thread& t : gop_threads) t.join();
     }
     for (Segment& seg : segments)
@@ -507,7 +518,7 @@ struct LumaDecoder::Impl {
       if (ReadPacket() != PacketRead::kPacket) {
         demux_ended = true;
         if (!segments.empty()) segments.back().closed = true;
-        gop_cv.notify_all();
+        read_cv.notify_all();
         continue;
       }
       const NalContents nals = ScanNals(*packet, codec_id, nal_length_size);
@@ -523,7 +534,6 @@ struct LumaDecoder::Impl {
       av_packet_move_ref(queued, packet);
       segments.back().packets.push_back(queued);
       ++segments.back().n_packets;
-      gop_cv.notify_all();
     }
   }
 
@@ -567,14 +577,17 @@ struct LumaDecoder::Impl {
         // The next segment holds at most segment_bytes of frames (Open chose
         // GOP mode because a group of pictures fits); the one Read() takes
         // frames from runs ahead of it by no more than a single decoder would.
-        gop_cv.wait(lock, [&] {
+        const size_t worker = static_cast<size_t>(s % kGopDecoders);
+        decoder_wants_room[worker] = true;
+        decoder_cv[worker].wait(lock, [&] {
           const size_t limit = s == first_segment ? std::min(segment_bytes, kReadAheadBytes) : segment_bytes;
           return gop_stop || seg->frames.empty() || seg->frame_bytes + bytes <= limit;
         });
+        decoder_wants_room[worker] = false;
         if (gop_stop) return "";
         seg->frames.push_back(std::move(decoded));
         seg->frame_bytes += bytes;
-        gop_cv.notify_all();
+        if (s == first_segment) read_cv.notify_one();
         lock.unlock();
       }
       lock.lock();
@@ -586,11 +599,11 @@ struct LumaDecoder::Impl {
   // n, ... each once Read() has reached the segment before it.
   void DecodeSegments(size_t worker) {
     AVCodecContext* c = gop_codecs[worker];
-    const long n = static_cast<long>(gop_codecs.size());
+    const long n = kGopDecoders;
     AVFrame* out = av_frame_alloc();
     std::unique_lock<std::mutex> lock(gop_mu);
     for (long s = static_cast<long>(worker);; s += n) {
-      gop_cv.wait(lock, [&] { return gop_stop || s < first_segment + n; });
+      decoder_cv[worker].wait(lock, [&] { return gop_stop || s < first_segment + n; });
       if (gop_stop) break;
       std::string error;
       Segment* seg = nullptr;
@@ -614,7 +627,7 @@ struct LumaDecoder::Impl {
         seg->error = error;
         seg->decoded = true;
       }
-      gop_cv.notify_all();
+      read_cv.notify_one();
       if (gop_stop || !seg) break;
     }
     av_frame_free(&out);
@@ -624,7 +637,7 @@ struct LumaDecoder::Impl {
   bool ReadInOrder(cv::Mat* grey, double* time_s) {
     std::unique_lock<std::mutex> lock(gop_mu);
     for (;;) {
-      gop_cv.wait(lock, [&] {
+      read_cv.wait(lock, [&] {
         return aborted || (segments.empty() ? demux_ended
                                             : !segments.front().frames.empty() || segments.front().decoded);
       });
@@ -643,7 +656,8 @@ struct LumaDecoder::Impl {
         DecodedFrame next = std::move(seg.frames.front());
         seg.frames.pop_front();
         seg.frame_bytes -= next.luma.total();
-        gop_cv.notify_all();
+        const size_t worker = static_cast<size_t>(first_segment % kGopDecoders);
+        if (decoder_wants_room[worker]) decoder_cv[worker].notify_one();
         lock.unlock();
         Check(next.info, time_s);
         *grey = std::move(next.luma);
@@ -657,7 +671,7 @@ struct LumaDecoder::Impl {
       }
       segments.pop_front();
       ++first_segment;
-      gop_cv.notify_all();
+      for (std::condition_variable& c : decoder_cv) c.notify_one();  // a decoder's turn, or more room
     }
   }
 };
@@ -732,7 +746,7 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, double io_t
   const bool gop = gop_parallel_bytes > 0 && io_timeout_s == 0.0 && path != "-" && threads >= 2 &&
                    NalLengthSize(par) > 0 && luma_bytes > 0 && longest_gop > 0 &&
                    longest_gop * luma_bytes <= static_cast<double>(gop_parallel_bytes);
-  const int decoders = gop ? 2 : 1;
+  const int decoders = gop ? kGopDecoders : 1;
   for (int i = 0; i < decoders; ++i) {
     AVCodecContext* c = i == 0 ? d.codec : avcodec_alloc_context3(decoder);
     if (i > 0) {
@@ -800,11 +814,17 @@ void LumaDecoder::Abort() {
   impl_->aborted = true;
   if (impl_->gop) {
     std::lock_guard<std::mutex> lock(impl_->gop_mu);
-    impl_->gop_cv.notify_all();
+    impl_->read_cv.notify_all();
   }
 }
 
 bool LumaDecoder::gop_parallel() const { return impl_ && impl_->gop; }
+
+int LumaDecoder::frames_waiting() {
+  if (!gop_parallel()) return 0;
+  std::lock_guard<std::mutex> lock(impl_->gop_mu);
+  return impl_->segments.empty() ? 0 : static_cast<int>(impl_->segments.front().frames.size());
+}
 
 #else  // !PANO_WITH_FFMPEG
 
@@ -819,6 +839,7 @@ bool LumaDecoder::Open(const std::string&, std::string* reason, double, int, siz
 bool LumaDecoder::Read(cv::Mat*, double*) { return false; }
 void LumaDecoder::Abort() {}
 bool LumaDecoder::gop_parallel() const { return false; }
+int LumaDecoder::frames_waiting() { return 0; }
 
 #endif
 

@@ -59,8 +59,11 @@ class LumaDecoder {
   // container is open, also when Open() then declines the pixel format.
   long frame_count() const { return frame_count_; }
   bool container_opened() const { return container_opened_; }
-  // Decoding two groups of pictures at a time (see Open).
+  // Decoding two groups of pictures at a time (see Open); Read() then
+  // takes frames that wait decoded, without blocking while any do.
   bool gop_parallel() const;
+  // With gop_parallel(): the frames decoded, in order, waiting for Read().
+  int frames_waiting();
 
  private:
   struct Impl;
