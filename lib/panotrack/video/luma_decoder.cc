@@ -540,10 +540,11 @@ struct LumaDecoder::Impl {
   // GOP mode: decodes segment s (gop_mu held by `lock`, released while
   // decoding) and leaves the decoder ready for another; what went wrong, or "".
   std::string DecodeSegment(AVCodecContext* c, long s, AVFrame* out, std::unique_lock<std::mutex>& lock) {
-    auto failed = [&](const std::string& why) {
+    // The decoder drained (error ""), or stopped by an error: reset for the next segment.
+    auto finish = [&](const std::string& error) {
       avcodec_flush_buffers(c);
       if (!lock.owns_lock()) lock.lock();
-      return why;
+      return error;
     };
     for (bool flushing = false;;) {
       AVPacket* p = nullptr;
@@ -558,12 +559,12 @@ struct LumaDecoder::Impl {
       lock.unlock();
       const int sent = avcodec_send_packet(c, p);
       av_packet_free(&p);
-      if (sent < 0) return failed("corrupt data (" + AvError(sent) + ")");
+      if (sent < 0) return finish("corrupt data (" + AvError(sent) + ")");
       for (;;) {
         const int got = avcodec_receive_frame(c, out);
         if (got == AVERROR(EAGAIN)) break;
-        if (got == AVERROR_EOF) return failed("");
-        if (got < 0) return failed("corrupt data (" + AvError(got) + ")");
+        if (got == AVERROR_EOF) return finish("");
+        if (got < 0) return finish("corrupt data (" + AvError(got) + ")");
         DecodedFrame decoded{cv::Mat(), InfoOf(*out)};
         const bool copied = !decoded.info.damaged && HasLumaPlane(decoded.info.format);
         lock.lock();
