@@ -46,7 +46,7 @@ struct FrameSourceOptions {
   int decoder_threads = 0;
   // Files whose groups of pictures fit in this many bytes of luma planes
   // are decoded two groups at a time (LumaDecoder::Open), which spares the
-  // frame threads' per-frame hand-over: a quarter less decoding CPU on a
+  // frame threads' per-frame hand-over: a sixth less decoding CPU on a
   // cheap stream. A group's frames wait in memory; 0: never.
   size_t gop_parallel_bytes = size_t(128) << 20;
 };

@@ -736,7 +736,7 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, double io_t
   }
   // Two groups of pictures at a time, each decoder single-threaded where
   // there are two cores: FFmpeg's frame threads hand every frame over
-  // between threads, which costs a quarter more CPU on a cheap stream. Only
+  // between threads, which costs a fifth more CPU on a cheap stream. Only
   // files (the segments' frames wait in memory: a group of pictures must
   // fit in gop_parallel_bytes, known from an index of every frame), H.264 or
   // HEVC with their parameter sets out of band (length-prefixed NAL units).
