@@ -744,25 +744,29 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, double io_t
   const AVCodecParameters& par = *st->codecpar;
   const double luma_bytes = static_cast<double>(par.width) * par.height;  // what a waiting frame keeps
   const long longest_gop = LongestGop(st);
+  const int nal_length_size = NalLengthSize(par);
   const bool gop = gop_parallel_bytes > 0 && io_timeout_s == 0.0 && path != "-" && threads >= 2 &&
-                   NalLengthSize(par) > 0 && luma_bytes > 0 && longest_gop > 0 &&
+                   nal_length_size > 0 && luma_bytes > 0 && longest_gop > 0 &&
                    longest_gop * luma_bytes <= static_cast<double>(gop_parallel_bytes);
-  const int decoders = gop ? kGopDecoders : 1;
-  for (int i = 0; i < decoders; ++i) {
-    AVCodecContext* c = i == 0 ? d.codec : avcodec_alloc_context3(decoder);
-    if (i > 0) {
-      if (c) d.gop_codecs.push_back(c);
-      if (!c || avcodec_parameters_to_context(c, st->codecpar) < 0) {
-        *reason = "cannot set up the decoder";
-        return false;
-      }
+  d.gop_codecs.push_back(d.codec);
+  while (gop && static_cast<int>(d.gop_codecs.size()) < kGopDecoders) {
+    AVCodecContext* c = avcodec_alloc_context3(decoder);
+    if (!c) {
+      *reason = "cannot set up the decoder";
+      return false;
     }
-    c->thread_count = gop ? std::max(1, threads / decoders) : std::max(0, num_threads);
+    d.gop_codecs.push_back(c);  // freed with the others
+    if (avcodec_parameters_to_context(c, st->codecpar) < 0) {
+      *reason = "cannot set up the decoder";
+      return false;
+    }
+  }
+  for (AVCodecContext* c : d.gop_codecs) {
+    c->thread_count = gop ? std::max(1, threads / kGopDecoders) : std::max(0, num_threads);
     if (avcodec_open2(c, decoder, nullptr) < 0) {
       *reason = "cannot open the decoder";
       return false;
     }
-    if (i == 0) d.gop_codecs.insert(d.gop_codecs.begin(), c);
   }
   // A stream may state its pixel format only with its first frame: Read()
   // checks every frame's.
@@ -779,7 +783,7 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, double io_t
   if (gop) {
     d.gop = true;
     d.codec_id = par.codec_id;
-    d.nal_length_size = NalLengthSize(par);
+    d.nal_length_size = nal_length_size;
     d.segment_bytes = gop_parallel_bytes;
     // The frames of two segments and of a FrameSource's queue.
     d.luma_buffers = std::make_unique<BufferPool>(gop_parallel_bytes + 2 * kReadAheadBytes);
