@@ -307,6 +307,82 @@ TEST_CASE("optimised whole-image voting equals the straightforward vote, any thr
   }
 }
 
+// The peaks by the definition: every bin of at least min_votes that no bin
+// of its +-nms_theta (circular) x +-nms_r neighbourhood beats (a bin before
+// it in index order beats it when equal), by votes, ties in index order.
+struct BinPeak {
+  int plane, k, j, votes;
+};
+std::vector<BinPeak> ReferencePeaks(const WholeImageResult& r, const WholeImageOptions& o) {
+  const int NT = r.n_theta, NR = r.n_r;
+  std::vector<BinPeak> peaks;
+  for (int p = 0; p < r.n_planes; ++p)
+    for (int k = 0; k < NT; ++k)
+      for (int j = 0; j < NR; ++j) {
+        auto at = [&](int kk, int jj) { return r.accumulator[(static_cast<size_t>(p) * NT + kk) * NR + jj]; };
+        const int v = at(k, j);
+        bool peak = v >= o.min_votes;
+        for (int dk = -o.nms_theta; dk <= o.nms_theta && peak; ++dk)
+          for (int dj = -o.nms_r; dj <= o.nms_r && peak; ++dj) {
+            const int kk = ((k + dk) % NT + NT) % NT, jj = j + dj;
+            if (jj < 0 || jj >= NR || (dk == 0 && dj == 0)) continue;
+            const bool before = kk < k || (kk == k && jj < j);
+            if (at(kk, jj) > v || (at(kk, jj) == v && before)) peak = false;
+          }
+        if (peak) peaks.push_back({p, k, j, v});
+      }
+  std::stable_sort(peaks.begin(), peaks.end(),
+                   [](const BinPeak& a, const BinPeak& b) { return a.votes > b.votes; });
+  return peaks;
+}
+
+TEST_CASE("whole-image peaks equal the peaks by definition (16- and 32-bit counts, any neighbourhood)",
+          "[reference_vote]") {
+  PANO_SEEDED_RNG(2027);
+  Fixture f;
+  const cv::Mat room = test::RenderRoom(f.sensor, test::PaperRoom());
+  cv::Mat noisy(room.size(), room.type());
+  cv::randn(noisy, 0, 12);
+  noisy += room;
+  const std::vector<EdgeMap> maps = {ComputeEdgeMap(room), ComputeEdgeMap(noisy)};
+  struct Nms {
+    int r, theta, min_votes;
+  };
+  for (const Nms& nms : {Nms{4, 4, 15}, Nms{0, 3, 8}, Nms{2, 0, 10}, Nms{1, 6, 20}}) {
+    WholeImageOptions o = f.options;
+    o.explain_away = false;
+    o.max_peaks = 100000;
+    o.nms_r = nms.r;
+    o.nms_theta = nms.theta;
+    o.min_votes = nms.min_votes;
+    const PhWholeImage ph = PhWholeImage::Build(*f.table, o);
+    for (size_t m = 0; m < maps.size(); ++m) {
+      INFO("nms_r " << nms.r << ", nms_theta " << nms.theta << ", edge map " << m);
+      std::vector<PhVoteRecord> records;
+      WholeImageResult padded32;
+      ph.Prepare(maps[m], &records, &padded32);
+      std::vector<int32_t> padded(ph.PaddedSize(), 0);
+      ph.VoteCpu(records, padded.data());
+      ph.Finish(padded.data(), &padded32);
+      const WholeImageResult run = ph.Run(maps[m]);  // 16-bit counts for the room, compact planes
+      for (const WholeImageResult* r : std::vector<const WholeImageResult*>{&padded32, &run}) {
+        const std::vector<BinPeak> want = ReferencePeaks(*r, o);
+        REQUIRE(want.size() > 5);
+        REQUIRE(r->peaks.size() == want.size());
+        for (size_t i = 0; i < want.size(); ++i) {
+          const HorizontalPeak& pk = r->peaks[i];
+          CHECK(pk.plane == want[i].plane);
+          CHECK(pk.votes == want[i].votes);
+          // The refined position (RefineOffset) stays within a bin of the bin's centre.
+          CHECK(std::abs(pk.r_main / o.r_bin - (want[i].j + 0.5)) <= 1.0 + 1e-9);
+          CHECK(std::abs(test::AngleDiff(pk.theta_main, (want[i].k + 0.5) * ph.theta_bin())) <=
+                ph.theta_bin() + 1e-9);
+        }
+      }
+    }
+  }
+}
+
 TEST_CASE("GPU whole-image transform equals the CPU's (batch of frames)", "[gpu_matches_cpu]") {
   std::string reason;
   if (!CudaAvailable(&reason)) {

@@ -2,6 +2,10 @@
 
 #include <omp.h>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -11,8 +15,10 @@
 #include <sstream>
 
 #include "panotrack/core/angles.h"
+#include "panotrack/core/cpu_features.h"
 #include "panotrack/core/error.h"
 #include "panotrack/core/parallel.h"
+#include "panotrack/hough/gradient_bin.h"
 #include "panotrack/hough/peak_refine.h"
 
 namespace pano {
@@ -20,10 +26,10 @@ namespace pano {
 namespace {
 
 constexpr int32_t kInvalid = -1;
-constexpr int kPhiBins = 180;
+constexpr int kPhiBins = detail::kGradientAngleBins;  // gradient angle to the radial, 1 degree bins
 // Byte order, for the mask scan's bit arithmetic (big-endian machines take
 // the bytes of a word one by one).
-constexpr bool kLittleEndian = __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__;  // gradient angle to the radial, 1 degree bins over [-90, 90)
+constexpr bool kLittleEndian = __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__;
 
 std::string Num(double v) {
   std::ostringstream s;
@@ -90,6 +96,27 @@ void PhWholeImage::SetGeometry(const Sensor& sensor, const WholeImageOptions& op
   if (int_plane_size_ * options.heights.size() > 1e8 ||
       int_plane_size_ > static_cast<size_t>(std::numeric_limits<int32_t>::max()))
     throw Error(what + ": integer table too large; use a larger r_row_step or theta_bin");
+}
+
+float PhWholeImage::Azimuth(int u, int v) const {
+  double t = std::atan2((v - cy_) / aspect_, u - cx_);
+  if (t < 0.0) t += 2.0 * M_PI;
+  return static_cast<float>(t);
+}
+
+void PhWholeImage::FillAzimuthTable(const Sensor& sensor) {
+  // The annulus's bounding box (one pixel of margin), within the image.
+  const double half_u = r_max_ + 1.0, half_v = (r_max_ + 1.0) * aspect_;
+  az_u0_ = std::clamp(static_cast<int>(std::floor(cx_ - half_u)), 0, sensor.image_width);
+  az_v0_ = std::clamp(static_cast<int>(std::floor(cy_ - half_v)), 0, sensor.image_height);
+  az_cols_ = std::clamp(static_cast<int>(std::ceil(cx_ + half_u)) + 1, az_u0_, sensor.image_width) - az_u0_;
+  az_rows_ = std::clamp(static_cast<int>(std::ceil(cy_ + half_v)) + 1, az_v0_, sensor.image_height) - az_v0_;
+  azimuth_.resize(static_cast<size_t>(az_cols_) * az_rows_);
+  // Arithmetic only (nothing throws).
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < az_rows_; ++y)
+    for (int x = 0; x < az_cols_; ++x)
+      azimuth_[static_cast<size_t>(y) * az_cols_ + x] = Azimuth(az_u0_ + x, az_v0_ + y);
 }
 
 void PhWholeImage::FillIntegerPlane(const PhTable& ph, double d_min, double d_max, int32_t* tab,
@@ -165,6 +192,34 @@ void PhWholeImage::FillOrientationRanges(const std::vector<unsigned char>& valid
   }
 }
 
+void PhWholeImage::VotedBins(const int32_t* tab, int* j0, int* cols) const {
+  // A vote interpolates two entries a, b >= 0 of the table (1/256 bin):
+  // a (256 - t) + b t lies between 256 min(a, b) and 256 max(a, b), so its
+  // bin (>> 16, then at most n_r) between min(a, b) >> 8 and max(a, b) >> 8.
+  int lo = n_r_, hi = 0;
+  for (size_t i = 0; i < int_plane_size_; ++i)
+    if (tab[i] >= 0) {
+      lo = std::min(lo, tab[i] >> 8);
+      hi = std::max(hi, tab[i] >> 8);
+    }
+  hi = std::min(hi, n_r_);
+  if (lo > hi) lo = hi = 0;  // a plane without votes: one column
+  *j0 = lo;
+  *cols = hi - lo + 1;
+}
+
+PhWholeImage::AccumulatorLayout PhWholeImage::AccumulatorLayout::Make(int n_theta, const std::vector<int>& j0,
+                                                                      const std::vector<int>& cols) {
+  AccumulatorLayout l;
+  l.j0 = j0;
+  l.cols = cols;
+  for (int c : cols) {
+    l.offset.push_back(l.size);
+    l.size += static_cast<size_t>(n_theta) * c;
+  }
+  return l;
+}
+
 void PhWholeImage::FillCurveTable(Plane* plane) const {
   const int S = sub_steps_, W = width_, M = half_width_, NR = n_rows_;
   const double q = options_.r_row_step;
@@ -188,6 +243,7 @@ PhWholeImage PhWholeImage::Build(const RadiusTable& table, const WholeImageOptio
   if (table.empty()) throw Error(what + ": the E(D,Z) lookup table is empty");
   PhWholeImage w;
   w.SetGeometry(table.sensor(), options);
+  w.FillAzimuthTable(table.sensor());
   w.int_table_.assign(w.int_plane_size_ * options.heights.size(), kInvalid);
   w.ranges_.assign(static_cast<size_t>(w.n_rows_) * kPhiBins * options.heights.size(), VoteRange{1, 0});
   PhTableOptions po;
@@ -196,14 +252,19 @@ PhWholeImage PhWholeImage::Build(const RadiusTable& table, const WholeImageOptio
   const double d_max = options.distance_max > 0.0 ? options.distance_max : table.ranges().d_max;
   std::vector<unsigned char> valid;  // [row][m + M]: every sub step defined
   std::vector<float> psi;            // [row][m + M]: curve normal to the radial
-  for (size_t p = 0; p < options.heights.size(); ++p) {
+  const size_t P = options.heights.size();
+  std::vector<int> full_j0(P, 0), full_cols(P, w.n_r_ + 1), band_j0(P), band_cols(P);
+  for (size_t p = 0; p < P; ++p) {
     Plane plane;
     plane.table = PhTable::Build(table, options.heights[p], po);
     w.FillIntegerPlane(plane.table, d_min, d_max, &w.int_table_[p * w.int_plane_size_], &valid, &psi);
     w.FillOrientationRanges(valid, psi, p);
     w.FillCurveTable(&plane);
     w.planes_.push_back(std::move(plane));
+    w.VotedBins(&w.int_table_[p * w.int_plane_size_], &band_j0[p], &band_cols[p]);
   }
+  w.padded_layout_ = AccumulatorLayout::Make(w.n_theta_, full_j0, full_cols);
+  w.compact_layout_ = AccumulatorLayout::Make(w.n_theta_, band_j0, band_cols);
   return w;
 }
 
@@ -258,6 +319,7 @@ struct PhWholeImage::EdgePixel {
 };
 struct PhWholeImage::VoteScales {
   double inv_q, inv_tb, cos_vert;  // 1 / r_row_step, 1 / theta_bin, vertical gradient limit
+  const detail::GradientBinEdges* bin_edges;
 };
 
 void PhWholeImage::AddVertical(const EdgePixel& e, double g_rad, const VoteScales& k,
@@ -270,21 +332,19 @@ void PhWholeImage::AddVertical(const EdgePixel& e, double g_rad, const VoteScale
   res->vertical_r_max[kb] = std::max(res->vertical_r_max[kb], static_cast<float>(e.R));
 }
 
-bool PhWholeImage::LocateVotes(const EdgePixel& e, double phi, const VoteScales& k, PixelVotes* out) const {
+bool PhWholeImage::LocateVotes(const EdgePixel& e, int fb, const VoteScales& k, PixelVotes* out) const {
   const int S = sub_steps_, W = width_, M = half_width_;
   const double fr = e.R * k.inv_q;
   int r0 = static_cast<int>(fr);
-  int t8 = static_cast<int>(std::lround((fr - r0) * 256.0));
+  int t8 = detail::RoundNonNegative((fr - r0) * 256.0);
   if (t8 == 256) {
     ++r0;
     t8 = 0;
   }
   if (r0 + 1 >= n_rows_) return false;
-  int fb = static_cast<int>(std::floor((phi + M_PI / 2) * (180.0 / M_PI)));
-  fb = std::clamp(fb, 0, kPhiBins - 1);
   const double x = e.theta * k.inv_tb - 0.5;
-  int fl = static_cast<int>(std::floor(x));
-  int s = static_cast<int>(std::lround((x - fl) * S));
+  int fl = detail::FloorToInt(x);
+  int s = detail::RoundNonNegative((x - fl) * S);
   if (s == S) {
     ++fl;
     s = 0;
@@ -308,8 +368,9 @@ bool PhWholeImage::AddRecords(const PixelVotes& pv, std::vector<PhVoteRecord>* r
     if (lo > hi) continue;
     PhVoteRecord rec;
     rec.offset = pv.offset + lo;
-    int kt = (pv.fl + lo) % n_theta_;
+    int kt = pv.fl + lo;  // -M - 1 <= kt <= n_theta + M, and M < n_theta: one wrap at most
     if (kt < 0) kt += n_theta_;
+    if (kt >= n_theta_) kt -= n_theta_;
     rec.k_start = static_cast<int16_t>(kt);
     rec.count = static_cast<int16_t>(hi - lo + 1);
     rec.t = pv.t8;
@@ -326,11 +387,8 @@ bool PhWholeImage::AddEdgePixel(const EdgePixel& e, const VoteScales& k, PixelVo
   ++res->n_edge_pixels;
   // Gradient angle to the radial, modulo pi, in [-pi/2, pi/2).
   const double g_rad = e.gx * e.cr + e.gy * e.sr, g_tan = -e.gx * e.sr + e.gy * e.cr;
-  double phi = std::atan2(static_cast<float>(g_tan), static_cast<float>(g_rad));
-  if (phi >= M_PI / 2) phi -= M_PI;
-  if (phi < -M_PI / 2) phi += M_PI;
   AddVertical(e, g_rad, k, res);
-  return LocateVotes(e, phi, k, pv);
+  return LocateVotes(e, detail::GradientAngleBin(g_tan, g_rad, *k.bin_edges), k, pv);
 }
 
 void PhWholeImage::Prepare(const EdgeMap& edges, std::vector<PhVoteRecord>* records,
@@ -338,8 +396,9 @@ void PhWholeImage::Prepare(const EdgeMap& edges, std::vector<PhVoteRecord>* reco
   CheckEdgeMap(edges);
   ResetResult(result);
   records->clear();
+  static const detail::GradientBinEdges bin_edges;
   const VoteScales k{1.0 / options_.r_row_step, 1.0 / theta_bin_,
-                     std::cos(M_PI / 2 - options_.vertical_tolerance)};
+                     std::cos(M_PI / 2 - options_.vertical_tolerance), &bin_edges};
   // The sparse edge list first (raster order), then the pixels' work: the
   // mask scan stays a tight loop, and the gradients of the pixels ahead can
   // be fetched while one pixel is processed.
@@ -380,12 +439,14 @@ void PhWholeImage::Prepare(const EdgeMap& edges, std::vector<PhVoteRecord>* reco
   }
   constexpr size_t kAhead = 8;
   thread_local std::vector<PixelVotes> located;
-  located.clear();
+  located.resize(list.size());  // filled in place (no copy of each pixel's values)
+  size_t n_located = 0;
   for (size_t i = 0; i < list.size(); ++i) {
     if (i + kAhead < list.size()) {
       const int va = static_cast<int>(list[i + kAhead] >> 16), ua = static_cast<int>(list[i + kAhead] & 0xFFFF);
       __builtin_prefetch(edges.dx.ptr<int16_t>(va) + ua);
       __builtin_prefetch(edges.dy.ptr<int16_t>(va) + ua);
+      if (InAzimuthTable(ua, va)) __builtin_prefetch(&azimuth_[AzimuthIndex(ua, va)]);
     }
     const int v = static_cast<int>(list[i] >> 16), u = static_cast<int>(list[i] & 0xFFFF);
     // Polar coordinates in single precision (voter_radius / voter_azimuth
@@ -395,21 +456,21 @@ void PhWholeImage::Prepare(const EdgeMap& edges, std::vector<PhVoteRecord>* reco
     EdgePixel e;
     e.R = static_cast<float>(r);
     if (e.R < r_min_ || e.R > r_max_) continue;
-    double t = std::atan2(dv, du);
-    if (t < 0.0) t += 2.0 * M_PI;
-    e.theta = static_cast<float>(t);
+    e.theta = AzimuthAt(u, v);
     e.cr = static_cast<float>(r > 0 ? du / r : 1.0);
     e.sr = static_cast<float>(r > 0 ? dv / r : 0.0);
     e.gx = edges.dx.ptr<int16_t>(v)[u];
     e.gy = edges.dy.ptr<int16_t>(v)[u] * aspect_;
     e.gn = std::sqrt(e.gx * e.gx + e.gy * e.gy);
     if (!(e.gn > 0.0)) continue;
-    PixelVotes pv;
-    if (AddEdgePixel(e, k, &pv, result)) located.push_back(pv);
+    n_located += AddEdgePixel(e, k, &located[n_located], result);
   }
+  located.resize(n_located);
   // The records, in the same order; the orientation ranges of the pixels
   // ahead are fetched meanwhile (the table is larger than the caches, and
   // the gradient angle makes its accesses random).
+  result->voter_radius.reserve(located.size());
+  result->voter_azimuth.reserve(located.size());
   for (size_t i = 0; i < located.size(); ++i) {
     if (i + kAhead < located.size()) __builtin_prefetch(&ranges_[located[i + kAhead].ranges]);
     if (AddRecords(located[i], records, result)) {
@@ -421,14 +482,37 @@ void PhWholeImage::Prepare(const EdgeMap& edges, std::vector<PhVoteRecord>* reco
 
 namespace {
 
-// One run of a record's votes: bins j = 0..n-1 of rows acc + j * cols, R_main
-// bin (Eqn 7) interpolated between the table rows a and b with 8-bit weights.
+// Where a record's votes go: the integer tables and the working accumulator.
+struct VoteLayout {
+  const int32_t* table;  // all planes' integer tables
+  size_t plane_size;     // ints per plane table
+  int stride;            // ints between the table's R rows
+  const size_t* plane_offset;  // the working accumulator's planes (PhWholeImage::AccumulatorLayout)
+  const int* plane_j0;
+  const int* plane_cols;
+  int n_r, n_theta;
+};
+
+// The voting loops are compiled twice, for the baseline and (where the
+// processor has it) for AVX2, whose 32-bit multiplies and minima the
+// baseline's SSE2 lacks: PANO_VOTE_INLINE makes each loop part of the
+// function that is compiled for AVX2. Both compute the same integers.
+#if defined(__GNUC__) || defined(__clang__)
+#define PANO_VOTE_INLINE inline __attribute__((always_inline))
+#else
+#define PANO_VOTE_INLINE inline
+#endif
+
+// One run of a record's votes: bins j = 0..n-1 of rows acc + j * cols (whose
+// first column is R bin first_bin), R_main bin (Eqn 7) interpolated between the
+// table rows a and b with 8-bit weights.
 // The bins are computed in chunks by a vectorisable loop (SIMD over theta),
 // then counted; every vote lands in its own theta row, so the counts never
 // collide within a run.
 template <typename T>
-inline void VoteRun(const int32_t* a, const int32_t* b, int w0, int w1, int n, T* acc, int cols, int n_r) {
-  constexpr int kChunk = 64;
+PANO_VOTE_INLINE void VoteRun(const int32_t* a, const int32_t* b, int w1, int n, T* acc, int cols, int n_r,
+                              int first_bin) {
+  constexpr int kChunk = 256;  // a whole run, mostly (measured faster than 64)
   int32_t idx[kChunk];
   for (int j0 = 0; j0 < n; j0 += kChunk) {
     const int m = std::min(kChunk, n - j0);
@@ -436,34 +520,55 @@ inline void VoteRun(const int32_t* a, const int32_t* b, int w0, int w1, int n, T
     const int32_t* bj = b + j0;
     const int32_t row0 = j0 * cols;
     for (int j = 0; j < m; ++j) {
-      int32_t v = (aj[j] * w0 + bj[j] * w1) >> 16;  // integer-exact, as on the GPU
-      v = v < n_r ? v : n_r;                        // column n_r collects out-of-range votes
-      idx[j] = row0 + j * cols + v;
+      // a (256 - w1) + b w1 with one multiply; integer-exact, as on the GPU.
+      int32_t v = (aj[j] * 256 + (bj[j] - aj[j]) * w1) >> 16;
+      v = v < n_r ? v : n_r;  // column n_r collects out-of-range votes
+      idx[j] = row0 + j * cols + (v - first_bin);
     }
     for (int j = 0; j < m; ++j) acc[idx[j]] += 1;
   }
 }
 
 template <typename T>
-inline void VoteRecord(const PhVoteRecord& rec, const int32_t* table, size_t plane_size, int stride, T* padded,
-                       size_t padded_plane, int n_r, int n_theta) {
-  const int32_t* a = table + rec.plane * plane_size + rec.offset;
-  const int32_t* b = a + stride;
-  const int w1 = rec.t, w0 = 256 - w1;
-  const int cols = n_r + 1;
-  T* plane_acc = padded + rec.plane * padded_plane;
+PANO_VOTE_INLINE void VoteRecord(const PhVoteRecord& rec, const VoteLayout& l, T* padded) {
+  const int32_t* a = l.table + rec.plane * l.plane_size + rec.offset;
+  const int32_t* b = a + l.stride;
+  const int cols = l.plane_cols[rec.plane], j0 = l.plane_j0[rec.plane];
+  T* plane_acc = padded + l.plane_offset[rec.plane];
   const int n = rec.count;
-  const int n1 = std::min(n, n_theta - rec.k_start);  // bins before theta_main wraps at 2 pi
-  VoteRun(a, b, w0, w1, n1, plane_acc + static_cast<size_t>(rec.k_start) * cols, cols, n_r);
-  if (n > n1) VoteRun(a + n1, b + n1, w0, w1, n - n1, plane_acc, cols, n_r);
+  const int n1 = std::min(n, l.n_theta - rec.k_start);  // bins before theta_main wraps at 2 pi
+  VoteRun(a, b, rec.t, n1, plane_acc + static_cast<size_t>(rec.k_start) * cols, cols, l.n_r, j0);
+  if (n > n1) VoteRun(a + n1, b + n1, rec.t, n - n1, plane_acc, cols, l.n_r, j0);
+}
+
+template <typename T>
+PANO_VOTE_INLINE void VoteRecordsInline(const PhVoteRecord* records, size_t n, const VoteLayout& l, T* padded) {
+  for (size_t i = 0; i < n; ++i) VoteRecord(records[i], l, padded);
+}
+
+#ifdef PANO_HAVE_X86_TARGETS
+template <typename T>
+__attribute__((target("avx2"))) void VoteRecordsAvx2(const PhVoteRecord* records, size_t n, const VoteLayout& l,
+                                                     T* padded) {
+  VoteRecordsInline(records, n, l, padded);
+}
+#endif
+
+// Votes records[0..n) into padded.
+template <typename T>
+void VoteRecords(const PhVoteRecord* records, size_t n, const VoteLayout& l, T* padded) {
+#ifdef PANO_HAVE_X86_TARGETS
+  if (HaveAvx2()) return VoteRecordsAvx2(records, n, l, padded);
+#endif
+  VoteRecordsInline(records, n, l, padded);
 }
 
 }  // namespace
 
 template <typename T>
-void PhWholeImage::VoteInto(const std::vector<PhVoteRecord>& unsorted, T* padded) const {
-  const size_t total = PaddedSize();
-  const int stride = row_stride();
+void PhWholeImage::VoteInto(const std::vector<PhVoteRecord>& unsorted, const AccumulatorLayout& acc_layout,
+                            T* padded) const {
+  const size_t total = acc_layout.size;
   int64_t votes = 0;
   for (const PhVoteRecord& r : unsorted) votes += r.count;
   // Vote in (plane, first theta bin) order rather than raster order: then
@@ -479,9 +584,11 @@ void PhWholeImage::VoteInto(const std::vector<PhVoteRecord>& unsorted, T* padded
   records.resize(unsorted.size());
   for (const PhVoteRecord& r : unsorted) records[start[r.plane * n_theta_ + r.k_start]++] = r;
   const int n_threads = votes < options_.parallel_min_votes ? 1 : omp_get_max_threads();
+  const VoteLayout layout{int_table_.data(),       int_plane_size_,        row_stride(),
+                          acc_layout.offset.data(), acc_layout.j0.data(), acc_layout.cols.data(),
+                          n_r_,                     n_theta_};
   if (n_threads <= 1) {
-    for (const PhVoteRecord& r : records)
-      VoteRecord(r, int_table_.data(), int_plane_size_, stride, padded, PaddedPlaneSize(), n_r_, n_theta_);
+    VoteRecords(records.data(), records.size(), layout, padded);
     return;
   }
   // Per-thread integer accumulators (thread 0 writes the output), summed
@@ -493,10 +600,11 @@ void PhWholeImage::VoteInto(const std::vector<PhVoteRecord>& unsorted, T* padded
   {
     const int tid = omp_get_thread_num();
     T* acc = tid > 0 ? local[tid - 1].data() : padded;
-#pragma omp for schedule(static)
-    for (long i = 0; i < static_cast<long>(records.size()); ++i)
-      VoteRecord(records[i], int_table_.data(), int_plane_size_, stride, acc, PaddedPlaneSize(), n_r_,
-                 n_theta_);
+    // The records in equal contiguous shares (what a static schedule gives).
+    const int team = omp_get_num_threads();
+    const size_t n = records.size(), first = n * tid / team, last = n * (tid + 1) / team;
+    VoteRecords(records.data() + first, last - first, layout, acc);
+#pragma omp barrier
 #pragma omp for schedule(static)
     for (long i = 0; i < static_cast<long>(total); ++i) {
       T s = 0;
@@ -507,112 +615,216 @@ void PhWholeImage::VoteInto(const std::vector<PhVoteRecord>& unsorted, T* padded
 }
 
 void PhWholeImage::VoteCpu(const std::vector<PhVoteRecord>& records, int32_t* padded) const {
-  VoteInto(records, padded);
+  VoteInto(records, padded_layout_, padded);
 }
 
 template <typename T>
-void PhWholeImage::CopyAccumulator(const T* padded, WholeImageResult* res) const {
-  const int P = static_cast<int>(planes_.size()), NT = n_theta_, NR = n_r_, cols = NR + 1;
+void PhWholeImage::CopyAccumulator(const T* padded, const AccumulatorLayout& layout,
+                                   WholeImageResult* res) const {
+  const int P = static_cast<int>(planes_.size()), NT = n_theta_, NR = n_r_;
   if (!options_.keep_accumulator) {
     res->accumulator.clear();
     return;
   }
-  res->accumulator.resize(static_cast<size_t>(P) * NT * NR);
-  for (int p = 0; p < P; ++p)
+  res->accumulator.assign(static_cast<size_t>(P) * NT * NR, 0);  // zero outside the planes' windows
+  for (int p = 0; p < P; ++p) {
+    const int cols = layout.cols[p], j0 = layout.j0[p], n = layout.RealBins(p, NR);
     for (int k = 0; k < NT; ++k)
-      std::copy_n(padded + p * PaddedPlaneSize() + static_cast<size_t>(k) * cols, NR,
-                  &res->accumulator[(static_cast<size_t>(p) * NT + k) * NR]);
+      std::copy_n(padded + layout.offset[p] + static_cast<size_t>(k) * cols, n,
+                  &res->accumulator[(static_cast<size_t>(p) * NT + k) * NR + j0]);
+  }
 }
 
-// True if bin (k, j) of plane g (value v) is the maximum of its +-nms_theta
-// (circular) x +-nms_r neighbourhood, the first in index order on ties.
+// True if bin (k, j) of plane g (value v >= 1; rows of cols bins, the first
+// n of them R bins, bins outside them zero) is the maximum of its
+// +-nms_theta (circular) x +-nms_r neighbourhood, the first in index order on
+// ties: no bin before it in index order reaches v, and none after it
+// exceeds v.
 template <typename T>
-bool PhWholeImage::IsPeak(const T* g, int k, int j, int32_t v) const {
-  const int NT = n_theta_, NR = n_r_, cols = NR + 1;
+bool PhWholeImage::IsPeak(const T* g, int cols, int n, int k, int j, int32_t v) const {
+  const int NT = n_theta_;
   const int a = options_.nms_theta, b = options_.nms_r;
-  // The nearest neighbours first: most candidates on a ridge fail there.
-  const T* row = g + static_cast<size_t>(k) * cols;
-  if ((j > 0 && b > 0 && row[j - 1] >= v) || (j + 1 < NR && b > 0 && row[j + 1] > v)) return false;
-  if (a > 0) {
-    const int kp = k + 1 < NT ? k + 1 : 0, km = k > 0 ? k - 1 : NT - 1;
-    const T up = g[static_cast<size_t>(kp) * cols + j], down = g[static_cast<size_t>(km) * cols + j];
-    if (up > v || (up == v && kp < k) || down > v || (down == v && km < k)) return false;
-  }
-  for (int dk = -a; dk <= a; ++dk) {
+  const int j_lo = std::max(0, j - b), j_hi = std::min(n - 1, j + b);
+  // Largest value in bins [lo, hi] of a row.
+  auto row_max = [](const T* row, int lo, int hi) {
+    int32_t m = std::numeric_limits<int32_t>::min();
+    for (int jj = lo; jj <= hi; ++jj) m = std::max<int32_t>(m, row[jj]);
+    return m;
+  };
+  // The nearest rows first (most candidates on a ridge fail there): dk = 0,
+  // -1, 1, -2, 2, ...
+  for (int step = 0; step <= 2 * a; ++step) {
+    const int dk = (step & 1) ? -(step + 1) / 2 : step / 2;
     int kk = k + dk;  // circular in theta
     while (kk < 0) kk += NT;
     while (kk >= NT) kk -= NT;
     const T* orow = g + static_cast<size_t>(kk) * cols;
-    for (int dj = -b; dj <= b; ++dj) {
-      const int jj = j + dj;
-      if (jj < 0 || jj >= NR || (dk == 0 && dj == 0)) continue;
-      const int32_t o = orow[jj];
-      const bool before = kk < k || (kk == k && jj < j);
-      if (o > v || (o == v && before)) return false;
+    if (kk != k) {
+      if (row_max(orow, j_lo, j_hi) >= (kk < k ? v : v + 1)) return false;
+    } else if ((j_lo < j && row_max(orow, j_lo, j - 1) >= v) || row_max(orow, j, j_hi) > v) {
+      return false;  // bin (k, j) itself is not above v
     }
   }
   return true;
 }
 
+// The peak at bin (k, j) of plane p (laid out as for IsPeak, R bin j0 + j).
 template <typename T>
-HorizontalPeak PhWholeImage::RefinedPeak(const T* g, int p, int k, int j, int32_t v) const {
-  const int NT = n_theta_, NR = n_r_, cols = NR + 1;
+HorizontalPeak PhWholeImage::RefinedPeak(const T* g, int cols, int n, int j0, int p, int k, int j,
+                                         int32_t v) const {
+  const int NT = n_theta_, NR = n_r_;
   double f[3][3], ox = 0, oy = 0;
   for (int dk = -1; dk <= 1; ++dk) {
     const T* orow = g + static_cast<size_t>(((k + dk) % NT + NT) % NT) * cols;
     for (int dj = -1; dj <= 1; ++dj) {
-      const int jj = j + dj;
-      f[dk + 1][dj + 1] = (jj >= 0 && jj < NR) ? orow[jj] : v;
+      const int jj = j + dj, r_bin = j0 + jj;
+      // Beyond the R range: the peak's own value (no curvature there).
+      f[dk + 1][dj + 1] = (r_bin < 0 || r_bin >= NR) ? v : (jj >= 0 && jj < n) ? orow[jj] : 0;
     }
   }
   RefineOffset(f, &ox, &oy);
   HorizontalPeak pk;
   pk.plane = p;
   pk.height = options_.heights[p];
-  pk.r_main = (j + 0.5 + ox) * options_.r_bin;
+  pk.r_main = (j0 + j + 0.5 + ox) * options_.r_bin;
   pk.theta_main = wrap_angle((k + 0.5 + oy) * theta_bin_);
   pk.votes = v;
   return pk;
 }
 
+namespace {
+
+// The tests a peak candidate must pass before IsPeak's full one: at least
+// thr, not beaten by its row neighbours (when nms_r > 0) nor by the rows
+// above and below (when nms_theta > 0), ties losing to the bin before in
+// index order (up_before / down_before: that row comes first).
 template <typename T>
-std::vector<HorizontalPeak> PhWholeImage::PlanePeaks(const T* padded, int p) const {
-  const int NT = n_theta_, NR = n_r_, cols = NR + 1;
-  const int32_t thr = options_.min_votes;
-  constexpr int kChunk = 32;
-  std::vector<HorizontalPeak> peaks;
-  const T* g = padded + p * PaddedPlaneSize();  // rows of cols bins
-  for (int k = 0; k < NT; ++k) {
-    const T* row = g + static_cast<size_t>(k) * cols;
-    for (int j0 = 0; j0 < NR; j0 += kChunk) {
-      const int j1 = std::min(NR, j0 + kChunk);
-      T mx = 0;
-      for (int j = j0; j < j1; ++j) mx = std::max(mx, row[j]);  // vectorised skip
-      if (mx < thr) continue;
-      // Candidates: at least thr and not beaten by a row neighbour (IsPeak's
-      // first test), flagged branch-free; the full test on those only.
-      uint8_t cand[kChunk];
-      for (int j = j0; j < j1; ++j) cand[j - j0] = row[j] >= thr;
-      if (options_.nms_r > 0) {
-        const int ja = std::max(j0, 1), jb = std::min(j1, NR - 1);
-        for (int j = ja; j < jb; ++j) cand[j - j0] &= (row[j - 1] < row[j]) & (row[j + 1] <= row[j]);
+struct NeighbourTest {
+  const T *row, *up, *down;
+  int n;  // bins in the row
+  T thr;
+  bool use_row, use_up_down, up_before, down_before;
+
+  // Whether o, in a row before (or after) the candidate's, beats value v.
+  static bool Beats(T o, T v, bool before) { return before ? o >= v : o > v; }
+
+  bool Passes(int j) const {
+    const T v = row[j];
+    if (v < thr) return false;
+    if (use_row && ((j > 0 && row[j - 1] >= v) || (j + 1 < n && row[j + 1] > v))) return false;
+    if (!use_up_down) return true;
+    if (Beats(up[j], v, up_before) || Beats(down[j], v, down_before)) return false;
+    if (!use_row) return true;
+    // The diagonal neighbours.
+    if (j > 0 && (Beats(up[j - 1], v, up_before) || Beats(down[j - 1], v, down_before))) return false;
+    return !(j + 1 < n && (Beats(up[j + 1], v, up_before) || Beats(down[j + 1], v, down_before)));
+  }
+
+  // Calls on_candidate(j) for the bins that pass, in order. Candidates are
+  // sparse: with SSE2 the tests run on 16 bytes of bins at a time, and most
+  // of the accumulator, below thr, is skipped 64 bytes at a time.
+  template <typename F>
+  void ForEachCandidate(F on_candidate) const {
+    int j = 0;
+#if defined(__SSE2__)
+    constexpr int kLanes = 16 / sizeof(T);
+    // One bit of the byte mask per bin (the lowest of its bytes').
+    constexpr unsigned kLaneBits = sizeof(T) == 2 ? 0x5555u : 0x1111u;
+    auto load = [](const T* p) { return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p)); };
+    auto gt = [](__m128i x, __m128i y) {
+      return sizeof(T) == 2 ? _mm_cmpgt_epi16(x, y) : _mm_cmpgt_epi32(x, y);
+    };
+    auto eq = [](__m128i x, __m128i y) {
+      return sizeof(T) == 2 ? _mm_cmpeq_epi16(x, y) : _mm_cmpeq_epi32(x, y);
+    };
+    // o beats v: greater, or equal in a row before v's.
+    auto beats = [&](const T* o, __m128i v, bool before) {
+      const __m128i x = load(o);
+      return before ? _mm_or_si128(gt(x, v), eq(x, v)) : gt(x, v);
+    };
+    if (n > 0 && Passes(0)) on_candidate(0);
+    j = 1;
+    const __m128i t = sizeof(T) == 2 ? _mm_set1_epi16(static_cast<int16_t>(thr)) : _mm_set1_epi32(thr);
+    for (; j + kLanes < n; j += kLanes) {  // j + kLanes <= n - 1: the right neighbours exist
+      if (j + 4 * kLanes < n) {            // four vectors all below thr: skipped
+        __m128i below;
+        if constexpr (sizeof(T) == 2) {
+          const __m128i m =
+              _mm_max_epi16(_mm_max_epi16(load(row + j), load(row + j + kLanes)),
+                            _mm_max_epi16(load(row + j + 2 * kLanes), load(row + j + 3 * kLanes)));
+          below = gt(t, m);
+        } else {  // SSE2 has no 32-bit maximum
+          below = _mm_and_si128(
+              _mm_and_si128(gt(t, load(row + j)), gt(t, load(row + j + kLanes))),
+              _mm_and_si128(gt(t, load(row + j + 2 * kLanes)), gt(t, load(row + j + 3 * kLanes))));
+        }
+        if (_mm_movemask_epi8(below) == 0xFFFF) {
+          j += 3 * kLanes;
+          continue;
+        }
       }
-      for (int j = j0; j < j1; ++j)
-        if (cand[j - j0] && IsPeak(g, k, j, row[j])) peaks.push_back(RefinedPeak(g, p, k, j, row[j]));
+      const __m128i v = load(row + j);
+      __m128i bad = gt(t, v);
+      if (_mm_movemask_epi8(bad) == 0xFFFF) continue;
+      if (use_row)
+        bad = _mm_or_si128(bad, _mm_or_si128(beats(row + j - 1, v, true), beats(row + j + 1, v, false)));
+      if (use_up_down) {
+        bad = _mm_or_si128(bad, _mm_or_si128(beats(up + j, v, up_before), beats(down + j, v, down_before)));
+        if (use_row) {  // the diagonal neighbours
+          bad =
+              _mm_or_si128(bad, _mm_or_si128(beats(up + j - 1, v, up_before), beats(up + j + 1, v, up_before)));
+          bad = _mm_or_si128(
+              bad, _mm_or_si128(beats(down + j - 1, v, down_before), beats(down + j + 1, v, down_before)));
+        }
+      }
+      for (unsigned good = ~_mm_movemask_epi8(bad) & kLaneBits; good; good &= good - 1)
+        on_candidate(j + __builtin_ctz(good) / static_cast<int>(sizeof(T)));
     }
+#endif
+    for (; j < n; ++j)
+      if (Passes(j)) on_candidate(j);
+  }
+};
+
+}  // namespace
+
+template <typename T>
+std::vector<HorizontalPeak> PhWholeImage::PlanePeaks(const T* padded, const AccumulatorLayout& layout,
+                                                     int p) const {
+  const int NT = n_theta_, cols = layout.cols[p], n = layout.RealBins(p, n_r_), j0 = layout.j0[p];
+  std::vector<HorizontalPeak> peaks;
+  if (options_.min_votes > std::numeric_limits<T>::max()) return peaks;  // no bin can reach it
+  const T* g = padded + layout.offset[p];  // rows of cols bins
+  for (int k = 0; k < NT; ++k) {
+    const int kp = k + 1 < NT ? k + 1 : 0, km = k > 0 ? k - 1 : NT - 1;  // circular in theta
+    NeighbourTest<T> test;
+    test.row = g + static_cast<size_t>(k) * cols;
+    test.up = g + static_cast<size_t>(kp) * cols;
+    test.down = g + static_cast<size_t>(km) * cols;
+    test.n = n;
+    test.thr = static_cast<T>(options_.min_votes);
+    test.use_row = options_.nms_r > 0;
+    test.use_up_down = options_.nms_theta > 0;
+    test.up_before = kp < k;
+    test.down_before = km < k;
+    test.ForEachCandidate([&](int j) {
+      if (IsPeak(g, cols, n, k, j, test.row[j]))
+        peaks.push_back(RefinedPeak(g, cols, n, j0, p, k, j, test.row[j]));
+    });
   }
   return peaks;
 }
 
 template <typename T>
-void PhWholeImage::FindHorizontalPeaks(const T* padded, WholeImageResult* res) const {
+void PhWholeImage::FindHorizontalPeaks(const T* padded, const AccumulatorLayout& layout,
+                                       WholeImageResult* res) const {
   // Local maxima with at least min_votes. Planes are independent: searched
   // in parallel (for large accumulators), their peaks joined in plane order
   // afterwards, so the result is the sequential one for any thread count.
   const int P = static_cast<int>(planes_.size());
   std::vector<std::vector<HorizontalPeak>> plane_peaks(P);
-  const bool parallel = static_cast<int64_t>(PaddedSize()) >= options_.parallel_min_votes;
-  ParallelFor(P, [&](int p) { plane_peaks[p] = PlanePeaks(padded, p); }, parallel);
+  const bool parallel = static_cast<int64_t>(layout.size) >= options_.parallel_min_votes;
+  ParallelFor(P, [&](int p) { plane_peaks[p] = PlanePeaks(padded, layout, p); }, parallel);
   res->peaks.clear();
   for (const std::vector<HorizontalPeak>& pp : plane_peaks)
     res->peaks.insert(res->peaks.end(), pp.begin(), pp.end());
@@ -668,19 +880,23 @@ VerticalPeak PhWholeImage::VerticalPeakAt(const WholeImageResult& res, const std
 }
 
 template <typename T>
-void PhWholeImage::FinishWith(const T* padded, WholeImageResult* result) const {
-  CopyAccumulator(padded, result);
-  FindHorizontalPeaks(padded, result);
+void PhWholeImage::FinishWith(const T* padded, const AccumulatorLayout& layout,
+                              WholeImageResult* result) const {
+  CopyAccumulator(padded, layout, result);
+  FindHorizontalPeaks(padded, layout, result);
   FindVerticalPeaks(result);
 }
 
-void PhWholeImage::Finish(int32_t* padded, WholeImageResult* result) const { FinishWith(padded, result); }
+void PhWholeImage::Finish(int32_t* padded, WholeImageResult* result) const {
+  FinishWith(padded, padded_layout_, result);
+}
 
-// The voters bucketed by theta bin, each bucket sorted by radius (stable,
-// so deterministic): bucket k is order[start[k] .. start[k + 1]).
+// The voters' radii bucketed by theta bin, each bucket sorted: bucket k is
+// radius[start[k] .. start[k + 1]). The explain-away step knows a voter by
+// its position here (it needs only the radius and whether it is claimed).
 struct PhWholeImage::VoterIndex {
-  std::vector<int> start, order;
-  std::vector<float> radius;  // voter_radius[order[i]], contiguous for the searches
+  std::vector<int> start;
+  std::vector<float> radius;
 };
 
 PhWholeImage::VoterIndex PhWholeImage::BucketVoters(const WholeImageResult& res) const {
@@ -688,7 +904,6 @@ PhWholeImage::VoterIndex PhWholeImage::BucketVoters(const WholeImageResult& res)
   const size_t n = res.voter_radius.size();
   VoterIndex index;
   index.start.assign(NT + 1, 0);
-  index.order.resize(n);
   std::vector<int> bin(n);
   for (size_t i = 0; i < n; ++i) {
     int k = static_cast<int>(res.voter_azimuth[i] / theta_bin_);
@@ -697,20 +912,23 @@ PhWholeImage::VoterIndex PhWholeImage::BucketVoters(const WholeImageResult& res)
   }
   for (int k = 0; k < NT; ++k) index.start[k + 1] += index.start[k];
   std::vector<int> fill(index.start.begin(), index.start.end() - 1);
-  for (size_t i = 0; i < n; ++i) index.order[fill[bin[i]]++] = static_cast<int>(i);
-  for (int k = 0; k < NT; ++k)
-    std::stable_sort(index.order.begin() + index.start[k], index.order.begin() + index.start[k + 1],
-                     [&](int a, int b) { return res.voter_radius[a] < res.voter_radius[b]; });
   index.radius.resize(n);
-  for (size_t i = 0; i < n; ++i) index.radius[i] = res.voter_radius[index.order[i]];
+  for (size_t i = 0; i < n; ++i) index.radius[fill[bin[i]]++] = res.voter_radius[i];
+  // The buckets are small (a few voters per degree): insertion sort.
+  for (int k = 0; k < NT; ++k) {
+    float* r = index.radius.data();
+    for (int i = index.start[k] + 1; i < index.start[k + 1]; ++i) {
+      const float x = r[i];
+      int j = i;
+      for (; j > index.start[k] && r[j - 1] > x; --j) r[j] = r[j - 1];
+      r[j] = x;
+    }
+  }
   return index;
 }
 
-void PhWholeImage::PeakSupport(const HorizontalPeak& pk, const VoterIndex& index,
-                               const std::vector<unsigned char>& claimed, std::vector<int>* support) const {
-  const int NT = n_theta_, M = half_width_, S = sub_steps_, W = width_;
-  const double tol = options_.explain_tolerance;
-  support->clear();
+bool PhWholeImage::PeakCurve(const HorizontalPeak& pk, CurveRows* rows) const {
+  const int S = sub_steps_, W = width_, M = half_width_;
   double t0 = pk.theta_main;
   if (t0 < 0) t0 += 2.0 * M_PI;
   // Bin edges (kc + d) theta_bin - theta_main = (d - frac) theta_bin.
@@ -723,25 +941,36 @@ void PhWholeImage::PeakSupport(const HorizontalPeak& pk, const VoterIndex& index
   }
   const double fr = pk.r_main / options_.r_row_step;
   const int r0 = static_cast<int>(fr);
-  if (r0 < 0 || r0 + 1 >= n_rows_) return;
-  const float tr = static_cast<float>(fr - r0);
-  const float* c0 = &planes_[pk.plane].curve[(static_cast<size_t>(r0) * S + sub) * W + M];
-  const float* c1 = c0 + static_cast<size_t>(S) * W;
+  if (r0 < 0 || r0 + 1 >= n_rows_) return false;
+  rows->kc = kc;
+  rows->tr = static_cast<float>(fr - r0);
+  rows->c0 = &planes_[pk.plane].curve[(static_cast<size_t>(r0) * S + sub) * W + M];
+  rows->c1 = rows->c0 + static_cast<size_t>(S) * W;
+  return true;
+}
+
+void PhWholeImage::PeakSupport(const CurveRows& curve, const VoterIndex& index,
+                               const std::vector<unsigned char>& claimed, std::vector<int>* support) const {
+  const int NT = n_theta_, M = half_width_;
+  const double tol = options_.explain_tolerance;
+  support->clear();
+  const float tr = curve.tr;
+  const float *c0 = curve.c0, *c1 = curve.c1;
   const float* rad = index.radius.data();
   // Curve radius (Eqn 6) at the edges of each theta bin kc-M..kc+M.
   double r_prev = 0.0;
   bool ok_prev = false;
-  int k = ((kc - M - 1) % NT + NT) % NT;  // theta bin between the edges d - 1 and d
+  int k = ((curve.kc - M - 1) % NT + NT) % NT;  // theta bin between the edges d - 1 and d
   for (int d = -M; d <= M; ++d, k = k + 1 < NT ? k + 1 : 0) {
     const double r = (1.0f - tr) * c0[d] + tr * c1[d];
     const bool ok = !std::isnan(r);
-    if (ok && ok_prev) {
+    const int b = index.start[k], e = index.start[k + 1];
+    if (ok && ok_prev && b < e) {
       const double lo = std::min(r, r_prev) - tol, hi = std::max(r, r_prev) + tol;
-      const int e = index.start[k + 1];
       const int first = static_cast<int>(
-          std::lower_bound(rad + index.start[k], rad + e, lo, [](float a, double v) { return a < v; }) - rad);
+          std::lower_bound(rad + b, rad + e, lo, [](float a, double v) { return a < v; }) - rad);
       for (int i = first; i < e && rad[i] <= hi; ++i)
-        if (!claimed[index.order[i]]) support->push_back(index.order[i]);
+        if (!claimed[i]) support->push_back(i);
     }
     r_prev = r;
     ok_prev = ok;
@@ -751,14 +980,26 @@ void PhWholeImage::PeakSupport(const HorizontalPeak& pk, const VoterIndex& index
 void PhWholeImage::ExplainAway(WholeImageResult* result) const {
   WholeImageResult& res = *result;
   const VoterIndex index = BucketVoters(res);
-  std::vector<unsigned char> claimed(res.voter_radius.size(), 0);
+  const size_t n = res.peaks.size();
+  std::vector<CurveRows> curves(n);
+  std::vector<unsigned char> has_curve(n);
+  for (size_t i = 0; i < n; ++i) has_curve[i] = PeakCurve(res.peaks[i], &curves[i]);
+  std::vector<unsigned char> claimed(res.voter_radius.size(), 0);  // by position in the index
   std::vector<int> support;
   std::vector<HorizontalPeak> kept;
-  for (const HorizontalPeak& pk : res.peaks) {
-    PeakSupport(pk, index, claimed, &support);
+  for (size_t i = 0; i < n; ++i) {
+    // The next peak's curve rows are fetched meanwhile (the table is larger
+    // than the caches).
+    if (i + 1 < n && has_curve[i + 1])
+      for (int d = -half_width_; d <= half_width_; d += 16) {
+        __builtin_prefetch(curves[i + 1].c0 + d);
+        __builtin_prefetch(curves[i + 1].c1 + d);
+      }
+    if (!has_curve[i]) continue;  // no support
+    PeakSupport(curves[i], index, claimed, &support);
     if (static_cast<int>(support.size()) < options_.min_votes) continue;
-    for (int i : support) claimed[i] = 1;
-    kept.push_back(pk);
+    for (int v : support) claimed[v] = 1;
+    kept.push_back(res.peaks[i]);
   }
   res.peaks = std::move(kept);
 }
@@ -770,17 +1011,19 @@ WholeImageResult PhWholeImage::Run(const EdgeMap& edges) const {
   // A record votes at most once in a bin (its bins lie in distinct theta
   // rows), so no bin exceeds the number of records: with fewer than 2^15 of
   // them 16-bit counts are exact, and the accumulator (zeroing, voting, peak
-  // search) takes half the memory. The result is the same either way.
+  // search) takes half the memory. The result is the same either way, as
+  // with the compact layout (each plane only the R bins it can vote for).
+  const AccumulatorLayout& layout = compact_layout_;
   if (records.size() <= static_cast<size_t>(std::numeric_limits<int16_t>::max())) {
     thread_local std::vector<int16_t> padded16;
-    padded16.assign(PaddedSize(), 0);
-    VoteInto(records, padded16.data());
-    FinishWith(padded16.data(), &res);
+    padded16.assign(layout.size, 0);
+    VoteInto(records, layout, padded16.data());
+    FinishWith(padded16.data(), layout, &res);
   } else {
     thread_local std::vector<int32_t> padded;
-    padded.assign(PaddedSize(), 0);
-    VoteInto(records, padded.data());
-    FinishWith(padded.data(), &res);
+    padded.assign(layout.size, 0);
+    VoteInto(records, layout, padded.data());
+    FinishWith(padded.data(), layout, &res);
   }
   return res;
 }

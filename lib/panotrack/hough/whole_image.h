@@ -42,17 +42,23 @@
 //
 // Speed (BENCHMARKS.md, "Panoramic Hough Transform"). The CPU path works on
 // the sparse list of edge pixels (the mask scanned eight bytes at a time
-// inside the annulus's outer circle), computes the polar coordinates of edge
-// pixels only, reads one cache line of orientation ranges per pixel (all
+// inside the annulus's outer circle), takes their azimuths from a per-pixel
+// table and their gradient angle bins from comparisons of tangents (no
+// arctangent), reads one cache line of orientation ranges per pixel (all
 // planes together, prefetched), votes in (plane, theta_main) order so that
 // the accumulator rows in use stay in cache, computes each run's R_main bins
-// in a vectorisable loop (SIMD over theta), and counts in 16 bits when no bin
-// can exceed 2^15 - 1. None of this changes a vote: the result is the plain
-// raster-order vote's, bit for bit (test hough/reference_vote).
+// in a vectorisable loop (SIMD over theta, AVX2 where the processor has it),
+// counts in 16 bits when no bin can exceed 2^15 - 1, and keeps of each plane
+// only the R bins its table can reach (its band of distances is a narrow
+// band of radii). The peak search skips the bins below min_votes and tests
+// the nearest neighbours with SSE2 before the full neighbourhood. None of
+// this changes a vote or a peak: the result is the plain raster-order
+// vote's, bit for bit (tests hough/reference_vote, hough/gradient_bin).
 #pragma once
 
 #include <opencv2/core.hpp>
 
+#include <algorithm>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -216,6 +222,8 @@ class PhWholeImage {
 
   // Build's steps: sizes from the sensor and options (throws when too large);
   void SetGeometry(const Sensor& sensor, const WholeImageOptions& options);
+  // the azimuth of every pixel of the annulus's bounding box;
+  void FillAzimuthTable(const Sensor& sensor);
   // one plane's integer PH table, with which (row, m) are defined for every
   // sub step and the curve's normal angle there;
   void FillIntegerPlane(const PhTable& ph, double d_min, double d_max, int32_t* tab,
@@ -227,6 +235,17 @@ class PhWholeImage {
   void FillCurveTable(Plane* plane) const;
 
   // Prepare's steps.
+  // Image azimuth of pixel (u, v) in [0, 2 pi), single precision; from the
+  // table inside the annulus's bounding box (the same value, computed once).
+  float Azimuth(int u, int v) const;
+  bool InAzimuthTable(int u, int v) const {
+    return static_cast<unsigned>(u - az_u0_) < static_cast<unsigned>(az_cols_) &&
+           static_cast<unsigned>(v - az_v0_) < static_cast<unsigned>(az_rows_);
+  }
+  size_t AzimuthIndex(int u, int v) const { return static_cast<size_t>(v - az_v0_) * az_cols_ + (u - az_u0_); }
+  float AzimuthAt(int u, int v) const {
+    return InAzimuthTable(u, v) ? azimuth_[AzimuthIndex(u, v)] : Azimuth(u, v);
+  }
   void CheckEdgeMap(const EdgeMap& edges) const;
   void ResetResult(WholeImageResult* res) const;
   // An edge pixel that votes: where its records read the tables.
@@ -240,30 +259,51 @@ class PhWholeImage {
   // The vertical histogram, and (true) where the pixel's votes go.
   bool AddEdgePixel(const EdgePixel& e, const VoteScales& k, PixelVotes* pv, WholeImageResult* res) const;
   void AddVertical(const EdgePixel& e, double g_rad, const VoteScales& k, WholeImageResult* res) const;
-  bool LocateVotes(const EdgePixel& e, double phi, const VoteScales& k, PixelVotes* out) const;
+  bool LocateVotes(const EdgePixel& e, int phi_bin, const VoteScales& k, PixelVotes* out) const;
   bool AddRecords(const PixelVotes& pv, std::vector<PhVoteRecord>* records, WholeImageResult* res) const;
+
+  // Where each plane's bins lie in a working accumulator: n_theta rows of
+  // cols[p] bins from offset[p], holding R bins j0[p] .. j0[p] + cols[p] - 1
+  // (the out-of-range column n_r last when a vote can reach it).
+  struct AccumulatorLayout {
+    std::vector<size_t> offset;
+    std::vector<int> j0, cols;
+    size_t size = 0;
+    static AccumulatorLayout Make(int n_theta, const std::vector<int>& j0, const std::vector<int>& cols);
+    int RealBins(int p, int n_r) const { return std::min(cols[p], n_r - j0[p]); }  // without column n_r
+  };
+  // The R bins a plane's table can vote for (Build).
+  void VotedBins(const int32_t* tab, int* j0, int* cols) const;
 
   // The voting and Finish's steps, for 32-bit (GPU, VoteCpu) and 16-bit
   // (Run, when no bin can overflow) accumulators.
   template <typename T>
-  void VoteInto(const std::vector<PhVoteRecord>& records, T* padded) const;
+  void VoteInto(const std::vector<PhVoteRecord>& records, const AccumulatorLayout& layout, T* padded) const;
   template <typename T>
-  void FinishWith(const T* padded, WholeImageResult* result) const;
+  void FinishWith(const T* padded, const AccumulatorLayout& layout, WholeImageResult* result) const;
   template <typename T>
-  void CopyAccumulator(const T* padded, WholeImageResult* res) const;
+  void CopyAccumulator(const T* padded, const AccumulatorLayout& layout, WholeImageResult* res) const;
   template <typename T>
-  void FindHorizontalPeaks(const T* padded, WholeImageResult* res) const;
+  void FindHorizontalPeaks(const T* padded, const AccumulatorLayout& layout, WholeImageResult* res) const;
   template <typename T>
-  std::vector<HorizontalPeak> PlanePeaks(const T* padded, int p) const;
+  std::vector<HorizontalPeak> PlanePeaks(const T* padded, const AccumulatorLayout& layout, int p) const;
   template <typename T>
-  bool IsPeak(const T* g, int k, int j, int32_t v) const;
+  bool IsPeak(const T* g, int cols, int n, int k, int j, int32_t v) const;
   template <typename T>
-  HorizontalPeak RefinedPeak(const T* g, int p, int k, int j, int32_t v) const;
+  HorizontalPeak RefinedPeak(const T* g, int cols, int n, int j0, int p, int k, int j, int32_t v) const;
   // Explain-away: keep the peaks whose curve still has min_votes unclaimed voters.
   struct VoterIndex;
   VoterIndex BucketVoters(const WholeImageResult& res) const;
-  void PeakSupport(const HorizontalPeak& pk, const VoterIndex& index,
-                   const std::vector<unsigned char>& claimed, std::vector<int>* support) const;
+  // A peak's curve (Eqn 6) in the PH^-1 table: rows c0, c1 (d = 0 at theta
+  // bin kc), interpolated with weight tr; false outside the table.
+  struct CurveRows {
+    const float *c0, *c1;
+    float tr;
+    int kc;
+  };
+  bool PeakCurve(const HorizontalPeak& pk, CurveRows* rows) const;
+  void PeakSupport(const CurveRows& curve, const VoterIndex& index, const std::vector<unsigned char>& claimed,
+                   std::vector<int>* support) const;
   void ExplainAway(WholeImageResult* result) const;
   void FindVerticalPeaks(WholeImageResult* res) const;
   VerticalPeak VerticalPeakAt(const WholeImageResult& res, const std::vector<int32_t>& sm, int k) const;
@@ -274,6 +314,8 @@ class PhWholeImage {
   int n_theta_ = 0, n_r_ = 0, n_rows_ = 0, sub_steps_ = 0, half_width_ = 0, width_ = 0;
   int n_rows_padded_ = 0;  // theta rows of the working accumulator (n_theta)
   std::vector<Plane> planes_;
+  std::vector<float> azimuth_;  // [v - az_v0_][u - az_u0_]
+  int az_u0_ = 0, az_v0_ = 0, az_cols_ = 0, az_rows_ = 0;
   std::vector<int32_t> int_table_;  // [plane][R row][sub step][m + M], 1/256 bin
   // The m range each (R row, gradient angle bin) votes for in each plane
   // (lo > hi: none), planes innermost: one edge pixel reads one cache line.
@@ -281,6 +323,11 @@ class PhWholeImage {
     int16_t lo, hi;
   };
   std::vector<VoteRange> ranges_;  // [R row][phi bin][plane]
+  // The working accumulator: as PaddedSize() describes (VoteCpu, Finish, the
+  // GPU), and Run's, each plane only over the R bins its table can reach (a
+  // plane's band of distances is a narrow band of radii: a fraction of the
+  // memory to zero, vote into and search).
+  AccumulatorLayout padded_layout_, compact_layout_;
   size_t int_plane_size_ = 0;
 };
 
