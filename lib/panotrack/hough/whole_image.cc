@@ -629,9 +629,10 @@ void PhWholeImage::CopyAccumulator(const T* padded, const AccumulatorLayout& lay
   res->accumulator.assign(static_cast<size_t>(P) * NT * NR, 0);  // zero outside the planes' windows
   for (int p = 0; p < P; ++p) {
     const int cols = layout.cols[p], j0 = layout.j0[p], n = layout.RealBins(p, NR);
+    if (n <= 0) continue;  // only the out-of-range column
     for (int k = 0; k < NT; ++k)
       std::copy_n(padded + layout.offset[p] + static_cast<size_t>(k) * cols, n,
-                  &res->accumulator[(static_cast<size_t>(p) * NT + k) * NR + j0]);
+                  res->accumulator.data() + (static_cast<size_t>(p) * NT + k) * NR + j0);
   }
 }
 
