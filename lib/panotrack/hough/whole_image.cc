@@ -696,9 +696,10 @@ HorizontalPeak PhWholeImage::RefinedPeak(const T* g, int cols, int n, int j0, in
 namespace {
 
 // The tests a peak candidate must pass before IsPeak's full one: at least
-// thr, not beaten by its row neighbours (when nms_r > 0) nor by the rows
-// above and below (when nms_theta > 0), ties losing to the bin before in
-// index order (up_before / down_before: that row comes first).
+// thr, not beaten by its row neighbours (when nms_r > 0), by the rows above
+// and below (when nms_theta > 0) nor, with both, by its diagonal
+// neighbours; ties lose to the bin before in index order (up_before /
+// down_before: that row comes first).
 template <typename T>
 struct NeighbourTest {
   const T *row, *up, *down;
@@ -928,7 +929,7 @@ PhWholeImage::VoterIndex PhWholeImage::BucketVoters(const WholeImageResult& res)
   return index;
 }
 
-bool PhWholeImage::PeakCurve(const HorizontalPeak& pk, CurveRows* rows) const {
+void PhWholeImage::PeakCurve(const HorizontalPeak& pk, CurveRows* rows) const {
   const int S = sub_steps_, W = width_, M = half_width_;
   double t0 = pk.theta_main;
   if (t0 < 0) t0 += 2.0 * M_PI;
@@ -942,12 +943,14 @@ bool PhWholeImage::PeakCurve(const HorizontalPeak& pk, CurveRows* rows) const {
   }
   const double fr = pk.r_main / options_.r_row_step;
   const int r0 = static_cast<int>(fr);
-  if (r0 < 0 || r0 + 1 >= n_rows_) return false;
+  if (r0 < 0 || r0 + 1 >= n_rows_) {
+    rows->c0 = rows->c1 = nullptr;
+    return;
+  }
   rows->kc = kc;
   rows->tr = static_cast<float>(fr - r0);
   rows->c0 = &planes_[pk.plane].curve[(static_cast<size_t>(r0) * S + sub) * W + M];
   rows->c1 = rows->c0 + static_cast<size_t>(S) * W;
-  return true;
 }
 
 void PhWholeImage::PeakSupport(const CurveRows& curve, const VoterIndex& index,
@@ -982,21 +985,20 @@ void PhWholeImage::ExplainAway(WholeImageResult* result) const {
   WholeImageResult& res = *result;
   const VoterIndex index = BucketVoters(res);
   const size_t n = res.peaks.size();
-  std::vector<CurveRows> curves(n);
-  std::vector<unsigned char> has_curve(n);
-  for (size_t i = 0; i < n; ++i) has_curve[i] = PeakCurve(res.peaks[i], &curves[i]);
+  std::vector<CurveRows> curves(n);  // c0 null: outside the table
+  for (size_t i = 0; i < n; ++i) PeakCurve(res.peaks[i], &curves[i]);
   std::vector<unsigned char> claimed(res.voter_radius.size(), 0);  // by position in the index
   std::vector<int> support;
   std::vector<HorizontalPeak> kept;
   for (size_t i = 0; i < n; ++i) {
     // The next peak's curve rows are fetched meanwhile (the table is larger
     // than the caches).
-    if (i + 1 < n && has_curve[i + 1])
+    if (i + 1 < n && curves[i + 1].c0)
       for (int d = -half_width_; d <= half_width_; d += 16) {
         __builtin_prefetch(curves[i + 1].c0 + d);
         __builtin_prefetch(curves[i + 1].c1 + d);
       }
-    if (!has_curve[i]) continue;  // no support
+    if (!curves[i].c0) continue;  // no support
     PeakSupport(curves[i], index, claimed, &support);
     if (static_cast<int>(support.size()) < options_.min_votes) continue;
     for (int v : support) claimed[v] = 1;

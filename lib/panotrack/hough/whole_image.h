@@ -295,13 +295,13 @@ class PhWholeImage {
   struct VoterIndex;
   VoterIndex BucketVoters(const WholeImageResult& res) const;
   // A peak's curve (Eqn 6) in the PH^-1 table: rows c0, c1 (d = 0 at theta
-  // bin kc), interpolated with weight tr; false outside the table.
+  // bin kc), interpolated with weight tr; c0 and c1 null outside the table.
   struct CurveRows {
-    const float *c0, *c1;
-    float tr;
-    int kc;
+    const float *c0 = nullptr, *c1 = nullptr;
+    float tr = 0.0f;
+    int kc = 0;
   };
-  bool PeakCurve(const HorizontalPeak& pk, CurveRows* rows) const;
+  void PeakCurve(const HorizontalPeak& pk, CurveRows* rows) const;
   void PeakSupport(const CurveRows& curve, const VoterIndex& index, const std::vector<unsigned char>& claimed,
                    std::vector<int>* support) const;
   void ExplainAway(WholeImageResult* result) const;
