@@ -201,6 +201,13 @@ int main(int argc, char** argv) {
                  "(H.264, HEVC) decode at once, for less CPU than FFmpeg's frame threads (0: never)")
       ->capture_default_str()
       ->group(run);
+  std::string hwaccel = "none";
+  app.add_option("--hwaccel", hwaccel,
+                 "Where videos are decoded: none (the CPU), cuda (an NVIDIA GPU's NVDEC through FFmpeg; an error "
+                 "where it cannot), auto (NVDEC where a GPU and FFmpeg allow, else the CPU)")
+      ->check(CLI::IsMember({"none", "cuda", "auto"}))
+      ->capture_default_str()
+      ->group(run);
   app.add_flag("-q,--quiet", o.quiet, "No progress line, notes or summary (errors still on stderr)")
       ->group(run);
   app.add_flag("-v,--verbose", verbose,
@@ -223,6 +230,7 @@ int main(int argc, char** argv) {
     o.verbose = verbose;
     if (!init.empty()) o.init = pano::Pose2{init[0], init[1], init[2]};
     o.localizer.method = method == "vertex" ? pano::TrackingMethod::kVertex : pano::TrackingMethod::kJunction;
+    o.hardware = pano::ParseHardwareDecoding(hwaccel);
     o.cancel = &g_cancel;
     const bool show_progress = !o.quiet && ::isatty(2);
     if (show_progress) o.on_progress = ShowProgress;

@@ -107,8 +107,28 @@ TEST_CASE("panoloc: exit codes and errors of the command", "[panoloc_cli]") {
   CHECK(in.at("lost") == 0);
   CHECK(in.at("end") == "done");
   CHECK(in.at("outputs").at("poses") == dir + "/est.csv");
+  CHECK(in.at("decoder") == "cpu");
   CHECK(std::abs(in.at("accuracy").at("rms").get<double>() - printed_rms) <= 0.0005);
   CHECK(j.at("command_line").back() == "-");
+  // NVDEC: the same poses where a device decodes, else one line naming the input and no CSV.
+  r = Exec("panoloc " + dir + "/seq/video.mp4 --calib " + dir + "/seq/calib.yaml --map " + dir + "/seq/map.yaml -o " +
+           dir + "/nvdec.csv --hwaccel cuda -q");
+  const auto read = [](const std::string& path) {
+    std::ostringstream text;
+    text << std::ifstream(path).rdbuf();
+    return text.str();
+  };
+  if (r.code == 0) {
+    CHECK(read(dir + "/nvdec.csv") == read(dir + "/est.csv"));
+  } else {
+    CHECK(r.code == 1);
+    CHECK(Lines(r.out) == 1);
+    CHECK(r.out.rfind("panoloc: " + dir + "/seq/video.mp4: cannot decode (NVDEC: ", 0) == 0);
+    CHECK_FALSE(std::filesystem::exists(dir + "/nvdec.csv"));
+  }
+  r = Exec(again + " --force --hwaccel gpu");
+  CHECK(r.code == 1);
+  CHECK(r.out.find("--hwaccel: gpu not in {none,cuda,auto}") != std::string::npos);
   // One input missing: the other is done, the exit code says not all succeeded.
   r = Exec("panoloc " + dir + "/seq/video.mp4 " + dir + "/none.mp4 --calib " + dir +
            "/seq/calib.yaml --map " + dir + "/seq/map.yaml --out-dir " + dir + "/out -q");

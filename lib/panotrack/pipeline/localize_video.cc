@@ -277,7 +277,9 @@ void LocalizeInto(const VideoJob& job, const SharedResources& res, const VideoRu
   FrameSourceOptions source_options;
   source_options.decoder_threads = opt.decoder_threads;
   source_options.gop_parallel_bytes = opt.gop_parallel_bytes;
+  source_options.hardware = opt.hardware;
   FrameSource source(job.input, source_options);
+  sum->hardware_decoding = source.hardware_decoding();
   const Sensor& s = res.calib.sensor;
   const cv::Size tracked = TrackedSize(source.width(), source.height(), opt.scale);
   if (tracked.width != s.image_width || tracked.height != s.image_height)

@@ -70,6 +70,8 @@ struct VideoRunOptions {
   int decoder_threads = 0;
   // FrameSourceOptions::gop_parallel_bytes.
   size_t gop_parallel_bytes = FrameSourceOptions().gop_parallel_bytes;
+  // FrameSourceOptions::hardware: the CPU, or NVDEC.
+  HardwareDecoding hardware = HardwareDecoding::kNone;
   // Inputs other than live ones are tracked at idle priority while the
   // tracker keeps up with decoding (core/thread_priority.h): decoding, the
   // slower of the two, keeps the cores, and tracking fills the gaps that
@@ -127,6 +129,7 @@ struct VideoSummary {
   bool has_smoothed_accuracy = false;
   AccuracySummary smoothed_accuracy;
   int frames_without_odometry = 0;  // frames after the first outside the odometry's times
+  bool hardware_decoding = false;   // decoded on NVDEC
 };
 
 // Localises one input. Never throws: failures are in the summary.

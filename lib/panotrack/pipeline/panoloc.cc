@@ -297,6 +297,7 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
   // that decoding leaves.
   run.decoder_threads = std::max(1, threads / n_jobs);
   run.gop_parallel_bytes = static_cast<size_t>(opt.decode_memory_mib) << 20;
+  run.hardware = opt.hardware;
   // A room-wide search holds up its input's frames (the decoder stops once
   // its queue is full): as many threads as the per-frame loops, and both of
   // an input's two cores where those have one.

@@ -47,6 +47,9 @@ struct PanolocOptions {
   // Decoded frames that may wait in memory per input (MiB) so that two
   // groups of pictures decode at a time (FrameSourceOptions); 0: never.
   int decode_memory_mib = 128;
+  // Videos decoded on the CPU, on NVDEC (an error where it cannot), or on
+  // NVDEC where it can (FrameSourceOptions::hardware).
+  HardwareDecoding hardware = HardwareDecoding::kNone;
   bool quiet = false;                // no notes on stderr
   // Folder of the E(D,Z) table cache (lut/table_cache.h): the table the map
   // needs is loaded from there, or built and stored there. Empty: built on

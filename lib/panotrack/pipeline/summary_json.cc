@@ -47,6 +47,7 @@ json InputJson(const VideoSummary& s, const PanolocOptions& options) {
             {"lost", s.n_lost},
             {"seconds", s.seconds},
             {"frames_per_s", s.seconds > 0 ? s.frames / s.seconds : 0.0},
+            {"decoder", s.hardware_decoding ? "nvdec" : "cpu"},
             {"outputs", outputs}};
   if (s.has_accuracy) j["accuracy"] = AccuracyJson(s.accuracy);
   if (s.has_smoothed_accuracy) j["smoothed_accuracy"] = AccuracyJson(s.smoothed_accuracy);

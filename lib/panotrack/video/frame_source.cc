@@ -127,13 +127,19 @@ void FrameSource::OpenVideo(const FrameSourceOptions& options) {
   if (!live && !fs::exists(path_, ec)) throw Error(path_ + ": no such file");
   luma_ = std::make_unique<LumaDecoder>();
   std::string why;
-  if (luma_->Open(path_, &why, live ? live_timeout_s : 0.0, options.decoder_threads, options.gop_parallel_bytes)) {
+  LumaDecoderOptions decoder_options;
+  decoder_options.io_timeout_s = live ? live_timeout_s : 0.0;
+  decoder_options.num_threads = options.decoder_threads;
+  decoder_options.gop_parallel_bytes = options.gop_parallel_bytes;
+  decoder_options.hardware = options.hardware;
+  if (luma_->Open(path_, &why, decoder_options)) {
     fps_ = luma_->fps();
     if (!live) count_ = static_cast<int>(luma_->frame_count());
     return;
   }
   const bool container_opened = luma_->container_opened();
   const long listed = luma_->frame_count();
+  if (luma_->hardware_failed()) throw Error(name_ + ": cannot decode (" + why + ")");
   luma_.reset();
   // cv::VideoCapture decodes through the same FFmpeg: worth trying only for
   // pixel formats without a luma plane, or in a build without FFmpeg.

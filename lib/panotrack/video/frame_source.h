@@ -49,6 +49,10 @@ struct FrameSourceOptions {
   // frame threads' per-frame hand-over: a sixth less decoding CPU on a
   // cheap stream. A group's frames wait in memory; 0: never.
   size_t gop_parallel_bytes = size_t(128) << 20;
+  // Videos and streams decoded on the CPU, or on an NVIDIA GPU's NVDEC
+  // (LumaDecoderOptions::hardware). With kCuda, an input NVDEC cannot
+  // decode is an error; other inputs (image folders, cameras) ignore it.
+  HardwareDecoding hardware = HardwareDecoding::kNone;
 };
 
 class FrameSource {
@@ -89,6 +93,8 @@ class FrameSource {
   int prefetch_frames() const { return capacity_; }  // the most that wait
   // Decoding two groups of pictures at a time (gop_parallel_bytes).
   bool gop_parallel() const { return luma_ && luma_->gop_parallel(); }
+  // Decoding on NVDEC (FrameSourceOptions::hardware).
+  bool hardware_decoding() const { return luma_ && luma_->hardware(); }
 
  private:
   struct Frame {

@@ -8,11 +8,15 @@
 extern "C" {
 #include <libavcodec/avcodec.h>
 #include <libavformat/avformat.h>
+#include <libavutil/hwcontext.h>
 #include <libavutil/pixdesc.h>
 #include <libavutil/time.h>
 }
 #include <poll.h>
 #include <unistd.h>
+#if PANO_WITH_CUDA
+#include "panotrack/video/cuda_download.h"
+#endif
 #endif
 
 #include <algorithm>
@@ -31,6 +35,13 @@ extern "C" {
 namespace pano {
 
 std::string InputName(const std::string& path) { return path == "-" ? "standard input" : path; }
+
+HardwareDecoding ParseHardwareDecoding(const std::string& name) {
+  if (name == "none") return HardwareDecoding::kNone;
+  if (name == "cuda") return HardwareDecoding::kCuda;
+  if (name == "auto") return HardwareDecoding::kAuto;
+  throw Error("hardware decoding: expected none, cuda or auto, got '" + name + "'");
+}
 
 #if PANO_WITH_FFMPEG
 
@@ -202,13 +213,17 @@ void CopyLuma(const AVFrame& decoded, cv::Mat* copy) {
 // costs page faults on every frame. At most `max_bytes` are kept.
 class BufferPool {
  public:
-  explicit BufferPool(size_t max_bytes) : max_bytes_(max_bytes) {}
+  // `allocator`: where the buffers' memory comes from (null: OpenCV's).
+  explicit BufferPool(size_t max_bytes, cv::MatAllocator* allocator = nullptr)
+      : max_bytes_(max_bytes), allocator_(allocator) {}
   // A buffer of rows x cols bytes that nothing else holds now. Thread-safe
   // against the release of buffers handed out, not against other Take()s.
   cv::Mat Take(int rows, int cols) {
     for (const cv::Mat& b : buffers_)
       if (b.rows == rows && b.cols == cols && __atomic_load_n(&b.u->refcount, __ATOMIC_ACQUIRE) == 1) return b;
-    cv::Mat fresh(rows, cols, CV_8UC1);
+    cv::Mat fresh;
+    if (allocator_) fresh.allocator = allocator_;
+    fresh.create(rows, cols, CV_8UC1);
     if (bytes_ + fresh.total() <= max_bytes_) {
       buffers_.push_back(fresh);
       bytes_ += fresh.total();
@@ -218,6 +233,7 @@ class BufferPool {
 
  private:
   size_t max_bytes_, bytes_ = 0;
+  cv::MatAllocator* allocator_;
   std::vector<cv::Mat> buffers_;
 };
 
@@ -276,6 +292,7 @@ struct LumaDecoder::Impl {
     std::string error;     // why its decoding stopped early (after `frames`)
   };
   bool gop = false;
+  bool demand_cuda = false;  // HardwareDecoding::kCuda: no fallback to the CPU
   AVCodecID codec_id = AV_CODEC_ID_NONE;
   int nal_length_size = 0;
   bool inband_parameter_sets = false;  // seen in a packet so far
@@ -283,6 +300,13 @@ struct LumaDecoder::Impl {
   std::unique_ptr<BufferPool> luma_buffers;  // for the frames' luma copies
   std::vector<AVCodecContext*> gop_codecs;  // [0] is `codec`
   std::vector<std::thread> gop_threads;
+  // NVDEC: the CUDA device FFmpeg decodes on, and the copies of its luma
+  // planes into page-locked buffers (luma_buffers).
+  AVBufferRef* cuda_device = nullptr;
+  bool cuda_declined = false;  // FFmpeg offered no CUDA format for the stream
+#if PANO_WITH_CUDA
+  std::unique_ptr<detail::CudaLumaDownload> cuda_download;
+#endif
   // Guards the demuxer and everything below (in GOP mode). Each waiting
   // thread has a condition of its own, so that a frame wakes only the
   // thread it concerns (a shared one woke every waiter for every frame).
@@ -314,6 +338,7 @@ struct LumaDecoder::Impl {
     if (frame) av_frame_free(&frame);
     if (packet) av_packet_free(&packet);
     if (codec) avcodec_free_context(&codec);
+    av_buffer_unref(&cuda_device);
     if (format) avformat_close_input(&format);
     if (stdin_io) {
       av_freep(&stdin_io->buffer);
@@ -477,11 +502,93 @@ struct LumaDecoder::Impl {
     return static_cast<double>(ts - first_timestamp) * av_q2d(time_base);
   }
 
+  // NVDEC for `decoder` on CUDA device 0; false with the reason when FFmpeg
+  // has no CUDA hwaccel for the codec or no device can be used.
+  bool SetUpNvdec(const AVCodec* decoder, std::string* why) {
+    bool has_hwaccel = false;
+    for (int i = 0;; ++i) {
+      const AVCodecHWConfig* config = avcodec_get_hw_config(decoder, i);
+      if (!config) break;
+      has_hwaccel |= (config->methods & AV_CODEC_HW_CONFIG_METHOD_HW_DEVICE_CTX) &&
+                     config->device_type == AV_HWDEVICE_TYPE_CUDA;
+    }
+    if (!has_hwaccel) {
+      *why = std::string("FFmpeg has no NVDEC decoder for ") + avcodec_get_name(decoder->id);
+      return false;
+    }
+#if PANO_WITH_CUDA
+    // The device's primary context, which every decoder of the process
+    // shares: contexts of their own would take turns on the GPU.
+    AVDictionary* device_options = nullptr;
+    av_dict_set(&device_options, "primary_ctx", "1", 0);
+    DecoderErrorCapture ffmpeg_said;
+    const int r = av_hwdevice_ctx_create(&cuda_device, AV_HWDEVICE_TYPE_CUDA, nullptr, device_options, 0);
+    av_dict_free(&device_options);
+    if (r < 0) {
+      *why = !ffmpeg_said.last().empty() ? ffmpeg_said.last() : AvError(r);
+      return false;
+    }
+    cuda_download = std::make_unique<detail::CudaLumaDownload>();
+    if (!cuda_download->Init(cuda_device, why)) return false;
+    // The frames of a FrameSource's queue, and some more.
+    luma_buffers = std::make_unique<BufferPool>(2 * kReadAheadBytes, cuda_download->allocator());
+#else
+    *why = "built without CUDA";
+    return false;
+#endif
+    codec->hw_device_ctx = av_buffer_ref(cuda_device);
+    if (!codec->hw_device_ctx) {
+      *why = "out of memory";
+      return false;
+    }
+    codec->opaque = this;
+    codec->get_format = &PickCudaFormat;
+    return true;
+  }
+  // FFmpeg's choice of output format: CUDA surfaces where the hwaccel takes
+  // the stream (it can refuse a profile or a size), else the CPU's format.
+  static AVPixelFormat PickCudaFormat(AVCodecContext* c, const AVPixelFormat* formats) {
+    for (const AVPixelFormat* f = formats; *f != AV_PIX_FMT_NONE; ++f)
+      if (*f == AV_PIX_FMT_CUDA) return *f;
+    static_cast<Impl*>(c->opaque)->cuda_declined = true;
+    return avcodec_default_get_format(c, formats);
+  }
+  std::string CudaDeclined() const {
+    return std::string("NVDEC cannot decode this stream (") + avcodec_get_name(codec->codec_id) + ", " +
+           std::to_string(codec->width) + " x " + std::to_string(codec->height) + ")";
+  }
+
+  // A frame on the device: its luma plane copied into a page-locked buffer
+  // of the pool (the chroma planes stay on the device).
+  void DeliverFromDevice(cv::Mat* grey, double* time_s) {
+    FrameInfo info = InfoOf(*frame);
+    cv::Mat luma;
+    std::string why;
+    bool copied = false;
+    if (!info.damaged) {
+      info.format = AV_PIX_FMT_GRAY8;
+      luma = luma_buffers->Take(frame->height, frame->width);
+#if PANO_WITH_CUDA
+      copied = cuda_download->Copy(*frame, &luma, &why);
+#endif
+    }
+    av_frame_unref(frame);
+    if (!info.damaged && !copied) Fail("NVDEC: " + why);
+    Check(info, time_s);
+    *grey = std::move(luma);
+    ++frames_out;
+  }
+
   // Hands out the decoded frame's luma plane without copying it: *grey
   // wraps the plane (with its row stride) and holds a reference to the
   // frame, which goes back to the decoder's pool when the last cv::Mat
   // sharing it is released.
   void Deliver(cv::Mat* grey, double* time_s) {
+    if (frame->format == AV_PIX_FMT_CUDA) return DeliverFromDevice(grey, time_s);
+    if (cuda_device && cuda_declined && demand_cuda) {
+      av_frame_unref(frame);
+      Fail(CudaDeclined());
+    }
     const FrameInfo info = InfoOf(*frame);
     if (!Usable(info)) av_frame_unref(frame);
     Check(info, time_s);
@@ -682,8 +789,9 @@ bool LumaDecoderAvailable() { return true; }
 LumaDecoder::LumaDecoder() = default;
 LumaDecoder::~LumaDecoder() = default;
 
-bool LumaDecoder::Open(const std::string& path, std::string* reason, double io_timeout_s, int num_threads,
-                       size_t gop_parallel_bytes) {
+bool LumaDecoder::Open(const std::string& path, std::string* reason, const LumaDecoderOptions& options) {
+  const double io_timeout_s = options.io_timeout_s;
+  const int num_threads = options.num_threads;
   UseDefaultDecoderLogging();
   static std::once_flag network_once;
   std::call_once(network_once, [] { avformat_network_init(); });
@@ -734,6 +842,20 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, double io_t
     *reason = "cannot set up the decoder";
     return false;
   }
+  if (options.hardware != HardwareDecoding::kNone) {
+    std::string why;
+    if (!d.SetUpNvdec(decoder, &why)) {
+      av_buffer_unref(&d.cuda_device);
+      d.luma_buffers.reset();
+      if (options.hardware == HardwareDecoding::kCuda) {
+        *reason = "NVDEC: " + why;
+        hardware_failed_ = true;
+        return false;
+      }
+    }
+    d.demand_cuda = options.hardware == HardwareDecoding::kCuda;
+  }
+  const size_t gop_parallel_bytes = d.cuda_device ? 0 : options.gop_parallel_bytes;
   // Two groups of pictures at a time, each decoder single-threaded where
   // there are two cores: FFmpeg's frame threads hand every frame over
   // between threads, which costs a fifth more CPU on a cheap stream. Only
@@ -762,7 +884,9 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, double io_t
     }
   }
   for (AVCodecContext* c : d.gop_codecs) {
-    c->thread_count = gop ? std::max(1, threads / kGopDecoders) : std::max(0, num_threads);
+    // NVDEC: one thread (frame threads measured no faster, and each holds
+    // some of the video engine's decode surfaces).
+    c->thread_count = d.cuda_device ? 1 : gop ? std::max(1, threads / kGopDecoders) : std::max(0, num_threads);
     if (avcodec_open2(c, decoder, nullptr) < 0) {
       *reason = "cannot open the decoder";
       return false;
@@ -825,6 +949,8 @@ void LumaDecoder::Abort() {
 
 bool LumaDecoder::gop_parallel() const { return impl_ && impl_->gop; }
 
+bool LumaDecoder::hardware() const { return impl_ && impl_->cuda_device && !impl_->cuda_declined; }
+
 int LumaDecoder::frames_waiting() {
   if (!gop_parallel()) return 0;
   std::lock_guard<std::mutex> lock(impl_->gop_mu);
@@ -837,7 +963,7 @@ struct LumaDecoder::Impl {};
 bool LumaDecoderAvailable() { return false; }
 LumaDecoder::LumaDecoder() = default;
 LumaDecoder::~LumaDecoder() = default;
-bool LumaDecoder::Open(const std::string&, std::string* reason, double, int, size_t) {
+bool LumaDecoder::Open(const std::string&, std::string* reason, const LumaDecoderOptions&) {
   *reason = "built without FFmpeg";
   return false;
 }
@@ -845,6 +971,7 @@ bool LumaDecoder::Read(cv::Mat*, double*) { return false; }
 void LumaDecoder::Abort() {}
 bool LumaDecoder::gop_parallel() const { return false; }
 int LumaDecoder::frames_waiting() { return 0; }
+bool LumaDecoder::hardware() const { return false; }
 
 #endif
 

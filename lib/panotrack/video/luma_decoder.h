@@ -16,6 +16,10 @@
 //   read failed (<FFmpeg's error text>)
 //   no data for 10 s
 //   pixel format <name> has no 8-bit luma plane
+//   NVDEC cannot decode this stream (<codec>, <width> x <height>)
+//   NVDEC: CUDA copy failed (error <code>)
+// and Open() gives "NVDEC: <why>" when NVDEC, demanded, cannot be set up
+// (no device or driver: FFmpeg's words; "built without CUDA").
 #pragma once
 
 #include <memory>
@@ -23,6 +27,35 @@
 #include <string>
 
 namespace pano {
+
+// Where videos are decoded.
+enum class HardwareDecoding {
+  kNone,  // on the CPU (FFmpeg's software decoders)
+  kCuda,  // on an NVIDIA GPU's video engine (NVDEC, through FFmpeg's CUDA hwaccel); an error where it cannot
+  kAuto,  // NVDEC where a device is present and FFmpeg has a hwaccel for the codec, else the CPU
+};
+// From its name: "none", "cuda" or "auto"; throws pano::Error for others.
+HardwareDecoding ParseHardwareDecoding(const std::string& name);
+
+struct LumaDecoderOptions {
+  // With io_timeout_s > 0 (streams), opening and every wait for data give
+  // up after that long instead of blocking for ever.
+  double io_timeout_s = 0.0;
+  // FFmpeg's decoding threads; 0: FFmpeg's choice (a thread per core, and
+  // one more). NVDEC decodes with one.
+  int num_threads = 0;
+  // With gop_parallel_bytes > 0 and at least two threads, a file whose
+  // index shows groups of pictures whose luma planes fit in that many bytes
+  // (H.264 or HEVC as MP4 or MOV hold them) is decoded on the CPU two groups
+  // at a time, each by its own decoder with half the threads
+  // (gop_parallel()); the frames come out the same, in order, as packed
+  // copies of their luma planes that wait for Read().
+  size_t gop_parallel_bytes = 0;
+  // NVDEC decodes into the GPU's memory; the luma plane alone comes to the
+  // host, into page-locked buffers: the same bytes as the CPU's decoder
+  // gives (H.264 and HEVC decoding is exact). Needs a build with CUDA.
+  HardwareDecoding hardware = HardwareDecoding::kNone;
+};
 
 class LumaDecoder {
  public:
@@ -32,18 +65,10 @@ class LumaDecoder {
   LumaDecoder& operator=(const LumaDecoder&) = delete;
 
   // False (with the reason) when the input cannot be decoded this way; when
-  // container_opened() the caller can fall back to cv::VideoCapture. "-" is
-  // standard input. With io_timeout_s > 0 (streams), opening and every wait
-  // for data give up after that long instead of blocking for ever.
-  // `num_threads`: FFmpeg's decoding threads; 0: FFmpeg's choice (a thread
-  // per core, and one more). With `gop_parallel_bytes` > 0 and at least two
-  // threads, a file whose index shows groups of pictures whose luma planes
-  // fit in that many bytes (H.264 or HEVC as MP4 or MOV hold them) is
-  // decoded two groups at a time, each by its own decoder with half the
-  // threads (gop_parallel()); the frames come out the same, in order, as
-  // packed copies of their luma planes that wait for Read().
-  bool Open(const std::string& path, std::string* reason, double io_timeout_s = 0.0, int num_threads = 0,
-            size_t gop_parallel_bytes = 0);
+  // container_opened() the caller can fall back to cv::VideoCapture (not
+  // when NVDEC was demanded and is what failed: hardware_failed()). "-" is
+  // standard input.
+  bool Open(const std::string& path, std::string* reason, const LumaDecoderOptions& options = {});
   // Next frame's luma as CV_8UC1 and, when time_s is given, its presentation
   // time in seconds from the first frame's; false at the clean end (or after
   // Abort()). Throws pano::Error as above. Not a copy: *grey shares the
@@ -64,6 +89,11 @@ class LumaDecoder {
   bool gop_parallel() const;
   // With gop_parallel(): the frames decoded, in order, waiting for Read().
   int frames_waiting();
+  // Decoding on NVDEC (HardwareDecoding::kCuda, or kAuto where it could).
+  bool hardware() const;
+  // Open() failed because NVDEC, demanded by HardwareDecoding::kCuda, is
+  // not available.
+  bool hardware_failed() const { return hardware_failed_; }
 
  private:
   struct Impl;
@@ -71,6 +101,7 @@ class LumaDecoder {
   double fps_ = 0.0;
   long frame_count_ = -1;
   bool container_opened_ = false;
+  bool hardware_failed_ = false;
 };
 
 // True when this build can decode luma planes directly (FFmpeg found).
