@@ -90,7 +90,15 @@ struct CudaLumaDownload::Allocator : cv::MatAllocator {
       if (!current.ok() || driver.mem_host_alloc(&data, total, CU_MEMHOSTALLOC_PORTABLE) != CUDA_SUCCESS)
         return cv::Mat::getDefaultAllocator()->allocate(dims, sizes, type, data0, step, flags, usage);
     }
-    auto* u = new cv::UMatData(this);
+    auto* u = new (std::nothrow) cv::UMatData(this);
+    if (!u) {
+      if (data) {
+        const Driver& driver = CudaDriver();
+        ScopedContext current(driver, context);
+        driver.mem_free_host(data);
+      }
+      throw std::bad_alloc();
+    }
     u->data = u->origdata = static_cast<uchar*>(data0 ? data0 : data);
     u->size = total;
     if (data0) u->flags |= cv::UMatData::USER_ALLOCATED;
@@ -146,16 +154,19 @@ bool CudaLumaDownload::Copy(const AVFrame& frame, cv::Mat* luma, std::string* wh
   const Driver& driver = CudaDriver();
   ScopedContext current(driver, allocator_->context);
   CUDA_MEMCPY2D copy = {};
+  copy.srcXInBytes = frame.crop_left;  // luma: a byte per pixel
+  copy.srcY = frame.crop_top;
   copy.srcMemoryType = CU_MEMORYTYPE_DEVICE;
   copy.srcDevice = reinterpret_cast<CUdeviceptr>(frame.data[0]);
   copy.srcPitch = static_cast<size_t>(frame.linesize[0]);
   copy.dstMemoryType = CU_MEMORYTYPE_HOST;
   copy.dstHost = luma->data;
   copy.dstPitch = luma->step[0];
-  copy.WidthInBytes = static_cast<size_t>(frame.width);
-  copy.Height = static_cast<size_t>(frame.height);
+  copy.WidthInBytes = static_cast<size_t>(luma->cols);
+  copy.Height = static_cast<size_t>(luma->rows);
   // Synchronous, and after FFmpeg's copy of the decoded surface into the
-  // frame (on the context's default stream).
+  // frame: that is on the device's stream, which is the context's default
+  // stream as the decoder creates the device with none of its own.
   const CUresult r = current.ok() ? driver.memcpy_2d(&copy) : CUDA_ERROR_INVALID_CONTEXT;
   if (r != CUDA_SUCCESS) {
     *why = "CUDA copy failed (error " + std::to_string(static_cast<int>(r)) + ")";

@@ -139,7 +139,7 @@ void FrameSource::OpenVideo(const FrameSourceOptions& options) {
   }
   const bool container_opened = luma_->container_opened();
   const long listed = luma_->frame_count();
-  if (luma_->hardware_failed()) throw Error(name_ + ": cannot decode (" + why + ")");
+  if (options.hardware == HardwareDecoding::kCuda) throw Error(name_ + ": cannot decode (" + why + ")");
   luma_.reset();
   // cv::VideoCapture decodes through the same FFmpeg: worth trying only for
   // pixel formats without a luma plane, or in a build without FFmpeg.

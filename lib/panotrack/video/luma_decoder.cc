@@ -135,6 +135,8 @@ constexpr long kMinSegmentPackets = 16;
 constexpr size_t kReadAheadBytes = size_t(16) << 20;
 // Decoders of GOP mode, each on a segment of its own.
 constexpr int kGopDecoders = 2;
+// Page-locked buffers NVDEC's frames keep: a FrameSource's queue holds 8 or more.
+constexpr size_t kNvdecBuffers = 12;
 
 // What a packet of an H.264 or HEVC stream holds, from its NAL units'
 // headers. `length_size`: the bytes of each unit's length prefix (avcC and
@@ -214,17 +216,22 @@ void CopyLuma(const AVFrame& decoded, cv::Mat* copy) {
 class BufferPool {
  public:
   // `allocator`: where the buffers' memory comes from (null: OpenCV's).
-  explicit BufferPool(size_t max_bytes, cv::MatAllocator* allocator = nullptr)
-      : max_bytes_(max_bytes), allocator_(allocator) {}
+  // At least `min_buffers` are kept whatever their bytes.
+  explicit BufferPool(size_t max_bytes, cv::MatAllocator* allocator = nullptr, size_t min_buffers = 0)
+      : max_bytes_(max_bytes), min_buffers_(min_buffers), allocator_(allocator) {}
   // A buffer of rows x cols bytes that nothing else holds now. Thread-safe
   // against the release of buffers handed out, not against other Take()s.
   cv::Mat Take(int rows, int cols) {
     for (const cv::Mat& b : buffers_)
       if (b.rows == rows && b.cols == cols && __atomic_load_n(&b.u->refcount, __ATOMIC_ACQUIRE) == 1) return b;
     cv::Mat fresh;
-    if (allocator_) fresh.allocator = allocator_;
+    fresh.allocator = allocator_;  // null: OpenCV's
     fresh.create(rows, cols, CV_8UC1);
-    if (bytes_ + fresh.total() <= max_bytes_) {
+    // The buffer goes back through its own UMatData; a header handed out
+    // must not call the allocator again (create() on it after the decoder
+    // and its allocator are gone).
+    fresh.allocator = nullptr;
+    if (bytes_ + fresh.total() <= max_bytes_ || buffers_.size() < min_buffers_) {
       buffers_.push_back(fresh);
       bytes_ += fresh.total();
     }
@@ -232,7 +239,7 @@ class BufferPool {
   }
 
  private:
-  size_t max_bytes_, bytes_ = 0;
+  size_t max_bytes_, min_buffers_, bytes_ = 0;
   cv::MatAllocator* allocator_;
   std::vector<cv::Mat> buffers_;
 };
@@ -303,7 +310,9 @@ struct LumaDecoder::Impl {
   // NVDEC: the CUDA device FFmpeg decodes on, and the copies of its luma
   // planes into page-locked buffers (luma_buffers).
   AVBufferRef* cuda_device = nullptr;
-  bool cuda_declined = false;  // FFmpeg offered no CUDA format for the stream
+  // FFmpeg offered no CUDA format for the stream (set on the decoding
+  // thread, read by hardware()).
+  std::atomic<bool> cuda_declined{false};
 #if PANO_WITH_CUDA
   std::unique_ptr<detail::CudaLumaDownload> cuda_download;
 #endif
@@ -519,10 +528,17 @@ struct LumaDecoder::Impl {
 #if PANO_WITH_CUDA
     // The device's primary context, which every decoder of the process
     // shares: contexts of their own would take turns on the GPU.
+    // One at a time: FFmpeg sets the primary context's flags when it finds
+    // it inactive, which fails once another decoder has activated it.
+    static std::mutex creation_mu;
     AVDictionary* device_options = nullptr;
     av_dict_set(&device_options, "primary_ctx", "1", 0);
     DecoderErrorCapture ffmpeg_said;
-    const int r = av_hwdevice_ctx_create(&cuda_device, AV_HWDEVICE_TYPE_CUDA, nullptr, device_options, 0);
+    int r;
+    {
+      std::lock_guard<std::mutex> lock(creation_mu);
+      r = av_hwdevice_ctx_create(&cuda_device, AV_HWDEVICE_TYPE_CUDA, nullptr, device_options, 0);
+    }
     av_dict_free(&device_options);
     if (r < 0) {
       *why = !ffmpeg_said.last().empty() ? ffmpeg_said.last() : AvError(r);
@@ -530,8 +546,9 @@ struct LumaDecoder::Impl {
     }
     cuda_download = std::make_unique<detail::CudaLumaDownload>();
     if (!cuda_download->Init(cuda_device, why)) return false;
-    // The frames of a FrameSource's queue, and some more.
-    luma_buffers = std::make_unique<BufferPool>(2 * kReadAheadBytes, cuda_download->allocator());
+    // The frames of a FrameSource's queue (at least 8), and some more:
+    // page-locked memory is slow to allocate and to free.
+    luma_buffers = std::make_unique<BufferPool>(2 * kReadAheadBytes, cuda_download->allocator(), kNvdecBuffers);
 #else
     *why = "built without CUDA";
     return false;
@@ -547,9 +564,11 @@ struct LumaDecoder::Impl {
   }
   // FFmpeg's choice of output format: CUDA surfaces where the hwaccel takes
   // the stream (it can refuse a profile or a size), else the CPU's format.
+  // Streams without an 8-bit luma plane (10-bit) are left to the CPU,
+  // which refuses them as it does without NVDEC.
   static AVPixelFormat PickCudaFormat(AVCodecContext* c, const AVPixelFormat* formats) {
     for (const AVPixelFormat* f = formats; *f != AV_PIX_FMT_NONE; ++f)
-      if (*f == AV_PIX_FMT_CUDA) return *f;
+      if (*f == AV_PIX_FMT_CUDA && HasLumaPlane(c->sw_pix_fmt)) return *f;
     static_cast<Impl*>(c->opaque)->cuda_declined = true;
     return avcodec_default_get_format(c, formats);
   }
@@ -567,7 +586,10 @@ struct LumaDecoder::Impl {
     bool copied = false;
     if (!info.damaged) {
       info.format = AV_PIX_FMT_GRAY8;
-      luma = luma_buffers->Take(frame->height, frame->width);
+      // FFmpeg crops a device frame's right and bottom by its size alone,
+      // and leaves the left and top to the copy.
+      luma = luma_buffers->Take(frame->height - static_cast<int>(frame->crop_top),
+                                frame->width - static_cast<int>(frame->crop_left));
 #if PANO_WITH_CUDA
       copied = cuda_download->Copy(*frame, &luma, &why);
 #endif
@@ -845,11 +867,13 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, const LumaD
   if (options.hardware != HardwareDecoding::kNone) {
     std::string why;
     if (!d.SetUpNvdec(decoder, &why)) {
-      av_buffer_unref(&d.cuda_device);
       d.luma_buffers.reset();
+#if PANO_WITH_CUDA
+      d.cuda_download.reset();
+#endif
+      av_buffer_unref(&d.cuda_device);
       if (options.hardware == HardwareDecoding::kCuda) {
         *reason = "NVDEC: " + why;
-        hardware_failed_ = true;
         return false;
       }
     }
@@ -894,8 +918,11 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, const LumaD
   }
   // A stream may state its pixel format only with its first frame: Read()
   // checks every frame's.
-  if (d.codec->pix_fmt != AV_PIX_FMT_NONE && !HasLumaPlane(d.codec->pix_fmt)) {
-    *reason = NoLumaPlane(d.codec->pix_fmt);
+  // A decoder that chose its output format when opened (VC-1) may have
+  // chosen NVDEC's: the stream's own format is then sw_pix_fmt.
+  const AVPixelFormat stream_format = d.codec->pix_fmt == AV_PIX_FMT_CUDA ? d.codec->sw_pix_fmt : d.codec->pix_fmt;
+  if (stream_format != AV_PIX_FMT_NONE && !HasLumaPlane(stream_format)) {
+    *reason = NoLumaPlane(stream_format);
     return false;
   }
   d.packet = av_packet_alloc();

@@ -54,6 +54,9 @@ struct LumaDecoderOptions {
   // NVDEC decodes into the GPU's memory; the luma plane alone comes to the
   // host, into page-locked buffers: the same bytes as the CPU's decoder
   // gives (H.264 and HEVC decoding is exact). Needs a build with CUDA.
+  // Streams NVDEC refuses (4:4:4 H.264, 10-bit) fail with kCuda, and with
+  // kAuto are decoded on one CPU thread. NVDEC conceals no errors, so a
+  // damaged frame is not told apart as the CPU's decoder tells it.
   HardwareDecoding hardware = HardwareDecoding::kNone;
 };
 
@@ -66,8 +69,8 @@ class LumaDecoder {
 
   // False (with the reason) when the input cannot be decoded this way; when
   // container_opened() the caller can fall back to cv::VideoCapture (not
-  // when NVDEC was demanded and is what failed: hardware_failed()). "-" is
-  // standard input.
+  // with HardwareDecoding::kCuda, which cv::VideoCapture cannot give). "-"
+  // is standard input.
   bool Open(const std::string& path, std::string* reason, const LumaDecoderOptions& options = {});
   // Next frame's luma as CV_8UC1 and, when time_s is given, its presentation
   // time in seconds from the first frame's; false at the clean end (or after
@@ -91,9 +94,6 @@ class LumaDecoder {
   int frames_waiting();
   // Decoding on NVDEC (HardwareDecoding::kCuda, or kAuto where it could).
   bool hardware() const;
-  // Open() failed because NVDEC, demanded by HardwareDecoding::kCuda, is
-  // not available.
-  bool hardware_failed() const { return hardware_failed_; }
 
  private:
   struct Impl;
@@ -101,7 +101,6 @@ class LumaDecoder {
   double fps_ = 0.0;
   long frame_count_ = -1;
   bool container_opened_ = false;
-  bool hardware_failed_ = false;
 };
 
 // True when this build can decode luma planes directly (FFmpeg found).
