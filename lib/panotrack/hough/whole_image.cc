@@ -98,25 +98,27 @@ void PhWholeImage::SetGeometry(const Sensor& sensor, const WholeImageOptions& op
     throw Error(what + ": integer table too large; use a larger r_row_step or theta_bin");
 }
 
-float PhWholeImage::Azimuth(int u, int v) const {
-  double t = std::atan2((v - cy_) / aspect_, u - cx_);
+PhWholeImage::PolarPixel PhWholeImage::Polar(int u, int v) const {
+  const double du = u - cx_, dv = (v - cy_) / aspect_;
+  const double r = std::sqrt(du * du + dv * dv);
+  double t = std::atan2(dv, du);
   if (t < 0.0) t += 2.0 * M_PI;
-  return static_cast<float>(t);
+  return {static_cast<float>(r), static_cast<float>(t), static_cast<float>(r > 0 ? du / r : 1.0),
+          static_cast<float>(r > 0 ? dv / r : 0.0)};
 }
 
-void PhWholeImage::FillAzimuthTable(const Sensor& sensor) {
+void PhWholeImage::FillPolarTable(const Sensor& sensor) {
   // The annulus's bounding box (one pixel of margin), within the image.
   const double half_u = r_max_ + 1.0, half_v = (r_max_ + 1.0) * aspect_;
   az_u0_ = std::clamp(static_cast<int>(std::floor(cx_ - half_u)), 0, sensor.image_width);
   az_v0_ = std::clamp(static_cast<int>(std::floor(cy_ - half_v)), 0, sensor.image_height);
   az_cols_ = std::clamp(static_cast<int>(std::ceil(cx_ + half_u)) + 1, az_u0_, sensor.image_width) - az_u0_;
   az_rows_ = std::clamp(static_cast<int>(std::ceil(cy_ + half_v)) + 1, az_v0_, sensor.image_height) - az_v0_;
-  azimuth_.resize(static_cast<size_t>(az_cols_) * az_rows_);
+  polar_.resize(static_cast<size_t>(az_cols_) * az_rows_);
   // Arithmetic only (nothing throws).
 #pragma omp parallel for schedule(static)
   for (int y = 0; y < az_rows_; ++y)
-    for (int x = 0; x < az_cols_; ++x)
-      azimuth_[static_cast<size_t>(y) * az_cols_ + x] = Azimuth(az_u0_ + x, az_v0_ + y);
+    for (int x = 0; x < az_cols_; ++x) polar_[static_cast<size_t>(y) * az_cols_ + x] = Polar(az_u0_ + x, az_v0_ + y);
 }
 
 void PhWholeImage::FillIntegerPlane(const PhTable& ph, double d_min, double d_max, int32_t* tab,
@@ -243,7 +245,7 @@ PhWholeImage PhWholeImage::Build(const RadiusTable& table, const WholeImageOptio
   if (table.empty()) throw Error(what + ": the E(D,Z) lookup table is empty");
   PhWholeImage w;
   w.SetGeometry(table.sensor(), options);
-  w.FillAzimuthTable(table.sensor());
+  w.FillPolarTable(table.sensor());
   w.int_table_.assign(w.int_plane_size_ * options.heights.size(), kInvalid);
   w.ranges_.assign(static_cast<size_t>(w.n_rows_) * kPhiBins * options.heights.size(), VoteRange{1, 0});
   PhTableOptions po;
@@ -446,19 +448,18 @@ void PhWholeImage::Prepare(const EdgeMap& edges, std::vector<PhVoteRecord>* reco
       const int va = static_cast<int>(list[i + kAhead] >> 16), ua = static_cast<int>(list[i + kAhead] & 0xFFFF);
       __builtin_prefetch(edges.dx.ptr<int16_t>(va) + ua);
       __builtin_prefetch(edges.dy.ptr<int16_t>(va) + ua);
-      if (InAzimuthTable(ua, va)) __builtin_prefetch(&azimuth_[AzimuthIndex(ua, va)]);
+      if (InPolarTable(ua, va)) __builtin_prefetch(&polar_[PolarIndex(ua, va)]);
     }
     const int v = static_cast<int>(list[i] >> 16), u = static_cast<int>(list[i] & 0xFFFF);
     // Polar coordinates in single precision (voter_radius / voter_azimuth
-    // keep them), computed only for edge pixels.
-    const double du = u - cx_, dv = (v - cy_) / aspect_;
-    const double r = std::sqrt(du * du + dv * dv);
+    // keep them).
+    const PolarPixel polar = PolarAt(u, v);
     EdgePixel e;
-    e.R = static_cast<float>(r);
+    e.R = polar.radius;
     if (e.R < r_min_ || e.R > r_max_) continue;
-    e.theta = AzimuthAt(u, v);
-    e.cr = static_cast<float>(r > 0 ? du / r : 1.0);
-    e.sr = static_cast<float>(r > 0 ? dv / r : 0.0);
+    e.theta = polar.azimuth;
+    e.cr = polar.cos_r;
+    e.sr = polar.sin_r;
     e.gx = edges.dx.ptr<int16_t>(v)[u];
     e.gy = edges.dy.ptr<int16_t>(v)[u] * aspect_;
     e.gn = std::sqrt(e.gx * e.gx + e.gy * e.gy);

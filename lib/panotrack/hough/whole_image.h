@@ -222,8 +222,8 @@ class PhWholeImage {
 
   // Build's steps: sizes from the sensor and options (throws when too large);
   void SetGeometry(const Sensor& sensor, const WholeImageOptions& options);
-  // the azimuth of every pixel of the annulus's bounding box;
-  void FillAzimuthTable(const Sensor& sensor);
+  // the polar coordinates of every pixel of the annulus's bounding box;
+  void FillPolarTable(const Sensor& sensor);
   // one plane's integer PH table, with which (row, m) are defined for every
   // sub step and the curve's normal angle there;
   void FillIntegerPlane(const PhTable& ph, double d_min, double d_max, int32_t* tab,
@@ -235,17 +235,20 @@ class PhWholeImage {
   void FillCurveTable(Plane* plane) const;
 
   // Prepare's steps.
-  // Image azimuth of pixel (u, v) in [0, 2 pi), single precision; from the
-  // table inside the annulus's bounding box (the same value, computed once).
-  float Azimuth(int u, int v) const;
-  bool InAzimuthTable(int u, int v) const {
+  // Polar coordinates of pixel (u, v) in single precision: the image radius,
+  // the azimuth in [0, 2 pi) and the radial direction's cosine and sine.
+  // From the table inside the annulus's bounding box (the same values,
+  // computed once), which holds every pixel that can vote.
+  struct PolarPixel {
+    float radius, azimuth, cos_r, sin_r;
+  };
+  PolarPixel Polar(int u, int v) const;
+  bool InPolarTable(int u, int v) const {
     return static_cast<unsigned>(u - az_u0_) < static_cast<unsigned>(az_cols_) &&
            static_cast<unsigned>(v - az_v0_) < static_cast<unsigned>(az_rows_);
   }
-  size_t AzimuthIndex(int u, int v) const { return static_cast<size_t>(v - az_v0_) * az_cols_ + (u - az_u0_); }
-  float AzimuthAt(int u, int v) const {
-    return InAzimuthTable(u, v) ? azimuth_[AzimuthIndex(u, v)] : Azimuth(u, v);
-  }
+  size_t PolarIndex(int u, int v) const { return static_cast<size_t>(v - az_v0_) * az_cols_ + (u - az_u0_); }
+  PolarPixel PolarAt(int u, int v) const { return InPolarTable(u, v) ? polar_[PolarIndex(u, v)] : Polar(u, v); }
   void CheckEdgeMap(const EdgeMap& edges) const;
   void ResetResult(WholeImageResult* res) const;
   // An edge pixel that votes: where its records read the tables.
@@ -314,7 +317,7 @@ class PhWholeImage {
   int n_theta_ = 0, n_r_ = 0, n_rows_ = 0, sub_steps_ = 0, half_width_ = 0, width_ = 0;
   int n_rows_padded_ = 0;  // theta rows of the working accumulator (n_theta)
   std::vector<Plane> planes_;
-  std::vector<float> azimuth_;  // [v - az_v0_][u - az_u0_]
+  std::vector<PolarPixel> polar_;  // [v - az_v0_][u - az_u0_]
   int az_u0_ = 0, az_v0_ = 0, az_cols_ = 0, az_rows_ = 0;
   std::vector<int32_t> int_table_;  // [plane][R row][sub step][m + M], 1/256 bin
   // The m range each (R row, gradient angle bin) votes for in each plane
