@@ -511,9 +511,24 @@ struct LumaDecoder::Impl {
     return static_cast<double>(ts - first_timestamp) * av_q2d(time_base);
   }
 
-  // NVDEC for `decoder` on CUDA device 0; false with the reason when FFmpeg
-  // has no CUDA hwaccel for the codec or no device can be used.
+  // NVDEC for `decoder` on CUDA device 0; false with the reason (and
+  // nothing of it left set up) when FFmpeg has no CUDA hwaccel for the codec
+  // or no device can be used.
   bool SetUpNvdec(const AVCodec* decoder, std::string* why) {
+#if PANO_WITH_CUDA
+    if (TrySetUpNvdec(decoder, why)) return true;
+    luma_buffers.reset();
+    cuda_download.reset();
+    av_buffer_unref(&cuda_device);
+    return false;
+#else
+    (void)decoder;
+    *why = "built without CUDA";
+    return false;
+#endif
+  }
+#if PANO_WITH_CUDA
+  bool TrySetUpNvdec(const AVCodec* decoder, std::string* why) {
     bool has_hwaccel = false;
     for (int i = 0;; ++i) {
       const AVCodecHWConfig* config = avcodec_get_hw_config(decoder, i);
@@ -525,7 +540,6 @@ struct LumaDecoder::Impl {
       *why = std::string("FFmpeg has no NVDEC decoder for ") + avcodec_get_name(decoder->id);
       return false;
     }
-#if PANO_WITH_CUDA
     // The device's primary context, which every decoder of the process
     // shares: contexts of their own would take turns on the GPU.
     // One at a time: FFmpeg sets the primary context's flags when it finds
@@ -549,10 +563,6 @@ struct LumaDecoder::Impl {
     // The frames of a FrameSource's queue (at least 8), and some more:
     // page-locked memory is slow to allocate and to free.
     luma_buffers = std::make_unique<BufferPool>(2 * kReadAheadBytes, cuda_download->allocator(), kNvdecBuffers);
-#else
-    *why = "built without CUDA";
-    return false;
-#endif
     codec->hw_device_ctx = av_buffer_ref(cuda_device);
     if (!codec->hw_device_ctx) {
       *why = "out of memory";
@@ -562,6 +572,7 @@ struct LumaDecoder::Impl {
     codec->get_format = &PickCudaFormat;
     return true;
   }
+#endif
   // FFmpeg's choice of output format: CUDA surfaces where the hwaccel takes
   // the stream (it can refuse a profile or a size), else the CPU's format.
   // Streams without an 8-bit luma plane (10-bit) are left to the CPU,
@@ -607,7 +618,7 @@ struct LumaDecoder::Impl {
   // sharing it is released.
   void Deliver(cv::Mat* grey, double* time_s) {
     if (frame->format == AV_PIX_FMT_CUDA) return DeliverFromDevice(grey, time_s);
-    if (cuda_device && cuda_declined && demand_cuda) {
+    if (cuda_declined && demand_cuda) {
       av_frame_unref(frame);
       Fail(CudaDeclined());
     }
@@ -866,16 +877,9 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, const LumaD
   }
   if (options.hardware != HardwareDecoding::kNone) {
     std::string why;
-    if (!d.SetUpNvdec(decoder, &why)) {
-      d.luma_buffers.reset();
-#if PANO_WITH_CUDA
-      d.cuda_download.reset();
-#endif
-      av_buffer_unref(&d.cuda_device);
-      if (options.hardware == HardwareDecoding::kCuda) {
-        *reason = "NVDEC: " + why;
-        return false;
-      }
+    if (!d.SetUpNvdec(decoder, &why) && options.hardware == HardwareDecoding::kCuda) {
+      *reason = "NVDEC: " + why;
+      return false;
     }
     d.demand_cuda = options.hardware == HardwareDecoding::kCuda;
   }
