@@ -1,5 +1,6 @@
 #include "panotrack/io/map.h"
 
+#include <cmath>
 #include <limits>
 
 #include "panotrack/core/atomic_file.h"
@@ -19,6 +20,14 @@ double Shade(const YamlReader& r, const YAML::Node& n, const std::string& key, c
 
 // A landmark's shade: optional; without the key it is unknown (NaN), and the
 // tracker learns its edges' polarities from the images.
+// A survey sigma: optional (NaN without the key), >= 0.
+double SurveySigma(const YamlReader& r, const YAML::Node& n, const std::string& path) {
+  if (!r.Has(n, "survey_sigma")) return std::numeric_limits<double>::quiet_NaN();
+  const double s = r.Double(n, "survey_sigma", path);
+  if (!(s >= 0.0) || !std::isfinite(s)) r.Fail(path, "expected a standard deviation >= 0 (map units)");
+  return s;
+}
+
 double LandmarkShade(const YamlReader& r, const YAML::Node& n, const std::string& path) {
   if (!r.Has(n, "shade")) return std::numeric_limits<double>::quiet_NaN();
   return Shade(r, n, "shade", path, 0.0);
@@ -45,6 +54,7 @@ std::vector<MapRectangle> ReadRectangles(const YamlReader& r, const YAML::Node& 
     // Distractors are only rendered: they keep a default shade.
     rect.shade = key == "distractors" ? Shade(r, n, "shade", path + ".shade", rect.shade)
                                       : LandmarkShade(r, n, path + ".shade");
+    if (key != "distractors") rect.survey_sigma = SurveySigma(r, n, path + ".survey_sigma");
     out.push_back(rect);
   }
   return out;
@@ -65,6 +75,7 @@ std::vector<MapBox> ReadBoxes(const YamlReader& r, const YAML::Node& root) {
     b.min = {mn[0], mn[1], mn[2]};
     b.max = {mx[0], mx[1], mx[2]};
     b.shade = LandmarkShade(r, n, p + ".shade");
+    b.survey_sigma = SurveySigma(r, n, p + ".survey_sigma");
     out.push_back(b);
   }
   return out;
@@ -75,6 +86,7 @@ Map ParseMap(const std::string& path, const YAML::Node& n) {
   Map m;
   m.units = r.String(n, "units", "units", "cm");
   m.sensor_height = r.Double(n, "sensor_height", "sensor_height");
+  m.survey_sigma = SurveySigma(r, n, "survey_sigma");
   if (r.Has(n, "room")) {
     const YAML::Node room = r.Map(n, "room", "room", "a mapping with min, max, height");
     m.room.present = true;
@@ -106,6 +118,7 @@ void WriteRectangles(YamlWriter& w, const std::string& key, const std::vector<Ma
     w.Key("to").Numbers({r.to.x(), r.to.y()});
     w.Key("z").Numbers({r.z0, r.z1});
     if (r.shade_known()) w.Key("shade").Double(r.shade);
+    if (!std::isnan(r.survey_sigma)) w.Key("survey_sigma").Double(r.survey_sigma);
     w.EndMap();
   }
   w.EndList();
@@ -123,6 +136,7 @@ std::string MapToYaml(const Map& m, bool with_distractors) {
   w.BeginMap();
   w.Key("units").String(m.units);
   w.Key("sensor_height").Double(m.sensor_height);
+  if (!std::isnan(m.survey_sigma)) w.Key("survey_sigma").Double(m.survey_sigma);
   if (m.room.present) {
     w.Key("room").BeginMap();
     w.Key("min").Numbers({m.room.min.x(), m.room.min.y()});
@@ -142,6 +156,7 @@ std::string MapToYaml(const Map& m, bool with_distractors) {
       w.Key("min").Numbers({b.min.x(), b.min.y(), b.min.z()});
       w.Key("max").Numbers({b.max.x(), b.max.y(), b.max.z()});
       if (b.shade_known()) w.Key("shade").Double(b.shade);
+      if (!std::isnan(b.survey_sigma)) w.Key("survey_sigma").Double(b.survey_sigma);
       w.EndMap();
     }
     w.EndList();

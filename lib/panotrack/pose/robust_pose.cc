@@ -73,14 +73,15 @@ struct Candidate {
   bool from_pair = false;
 };
 
-// MSAC cost of a pose over all bearings: each costs min(r^2, threshold^2).
+// MSAC cost of a pose over all bearings: each costs min(r^2, threshold^2),
+// r in units of its spread.
 double MsacCost(const std::vector<BearingObservation>& obs, const Pose2& pose, double threshold,
                 std::vector<int>* inliers) {
   const double tau2 = threshold * threshold;
   double cost = 0.0;
   if (inliers) inliers->clear();
   for (size_t i = 0; i < obs.size(); ++i) {
-    const double r = BearingResidual(obs[i], pose);
+    const double r = BearingResidual(obs[i], pose) / obs[i].spread;
     cost += std::min(r * r, tau2);
     if (inliers && r * r < tau2) inliers->push_back(static_cast<int>(i));
   }
@@ -254,8 +255,9 @@ RobustTriangulationResult RobustTriangulate(const std::vector<BearingObservation
   topt.Check();
   RobustTriangulationResult out;
   for (const BearingObservation& o : obs) {
-    if (!std::isfinite(o.bearing) || !o.landmark.allFinite() || !(o.weight > 0.0)) {
-      out.failure = "non-finite bearing or landmark, or non-positive weight";
+    if (!std::isfinite(o.bearing) || !o.landmark.allFinite() || !(o.weight > 0.0) || !(o.spread >= 1.0) ||
+        !std::isfinite(o.spread)) {
+      out.failure = "non-finite bearing or landmark, non-positive weight, or spread below 1";
       return out;
     }
   }

@@ -114,7 +114,8 @@ bool RefineOnBearings(const std::vector<BearingObservation>& obs, const std::vec
       const double r = wrap_angle(fast_atan2(dy, dx) - pose->theta - o.bearing);
       // d atan2(dy, dx) / d(x, y) = (dy, -dx) / r2
       const Eigen::Vector3d J(dy / r2, -dx / r2, -1.0);
-      const double w_huber = std::abs(r) <= opt.huber ? 1.0 : opt.huber / std::abs(r);
+      const double rn = std::abs(r) / o.spread;
+      const double w_huber = rn <= opt.huber ? 1.0 : opt.huber / rn;
       const double w = o.weight * w_huber;
       H += w * J * J.transpose();
       H_plain += o.weight * J * J.transpose();
@@ -157,8 +158,9 @@ TriangulationResult Triangulate(const std::vector<BearingObservation>& obs, cons
   opt.Check();
   TriangulationResult res;
   for (const BearingObservation& o : obs) {
-    if (!std::isfinite(o.bearing) || !o.landmark.allFinite() || !(o.weight > 0.0)) {
-      res.failure = "non-finite bearing or landmark, or non-positive weight";
+    if (!std::isfinite(o.bearing) || !o.landmark.allFinite() || !(o.weight > 0.0) || !(o.spread >= 1.0) ||
+        !std::isfinite(o.spread)) {
+      res.failure = "non-finite bearing or landmark, non-positive weight, or spread below 1";
       return res;
     }
   }
@@ -195,7 +197,7 @@ TriangulationResult Triangulate(const std::vector<BearingObservation>& obs, cons
       for (size_t k = 0; k < use.size(); ++k) {
         const BearingObservation& o = obs[use[k]];
         const double r = std::abs(wrap_angle(
-            fast_atan2(o.landmark.y() - pose.y, o.landmark.x() - pose.x) - pose.theta - o.bearing));
+            fast_atan2(o.landmark.y() - pose.y, o.landmark.x() - pose.x) - pose.theta - o.bearing)) / o.spread;
         if (r > worst_r) {
           worst_r = r;
           worst = static_cast<int>(k);

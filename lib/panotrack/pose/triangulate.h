@@ -27,6 +27,11 @@ struct BearingObservation {
   // Observations of one group lie on one vertical line (two corners of one
   // edge): one bearing's worth of evidence between them. -1: its own.
   int group = -1;
+  // Its expected error relative to a bearing of image noise alone (>= 1):
+  // a landmark whose surveyed position is uncertain. Every threshold on its
+  // residual (Huber, outlier, inlier) is this much wider; the caller
+  // divides `weight` by its square.
+  double spread = 1.0;
 };
 
 // The number of independent bearings among obs[use]: distinct groups.

@@ -38,6 +38,15 @@ void CheckMap(const Map& m, const std::string& what) {
     throw Error(what + ": " + key + ": " + problem);
   };
   if (!(m.sensor_height > 0.0)) fail("sensor_height", "expected a positive height of the pinhole");
+  auto check_sigma = [&](double sigma, const std::string& key) {
+    if (!std::isnan(sigma) && !(sigma >= 0.0 && std::isfinite(sigma)))
+      fail(key, "expected a standard deviation >= 0 (map units)");
+  };
+  check_sigma(m.survey_sigma, "survey_sigma");
+  for (size_t i = 0; i < m.rectangles.size(); ++i)
+    check_sigma(m.rectangles[i].survey_sigma, "rectangles[" + std::to_string(i) + "].survey_sigma");
+  for (size_t i = 0; i < m.boxes.size(); ++i)
+    check_sigma(m.boxes[i].survey_sigma, "boxes[" + std::to_string(i) + "].survey_sigma");
   if (m.room.present) {
     if (!(m.room.max.x() > m.room.min.x()) || !(m.room.max.y() > m.room.min.y()))
       fail("room", "expected max > min on both axes");
@@ -63,6 +72,25 @@ void CheckMap(const Map& m, const std::string& what) {
     if (!(b.max.array() > b.min.array()).all()) fail(path, "expected max > min on every axis");
     if (!ids.insert(b.id).second) fail(path + ".id", "duplicate id '" + b.id + "'");
   }
+}
+
+double Map::RectangleSurveySigma(size_t k) const {
+  const double own = rectangles[k].survey_sigma;
+  return std::isnan(own) ? survey_sigma : own;
+}
+
+double Map::BoxSurveySigma(size_t k) const {
+  const double own = boxes[k].survey_sigma;
+  return std::isnan(own) ? survey_sigma : own;
+}
+
+bool Map::SurveySigmaStated() const {
+  if (!std::isnan(survey_sigma)) return true;
+  for (const MapRectangle& r : rectangles)
+    if (!std::isnan(r.survey_sigma)) return true;
+  for (const MapBox& b : boxes)
+    if (!std::isnan(b.survey_sigma)) return true;
+  return false;
 }
 
 double Map::UnitsPerMetre() const {

@@ -30,6 +30,9 @@ struct MapRectangle {
   // (unknown: the tracker learns the edges' polarities from the images).
   double shade = 0.1;
   bool shade_known() const { return !std::isnan(shade); }
+  // Standard deviation of each measured coordinate of its corners (map
+  // units); NaN: the map's survey_sigma.
+  double survey_sigma = std::nan("");
 };
 
 // An axis-aligned box.
@@ -39,11 +42,18 @@ struct MapBox {
   Eigen::Vector3d max{0, 0, 0};
   double shade = 0.9;  // NaN: unknown (as MapRectangle::shade)
   bool shade_known() const { return !std::isnan(shade); }
+  double survey_sigma = std::nan("");  // as MapRectangle::survey_sigma
 };
 
 struct Map {
   std::string units = "cm";
   double sensor_height = 0.0;
+  // How well the corners were measured: the standard deviation of each
+  // coordinate (map units) of a corner, as a tape measure gives it
+  // (docs/maps.md). 0: exact (a rendered room, a survey far better than
+  // the images); NaN: not stated (the localiser estimates it from the
+  // residuals it sees).
+  double survey_sigma = std::nan("");
   MapRoom room;
   std::vector<MapRectangle> rectangles;
   std::vector<MapBox> boxes;
@@ -60,6 +70,12 @@ struct Map {
   // the room is taken to be about 5 m across. Scales defaults given in
   // metres (the motion model's, the odometry's noise).
   double UnitsPerMetre() const;
+  // The survey sigma of rectangle k, of box k: its own, else the map's
+  // (NaN when neither is stated).
+  double RectangleSurveySigma(size_t k) const;
+  double BoxSurveySigma(size_t k) const;
+  // Whether the map states how well it was measured (anywhere).
+  bool SurveySigmaStated() const;
 };
 
 // Checks the geometry (positive sizes, unique ids, shades in 0..1 or unknown); `what`

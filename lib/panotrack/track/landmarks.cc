@@ -31,6 +31,7 @@ std::vector<Landmark> LandmarksFromMap(const Map& map) {
       l.v_end = v;
       l.shade = r.shade;
       l.object = object;
+      l.survey_sigma = map.RectangleSurveySigma(static_cast<size_t>(object));
       out.push_back(l);
     };
     add("from-bottom", fb, tb, ft);
@@ -50,6 +51,7 @@ std::vector<Landmark> LandmarksFromMap(const Map& map) {
             l.box = true;
             l.shade = b.shade;
             l.object = object;
+            l.survey_sigma = map.BoxSurveySigma(static_cast<size_t>(object) - map.rectangles.size());
             l.corner = {x, y, z};
             l.v_end = {x, y, z_other};
             const Eigen::Vector2d nx(i ? 1.0 : -1.0, 0.0), ny(0.0, j ? 1.0 : -1.0);

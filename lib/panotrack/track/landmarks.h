@@ -10,6 +10,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cmath>
 #include <functional>
 #include <string>
 #include <vector>
@@ -29,6 +30,9 @@ struct Landmark {
   double shade = 0.5;               // reflectance of the landmark's own face; NaN: unknown
   bool box = false;
   int object = -1;                  // its rectangle (0..) or box (after the rectangles) in the map
+  // The standard deviation of each coordinate of the corner as surveyed
+  // (map units; Map::survey_sigma); NaN: not stated.
+  double survey_sigma = std::nan("");
   // For box corners: the face holding both edges faces the camera when
   // (camera - corner) . face_normal > 0; the other face at the vertical edge
   // must face away (silhouette).
