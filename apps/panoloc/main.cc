@@ -184,6 +184,16 @@ int main(int argc, char** argv) {
                  "this fraction of the distance to its landmarks; 0: no bound")
       ->check(CLI::Range(0.0, 1.0))
       ->group(tracking);
+  app.add_option("--alert-limit", o.localizer.alert_limit,
+                 "The error bound a frame must be within (map units), instead of --alert-fraction of the "
+                 "distance plus 3 survey sigmas; 0: that automatic limit")
+      ->check(CLI::NonNegativeNumber)
+      ->group(tracking);
+  app.add_option("--survey-sigma", o.localizer.survey_sigma,
+                 "How well the map was measured: the standard deviation of each corner coordinate (map "
+                 "units); default: the map's survey_sigma, checked against the images (docs/maps.md)")
+      ->check(CLI::NonNegativeNumber)
+      ->group(tracking);
   std::string table_cache;
   bool no_table_cache = false;
   app.add_option("--table-cache", table_cache,

@@ -432,6 +432,8 @@ void IntegrityOptions::Check() const {
   if (!(reference_redundancy > 0.0)) throw Error("integrity: reference_redundancy: expected > 0");
   if (!(protection_sigmas > 0.0) || !(alert_fraction >= 0.0))
     throw Error("integrity: protection_sigmas: expected > 0, alert_fraction: expected >= 0");
+  if (!(alert_margin >= 0.0) || !(alert_limit >= 0.0) || !std::isfinite(alert_margin) || !std::isfinite(alert_limit))
+    throw Error("integrity: alert_margin and alert_limit: expected lengths >= 0");
 }
 
 namespace {
@@ -490,10 +492,12 @@ IntegrityReport IntegrityCheck(const TriangulationResult& result,
     rep.position_std = rep.heading_std = rep.condition = std::numeric_limits<double>::infinity();
     return rep;  // quality 0
   }
-  if (opt.alert_fraction > 0) {
+  if (opt.alert_fraction > 0 || opt.alert_limit > 0) {
     double distance = 0.0;
     for (int i : result.inliers) distance += (obs[i].landmark - Eigen::Vector2d(result.pose.x, result.pose.y)).norm();
-    rep.alert_limit = opt.alert_fraction * distance / std::max<size_t>(1, result.inliers.size());
+    rep.alert_limit = opt.alert_limit > 0 ? opt.alert_limit
+                                          : opt.alert_fraction * distance / std::max<size_t>(1, result.inliers.size()) +
+                                                opt.alert_margin;
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> pos(result.covariance.topLeftCorner<2, 2>());
     rep.protection_level = opt.protection_sigmas * std::sqrt(std::max(0.0, pos.eigenvalues().maxCoeff()));
     rep.within_alert_limit = rep.protection_level <= rep.alert_limit;

@@ -165,6 +165,10 @@ struct IntegrityOptions {
   // then not reported, however well its residuals fit. 0 switches it off.
   double protection_sigmas = 5.0;
   double alert_fraction = 0.01;
+  // Added to that limit (map units): the error the map itself allows.
+  double alert_margin = 0.0;
+  // Above 0: the alert limit itself (map units), instead of the two above.
+  double alert_limit = 0.0;
   void Check() const;
 };
 

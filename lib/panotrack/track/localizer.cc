@@ -23,6 +23,13 @@ void LocalizerOptions::Check() const {
   if (!(search_px > 0) || !(refine_search_px > 0) || !(max_search_px >= search_px))
     throw Error("localiser: search widths must be positive (and max_search_px >= search_px)");
   if (max_landmarks != 0 && max_landmarks < 3) throw Error("localiser: max_landmarks: expected 0 or >= 3");
+  if (max_landmarks_uncertain_map != 0 && max_landmarks_uncertain_map < 3)
+    throw Error("localiser: max_landmarks_uncertain_map: expected 0 or >= 3");
+  if (!std::isnan(survey_sigma) && !(survey_sigma >= 0.0 && std::isfinite(survey_sigma)))
+    throw Error("localiser: survey_sigma: expected a length >= 0 (NaN: the map's)");
+  if (!(alert_limit >= 0.0) || !std::isfinite(alert_limit))
+    throw Error("localiser: alert_limit: expected a length >= 0 (0: automatic)");
+  survey.Check();
   if (refine_passes < 0 || refine_passes > 5) throw Error("localiser: refine_passes: expected 0..5");
   if (!(refine_threshold_px >= 0.0)) throw Error("localiser: refine_threshold_px: expected >= 0");
   if (!(coarse_to_fine_rate >= 0.0)) throw Error("localiser: coarse_to_fine_rate: expected >= 0");
@@ -67,11 +74,11 @@ void LocalizerOptions::Check() const {
 
 namespace {
 
-// The landmarks of coarse-to-fine's first pass (0: all in view).
-int CoarseLandmarks(const LocalizerOptions& options) {
-  if (options.coarse_landmarks == 0) return options.max_landmarks;
-  return options.max_landmarks == 0 ? options.coarse_landmarks
-                                    : std::min(options.coarse_landmarks, options.max_landmarks);
+// The landmarks of coarse-to-fine's first pass (0: all in view), of
+// `max_landmarks` tracked in full.
+int CoarseLandmarks(const LocalizerOptions& options, int max_landmarks) {
+  if (options.coarse_landmarks == 0) return max_landmarks;
+  return max_landmarks == 0 ? options.coarse_landmarks : std::min(options.coarse_landmarks, max_landmarks);
 }
 
 }  // namespace
@@ -115,6 +122,9 @@ Localizer::Localizer(const Calibration& calib, const Map& map,
     calib_.sensor = view_->view_sensor();
     compass_ = AzimuthCompass(calib_.sensor);
   }
+  const double typical = TypicalLandmarkDistance(map_);
+  typical_distance_ = typical > 0 ? typical : 1.0;
+  survey_ = SurveyErrorEstimate(opt_.survey, typical_distance_);
   motion_options_ = opt_.motion.Scaled(map_.UnitsPerMetre());
   motion_ = MotionModel(motion_options_);
   tracker_ = MakeTracker(opt_.method, calib_.sensor, table_, opt_, std::move(ph_tables));
@@ -139,6 +149,7 @@ void Localizer::Reset(const Pose2& robot_initial, bool hint) {
   relocalize_failures_ = 0;
   held_ = false;
   bearing_sigma_ = 0.0;
+  survey_.Reset();
   motion_updates_ = 0;
   frame_pose_ = initial;
   ForgetCompassHistory();
@@ -249,7 +260,7 @@ void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, c
   // The landmarks to track, spread in azimuth (SelectSpread): the chosen
   // ones first, the others only when they are needed.
   SpreadPrediction prediction(landmarks_, map_, scene_, calib_.sensor, *table_, pose, opt_.prediction,
-                              azimuth_only ? CoarseLandmarks(opt_) : opt_.max_landmarks);
+                              azimuth_only ? CoarseLandmarks(opt_, MaxLandmarks()) : MaxLandmarks());
   // The polarities to search for (the map's, or what the images showed),
   // and the expected motion blur.
   auto prepare = [&](std::vector<PredictedLandmark>* batch) {
@@ -300,8 +311,8 @@ void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, c
 #pragma omp parallel for schedule(dynamic, 1) num_threads(threads) if (end - begin > 4)
     for (int i = begin; i < end; ++i) {
       try {
-        meas[i] = azimuth_only ? tracker_->MeasureAzimuth(ordered[i], search_px)
-                               : tracker_->Measure(ordered[i], search_px);
+        const double width = SearchWidth(ordered[i], search_px);
+        meas[i] = azimuth_only ? tracker_->MeasureAzimuth(ordered[i], width) : tracker_->Measure(ordered[i], width);
       } catch (...) {
         errors[static_cast<size_t>(i - begin)] = std::current_exception();
       }
@@ -333,15 +344,60 @@ std::vector<int> Localizer::InlierPredictions(const FrameResult& fr, const Trian
   return out;
 }
 
-std::vector<BearingObservation> Localizer::Observations(const FrameResult& fr) const {
+double Localizer::InlierThreshold() const {
+  return bearing_sigma_ > 0
+             ? std::clamp(3.0 * bearing_sigma_, opt_.min_inlier_threshold, opt_.robust.inlier_threshold)
+             : opt_.robust.inlier_threshold;
+}
+
+double Localizer::SurveySigma(const Landmark& l) const {
+  return survey_.Sigma(std::isnan(opt_.survey_sigma) ? l.survey_sigma : opt_.survey_sigma);
+}
+
+double Localizer::MeanSurveySigma() const {
+  double sum = 0.0;
+  for (const Landmark& l : landmarks_) sum += SurveySigma(l);
+  return landmarks_.empty() ? 0.0 : sum / static_cast<double>(landmarks_.size());
+}
+
+int Localizer::MaxLandmarks() const {
+  if (opt_.max_landmarks == 0) return 0;
+  if (!(MeanSurveySigma() / typical_distance_ > ReferenceSigma())) return opt_.max_landmarks;
+  return opt_.max_landmarks_uncertain_map == 0 ? 0 : std::max(opt_.max_landmarks, opt_.max_landmarks_uncertain_map);
+}
+
+double Localizer::SearchWidth(const PredictedLandmark& p, double search_px) const {
+  // The corner's survey error moves its edges by about this much in the
+  // image (its angle at the corner's image radius), three sigmas of it.
+  const double survey_px = 3.0 * SurveySigma(*p.landmark) / std::max(p.distance, 1e-9) * p.corner_radius;
+  return std::min(std::hypot(search_px, survey_px), std::max(search_px, 2.0 * opt_.max_search_px));
+}
+
+double Localizer::NormalizedRms(const std::vector<BearingObservation>& obs, const TriangulationResult& tri) {
+  // Each weight was divided by its spread squared (Observations).
+  double sum_r2 = 0.0, sum_w = 0.0;
+  for (int i : tri.inliers) {
+    const BearingObservation& o = obs[static_cast<size_t>(i)];
+    const double r = tri.bearing_residuals[static_cast<size_t>(i)];
+    sum_r2 += o.weight * r * r;
+    sum_w += o.weight * o.spread * o.spread;
+  }
+  return sum_w > 0 ? std::sqrt(sum_r2 / sum_w) : 0.0;
+}
+
+std::vector<BearingObservation> Localizer::Observations(const FrameResult& fr, double reference_sigma) const {
   std::vector<BearingObservation> obs;
   for (size_t i = 0; i < fr.predicted.size(); ++i) {
     const LandmarkMeasurement& m = fr.measurements[i];
     if (!m.found) continue;
+    const PredictedLandmark& p = fr.predicted[i];
     BearingObservation o;
-    o.landmark = fr.predicted[i].landmark->corner.head<2>();
+    o.landmark = p.landmark->corner.head<2>();
     o.bearing = calib_.sensor.bearing_of_azimuth(m.azimuth);
-    o.weight = m.weight;
+    // The corner's survey error across the line of sight, as an angle.
+    const double survey = SurveySigma(*p.landmark) / std::max(p.distance, 1e-9);
+    o.spread = std::sqrt(1.0 + (survey * survey) / (reference_sigma * reference_sigma));
+    o.weight = m.weight / (o.spread * o.spread);
     o.id = static_cast<int>(i);
     obs.push_back(o);
   }
@@ -369,22 +425,21 @@ TriangulationResult Localizer::Solve(const FrameResult& fr, const Pose2& prior) 
   // someone walking past is off by less than the fixed threshold, but far
   // more than the noise.
   RobustPoseOptions robust = opt_.robust;
-  if (bearing_sigma_ > 0)
-    robust.inlier_threshold = std::clamp(3.0 * bearing_sigma_, opt_.min_inlier_threshold, opt_.robust.inlier_threshold);
+  robust.inlier_threshold = InlierThreshold();
   // Every bearing agreeing with the least-squares pose: nothing to reject
   // (most frames; the consensus costs milliseconds).
   TriangulationResult out = plain;
-  if (!(plain.ok && plain.inliers.size() == obs.size() &&
-        std::all_of(plain.bearing_residuals.begin(), plain.bearing_residuals.end(),
-                    [&](double r) { return std::abs(r) <= robust.inlier_threshold; })))
-    out = RobustTriangulate(obs, prior, robust, opt_.triangulation);
+  bool all_agree = plain.ok && plain.inliers.size() == obs.size();
+  for (size_t i = 0; all_agree && i < obs.size(); ++i)
+    all_agree = std::abs(plain.bearing_residuals[i]) <= robust.inlier_threshold * obs[i].spread;
+  if (!all_agree) out = RobustTriangulate(obs, prior, robust, opt_.triangulation);
   if (bearing_sigma_ > 0 || !out.ok || obs.size() < 6) return out;
   // No noise seen yet (the first frame): the widest threshold admits an edge
   // a few tenths of a degree off (a corner of unknown polarity matched by a
   // wrong template, a half-hidden edge). This frame's own residuals (their
   // median, robust to those) say how far good bearings lie from the pose.
   std::vector<double> abs_residuals;
-  for (double r : out.bearing_residuals) abs_residuals.push_back(std::abs(r));
+  for (size_t i = 0; i < obs.size(); ++i) abs_residuals.push_back(std::abs(out.bearing_residuals[i]) / obs[i].spread);
   std::nth_element(abs_residuals.begin(), abs_residuals.begin() + abs_residuals.size() / 2, abs_residuals.end());
   const double own = std::clamp(3.0 * 1.4826 * abs_residuals[abs_residuals.size() / 2], opt_.min_inlier_threshold,
                                 opt_.robust.inlier_threshold);
@@ -463,7 +518,11 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
   // The best-supported pose, unambiguous, must also pass the integrity test
   // (a pose with fewer inliers that passes it is no better: few bearings
   // fit a wrong pose easily).
-  if (!Consistent(&best->fr, best->tri) || !ChooseAmongTwins(either, &best->fr, &best->tri)) return false;
+  if (!Consistent(&best->fr, best->tri)) {
+    if (!survey_.confident() && SurveyEvidence(best->fr, best->tri)) survey_evidence_.emplace(best->fr, best->tri);
+    return false;
+  }
+  if (!ChooseAmongTwins(either, &best->fr, &best->tri)) return false;
   *fr = std::move(best->fr);
   *tri = best->tri;
   return true;
@@ -509,7 +568,7 @@ bool Localizer::Acceptable(const FrameResult& fr, const TriangulationResult& tri
   const size_t n_chosen = static_cast<size_t>(ChosenLandmarks(fr));
   double n_counted = static_cast<double>(n_chosen);
   for (size_t i = n_chosen; i < fr.measurements.size(); ++i) n_counted += fr.measurements[i].found;
-  return tri.rms_bearing <= opt_.max_rms_bearing &&
+  return NormalizedRms(Observations(fr), tri) <= opt_.max_rms_bearing &&
          (n_counted < 8 || tri.inliers.size() >= opt_.min_inlier_fraction * n_counted);
 }
 
@@ -544,7 +603,15 @@ bool Localizer::Consistent(FrameResult* fr, const TriangulationResult& tri) cons
   io.confidence = opt_.integrity_confidence;
   io.protection_sigmas = opt_.protection_sigmas;
   io.alert_fraction = opt_.alert_fraction;
-  const std::vector<BearingObservation> obs = Observations(*fr);
+  io.alert_limit = opt_.alert_limit;
+  // Each bearing's expected error: the test's image noise and its corner's
+  // survey error (its spread relative to that noise).
+  const std::vector<BearingObservation> obs = Observations(*fr, io.sigma_bearing);
+  double survey = 0.0;
+  for (int i : tri.inliers) survey += SurveySigma(*fr->predicted[static_cast<size_t>(obs[static_cast<size_t>(i)].id)].landmark);
+  survey /= std::max<size_t>(1, tri.inliers.size());
+  io.alert_margin = 3.0 * survey;
+  io.reference_position_std += survey;
   fr->integrity = IntegrityCheck(tri, obs, io);
   // Three bearings always fit a pose: without a spare one nothing is checked.
   return fr->integrity.testable && fr->integrity.consistent && fr->integrity.quality >= opt_.min_quality &&
@@ -557,6 +624,15 @@ bool Localizer::AgreesWithMotion(FrameResult* fr, const TriangulationResult& tri
       MeasurementOf(tri, Observations(*fr), opt_.gate_position_fraction, opt_.gate_heading_sigma);
   fr->innovation = motion_.Innovation(m);
   return fr->innovation <= opt_.gate_chi2;
+}
+
+bool Localizer::SurveyEvidence(const FrameResult& fr, const TriangulationResult& tri) const {
+  if (!tri.ok || static_cast<int>(tri.inliers.size()) < opt_.relocalize_min_landmarks + 2 || !Acceptable(fr, tri))
+    return false;
+  if (!motion_.initialized()) return true;
+  const PoseMeasurement m =
+      MeasurementOf(tri, Observations(fr), opt_.gate_position_fraction, opt_.gate_heading_sigma);
+  return motion_.Innovation(m) <= opt_.gate_chi2;
 }
 
 void Localizer::CheckFrame(const cv::Mat& grey, int frame) const {
@@ -772,7 +848,11 @@ bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, F
   if (!due || frame < next_relocalize_frame_) return false;
   FrameResult found;
   TriangulationResult t;
-  if (!Relocalize(grey, &found, &t)) {
+  survey_evidence_.reset();
+  const bool relocalized = Relocalize(grey, &found, &t);
+  if (survey_evidence_) UpdateSurveyEstimate(Observations(survey_evidence_->first), survey_evidence_->second);
+  survey_evidence_.reset();
+  if (!relocalized) {
     ++relocalize_failures_;
     next_relocalize_frame_ = BackedOffRelocalizeFrame(frame);
     return false;
@@ -788,8 +868,11 @@ bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, F
 }
 
 double Localizer::ChosenLandmarks(const FrameResult& fr) const {
-  // More are tracked when few of the chosen ones are found.
-  return static_cast<double>(opt_.max_landmarks > 0 ? std::min<size_t>(fr.predicted.size(), opt_.max_landmarks)
+  // More are tracked when few of the chosen ones are found, or where the
+  // map's survey error makes more worth tracking (MaxLandmarks): those
+  // count only when found, as the extras do.
+  const int max_landmarks = opt_.max_landmarks;
+  return static_cast<double>(max_landmarks > 0 ? std::min<size_t>(fr.predicted.size(), max_landmarks)
                                                      : fr.predicted.size());
 }
 
@@ -847,6 +930,36 @@ void Localizer::UpdateBlurEstimate(const FrameResult& fr) {
     blur_fraction_ = std::clamp(0.5 * blur_fraction_ + 0.5 * median(fractions), 0.0, opt_.exposure_fraction);
 }
 
+void Localizer::UpdateNoiseEstimates(const FrameResult& fr, const TriangulationResult& tri) {
+  const std::vector<BearingObservation> obs = Observations(fr);
+  // The noise from all the bearings (a robust scale, the median absolute
+  // residual in units of each one's spread): the inliers' own RMS is
+  // trimmed by the threshold it sets.
+  std::vector<double> abs_residuals;
+  for (size_t i = 0; i < obs.size() && i < tri.bearing_residuals.size(); ++i)
+    abs_residuals.push_back(std::abs(tri.bearing_residuals[i]) / obs[i].spread);
+  if (!abs_residuals.empty()) {
+    std::nth_element(abs_residuals.begin(), abs_residuals.begin() + abs_residuals.size() / 2, abs_residuals.end());
+    const double scale = 1.4826 * abs_residuals[abs_residuals.size() / 2];
+    bearing_sigma_ = bearing_sigma_ > 0 ? 0.9 * bearing_sigma_ + 0.1 * scale : scale;
+  }
+  UpdateSurveyEstimate(obs, tri);
+}
+
+void Localizer::UpdateSurveyEstimate(const std::vector<BearingObservation>& obs, const TriangulationResult& tri) {
+  // The survey error the inliers show, one bearing per vertical edge.
+  std::vector<double> residuals, distances;
+  std::vector<int> groups;
+  for (int i : tri.inliers) {
+    const BearingObservation& o = obs[static_cast<size_t>(i)];
+    if (o.group >= 0 && std::find(groups.begin(), groups.end(), o.group) != groups.end()) continue;
+    if (o.group >= 0) groups.push_back(o.group);
+    residuals.push_back(tri.bearing_residuals[static_cast<size_t>(i)]);
+    distances.push_back((o.landmark - Eigen::Vector2d(tri.pose.x, tri.pose.y)).norm());
+  }
+  survey_.Update(residuals, distances);
+}
+
 void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, bool accepted, int n_found) {
   PoseRow* row = &fr->row;
   if (accepted) {
@@ -872,15 +985,7 @@ void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, b
     }
     frame_pose_ = tri.pose;
     motion_stepped_ = true;
-    // The noise from all the bearings (a robust scale, the median absolute
-    // residual): the inliers' own RMS is trimmed by the threshold it sets.
-    std::vector<double> abs_residuals;
-    for (double r : tri.bearing_residuals) abs_residuals.push_back(std::abs(r));
-    if (!abs_residuals.empty()) {
-      std::nth_element(abs_residuals.begin(), abs_residuals.begin() + abs_residuals.size() / 2, abs_residuals.end());
-      const double scale = 1.4826 * abs_residuals[abs_residuals.size() / 2];
-      bearing_sigma_ = bearing_sigma_ > 0 ? 0.9 * bearing_sigma_ + 0.1 * scale : scale;
-    }
+    UpdateNoiseEstimates(*fr, tri);
     last_ = tri.pose;
     UpdateBlurEstimate(*fr);
     ever_tracked_ = true;
@@ -954,6 +1059,10 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
     }
   }
   held_ = false;
+  // Until the residuals have shown how well the map was measured, a frame
+  // whose bearings agree on a pose (a consensus of many) but not within the
+  // survey error assumed teaches it, though it is not reported.
+  if (!accepted && !survey_.confident() && SurveyEvidence(fr, tri)) UpdateSurveyEstimate(Observations(fr), tri);
   int n_found = 0;  // before any relocalisation: what tracking from the prediction found
   for (const auto& m : fr.measurements) n_found += m.found;
   // Lost for a while (the robot may have been carried), or never found: search the room.

@@ -5,9 +5,11 @@
 // and the PH window on the edges.
 #pragma once
 
+#include <cmath>
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "panotrack/sensor/calibration.h"
@@ -22,6 +24,7 @@
 #include "panotrack/track/junction_tracker.h"
 #include "panotrack/track/landmarks.h"
 #include "panotrack/track/relocalize.h"
+#include "panotrack/track/survey_error.h"
 #include "panotrack/track/motion_model.h"
 #include "panotrack/track/tracker.h"
 #include "panotrack/track/vertex_tracker.h"
@@ -66,6 +69,17 @@ struct LocalizerOptions {
   // within alert_fraction of the distance to its landmarks (0: no bound).
   double protection_sigmas = 5.0;
   double alert_fraction = 0.01;
+  // ... or, above 0, this many map units: the accuracy the user needs. At
+  // 0 the limit is alert_fraction of the landmarks' distance plus three
+  // times the map's survey sigma: a map measured to a centimetre cannot
+  // place the robot to a millimetre, and its poses are still right.
+  double alert_limit = 0.0;
+  // The map's survey error (map units, each corner coordinate). NaN: what
+  // the map states (Map::survey_sigma), checked against the residuals of
+  // the tracked frames (track/survey_error.h); a bearing's expected error
+  // then holds its corner's survey error across the line of sight.
+  double survey_sigma = std::nan("");
+  SurveyErrorOptions survey;
   // The noise assumed is four times the recent RMS residual (blur and
   // geometry vary from frame to frame; a frame a little worse than the
   // last is still right), within [min_bearing_sigma, max_bearing_sigma]:
@@ -77,6 +91,10 @@ struct LocalizerOptions {
   // Landmarks tracked per frame: at most this many, spread in azimuth (one
   // per sector, the nearest first). 0: all in view.
   int max_landmarks = 12;
+  // ... and this many where the survey error at the typical landmark
+  // distance exceeds the image noise: each landmark brings its own map
+  // error, and more of them average it down.
+  int max_landmarks_uncertain_map = 32;
   double refine_search_px = 3.0;  // second pass, around the solved pose
   int refine_passes = 1;
   // The second pass runs only when some landmark was found further than
@@ -297,7 +315,38 @@ class Localizer {
   std::optional<Pose2> SolvedMotion(const Pose2& pose) const;
   TriangulationResult Solve(const FrameResult& fr, const Pose2& prior) const;
   bool Acceptable(const FrameResult& fr, const TriangulationResult& tri) const;
-  std::vector<BearingObservation> Observations(const FrameResult& fr) const;
+  // The found landmarks' bearings, each with its spread: its expected error
+  // (the image noise `reference_sigma`, radians, and its corner's survey
+  // error across the line of sight) relative to `reference_sigma`. The
+  // default reference is the consensus's (ReferenceSigma).
+  std::vector<BearingObservation> Observations(const FrameResult& fr, double reference_sigma) const;
+  std::vector<BearingObservation> Observations(const FrameResult& fr) const {
+    return Observations(fr, ReferenceSigma());
+  }
+  // The image noise the consensus assumes (radians): a third of its inlier
+  // threshold, from the recent noise.
+  double InlierThreshold() const;
+  double ReferenceSigma() const { return InlierThreshold() / 3.0; }
+  // The half-width of a landmark's linear samples: `search_px`, widened by
+  // where its corner's survey error may put its edges.
+  double SearchWidth(const PredictedLandmark& p, double search_px) const;
+  // The RMS bearing residual of the inliers in units of their spread
+  // (radians of image noise): what max_rms_bearing bounds.
+  static double NormalizedRms(const std::vector<BearingObservation>& obs, const TriangulationResult& tri);
+  // The survey sigma of a landmark's corner now (map units), and the mean
+  // over the map's landmarks.
+  double SurveySigma(const Landmark& l) const;
+  double MeanSurveySigma() const;
+  // Landmarks to track per frame (0: all): max_landmarks, or more where
+  // the survey error dominates (max_landmarks_uncertain_map).
+  int MaxLandmarks() const;
+  // The recent bearing noise and the survey estimate, from an accepted frame.
+  void UpdateNoiseEstimates(const FrameResult& fr, const TriangulationResult& tri);
+  // The survey estimate from the inlier bearings of a solution.
+  void UpdateSurveyEstimate(const std::vector<BearingObservation>& obs, const TriangulationResult& tri);
+  // Whether a solution that was not reported still shows the survey error:
+  // many inliers agreeing (Acceptable) on a pose the motion allows.
+  bool SurveyEvidence(const FrameResult& fr, const TriangulationResult& tri) const;
   // The indices into fr.predicted of the solution's inlier observations.
   std::vector<int> InlierPredictions(const FrameResult& fr, const TriangulationResult& tri) const;
   // The integrity test of an acceptable solution (fills fr->integrity).
@@ -409,8 +458,17 @@ class Localizer {
   int prediction_error_frames_ = 0;        // accepted frames in those means
   int next_relocalize_frame_ = 0;
   int relocalize_failures_ = 0;
-  // The bearing noise of recent good frames (radians), for the integrity test.
+  // The bearing noise of recent good frames (radians, in units of each
+  // bearing's spread), for the integrity test.
   double bearing_sigma_ = 0.0;
+  // The map's survey error as the residuals show it, and the landmarks'
+  // typical distance it is scaled by.
+  double typical_distance_ = 1.0;
+  SurveyErrorEstimate survey_;
+  // A room-wide search's best pose, unambiguous but inconsistent with the
+  // survey error assumed: evidence of it while the estimate is not yet
+  // confident (Relocalize is const; RelocalizeIfLost learns from it).
+  mutable std::optional<std::pair<FrameResult, TriangulationResult>> survey_evidence_;
   // Polarities learned from the images, per landmark; per map object
   // (rectangle, box) whether the images contradict its shade; whether they
   // contradict most of the map (then no map polarity is trusted) or have

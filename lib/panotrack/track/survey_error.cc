@@ -1,0 +1,78 @@
+#include "panotrack/track/survey_error.h"
+
+#include <algorithm>
+
+#include "panotrack/core/error.h"
+
+namespace pano {
+
+void SurveyErrorOptions::Check() const {
+  if (!(unstated_fraction >= 0.0) || !(max_fraction >= unstated_fraction) || !std::isfinite(max_fraction))
+    throw Error("survey error: unstated_fraction: expected >= 0, max_fraction: expected >= unstated_fraction");
+  if (!(min_bearings >= 0.0)) throw Error("survey error: min_bearings: expected >= 0");
+  if (!(forgetting > 0.0 && forgetting <= 1.0)) throw Error("survey error: forgetting: expected in (0, 1]");
+}
+
+SurveyErrorEstimate::SurveyErrorEstimate(const SurveyErrorOptions& options, double typical_distance)
+    : opt_(options), typical_distance_(typical_distance) {
+  opt_.Check();
+  if (!(typical_distance_ > 0.0) || !std::isfinite(typical_distance_))
+    throw Error("survey error: typical landmark distance: expected a positive length");
+}
+
+void SurveyErrorEstimate::Reset() {
+  n_ = su_ = suu_ = sy_ = suy_ = 0.0;
+  survey_ = image_variance_ = 0.0;
+}
+
+double SurveyErrorEstimate::Sigma(double stated) const {
+  if (!std::isnan(stated)) return confident() ? std::max(stated, survey_) : stated;
+  return confident() ? survey_ : opt_.unstated_fraction * typical_distance_;
+}
+
+void SurveyErrorEstimate::Update(const std::vector<double>& residuals, const std::vector<double>& distances,
+                                 int fitted) {
+  const size_t n = std::min(residuals.size(), distances.size());
+  if (static_cast<int>(n) <= fitted) return;
+  // Residuals of a least-squares fit are smaller than the errors by about
+  // (n - fitted) / n in variance.
+  const double inflate = static_cast<double>(n) / static_cast<double>(static_cast<int>(n) - fitted);
+  const double keep = opt_.forgetting;
+  n_ *= keep;
+  su_ *= keep;
+  suu_ *= keep;
+  sy_ *= keep;
+  suy_ *= keep;
+  for (size_t i = 0; i < n; ++i) {
+    if (!(distances[i] > 0.0) || !std::isfinite(residuals[i])) continue;
+    const double u = 1.0 / (distances[i] * distances[i]);
+    const double y = inflate * residuals[i] * residuals[i];
+    n_ += 1.0;
+    su_ += u;
+    suu_ += u * u;
+    sy_ += y;
+    suy_ += u * y;
+  }
+  Fit();
+}
+
+void SurveyErrorEstimate::Fit() {
+  if (!(n_ > 0.0)) return;
+  const double mu = su_ / n_, my = sy_ / n_;
+  const double var_u = suu_ / n_ - mu * mu, cov = suy_ / n_ - mu * my;
+  double a = my, b = 0.0;
+  // The distances must spread enough to tell the terms apart (relative
+  // variance of u above 1 %); else the excess is the image noise's.
+  if (var_u > 1e-2 * mu * mu) {
+    b = std::max(0.0, cov / var_u);
+    a = my - b * mu;
+    if (a < 0.0) {  // all of it the survey's
+      a = 0.0;
+      b = my / mu;
+    }
+  }
+  image_variance_ = a;
+  survey_ = std::min(std::sqrt(b), opt_.max_fraction * typical_distance_);
+}
+
+}  // namespace pano

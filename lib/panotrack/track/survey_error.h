@@ -1,0 +1,69 @@
+// How far a map's corners may be from where they were surveyed, as the
+// localiser sees it: the survey sigma the map states, checked against the
+// bearing residuals of the tracked frames.
+//
+// A landmark's bearing error has variance s_img^2 + (s_map / d)^2: the
+// image noise, and its corner's survey error across the line of sight at
+// horizontal distance d. Over recent frames the inlier residuals' squares
+// are fitted by a + b / d^2 (least squares, a >= 0, b >= 0), which tells the
+// two apart where the landmarks lie at various distances: sqrt(b) is the
+// survey error the images show.
+#pragma once
+
+#include <cmath>
+#include <vector>
+
+namespace pano {
+
+struct SurveyErrorOptions {
+  // A map that does not state its survey sigma is taken to be measured by
+  // hand until the residuals say otherwise: this fraction of the typical
+  // landmark distance (0.4 %: 0.5 cm at 1.2 m, a careful tape survey).
+  double unstated_fraction = 0.004;
+  // The estimate from the residuals never exceeds this fraction of the
+  // typical landmark distance: beyond it a corner is wrong, not imprecise
+  // (an outlier for the consensus, and for `panomap check`).
+  double max_fraction = 0.03;
+  // The estimate replaces the unstated default (and may raise a stated
+  // sigma) once this many inlier bearings have been seen.
+  double min_bearings = 60.0;
+  // Each frame's evidence weighs this much less on the next (about 100
+  // frames of memory).
+  double forgetting = 0.99;
+  void Check() const;
+};
+
+class SurveyErrorEstimate {
+ public:
+  SurveyErrorEstimate() = default;
+  // `typical_distance`: the typical horizontal distance of the landmarks
+  // (map units), which scales the unstated default and the cap.
+  SurveyErrorEstimate(const SurveyErrorOptions& options, double typical_distance);
+  void Reset();
+  // The survey sigma to use for a corner whose map states `stated` (NaN:
+  // not stated): the statement, raised by the estimate where the residuals
+  // show more; without one, the estimate once there is enough evidence,
+  // else the unstated default.
+  double Sigma(double stated) const;
+  // One accepted frame: its inlier bearings' residuals (radians) and
+  // horizontal distances, and the number of pose parameters fitted to them
+  // (the residuals are that much smaller than the errors).
+  void Update(const std::vector<double>& residuals, const std::vector<double>& distances, int fitted = 3);
+  // The survey error the residuals show (map units; 0 until there is
+  // evidence) and the image noise they leave (radians).
+  double estimated() const { return survey_; }
+  double image_sigma() const { return std::sqrt(image_variance_); }
+  bool confident() const { return n_ >= opt_.min_bearings; }
+
+ private:
+  void Fit();
+  SurveyErrorOptions opt_;
+  double typical_distance_ = 0.0;
+  // Exponentially forgotten sums over inlier bearings of 1, u = 1/d^2, u^2,
+  // y = r^2 (corrected for the fit) and u y.
+  double n_ = 0.0, su_ = 0.0, suu_ = 0.0, sy_ = 0.0, suy_ = 0.0;
+  double survey_ = 0.0;
+  double image_variance_ = 0.0;
+};
+
+}  // namespace pano

@@ -1,0 +1,108 @@
+#!/usr/bin/env bash
+# panoloc on maps as they are measured: each preset rendered once with
+# panosim, then localised (junction and vertex methods) against its exact
+# map and against maps whose every rectangle end point and height is moved
+# by independent N(0, sigma) errors (three seeds per level, floor contacts
+# kept on the floor), with the survey sigma stated in the map or not.
+# Prints one Markdown row per preset, method, level and statement: frames
+# tracked (of those that show the room), position RMS, the frames reported
+# ok further off than 1 % of the mean landmark distance and 5x the median
+# error ("wrong"), and the fraction of ok frames inside their reported
+# 3-sigma position ellipse (std_x, std_y columns).
+# Usage: tools/bench_maps.sh [BUILD_DIR] [WORK_DIR]
+#   PRESETS="paper-real fast-turns" SIGMAS="0.5 1 2" SEEDS="1 2 3" STATED="yes no" METHODS="junction vertex"
+set -euo pipefail
+build=${1:-build}
+work=${2:-$(mktemp -d)}
+bin="$build/bin"
+for tool in panosim panoloc; do
+  [ -x "$bin/$tool" ] || { echo "bench_maps.sh: $bin/$tool not found (build first)" >&2; exit 1; }
+done
+presets=${PRESETS:-"paper-real fast-turns"}
+sigmas=${SIGMAS:-"0 0.5 1 2"}
+seeds=${SEEDS:-"1 2 3"}
+stated=${STATED:-"yes"}
+methods=${METHODS:-"junction vertex"}
+python=/usr/bin/python3
+[ -x "$python" ] || python=python3
+
+echo "| preset | method | map sigma | stated | seed | tracked | RMS | max | wrong | inside 3 sigma |"
+echo "|---|---|---:|---|---:|---:|---:|---:|---:|---:|"
+for p in $presets; do
+  [[ -f $work/$p/video.mp4 ]] || "$bin/panosim" sequence --preset "$p" -o "$work/$p" --force --quiet
+  for s in $sigmas; do
+    for seed in $seeds; do
+      for st in $stated; do
+        [[ $s == 0 && $seed != "${seeds%% *}" ]] && continue
+        map="$work/$p/map-s$s-$seed-$st.yaml"
+        "$python" - "$work/$p/map.yaml" "$s" "$seed" "$st" "$map" <<'PY'
+import sys, yaml, numpy as np
+src, sigma, seed, stated, out = sys.argv[1], float(sys.argv[2]), int(sys.argv[3]), sys.argv[4], sys.argv[5]
+m = yaml.safe_load(open(src))
+rng = np.random.default_rng(1000 + seed)
+for r in m.get("rectangles", []):
+    r["from"] = [float(v + rng.normal(0, sigma)) for v in r["from"]]
+    r["to"] = [float(v + rng.normal(0, sigma)) for v in r["to"]]
+    z0, z1 = r["z"]
+    dz0, dz1 = rng.normal(0, sigma), rng.normal(0, sigma)
+    z0 = z0 if z0 == 0 else max(0.0, z0 + dz0)  # standing on the floor: a contact
+    r["z"] = [float(z0), float(max(z0 + sigma, z1 + dz1))]
+for b in m.get("boxes", []):
+    d = rng.normal(0, sigma, 6)
+    b["min"] = [float(b["min"][0] + d[0]), float(b["min"][1] + d[1]), b["min"][2]]
+    b["max"] = [float(b["max"][0] + d[2]), float(b["max"][1] + d[3]), float(b["max"][2] + d[4])]
+m.pop("survey_sigma", None)
+if stated == "yes":
+    m["survey_sigma"] = sigma
+yaml.safe_dump(m, open(out, "w"), sort_keys=False)
+PY
+        for m in $methods; do
+          csv="$work/$p/$m-s$s-$seed-$st.csv"
+          "$bin/panoloc" "$work/$p/video.mp4" --calib "$work/$p/calib.yaml" --map "$map" --method "$m" \
+            -o "$csv" --force -q ${PANOLOC_FLAGS:-} || true
+          "$python" - "$work/$p" "$csv" "$p" "$m" "$s" "$st" "$seed" <<'PY'
+import sys, csv, yaml, numpy as np
+folder, path, preset, method, sigma, stated, seed = sys.argv[1:8]
+gt = {int(r["frame"]): r for r in csv.DictReader(open(folder + "/gt.csv"))}
+rows = list(csv.DictReader(open(path)))
+case = yaml.safe_load(open(folder + "/case.yaml")) if __import__("os").path.exists(folder + "/case.yaml") else {}
+covered = set(case.get("covered_frames", []) or [])
+fps = float(case.get("fps", 10.0))
+truth = yaml.safe_load(open(folder + ("/map_true.yaml" if __import__("os").path.exists(folder + "/map_true.yaml") else "/map.yaml")))
+corners = []
+for r in truth.get("rectangles", []):
+    corners += [r["from"], r["to"]]
+corners = np.array(corners, float)
+shows, ok, err, dist, inside = 0, 0, [], [], []
+for r in rows:
+    f = int(r["frame"])
+    g = gt.get(f)
+    if g is None:
+        continue
+    # A covered frame shows no room (the gt's time tells the true frame).
+    if round(float(g["time_s"]) * fps) in covered:
+        continue
+    shows += 1
+    if r["status"] != "ok":
+        continue
+    ok += 1
+    gx, gy = float(g["x"]), float(g["y"])
+    ex, ey = float(r["x"]) - gx, float(r["y"]) - gy
+    err.append(np.hypot(ex, ey))
+    dist.append(np.mean(np.hypot(corners[:, 0] - gx, corners[:, 1] - gy)))
+    sx, sy = float(r.get("std_x") or "nan"), float(r.get("std_y") or "nan")
+    inside.append((ex / sx) ** 2 + (ey / sy) ** 2 <= 9 if sx > 0 and sy > 0 else False)
+err = np.array(err)
+med = np.median(err) if len(err) else 0
+wrong = int(np.sum((err > 0.01 * np.array(dist)) & (err > 5 * med))) if len(err) else 0
+rms = np.sqrt(np.mean(err ** 2)) if len(err) else float("nan")
+mx = err.max() if len(err) else float("nan")
+fin = 100.0 * np.mean(inside) if inside else float("nan")
+print(f"| {preset} | {method} | {sigma} | {stated} | {seed} | {100.0 * ok / max(1, shows):.1f} % ({ok}/{shows}) | "
+      f"{rms:.3f} | {mx:.3f} | {wrong} | {fin:.1f} % |", flush=True)
+PY
+        done
+      done
+    done
+  done
+done
