@@ -419,6 +419,13 @@ std::vector<BearingObservation> Localizer::Observations(const FrameResult& fr, d
 
 TriangulationResult Localizer::Solve(const FrameResult& fr, const Pose2& prior) const {
   const std::vector<BearingObservation> obs = Observations(fr);
+  TriangulationResult out = SolveBearings(obs, prior);
+  // The RMS residual in units of image noise: the map's share taken out.
+  if (out.ok) out.rms_bearing = NormalizedRms(obs, out);
+  return out;
+}
+
+TriangulationResult Localizer::SolveBearings(const std::vector<BearingObservation>& obs, const Pose2& prior) const {
   TriangulationResult plain = Triangulate(obs, prior, opt_.triangulation);
   if (!opt_.robust_pose || obs.size() < 4) return plain;
   // Inliers within five times the recent noise: an edge half hidden by
@@ -564,11 +571,15 @@ bool Localizer::Acceptable(const FrameResult& fr, const TriangulationResult& tri
   if (!tri.ok) return false;
   // Of the landmarks chosen to track, and of the others (tracked only when
   // too few of those were found) the ones found: an unfound extra is
-  // likely hidden or faint, one found off the pose counts against it.
+  // likely hidden or faint, one found off the pose counts against it. The
+  // ones tracked besides the chosen because the map's survey error makes
+  // more worth having (MaxLandmarks: farther, fainter) count only by their
+  // inliers.
   const size_t n_chosen = static_cast<size_t>(ChosenLandmarks(fr));
+  const size_t n_first = std::max(n_chosen, static_cast<size_t>(SurveyChosenLandmarks(fr)));
   double n_counted = static_cast<double>(n_chosen);
-  for (size_t i = n_chosen; i < fr.measurements.size(); ++i) n_counted += fr.measurements[i].found;
-  return NormalizedRms(Observations(fr), tri) <= opt_.max_rms_bearing &&
+  for (size_t i = n_first; i < fr.measurements.size(); ++i) n_counted += fr.measurements[i].found;
+  return tri.rms_bearing <= opt_.max_rms_bearing &&
          (n_counted < 8 || tri.inliers.size() >= opt_.min_inlier_fraction * n_counted);
 }
 
@@ -610,7 +621,7 @@ bool Localizer::Consistent(FrameResult* fr, const TriangulationResult& tri) cons
   double survey = 0.0;
   for (int i : tri.inliers) survey += SurveySigma(*fr->predicted[static_cast<size_t>(obs[static_cast<size_t>(i)].id)].landmark);
   survey /= std::max<size_t>(1, tri.inliers.size());
-  io.alert_margin = 3.0 * survey;
+  io.alert_margin = opt_.protection_sigmas * survey;
   io.reference_position_std += survey;
   fr->integrity = IntegrityCheck(tri, obs, io);
   // Three bearings always fit a pose: without a spare one nothing is checked.
@@ -882,13 +893,30 @@ int Localizer::BackedOffRelocalizeFrame(int frame) const {
 
 bool Localizer::EnoughForRelocalized(const FrameResult& fr, const TriangulationResult& tri) const {
   const int inliers = static_cast<int>(tri.inliers.size());
-  return inliers >= opt_.relocalize_min_landmarks && inliers >= opt_.relocalize_min_fraction * ChosenLandmarks(fr);
+  // Of all the landmarks the search tracked: a wrong pose finds a few
+  // within a survey error's wide tolerance more easily than an exact map's.
+  if (inliers < opt_.relocalize_min_landmarks ||
+      inliers < opt_.relocalize_min_fraction * std::max(ChosenLandmarks(fr), SurveyChosenLandmarks(fr)))
+    return false;
+  // Where the survey error widens every tolerance, wrong correspondences
+  // fit too: most of what was found must agree (a confirmed fraction).
+  if (!(SurveyChosenLandmarks(fr) > ChosenLandmarks(fr))) return true;
+  int found = 0;
+  for (const LandmarkMeasurement& m : fr.measurements) found += m.found;
+  return inliers >= opt_.relocalize_confirmed_fraction * found;
+}
+
+double Localizer::SurveyChosenLandmarks(const FrameResult& fr) const {
+  const int max_landmarks = MaxLandmarks();
+  return static_cast<double>(max_landmarks > 0 ? std::min<size_t>(fr.predicted.size(), max_landmarks)
+                                               : fr.predicted.size());
 }
 
 bool Localizer::Corroborated(const FrameResult& fr, const TriangulationResult& tri) const {
   // The motion model cannot vouch for it: after a loss its prediction is
   // too wide to tell a right pose from a wrong one nearby.
-  return static_cast<double>(tri.inliers.size()) >= opt_.relocalize_confirmed_fraction * ChosenLandmarks(fr);
+  return static_cast<double>(tri.inliers.size()) >=
+         opt_.relocalize_confirmed_fraction * std::max(ChosenLandmarks(fr), SurveyChosenLandmarks(fr));
 }
 
 void Localizer::HoldForConfirmation(const Pose2& pose, int frame) {

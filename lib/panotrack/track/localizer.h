@@ -70,9 +70,11 @@ struct LocalizerOptions {
   double protection_sigmas = 5.0;
   double alert_fraction = 0.01;
   // ... or, above 0, this many map units: the accuracy the user needs. At
-  // 0 the limit is alert_fraction of the landmarks' distance plus three
-  // times the map's survey sigma: a map measured to a centimetre cannot
-  // place the robot to a millimetre, and its poses are still right.
+  // 0 the limit is alert_fraction of the landmarks' distance plus
+  // protection_sigmas times the map's survey sigma: a map measured to a
+  // centimetre cannot place the robot to a millimetre, and its poses are
+  // still right; a geometry too weak to average the survey error down
+  // (a position std above the survey sigma) is still refused.
   double alert_limit = 0.0;
   // The map's survey error (map units, each corner coordinate). NaN: what
   // the map states (Map::survey_sigma), checked against the residuals of
@@ -313,7 +315,10 @@ class Localizer {
   void LearnPolarity(const FrameResult& fr, const TriangulationResult& tri);
   // The motion from the previous frame's pose to `pose`, when that pose was measured.
   std::optional<Pose2> SolvedMotion(const Pose2& pose) const;
+  // The pose from the found landmarks' bearings (consensus, then least
+  // squares); its rms_bearing in units of each bearing's spread.
   TriangulationResult Solve(const FrameResult& fr, const Pose2& prior) const;
+  TriangulationResult SolveBearings(const std::vector<BearingObservation>& obs, const Pose2& prior) const;
   bool Acceptable(const FrameResult& fr, const TriangulationResult& tri) const;
   // The found landmarks' bearings, each with its spread: its expected error
   // (the image noise `reference_sigma`, radians, and its corner's survey
@@ -402,6 +407,8 @@ class Localizer {
   bool Corroborated(const FrameResult& fr, const TriangulationResult& tri) const;
   // the landmarks chosen to track at this frame (max_landmarks of those predicted);
   double ChosenLandmarks(const FrameResult& fr) const;
+  // ... and with those the map's survey error adds (MaxLandmarks).
+  double SurveyChosenLandmarks(const FrameResult& fr) const;
   // the frame before which no room-wide search runs after the recent failures;
   int BackedOffRelocalizeFrame(int frame) const;
   // whether a relocalised pose has the inliers a room-wide search requires;
