@@ -256,6 +256,7 @@ TriangulationResult Triangulate(const std::vector<BearingObservation>& obs, cons
   const int dof = DistinctBearings(obs, use) - 3;
   const double sigma2 = dof >= 2 ? sum_r2 / dof : opt.bearing_sigma * opt.bearing_sigma;
   res.covariance = sigma2 * info.inverse();
+  res.variance_factor = sigma2;
   return res;
 }
 

@@ -65,6 +65,9 @@ struct TriangulationResult {
   double residual = 0.0;
   double rms_bearing = 0.0;     // RMS bearing residual of the inliers (rad)
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // (x, y, theta)
+  // The variance of a unit-weight bearing (rad^2) the covariance was scaled
+  // by: from the residuals, or options.bearing_sigma^2 with too few.
+  double variance_factor = 0.0;
   std::vector<int> inliers;     // indices into the observations
   std::vector<double> bearing_residuals;  // per observation (rad)
 };

@@ -420,8 +420,18 @@ std::vector<BearingObservation> Localizer::Observations(const FrameResult& fr, d
 TriangulationResult Localizer::Solve(const FrameResult& fr, const Pose2& prior) const {
   const std::vector<BearingObservation> obs = Observations(fr);
   TriangulationResult out = SolveBearings(obs, prior);
+  if (!out.ok) return out;
   // The RMS residual in units of image noise: the map's share taken out.
-  if (out.ok) out.rms_bearing = NormalizedRms(obs, out);
+  out.rms_bearing = NormalizedRms(obs, out);
+  // A few residuals can fit better than the bearings' noise: the covariance
+  // is never scaled below the noise of recent frames. (Where the survey
+  // error dominates, that noise also holds what the survey estimate has not
+  // caught up with yet, and the covariance is the map's anyway.)
+  const double floor2 = bearing_sigma_ * bearing_sigma_;
+  if (MaxLandmarks() == opt_.max_landmarks && out.variance_factor > 0 && out.variance_factor < floor2) {
+    out.covariance *= floor2 / out.variance_factor;
+    out.variance_factor = floor2;
+  }
   return out;
 }
 
