@@ -74,6 +74,10 @@ void AddEvaluateCommand(CLI::App& app) {
     }
     const Calibration calib = ReadCalibration(o->calib);
     const TargetSet targets = ReadTargetInput(o->targets, input);
+    // The board images are known once the target file is read.
+    NamedPaths reads = TargetInputReads(o->targets, targets);
+    reads.push_back({"--calib", o->calib});
+    CheckOutputsDistinct(reads, {{"--summary-json", o->summary_json}});
     const std::vector<cv::Mat> images = LoadTargetImages(targets);
     const EvaluationResult r = EvaluateCalibration(targets, images, calib, opt);
     if (!o->summary_json.empty())

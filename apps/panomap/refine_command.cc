@@ -11,6 +11,7 @@
 #include "panotrack/io/map.h"
 #include "panotrack/io/pose_csv.h"
 #include "panotrack/mapping/refine.h"
+#include "panotrack/video/frame_source.h"
 
 namespace pano::app {
 
@@ -98,7 +99,8 @@ void AddRefineCommand(CLI::App& app) {
                   std::to_string(o->videos.size()) + " videos (give one per video, in the same order)");
     NamedPaths reads = {{"--map", o->map}, {"--calib", o->calib}};
     for (const std::string& p : o->poses) reads.push_back({"--poses", p});
-    for (const std::string& v : o->videos) reads.push_back({"VIDEO", v});
+    for (const std::string& v : o->videos)
+      for (const auto& read : FrameSource::InputReads(v, "VIDEO")) reads.push_back(read);
     CheckPlannedOutputs(reads, {{"-o", o->out}, {"--report", o->report}}, o->force);
     const Calibration calib = ReadCalibration(o->calib);
     const Map map = ReadMap(o->map);

@@ -373,6 +373,9 @@ pano::SequenceCase SequenceCaseOf(const SequenceArgs& a) {
 }
 
 void RunSequence(const SequenceArgs& a) {
+  // The output folder is replaced as a whole, --force or not.
+  pano::CheckFolderOutputHoldsNoInput(
+      {{"--map", a.map_path}, {"--calib", a.calib_path}, {"--trajectory", a.traj_path}}, "-o", a.out);
   pano::SequenceCase c = SequenceCaseOf(a);
   a.rig.Apply(&c.calib.sensor);
   if (a.o_map_sigma->count()) c.map_sigma = a.map_sigma;
@@ -475,6 +478,8 @@ std::vector<pano::BoardPose> BoardPosesOf(const TargetsArgs& a, const pano::Sens
 }
 
 void RunTargets(const TargetsArgs& a) {
+  // The output folder is replaced as a whole, --force or not.
+  pano::CheckFolderOutputHoldsNoInput({{"--calib", a.calib_path}, {"--poses", a.poses_path}}, "-o", a.out);
   if (a.calib_path.empty() && a.preset.empty()) throw pano::Error("--calib: required (or give --preset)");
   pano::Calibration calib = a.preset.empty() ? pano::ReadCalibration(a.calib_path) : pano::MakePreset(a.preset).calib;
   a.rig.Apply(&calib.sensor);

@@ -125,6 +125,12 @@ TargetSet ReadTargetInput(const std::string& path, const TargetInputBoard& input
   throw Error(path + ": internal: unknown input kind");
 }
 
+NamedPaths TargetInputReads(const std::string& path, const TargetSet& targets, const std::string& option) {
+  NamedPaths reads = {{option, path}};
+  for (const TargetImage& ti : targets.images) reads.push_back({"a board image of " + path, ti.resolved});
+  return reads;
+}
+
 std::vector<cv::Mat> LoadTargetImages(const TargetSet& targets) {
   std::vector<cv::Mat> images;
   std::unique_ptr<VideoReader> video;

@@ -155,7 +155,7 @@ void CheckOutputs(const PanolocOptions& opt, const std::vector<PlannedJob>& jobs
   NamedPaths writes;
   const std::string out_option = opt.out_dir.empty() ? "-o" : "--out-dir";
   for (const PlannedJob& p : jobs) {
-    reads.push_back({"", p.job.input});
+    for (const auto& read : FrameSource::InputReads(p.job.input)) reads.push_back(read);
     reads.push_back({"--gt", p.job.gt});
     writes.push_back({out_option, p.job.output});
     writes.push_back({"--debug-video", p.job.debug_video});
