@@ -7,6 +7,7 @@
 #include "commands.h"
 #include "panotrack/core/error.h"
 #include "panotrack/core/output_check.h"
+#include "panotrack/core/parallel.h"
 #include "panotrack/io/calibration.h"
 #include "panotrack/io/map.h"
 #include "panotrack/io/pose_csv.h"
@@ -94,6 +95,7 @@ void AddRefineCommand(CLI::App& app) {
   cmd->add_flag("-q,--quiet", o->quiet, "No table (errors still on stderr)")->group("Run");
   cmd->add_flag("-v,--verbose", o->verbose, "Also the libraries' logs")->group("Run");
   cmd->callback([o]() {
+    CheckThreadCount(o->threads, "--threads");
     if (o->poses.size() != o->videos.size())
       throw Error("--poses: " + std::to_string(o->poses.size()) + " pose CSVs for " +
                   std::to_string(o->videos.size()) + " videos (give one per video, in the same order)");

@@ -19,6 +19,7 @@
 #include "panotrack/config.h"
 #include "panotrack/core/error.h"
 #include "panotrack/core/output_check.h"
+#include "panotrack/core/parallel.h"
 #include "panotrack/io/calibration.h"
 #include "panotrack/io/map.h"
 #include "panotrack/render/presets.h"
@@ -562,7 +563,7 @@ int main(int argc, char** argv) {
                                 : *tg  ? &tg_args.common
                                        : nullptr;
     // The renderer's loops take OpenMP's default team size.
-    if (common && common->jobs < 0) throw pano::Error("-j/--jobs: expected 0 (every core) or more");
+    if (common) pano::CheckThreadCount(common->jobs, "-j/--jobs");
     if (common && common->jobs > 0) omp_set_num_threads(common->jobs);
     const auto t0 = std::chrono::steady_clock::now();
     if (*still) RunStill(still_args);

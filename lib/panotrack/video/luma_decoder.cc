@@ -890,7 +890,11 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, const LumaD
   // files (the segments' frames wait in memory: a group of pictures must
   // fit in gop_parallel_bytes, known from an index of every frame), H.264 or
   // HEVC with their parameter sets out of band (length-prefixed NAL units).
-  const int threads = num_threads > 0 ? num_threads : static_cast<int>(std::thread::hardware_concurrency());
+  // FFmpeg's own choice stops at 16 frame threads: more decode no faster,
+  // and each holds frames of its own (a thousand run out of memory).
+  constexpr int kMaxDecoderThreads = 16;
+  const int asked = num_threads > 0 ? num_threads : static_cast<int>(std::thread::hardware_concurrency());
+  const int threads = std::min(kMaxDecoderThreads, asked);
   const AVCodecParameters& par = *st->codecpar;
   const double luma_bytes = static_cast<double>(par.width) * par.height;  // what a waiting frame keeps
   const long longest_gop = LongestGop(st);
@@ -914,7 +918,7 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, const LumaD
   for (AVCodecContext* c : d.gop_codecs) {
     // NVDEC: one thread (frame threads measured no faster, and each holds
     // some of the video engine's decode surfaces).
-    c->thread_count = d.cuda_device ? 1 : gop ? std::max(1, threads / kGopDecoders) : std::max(0, num_threads);
+    c->thread_count = d.cuda_device ? 1 : gop ? std::max(1, threads / kGopDecoders) : num_threads > 0 ? threads : 0;
     if (avcodec_open2(c, decoder, nullptr) < 0) {
       *reason = "cannot open the decoder";
       return false;
