@@ -11,6 +11,7 @@
 #include "panotrack/core/command_line.h"
 #include "panotrack/core/error.h"
 #include "panotrack/io/targets.h"
+#include "panotrack/video/logging.h"
 
 namespace pano::app {
 
@@ -143,6 +144,7 @@ void AddCalibrateCommand(CLI::App& app) {
     opt.use_limb = o->limb;
     opt.num_threads = o->threads;
     opt.verbose = o->verbose;
+    SetDecoderLogging(o->verbose);  // a board video's FFmpeg lines only with -v
     if (opt.select_model && !run->quiet)
       opt.on_progress = [](const std::string& step) { std::fprintf(stderr, "panocalib: model selection: %s\n", step.c_str()); };
     opt.Check();

@@ -13,6 +13,7 @@
 #include "panotrack/core/output_check.h"
 #include "panotrack/io/calibration.h"
 #include "panotrack/io/targets.h"
+#include "panotrack/video/logging.h"
 
 namespace pano::app {
 
@@ -62,6 +63,7 @@ void AddEvaluateCommand(CLI::App& app) {
   });
   cmd->callback([o]() {
     EvaluateOptions opt = o->eval;
+    SetDecoderLogging(opt.verbose);  // a board video's FFmpeg lines only with -v
     if (o->no_refine) opt.refine_passes = 0;
     opt.Check();
     TargetInputBoard input;
