@@ -11,6 +11,7 @@
 #include "panotrack/core/command_line.h"
 #include "panotrack/core/error.h"
 #include "panotrack/io/targets.h"
+#include "panotrack/video/logging.h"
 
 namespace pano::app {
 
@@ -108,12 +109,11 @@ void AddCalibrateCommand(CLI::App& app) {
                   "Also write the summary (RMS, per-image RMS, parameters with standard deviations, images "
                   "without a board, warnings, timings) as JSON; - writes it to standard output");
   cmd->add_flag("-q,--quiet", run->quiet, "No summary or warnings (errors still on stderr)");
-  cmd->parse_complete_callback([o, run]() {
-    CheckPlannedOutputs({{"", o->targets}},
-                        {{"-o", o->out}, {"--lut", o->lut}, {"--report", o->report}, {"--summary-json", run->summary_json}},
-                        run->force);
-  });
-  cmd->callback([o, bo, run]() {
+  auto outputs = [o, run]() -> NamedPaths {
+    return {{"-o", o->out}, {"--lut", o->lut}, {"--report", o->report}, {"--summary-json", run->summary_json}};
+  };
+  cmd->parse_complete_callback([o, run, outputs]() { CheckPlannedOutputs({{"", o->targets}}, outputs(), run->force); });
+  cmd->callback([o, bo, run, outputs]() {
     CalibrateOptions opt;
     if (o->model == "sphere") opt.model = MirrorModel::kSphere;
     else if (o->model == "conic") opt.model = MirrorModel::kConic;
@@ -144,6 +144,7 @@ void AddCalibrateCommand(CLI::App& app) {
     opt.use_limb = o->limb;
     opt.num_threads = o->threads;
     opt.verbose = o->verbose;
+    SetDecoderLogging(o->verbose);  // a board video's FFmpeg lines only with -v
     if (opt.select_model && !run->quiet)
       opt.on_progress = [](const std::string& step) { std::fprintf(stderr, "panocalib: model selection: %s\n", step.c_str()); };
     opt.Check();
@@ -156,6 +157,8 @@ void AddCalibrateCommand(CLI::App& app) {
       input.every = bo->every;
     }
     const TargetSet targets = ReadTargetInput(o->targets, input);
+    // The board images are known once the target file is read.
+    CheckOutputsDistinct(TargetInputReads(o->targets, targets), outputs());
     const std::vector<cv::Mat> images = LoadTargetImages(targets);
     CalibrationResult r = Calibrate(targets, images, opt);
     r.calib.command_line = ShellCommandLine(CommandLine());

@@ -13,6 +13,7 @@
 #include "panotrack/core/output_check.h"
 #include "panotrack/io/calibration.h"
 #include "panotrack/io/targets.h"
+#include "panotrack/video/logging.h"
 
 namespace pano::app {
 
@@ -62,6 +63,7 @@ void AddEvaluateCommand(CLI::App& app) {
   });
   cmd->callback([o]() {
     EvaluateOptions opt = o->eval;
+    SetDecoderLogging(opt.verbose);  // a board video's FFmpeg lines only with -v
     if (o->no_refine) opt.refine_passes = 0;
     opt.Check();
     TargetInputBoard input;
@@ -74,6 +76,10 @@ void AddEvaluateCommand(CLI::App& app) {
     }
     const Calibration calib = ReadCalibration(o->calib);
     const TargetSet targets = ReadTargetInput(o->targets, input);
+    // The board images are known once the target file is read.
+    NamedPaths reads = TargetInputReads(o->targets, targets);
+    reads.push_back({"--calib", o->calib});
+    CheckOutputsDistinct(reads, {{"--summary-json", o->summary_json}});
     const std::vector<cv::Mat> images = LoadTargetImages(targets);
     const EvaluationResult r = EvaluateCalibration(targets, images, calib, opt);
     if (!o->summary_json.empty())

@@ -13,6 +13,7 @@
 #include "panotrack/io/map.h"
 #include "panotrack/pipeline/panoloc.h"
 #include "panotrack/pipeline/sensor_tilt.h"
+#include "panotrack/video/frame_source.h"
 
 namespace pano::app {
 
@@ -51,8 +52,9 @@ void AddTiltCommand(CLI::App& app) {
   cmd->add_flag("--force", o->force, "Replace an existing output file");
   cmd->add_flag("-q,--quiet", o->quiet, "No progress or result lines (errors still on stderr)");
   cmd->parse_complete_callback([o]() {
-    CheckPlannedOutputs({{"--calib", o->calib}, {"--map", o->map}, {"", o->input}}, {{"--output", o->output}},
-                        o->force);
+    NamedPaths reads = FrameSource::InputReads(o->input);
+    reads.insert(reads.end(), {{"--calib", o->calib}, {"--map", o->map}});
+    CheckPlannedOutputs(reads, {{"--output", o->output}}, o->force);
   });
   cmd->callback([o]() {
     SensorTiltOptions opt = o->tilt;

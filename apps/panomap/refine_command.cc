@@ -7,10 +7,12 @@
 #include "commands.h"
 #include "panotrack/core/error.h"
 #include "panotrack/core/output_check.h"
+#include "panotrack/core/parallel.h"
 #include "panotrack/io/calibration.h"
 #include "panotrack/io/map.h"
 #include "panotrack/io/pose_csv.h"
 #include "panotrack/mapping/refine.h"
+#include "panotrack/video/frame_source.h"
 
 namespace pano::app {
 
@@ -93,12 +95,14 @@ void AddRefineCommand(CLI::App& app) {
   cmd->add_flag("-q,--quiet", o->quiet, "No table (errors still on stderr)")->group("Run");
   cmd->add_flag("-v,--verbose", o->verbose, "Also the libraries' logs")->group("Run");
   cmd->callback([o]() {
+    CheckThreadCount(o->threads, "--threads");
     if (o->poses.size() != o->videos.size())
       throw Error("--poses: " + std::to_string(o->poses.size()) + " pose CSVs for " +
                   std::to_string(o->videos.size()) + " videos (give one per video, in the same order)");
     NamedPaths reads = {{"--map", o->map}, {"--calib", o->calib}};
     for (const std::string& p : o->poses) reads.push_back({"--poses", p});
-    for (const std::string& v : o->videos) reads.push_back({"VIDEO", v});
+    for (const std::string& v : o->videos)
+      for (const auto& read : FrameSource::InputReads(v, "VIDEO")) reads.push_back(read);
     CheckPlannedOutputs(reads, {{"-o", o->out}, {"--report", o->report}}, o->force);
     const Calibration calib = ReadCalibration(o->calib);
     const Map map = ReadMap(o->map);

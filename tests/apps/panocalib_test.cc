@@ -14,6 +14,7 @@
 #include "panotrack/io/calibration.h"
 #include "run_command.h"
 #include "test_paths.h"
+#include "test_skip.h"
 
 namespace pano {
 namespace {
@@ -100,6 +101,36 @@ TEST_CASE("panocalib calibrate: -j/--threads, quiet libraries unless --verbose, 
   CHECK(r.code == 1);
   CHECK(Contains(r.out, "[ WARN"));
   CHECK_FALSE(fs::exists(dir + "/m.yaml"));
+}
+
+TEST_CASE("panocalib calibrate and evaluate: a truncated board video fails as panoloc's would, quietly",
+          "[board_video_damaged]") {
+  namespace fs = std::filesystem;
+  if (std::system("ffmpeg -version > /dev/null 2>&1") != 0) return test::Skip("no ffmpeg command-line tool");
+  const std::string dir = test::ScratchDir("panocalib_video");
+  Run r = Exec("panosim targets --calib " + test::SourcePath("calib/paper-real.yaml") +
+               " --board 9,6,3 --auto 12 --seed 4 -q -o " + dir + "/t");
+  INFO(r.out);
+  REQUIRE(r.code == 0);
+  const std::string video = dir + "/boards.mp4";
+  REQUIRE(std::system(("ffmpeg -hide_banner -loglevel error -nostdin -y -framerate 5 -i " + dir +
+                       "/t/cal_%03d.png -c:v libx264 -pix_fmt yuv420p -movflags +faststart " + video)
+                          .c_str()) == 0);
+  // Cut in half: the frames before the cut would calibrate, but the video is damaged.
+  fs::resize_file(video, fs::file_size(video) / 2);
+  const std::string board = " --board 9x6 --square 3 --every 1";
+  for (const std::string& run :
+       {"panocalib calibrate " + video + board + " -o " + dir + "/c.yaml -q",
+        "panocalib evaluate --calib " + test::SourcePath("calib/paper-real.yaml") + " " + video + board + " -q"}) {
+    r = Exec(run);
+    INFO(run);
+    INFO(r.out);
+    CHECK(r.code == 1);
+    CHECK(Lines(r.out) == 1);  // no FFmpeg lines without --verbose
+    CHECK(r.out.rfind("panocalib: " + video + ": decode error at frame ", 0) == 0);
+    CHECK(Contains(r.out, "truncated"));
+  }
+  CHECK_FALSE(fs::exists(dir + "/c.yaml"));
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <opencv2/videoio.hpp>
 
 #include <cmath>
+#include <filesystem>
 #include <string>
 
 #include "expect_error.h"
@@ -83,6 +84,12 @@ TEST_CASE("a video: every N-th frame, named VIDEO#FRAME, read front to back", "[
   CHECK(sparse.images[2].file == "run.avi#80");
   CHECK(std::abs(cv::mean(LoadTargetImages(sparse)[2])[0] - 160.0) < 1.5);
   CHECK(ErrorOf([&] { ReadTargetInput(path, TargetInputBoard()); }).find("--board: required with a video") == 0);
+  // Cut in half: an error naming the video and the frame, not the frames before the cut.
+  std::filesystem::resize_file(path, std::filesystem::file_size(path) / 2);
+  const std::string error = ErrorOf([&] { ReadTargetInput(path, in); });
+  INFO(error);
+  CHECK(error.find(path + ": decode error at frame ") == 0);
+  CHECK(error.find("truncated") != std::string::npos);
 }
 
 }  // namespace

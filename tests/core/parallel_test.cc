@@ -11,6 +11,7 @@
 #include <thread>
 #include <vector>
 
+#include "expect_error.h"
 #include "panotrack/core/parallel.h"
 #include "test_skip.h"
 
@@ -130,6 +131,18 @@ TEST_CASE("parallel_loop: no thread outlives the loop; they start on the caller'
   CHECK(during > before);  // helpers were started ...
   CHECK(after <= before);  // ... and are gone
 #endif
+}
+
+TEST_CASE("thread counts are bounded: absurd ones refused naming the option, none above kMaxThreads",
+          "[thread_bounds]") {
+  CHECK_NOTHROW(CheckThreadCount(0, "--threads"));
+  CHECK_NOTHROW(CheckThreadCount(kMaxThreads, "--threads"));
+  CHECK(test::ErrorOf([] { CheckThreadCount(100000, "--threads"); }) ==
+        "--threads: expected 0 (every core) or 1..1024, got 100000");
+  CHECK(test::ErrorOf([] { CheckThreadCount(-1, "-j/--jobs"); }) ==
+        "-j/--jobs: expected 0 (every core) or 1..1024, got -1");
+  CHECK(ThreadCount(100000) == kMaxThreads);
+  CHECK(ThreadCount(3) == 3);
 }
 
 }  // namespace

@@ -177,8 +177,10 @@ TEST_CASE("a systematic radius error does not move corners in depth", "[refine_r
   opt.num_threads = 1;
   opt.pose_sigma = 0.05;
   const double floor_unbiased = FloorRms(SolveMapRefinement(m.c.calib, m.surveyed, p.truth, p.obs, opt, &p.starts).map, m.truth);
+  // Held here: a reference into the vector returned would dangle after its statement.
+  const std::vector<Landmark> landmarks = LandmarksFromMap(m.truth);
   for (CornerObservation& o : p.obs) {
-    const Eigen::Vector3d& c = LandmarksFromMap(m.truth)[static_cast<size_t>(o.landmark)].corner;
+    const Eigen::Vector3d& c = landmarks[static_cast<size_t>(o.landmark)].corner;
     const Pose2& at = p.truth[static_cast<size_t>(o.frame)];
     o.radius += 0.003 * std::hypot(c.x() - at.x, c.y() - at.y);
   }

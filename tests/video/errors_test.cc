@@ -124,6 +124,16 @@ TEST_CASE("damaged bytes in the middle of a video are a decode error", "[corrupt
     const test::ReadOutcome r = test::ReadAll(damaged);
     CheckFailsAfterGoodFrames(damaged, r, "");
     CHECK(r.indices.size() > 10);
+    // The same frames and error whatever the decoding threads (frame threads
+    // flag damage only now and then), run after run.
+    for (int threads : {1, 2, 8, 8, 16, 16}) {
+      FrameSourceOptions options;
+      options.decoder_threads = threads;
+      const test::ReadOutcome again = test::ReadAll(damaged, options);
+      INFO(damaged << " on " << threads << " decoding threads: " << again.error);
+      CHECK(again.indices == r.indices);
+      CHECK(again.error == r.error);
+    }
   }
 }
 

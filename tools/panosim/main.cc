@@ -19,6 +19,7 @@
 #include "panotrack/config.h"
 #include "panotrack/core/error.h"
 #include "panotrack/core/output_check.h"
+#include "panotrack/core/parallel.h"
 #include "panotrack/io/calibration.h"
 #include "panotrack/io/map.h"
 #include "panotrack/render/presets.h"
@@ -373,6 +374,9 @@ pano::SequenceCase SequenceCaseOf(const SequenceArgs& a) {
 }
 
 void RunSequence(const SequenceArgs& a) {
+  // The output folder is replaced as a whole, --force or not.
+  pano::CheckFolderOutputHoldsNoInput(
+      {{"--map", a.map_path}, {"--calib", a.calib_path}, {"--trajectory", a.traj_path}}, "-o", a.out);
   pano::SequenceCase c = SequenceCaseOf(a);
   a.rig.Apply(&c.calib.sensor);
   if (a.o_map_sigma->count()) c.map_sigma = a.map_sigma;
@@ -475,6 +479,8 @@ std::vector<pano::BoardPose> BoardPosesOf(const TargetsArgs& a, const pano::Sens
 }
 
 void RunTargets(const TargetsArgs& a) {
+  // The output folder is replaced as a whole, --force or not.
+  pano::CheckFolderOutputHoldsNoInput({{"--calib", a.calib_path}, {"--poses", a.poses_path}}, "-o", a.out);
   if (a.calib_path.empty() && a.preset.empty()) throw pano::Error("--calib: required (or give --preset)");
   pano::Calibration calib = a.preset.empty() ? pano::ReadCalibration(a.calib_path) : pano::MakePreset(a.preset).calib;
   a.rig.Apply(&calib.sensor);
@@ -557,7 +563,7 @@ int main(int argc, char** argv) {
                                 : *tg  ? &tg_args.common
                                        : nullptr;
     // The renderer's loops take OpenMP's default team size.
-    if (common && common->jobs < 0) throw pano::Error("-j/--jobs: expected 0 (every core) or more");
+    if (common) pano::CheckThreadCount(common->jobs, "-j/--jobs");
     if (common && common->jobs > 0) omp_set_num_threads(common->jobs);
     const auto t0 = std::chrono::steady_clock::now();
     if (*still) RunStill(still_args);

@@ -85,8 +85,7 @@ void CalibrateOptions::Check() const {
     throw Error("--full-weight: expected a number of pixels per square (0: uniform weights)");
   if (!(fault_warning_std > 0.0)) throw Error("fault warning threshold: expected a positive number");
   if (!(scale_warning_rel_std > 0.0)) throw Error("scale warning threshold: expected a positive fraction");
-  if (num_threads < 0 || num_threads > 1024)
-    throw Error("--threads: expected 0 (every core) or 1..1024, got " + std::to_string(num_threads));
+  CheckThreadCount(num_threads, "--threads");
 }
 
 namespace {

@@ -40,6 +40,7 @@
 
 #include "panotrack/io/calibration.h"
 #include "panotrack/calibrate/limb.h"
+#include "panotrack/core/output_check.h"
 #include "panotrack/io/targets.h"
 #include "panotrack/sensor/sensor.h"
 
@@ -263,6 +264,11 @@ struct TargetInputBoard {
 // ClassifyTargetInput, TargetsFromFolder, TargetsFromVideoFrames). Throws
 // pano::Error naming --board or the path.
 TargetSet ReadTargetInput(const std::string& path, const TargetInputBoard& input);
+// The files a calibration input reads, for the output guard
+// (CheckOutputsDistinct): `path` itself under `option`, and each board image
+// or video that `targets` (read from `path`) names, as "a board image of
+// <path>".
+NamedPaths TargetInputReads(const std::string& path, const TargetSet& targets, const std::string& option = "");
 // Frames in a video, counted by reading it (containers' counts are estimates).
 int CountVideoFrames(const std::string& path);
 

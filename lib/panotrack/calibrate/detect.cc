@@ -13,7 +13,6 @@
 #include <numeric>
 #include <memory>
 #include <opencv2/imgcodecs.hpp>
-#include <opencv2/videoio.hpp>
 
 #include "panotrack/calibrate/calibrate.h"
 #include "panotrack/calibrate/internal.h"
@@ -21,6 +20,7 @@
 #include "panotrack/core/angles.h"
 #include "panotrack/core/error.h"
 #include "panotrack/core/parallel.h"
+#include "panotrack/video/frame_source.h"
 
 namespace pano {
 
@@ -73,39 +73,35 @@ void CheckBoardView(const BoardView& view, const TargetBoard& board) {
 namespace {
 
 // A video read front to back: the frames wanted, in increasing order.
+// Decoded by the frame source that panoloc and panomap read videos with, so
+// that a truncated or damaged board video fails as theirs do (one line
+// naming the file and the frame) instead of calibrating from the frames
+// before the damage.
 class VideoReader {
  public:
-  explicit VideoReader(const std::string& path) : path_(path) {
-    if (!capture_.open(path)) throw Error(path + ": cannot open the video (missing, or a format OpenCV cannot read)");
-  }
+  explicit VideoReader(const std::string& path) : path_(path), source_(path) {}
   cv::Mat Frame(int index) {
     if (index < next_) throw Error(path_ + ": internal: video frames out of order");
-    for (; next_ < index; ++next_)
-      if (!capture_.grab()) throw Error(path_ + ": the video ends before frame " + std::to_string(index));
-    cv::Mat frame, grey;
-    if (!capture_.read(frame) || frame.empty())
-      throw Error(path_ + ": the video ends before frame " + std::to_string(index));
-    ++next_;
-    if (frame.channels() == 1) grey = frame;
-    else cv::cvtColor(frame, grey, frame.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
-    if (grey.depth() != CV_8U) grey.convertTo(grey, CV_8U);
-    return grey;
+    cv::Mat grey;
+    for (; next_ <= index; ++next_)
+      if (!source_.Read(&grey)) throw Error(path_ + ": the video ends before frame " + std::to_string(index));
+    return grey.clone();  // Read()'s buffer is the decoder's to reuse
   }
 
  private:
   std::string path_;
-  cv::VideoCapture capture_;
+  FrameSource source_;
   int next_ = 0;
 };
 
 }  // namespace
 
 int CountVideoFrames(const std::string& path) {
-  cv::VideoCapture capture;
-  if (!capture.open(path)) throw Error(path + ": cannot open the video (missing, or a format OpenCV cannot read)");
   // Counted by reading: the container's frame count may be an estimate.
+  FrameSource source(path);
+  cv::Mat frame;
   int n = 0;
-  while (capture.grab()) ++n;
+  while (source.Read(&frame)) ++n;
   return n;
 }
 
@@ -123,6 +119,12 @@ TargetSet ReadTargetInput(const std::string& path, const TargetInputBoard& input
       return TargetsFromVideoFrames(path, CountVideoFrames(path), input.every, input.board, input.units);
   }
   throw Error(path + ": internal: unknown input kind");
+}
+
+NamedPaths TargetInputReads(const std::string& path, const TargetSet& targets, const std::string& option) {
+  NamedPaths reads = {{option, path}};
+  for (const TargetImage& ti : targets.images) reads.push_back({"a board image of " + path, ti.resolved});
+  return reads;
 }
 
 std::vector<cv::Mat> LoadTargetImages(const TargetSet& targets) {

@@ -11,6 +11,7 @@
 
 #include "panotrack/calibrate/internal.h"
 #include "panotrack/config.h"
+#include "panotrack/core/parallel.h"
 #include "panotrack/core/error.h"
 
 namespace pano {
@@ -72,7 +73,7 @@ void EvaluateOptions::Check() const {
   if (!std::isfinite(full_weight_px)) throw Error("full_weight_px: expected a finite number");
   if (refine_passes < 0 || refine_passes > 10) throw Error("refine_passes: expected 0..10");
   if (max_iterations < 1) throw Error("max_iterations: expected at least 1");
-  if (num_threads < 0) throw Error("num_threads: expected 0 (every core) or more");
+  CheckThreadCount(num_threads, "--threads");
 }
 
 BoardPoseFit FitBoardPose(const BoardView& view, const TargetBoard& board, const Sensor& sensor,

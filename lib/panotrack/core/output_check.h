@@ -40,12 +40,24 @@ bool WritesInPlace(const std::string& path);
 bool SameFile(const std::string& a, const std::string& b);
 
 // (option, path) pairs, e.g. {"-o", "out.csv"}; empty paths are ignored.
+// For a read, the first of the pair says where the file comes from, e.g.
+// "--calib", or "a frame of frames/" for each file of an input that reads
+// many.
 using NamedPaths = std::vector<std::pair<std::string, std::string>>;
 
-// Throws pano::Error naming the option when an output is a file the run
-// reads, or two outputs are one file. Outputs written in place
-// (WritesInPlace) and URLs are not compared.
+// Throws pano::Error naming the option, the output and the input when an
+// output is a file the run reads, or two outputs are one file. Files are
+// compared by identity (device and inode: links, hard links and other
+// spellings of one file are one file), by their resolved path where either
+// does not exist yet. Outputs written in place (WritesInPlace) and URLs are
+// not compared. --force never lifts this: no option lets a run replace its
+// own input.
 void CheckOutputsDistinct(const NamedPaths& reads, const NamedPaths& writes);
+
+// Throws pano::Error naming the option when `dir`, an output folder that the
+// run replaces as a whole (everything in it is deleted), is or holds one of
+// the reads.
+void CheckFolderOutputHoldsNoInput(const NamedPaths& reads, const std::string& option, const std::string& dir);
 
 // Both checks every program runs on its planned outputs before any work:
 // CheckOutputsDistinct, then RefuseToReplace unless `overwrite`.

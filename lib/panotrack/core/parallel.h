@@ -8,8 +8,11 @@
 #include <algorithm>
 #include <atomic>
 #include <exception>
+#include <string>
 #include <thread>
 #include <vector>
+
+#include "panotrack/core/error.h"
 
 #ifdef _OPENMP
 #include <omp.h>
@@ -22,16 +25,31 @@ namespace internal {
 inline thread_local bool in_own_threads_loop = false;
 }  // namespace internal
 
-// `requested` threads; 0 (or less): OpenMP's default, every core unless
-// OMP_NUM_THREADS says otherwise. On a thread of a ParallelForOnOwnThreads
-// loop, 1: a loop nested there runs on that thread, as OpenMP runs a
-// nested region.
+// The most threads any option may ask for: more than the cores of any
+// machine the programs run on, few enough that their stacks and per-thread
+// buffers fit in memory (100000 threads end the process in libgomp or by
+// the kernel's hand).
+constexpr int kMaxThreads = 1024;
+
+// Throws pano::Error "<option>: expected 0 (every core) or 1..1024, got N"
+// for a thread count no run may have.
+inline void CheckThreadCount(int requested, const std::string& option) {
+  if (requested < 0 || requested > kMaxThreads)
+    throw Error(option + ": expected 0 (every core) or 1.." + std::to_string(kMaxThreads) + ", got " +
+                std::to_string(requested));
+}
+
+// `requested` threads, at most kMaxThreads; 0 (or less): OpenMP's default,
+// every core unless OMP_NUM_THREADS says otherwise. On a thread of a
+// ParallelForOnOwnThreads loop, 1: a loop nested there runs on that thread,
+// as OpenMP runs a nested region.
 inline int ThreadCount(int requested) {
   if (internal::in_own_threads_loop) return 1;
+  if (requested > 0) return std::min(requested, kMaxThreads);
 #ifdef _OPENMP
-  return requested > 0 ? requested : std::max(1, omp_get_max_threads());
+  return std::clamp(omp_get_max_threads(), 1, kMaxThreads);
 #else
-  return requested > 0 ? requested : 1;
+  return 1;
 #endif
 }
 

@@ -49,9 +49,9 @@ void WriteMapBuildCsv(const std::string& path, const MapBuildResult& r) {
 
 MapBuildResult RunMapBuild(const MapBuildJob& job) {
   job.Check();
-  CheckPlannedOutputs(
-      {{"--map", job.map_path}, {"--calib", job.calib_path}, {"", job.input}, {"--poses", job.poses_path}},
-      {{"-o", job.output}, {"--report", job.report_csv}}, job.overwrite);
+  NamedPaths reads = FrameSource::InputReads(job.input);
+  reads.insert(reads.end(), {{"--map", job.map_path}, {"--calib", job.calib_path}, {"--poses", job.poses_path}});
+  CheckPlannedOutputs(reads, {{"-o", job.output}, {"--report", job.report_csv}}, job.overwrite);
   const Calibration calib = ReadCalibration(job.calib_path);
   const Map seed = ReadMap(job.map_path);
   CheckMapUnits(calib, seed, job.map_path, job.calib_path);

@@ -166,8 +166,9 @@ void MapCheckJob::Check() const {
 
 MapCheckReport RunMapCheck(const MapCheckJob& job) {
   job.Check();
-  CheckPlannedOutputs({{"--map", job.map_path}, {"--calib", job.calib_path}, {"", job.input}, {"--poses", job.poses_path}},
-                      {{"-o", job.overlay}, {"--report", job.report_csv}}, job.overwrite);
+  NamedPaths reads = FrameSource::InputReads(job.input);
+  reads.insert(reads.end(), {{"--map", job.map_path}, {"--calib", job.calib_path}, {"--poses", job.poses_path}});
+  CheckPlannedOutputs(reads, {{"-o", job.overlay}, {"--report", job.report_csv}}, job.overwrite);
   const Calibration calib = ReadCalibration(job.calib_path);
   const Map map = ReadMap(job.map_path);
   CheckMapUnits(calib, map, job.map_path, job.calib_path);

@@ -41,6 +41,7 @@ void RefineOptions::Check() const {
   if (!(initial_azimuth_sigma > 0.0) || !(initial_radius_sigma > 0.0))
     throw Error("initial sigmas: expected positive numbers");
   if (max_iterations < 1) throw Error("max_iterations: expected at least 1");
+  CheckThreadCount(num_threads, "--threads (num_threads)");
   tracking.Check();
 }
 

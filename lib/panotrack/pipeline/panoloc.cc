@@ -12,6 +12,7 @@
 
 #include "panotrack/core/error.h"
 #include "panotrack/core/output_check.h"
+#include "panotrack/core/parallel.h"
 #include "panotrack/io/calibration.h"
 #include "panotrack/io/case_file.h"
 #include "panotrack/io/map.h"
@@ -37,7 +38,7 @@ void PanolocOptions::Check() const {
     throw Error("--debug-video (debug_video), --plot (plot) and --gt FILE (gt) take one input "
                 "(use --gt auto for several)");
   if (jobs < 0) throw Error("--jobs (jobs): expected 0 (as many as the threads allow) or more");
-  if (num_threads < 0) throw Error("--threads (num_threads): expected 0 (all cores) or more");
+  CheckThreadCount(num_threads, "--threads (num_threads)");
   if (decode_memory_mib < 0 || decode_memory_mib > (1 << 20))
     throw Error("--decode-memory (decode_memory_mib): expected 0 to 1048576 MiB");
   if (fps < 0 || !std::isfinite(fps)) throw Error("--fps (fps): expected a positive number");
@@ -155,7 +156,7 @@ void CheckOutputs(const PanolocOptions& opt, const std::vector<PlannedJob>& jobs
   NamedPaths writes;
   const std::string out_option = opt.out_dir.empty() ? "-o" : "--out-dir";
   for (const PlannedJob& p : jobs) {
-    reads.push_back({"", p.job.input});
+    for (const auto& read : FrameSource::InputReads(p.job.input)) reads.push_back(read);
     reads.push_back({"--gt", p.job.gt});
     writes.push_back({out_option, p.job.output});
     writes.push_back({"--debug-video", p.job.debug_video});

@@ -26,7 +26,9 @@ UnwarpView UnwarpVideoFile(const std::string& calib_path, const std::string& inp
                            const std::string& out_path, const UnwarpOptions& options, bool overwrite,
                            int* frames) {
   if (out_path.empty()) throw Error("-o: expected an output video");
-  CheckPlannedOutputs({{"--calib", calib_path}, {"", input_path}}, {{"-o", out_path}}, overwrite);
+  NamedPaths reads = FrameSource::InputReads(input_path);
+  reads.push_back({"--calib", calib_path});
+  CheckPlannedOutputs(reads, {{"-o", out_path}}, overwrite);
   const Calibration calib = ReadCalibration(calib_path);
   UnwarpOptions even = options;
   {

@@ -52,6 +52,16 @@ std::vector<std::string> ExpandPattern(const std::string& pattern) {
   return files;
 }
 
+// The image files of a folder, sorted by name; throws std::filesystem's
+// error for a folder or an entry that cannot be examined.
+std::vector<std::string> FolderImages(const std::string& dir) {
+  std::vector<std::string> files;
+  for (const auto& e : fs::directory_iterator(dir))
+    if (e.is_regular_file() && IsImageFile(e.path())) files.push_back(e.path().string());
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
 // Frames that are 8-bit grey already are handed out as they are, sharing
 // their buffer (the decoder's own for LumaDecoder's frames): no copy.
 bool IsGrey(const cv::Mat& image) { return image.type() == CV_8UC1; }
@@ -87,9 +97,7 @@ FrameSource::FrameSource(const std::string& path, const FrameSourceOptions& opti
   UseDefaultDecoderLogging();
   std::error_code ec;
   if (!IsLive(path) && fs::is_directory(path, ec)) {
-    for (const auto& e : fs::directory_iterator(path))
-      if (e.is_regular_file() && IsImageFile(e.path())) files_.push_back(e.path().string());
-    std::sort(files_.begin(), files_.end());
+    files_ = FolderImages(path);
     if (files_.empty()) throw Error(path + ": no image files in this folder");
     count_ = static_cast<int>(files_.size());
   } else if (IsCamera(path)) {
@@ -173,6 +181,21 @@ void FrameSource::OpenCamera() {
 
 bool FrameSource::IsLive(const std::string& path) {
   return path == "-" || path.rfind("/dev/", 0) == 0 || path.find("://") != std::string::npos;
+}
+
+NamedPaths FrameSource::InputReads(const std::string& path, const std::string& option) {
+  std::vector<std::string> files;
+  std::error_code ec;
+  try {
+    if (!IsLive(path) && fs::is_directory(path, ec)) files = FolderImages(path);
+    else if (IsPattern(path)) files = ExpandPattern(path);
+  } catch (const std::exception&) {
+    // A folder that cannot be listed, a bad pattern: opening the input fails
+    // and names it, without stopping a run's other inputs.
+  }
+  NamedPaths reads = {{option, path}};
+  for (const std::string& f : files) reads.push_back({"a frame of " + path, f});
+  return reads;
 }
 
 int FrameSource::FrameCount(const std::string& path) {

@@ -26,6 +26,7 @@
 #include <thread>
 #include <vector>
 
+#include "panotrack/core/output_check.h"
 #include "panotrack/video/luma_decoder.h"
 #include "panotrack/video/opencv_io.h"
 
@@ -68,6 +69,11 @@ class FrameSource {
   // "-" (standard input), camera devices (/dev/video0), stream URLs
   // (rtsp://, udp://...).
   static bool IsLive(const std::string& path);
+
+  // The files the input reads, for the output guard (CheckOutputsDistinct):
+  // the input itself under `option`, and for a folder or pattern input each
+  // of its images, as "a frame of <input>". Live inputs are not opened.
+  static NamedPaths InputReads(const std::string& path, const std::string& option = "");
 
   // Number of frames of an input as its container lists it, without
   // decoding; -1 when unknown or unreadable (for a progress display). Live

@@ -3,11 +3,15 @@
 #include <atomic>
 #include <cstdarg>
 #include <cstdio>
+#include <cstring>
+#include <map>
+#include <mutex>
 #include <opencv2/core/utils/logger.hpp>
 
 #include "panotrack/config.h"
 #if PANO_WITH_FFMPEG
 extern "C" {
+#include <libavcodec/avcodec.h>
 #include <libavutil/log.h>
 }
 #endif
@@ -19,10 +23,36 @@ std::atomic<bool> g_chosen{false};
 std::atomic<bool> g_verbose{false};
 thread_local DecoderErrorCapture* g_capture = nullptr;
 
+struct DamageCounters {
+  std::mutex mu;
+  std::map<const void*, std::atomic<int>*> by_key;
+};
+DamageCounters& Counters() {
+  static DamageCounters counters;
+  return counters;
+}
+
 #if PANO_WITH_FFMPEG
+// A decoder's message that says its frame holds damage: an error, or error
+// resilience's note (at info level) that it concealed some.
+bool ReportsDamage(void* avcl, int level, const char* fmt) {
+  if (!avcl || *static_cast<const AVClass**>(avcl) != avcodec_get_class()) return false;
+  return level <= AV_LOG_ERROR || std::strncmp(fmt, "concealing ", 11) == 0;
+}
+
+void CountDamage(void* avcl) {
+  const void* key = static_cast<AVCodecContext*>(avcl)->opaque;
+  if (!key) return;
+  DamageCounters& c = Counters();
+  std::lock_guard<std::mutex> lock(c.mu);
+  const auto it = c.by_key.find(key);
+  if (it != c.by_key.end()) ++*it->second;
+}
+
 // Installed instead of FFmpeg's default: OpenCV's FFmpeg backend sets FFmpeg's
 // level to "error" when it starts, so the level alone cannot keep it quiet.
 void LogCallback(void* avcl, int level, const char* fmt, va_list args) {
+  if (ReportsDamage(avcl, level, fmt)) CountDamage(avcl);
   if (g_capture && level <= AV_LOG_ERROR) {
     char text[512];
     va_list copy;
@@ -35,6 +65,18 @@ void LogCallback(void* avcl, int level, const char* fmt, va_list args) {
 }
 #endif
 }  // namespace
+
+void CountDecoderDamage(const void* key, std::atomic<int>* count) {
+  DamageCounters& c = Counters();
+  std::lock_guard<std::mutex> lock(c.mu);
+  c.by_key[key] = count;
+}
+
+void StopCountingDecoderDamage(const void* key) {
+  DamageCounters& c = Counters();
+  std::lock_guard<std::mutex> lock(c.mu);
+  c.by_key.erase(key);
+}
 
 void DecoderErrorCapture::Append(const char* text) {
   partial_ += text;

@@ -3,6 +3,7 @@
 // Decoding problems reach the caller as pano::Error, never as library output.
 #pragma once
 
+#include <atomic>
 #include <string>
 
 namespace pano {
@@ -15,6 +16,17 @@ void SetDecoderLogging(bool verbose);
 // Applies SetDecoderLogging(false) unless a program chose already; the frame
 // sources call it, so that a library user gets quiet decoders by default.
 void UseDefaultDecoderLogging();
+
+// Counts into *count the damage that FFmpeg's decoders report for the
+// AVCodecContexts whose `opaque` is `key` (their frame threads' copies
+// included), whatever the verbosity and the thread that logs it: its error
+// messages and its notes of concealed errors. Frame threads flag a damaged
+// frame only now and then (FFmpeg copies a frame's error flags before its
+// thread has set them); the messages come every time, from the thread that
+// decodes the damage. Needs the programs' logging (SetDecoderLogging);
+// counted until StopCountingDecoderDamage(key).
+void CountDecoderDamage(const void* key, std::atomic<int>* count);
+void StopCountingDecoderDamage(const void* key);
 
 // Collects the error messages FFmpeg logs on the calling thread while it is
 // alive (whatever the verbosity), so that an error can say what FFmpeg saw,

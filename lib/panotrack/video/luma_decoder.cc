@@ -128,6 +128,11 @@ bool WrapLuma(AVFrame* decoded, cv::Mat* grey) {
   return true;
 }
 
+// Thrown inside the decoder where a file decoded on several threads
+// reported damage before a frame or an error is handed out: Read() decodes
+// it again on one thread (RedecodeOnOneThread).
+struct RedecodeRequest {};
+
 // A segment decoded on its own starts at an IDR picture and holds at least
 // this many packets: fewer would make the decoders wait on each other.
 constexpr long kMinSegmentPackets = 16;
@@ -259,6 +264,12 @@ struct LumaDecoder::Impl {
   std::string pending;
   long frames_out = 0, packets_in = 0, listed_frames = -1;
   int checked_format = AV_PIX_FMT_NONE;
+  // Damage its decoders reported (CountDecoderDamage), and whether it makes
+  // Read() decode the file again on one thread: a file, decoded on the CPU
+  // with frame threads.
+  std::atomic<int> damage_reports{0};
+  bool redecodable = false;
+  bool RedecodeWanted() const { return redecodable && damage_reports.load() > 0; }
   AVRational time_base{0, 1};
   double fps = 0.0;
   int64_t first_timestamp = AV_NOPTS_VALUE;
@@ -288,6 +299,7 @@ struct LumaDecoder::Impl {
   struct DecodedFrame {
     cv::Mat luma;  // empty for a frame Read() will refuse
     FrameInfo info;
+    bool after_damage = false;  // a decoder had reported damage when it came out
   };
   struct Segment {
     std::deque<AVPacket*> packets;  // demuxed, not decoded yet
@@ -353,6 +365,7 @@ struct LumaDecoder::Impl {
       av_freep(&stdin_io->buffer);
       avio_context_free(&stdin_io);
     }
+    StopCountingDecoderDamage(this);  // its decoders and their threads are gone
   }
 
   // FFmpeg's pipe protocol blocks in read() regardless of the interrupt
@@ -399,6 +412,7 @@ struct LumaDecoder::Impl {
   std::string NoData() const { return Format("no data for %g s", timeout_us / 1e6); }
 
   [[noreturn]] void Fail(const std::string& why) {
+    if (RedecodeWanted()) throw RedecodeRequest();
     done = true;
     std::string reason = why;
     {
@@ -705,7 +719,7 @@ struct LumaDecoder::Impl {
         if (got == AVERROR(EAGAIN)) break;
         if (got == AVERROR_EOF) return finish("");
         if (got < 0) return finish("corrupt data (" + AvError(got) + ")");
-        DecodedFrame decoded{cv::Mat(), InfoOf(*out)};
+        DecodedFrame decoded{cv::Mat(), InfoOf(*out), damage_reports.load() > 0};
         const bool copied = !decoded.info.damaged && HasLumaPlane(decoded.info.format);
         lock.lock();
         if (copied) decoded.luma = luma_buffers->Take(out->height, out->width);
@@ -800,6 +814,7 @@ struct LumaDecoder::Impl {
         const size_t worker = static_cast<size_t>(first_segment % kGopDecoders);
         if (decoder_wants_room[worker]) decoder_cv[worker].notify_one();
         lock.unlock();
+        if (redecodable && next.after_damage) throw RedecodeRequest();
         Check(next.info, time_s);
         *grey = std::move(next.luma);
         ++frames_out;
@@ -829,7 +844,10 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, const LumaD
   static std::once_flag network_once;
   std::call_once(network_once, [] { avformat_network_init(); });
   impl_ = std::make_unique<Impl>();
+  path_ = path;
+  options_ = options;
   Impl& d = *impl_;
+  CountDecoderDamage(&d, &d.damage_reports);
   d.name = InputName(path);
   d.timeout_us = io_timeout_s > 0.0 ? static_cast<int64_t>(io_timeout_s * 1e6) : 0;
   d.format = avformat_alloc_context();
@@ -875,6 +893,7 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, const LumaD
     *reason = "cannot set up the decoder";
     return false;
   }
+  d.codec->opaque = &d;  // the key its damage is counted by
   if (options.hardware != HardwareDecoding::kNone) {
     std::string why;
     if (!d.SetUpNvdec(decoder, &why) && options.hardware == HardwareDecoding::kCuda) {
@@ -890,7 +909,11 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, const LumaD
   // files (the segments' frames wait in memory: a group of pictures must
   // fit in gop_parallel_bytes, known from an index of every frame), H.264 or
   // HEVC with their parameter sets out of band (length-prefixed NAL units).
-  const int threads = num_threads > 0 ? num_threads : static_cast<int>(std::thread::hardware_concurrency());
+  // FFmpeg's own choice stops at 16 frame threads: more decode no faster,
+  // and each holds frames of its own (a thousand run out of memory).
+  constexpr int kMaxDecoderThreads = 16;
+  const int asked = num_threads > 0 ? num_threads : static_cast<int>(std::thread::hardware_concurrency());
+  const int threads = std::min(kMaxDecoderThreads, asked);
   const AVCodecParameters& par = *st->codecpar;
   const double luma_bytes = static_cast<double>(par.width) * par.height;  // what a waiting frame keeps
   const long longest_gop = LongestGop(st);
@@ -906,6 +929,7 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, const LumaD
       return false;
     }
     d.gop_codecs.push_back(c);  // freed with the others
+    c->opaque = &d;
     if (avcodec_parameters_to_context(c, st->codecpar) < 0) {
       *reason = "cannot set up the decoder";
       return false;
@@ -914,7 +938,7 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, const LumaD
   for (AVCodecContext* c : d.gop_codecs) {
     // NVDEC: one thread (frame threads measured no faster, and each holds
     // some of the video engine's decode surfaces).
-    c->thread_count = d.cuda_device ? 1 : gop ? std::max(1, threads / kGopDecoders) : std::max(0, num_threads);
+    c->thread_count = d.cuda_device ? 1 : gop ? std::max(1, threads / kGopDecoders) : num_threads > 0 ? threads : 0;
     if (avcodec_open2(c, decoder, nullptr) < 0) {
       *reason = "cannot open the decoder";
       return false;
@@ -935,6 +959,11 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, const LumaD
     *reason = "out of memory";
     return false;
   }
+  bool frame_threads = false;
+  for (const AVCodecContext* c : d.gop_codecs)
+    frame_threads = frame_threads || ((c->active_thread_type & FF_THREAD_FRAME) && c->thread_count > 1);
+  d.redecodable = frame_threads && !d.cuda_device && io_timeout_s == 0.0 && path != "-";
+  gop_ = gop;
   if (gop) {
     d.gop = true;
     d.codec_id = par.codec_id;
@@ -949,11 +978,52 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, const LumaD
 }
 
 bool LumaDecoder::Read(cv::Mat* grey, double* time_s) {
+  try {
+    return ReadDecoded(grey, time_s);
+  } catch (const RedecodeRequest&) {
+    RedecodeOnOneThread();
+    return ReadDecoded(grey, time_s);
+  }
+}
+
+// FFmpeg's frame threads decode the same pixels as one thread does, but
+// copy a frame's error flags before its thread has set them, now and then:
+// the frames after the damage would come out as they happen to be flagged.
+// Decoded again on one thread from the start, the frames handed out come
+// again (and are dropped), and the rest, and the error, are one thread's.
+void LumaDecoder::RedecodeOnOneThread() {
+  const long handed_out = impl_->frames_out;
+  LumaDecoderOptions one = options_;
+  one.num_threads = 1;
+  one.gop_parallel_bytes = 0;
+  one.hardware = HardwareDecoding::kNone;  // NVDEC's decoders are never decoded again
+  LumaDecoder serial;
+  std::string why;
+  if (!serial.Open(path_, &why, one))
+    throw Error(impl_->name + ": decode error at frame " + std::to_string(handed_out) +
+                ": damaged, and cannot be opened again to decode it on one thread (" + why + ")");
+  {
+    std::lock_guard<std::mutex> lock(impl_mu_);
+    std::swap(impl_, serial.impl_);
+    impl_->aborted = aborted_;
+  }
+  serial.impl_.reset();  // the threads that decoded until now stop before one thread starts again
+  cv::Mat frame;
+  double time_s;
+  for (long i = 0; i < handed_out; ++i)
+    if (!ReadDecoded(&frame, &time_s)) return;  // aborted (one thread decodes no fewer frames)
+}
+
+bool LumaDecoder::ReadDecoded(cv::Mat* grey, double* time_s) {
   Impl& d = *impl_;
   if (d.gop) return !d.done && d.ReadInOrder(grey, time_s);
   while (!d.done) {
     const int got = avcodec_receive_frame(d.codec, d.frame);
     if (got == 0) {
+      if (d.RedecodeWanted()) {
+        av_frame_unref(d.frame);
+        throw RedecodeRequest();
+      }
       d.Deliver(grey, time_s);
       return true;
     }
@@ -970,6 +1040,8 @@ bool LumaDecoder::Read(cv::Mat* grey, double* time_s) {
 }
 
 void LumaDecoder::Abort() {
+  std::lock_guard<std::mutex> swap_lock(impl_mu_);
+  aborted_ = true;
   if (!impl_) return;
   impl_->aborted = true;
   if (impl_->gop) {
@@ -978,12 +1050,17 @@ void LumaDecoder::Abort() {
   }
 }
 
-bool LumaDecoder::gop_parallel() const { return impl_ && impl_->gop; }
+bool LumaDecoder::gop_parallel() const { return gop_; }
 
-bool LumaDecoder::hardware() const { return impl_ && impl_->cuda_device && !impl_->cuda_declined; }
+// Never decoded again (RedecodeOnOneThread): NVDEC's decoder stays.
+bool LumaDecoder::hardware() const {
+  std::lock_guard<std::mutex> lock(impl_mu_);
+  return impl_ && impl_->cuda_device && !impl_->cuda_declined;
+}
 
 int LumaDecoder::frames_waiting() {
-  if (!gop_parallel()) return 0;
+  std::lock_guard<std::mutex> swap_lock(impl_mu_);
+  if (!impl_ || !impl_->gop) return 0;
   std::lock_guard<std::mutex> lock(impl_->gop_mu);
   return impl_->segments.empty() ? 0 : static_cast<int>(impl_->segments.front().frames.size());
 }

@@ -20,9 +20,18 @@
 //   NVDEC: CUDA copy failed (error <code>)
 // and Open() gives "NVDEC: <why>" when NVDEC, demanded, cannot be set up
 // (no device or driver: FFmpeg's words; "built without CUDA").
+//
+// A damaged file gives the same frames and the same error every time,
+// whatever the threads: those of one decoding thread. FFmpeg's frame
+// threads decode the same pixels, but flag a damaged frame only now and
+// then; so once a decoder reports damage (logging.h: CountDecoderDamage), a
+// file decoded on several threads is decoded again on one from its start,
+// and goes on from the frames handed out. Streams and standard input, which
+// cannot be read twice, keep their threads.
 #pragma once
 
 #include <memory>
+#include <mutex>
 #include <opencv2/core.hpp>
 #include <string>
 
@@ -97,7 +106,17 @@ class LumaDecoder {
 
  private:
   struct Impl;
+  bool ReadDecoded(cv::Mat* grey, double* time_s);
+  void RedecodeOnOneThread();
+
+  // Replaced by RedecodeOnOneThread() on the reading thread while Abort()
+  // or frames_waiting() may come from another: impl_mu_ guards the swap.
   std::unique_ptr<Impl> impl_;
+  mutable std::mutex impl_mu_;
+  bool aborted_ = false;
+  std::string path_;
+  LumaDecoderOptions options_;
+  bool gop_ = false;  // as opened: Read() is called on the consumer's thread
   double fps_ = 0.0;
   long frame_count_ = -1;
   bool container_opened_ = false;
