@@ -36,7 +36,7 @@ MapCase MakeMapCase(const std::string& preset) {
   MapCase m{MakePreset(preset), {}, {}};
   m.truth = m.c.map;
   m.truth.distractors.clear();
-  m.surveyed = PerturbedMap(m.truth, m.c.map_sigma, m.c.map_seed);
+  m.surveyed = PerturbedMap(m.truth, m.c.survey.sigma, m.c.survey.seed);
   return m;
 }
 
@@ -47,8 +47,8 @@ TEST_CASE("the survey error is seeded and of the size asked", "[refine_perturb]"
   CHECK(rms == Approx(1.888).margin(0.001));
   for (size_t k = 0; k < m.truth.rectangles.size(); ++k)
     if (m.truth.rectangles[k].z0 == 0.0) CHECK(m.surveyed.rectangles[k].z0 == 0.0);  // floor contacts
-  CHECK(CornerRms(m.surveyed, PerturbedMap(m.truth, 1.0, m.c.map_seed)) == 0.0);
-  CHECK(CornerRms(m.truth, PerturbedMap(m.truth, 1.0, m.c.map_seed + 1)) > 0.5);
+  CHECK(CornerRms(m.surveyed, PerturbedMap(m.truth, 1.0, m.c.survey.seed)) == 0.0);
+  CHECK(CornerRms(m.truth, PerturbedMap(m.truth, 1.0, m.c.survey.seed + 1)) > 0.5);
   CHECK(CornerRms(m.truth, PerturbedMap(m.truth, 0.0, 3)) == 0.0);
 }
 
