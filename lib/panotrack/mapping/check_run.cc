@@ -188,6 +188,8 @@ MapCheckReport RunMapCheck(const MapCheckJob& job) {
     localizer = std::make_unique<Localizer>(calib, map, table, LocalizerOptions());
     localizer->ResetUnknown();
   }
+  std::unique_ptr<MapBuilder> builder;
+  if (job.options.find_unmapped) builder = std::make_unique<MapBuilder>(calib, map, job.options.unmapped);
   std::vector<FrameCheck> checks;
   cv::Mat grey, best_grey;
   int best = -1;
@@ -211,6 +213,12 @@ MapCheckReport RunMapCheck(const MapCheckJob& job) {
     }
     FrameCheck fc;
     fc.frame = frame;
+    if (builder) {
+      if (pose)
+        builder->AddFrame(grey, *pose);
+      else
+        builder->AddFrameWithoutPose();
+    }
     if (pose) {
       fc = checker.Measure(grey, frame, *pose);
       if (localise)
@@ -230,6 +238,7 @@ MapCheckReport RunMapCheck(const MapCheckJob& job) {
     throw Error(job.poses_path + ": " + std::to_string(rows.size()) + " rows for the " + std::to_string(n) +
                 " frames of " + job.input + " (one row per frame expected)");
   MapCheckReport report = SummarizeMapCheck(map, checker.edges(), checks, job.options);
+  if (builder) AddUnmappedFindings(map, builder->Build(), &report);
   if (report.frames_with_pose == 0)
     throw Error(job.input + ": not localised in any of its " + std::to_string(n) + " frames with " + job.map_path +
                 " (give the poses with --pose or --poses)");
