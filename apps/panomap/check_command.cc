@@ -58,6 +58,11 @@ void AddCheckCommand(CLI::App& app) {
   cmd->add_option("--bias-floor", o->job.options.bias_floor_deg,
                   "Smallest mean bearing residual (degrees) reported as biased")
       ->capture_default_str();
+  cmd->add_option("--bias-survey-sigmas", o->job.options.bias_survey_sigmas,
+                  "When the map states a survey_sigma: a corner is reported biased only when off by more than "
+                  "this many survey sigmas across the line of sight")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   cmd->add_flag("--no-unmapped", [o](int64_t) { o->job.options.find_unmapped = false; },
                 "Do not look for rectangles that the map lacks (most of the check's time on a long video)");
   cmd->add_flag("--force", o->job.overwrite, "Replace existing output files");

@@ -284,6 +284,15 @@ TEST_CASE("map check: panosim's gross survey errors are each flagged", "[check_g
     three_flagged(RunMapCheck(job));
   }
   SECTION("self-localised") { three_flagged(RunMapCheck(job)); }
+  SECTION("the same faults in a map measured to 0.5 cm, whose corners are all a little off") {
+    // The frames do not depend on the survey sigma: the same room.
+    SurveyError measured = sc.survey;
+    measured.sigma = 0.5;
+    job.map_path = dir + "/measured.yaml";
+    WriteMap(job.map_path, SurveyMap(sc.map, measured).map);
+    job.poses_path = dir + "/gt.csv";
+    three_flagged(RunMapCheck(job));
+  }
   SECTION("without the search for rectangles the map lacks, the missing one goes unseen") {
     job.poses_path = dir + "/gt.csv";
     job.options.find_unmapped = false;

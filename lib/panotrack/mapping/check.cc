@@ -25,8 +25,9 @@ void MapCheckOptions::Check() const {
   if (!(min_found_fraction >= 0 && min_found_fraction <= 1) ||
       !(min_polarity_agreement >= 0 && min_polarity_agreement <= 1))
     throw Error("map check: min_found_fraction and min_polarity_agreement: expected 0..1");
-  if (!(bias_sigmas > 0) || !(bias_floor_deg >= 0) || !(hold_out_outlier > 0))
-    throw Error("map check: bias_sigmas, hold_out_outlier (> 0) and bias_floor_deg (>= 0) expected");
+  if (!(bias_sigmas > 0) || !(bias_floor_deg >= 0) || !(hold_out_outlier > 0) || !(bias_survey_sigmas >= 0))
+    throw Error("map check: bias_sigmas, hold_out_outlier (> 0), bias_floor_deg and bias_survey_sigmas (>= 0) "
+                "expected");
   unmapped.Check();
 }
 
@@ -390,6 +391,22 @@ std::vector<double> Trimmed(const std::vector<double>& v, double floor) {
 
 }  // namespace
 
+namespace {
+
+// The survey sigma of the edge's object (NaN when the map does not state one).
+double ObjectSurveySigma(const Map& map, const EdgeCheck& e) {
+  if (e.box) {
+    for (size_t k = 0; k < map.boxes.size(); ++k)
+      if (map.boxes[k].id == e.object) return map.BoxSurveySigma(k);
+  } else {
+    for (size_t k = 0; k < map.rectangles.size(); ++k)
+      if (map.rectangles[k].id == e.object) return map.RectangleSurveySigma(k);
+  }
+  return std::nan("");
+}
+
+}  // namespace
+
 MapCheckReport SummarizeMapCheck(const Map& map, std::vector<EdgeCheck> edges,
                                  const std::vector<FrameCheck>& frames, const MapCheckOptions& options) {
   MapCheckReport rep;
@@ -453,7 +470,11 @@ MapCheckReport SummarizeMapCheck(const Map& map, std::vector<EdgeCheck> edges,
     if (e.residual_frames >= options.min_found_frames_for_bias) {
       const double m = std::abs(e.mean_residual_deg);
       const double se = e.std_residual_deg / std::sqrt(double(e.residual_frames));
-      if (m > options.bias_sigmas * se && m > options.bias_floor_deg) e.findings.push_back(MapFinding::kBiased);
+      const double off = m / kDeg * e.mean_distance;  // across the line of sight, map units
+      const double sigma = ObjectSurveySigma(map, e);
+      const bool beyond_survey = !(sigma > 0.0) || off > options.bias_survey_sigmas * sigma;
+      if (m > options.bias_sigmas * se && m > options.bias_floor_deg && beyond_survey)
+        e.findings.push_back(MapFinding::kBiased);
     }
   }
   // One finding of each kind per object, in map order.

@@ -59,9 +59,15 @@ struct MapCheckOptions {
   int min_visible_frames = 3;
   double min_found_fraction = 0.5;     // below: "never found"
   double min_polarity_agreement = 0.5; // below (of the frames found): "wrong polarity"
-  // Biased: |mean residual| > bias_sigmas * std / sqrt(n) and > bias_floor_deg.
+  // Biased: |mean residual| > bias_sigmas * std / sqrt(n) and > bias_floor_deg
+  // (and beyond bias_survey_sigmas of the survey, below).
   double bias_sigmas = 4.0;
   double bias_floor_deg = 0.1;
+  // ... and, when the map states how well the object was surveyed (its
+  // survey_sigma, else the map's), further across the line of sight than
+  // this many survey sigmas: a measured map's corners are all a little off,
+  // and only the ones off by more than the survey's error are mis-measured.
+  double bias_survey_sigmas = 4.0;
   int min_found_frames_for_bias = 3;
   // Self-localised poses: bearings further than this from a held-out solve
   // are left out of it (radians).
