@@ -4,7 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <opencv2/imgcodecs.hpp>
 
 #include "expect_error.h"
@@ -18,8 +19,6 @@
 
 namespace pano {
 namespace {
-
-namespace fs = std::filesystem;
 
 const MapRectangle* Find(const Map& m, const std::string& id) {
   for (const MapRectangle& r : m.rectangles)
@@ -53,6 +52,13 @@ Map ManyRectangles() {
     m.boxes.push_back(b);
   }
   return m;
+}
+
+std::string ReadText(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
 }
 
 double Std(const std::vector<double>& v) {
@@ -227,8 +233,13 @@ TEST_CASE("sequence writer: surveyed map, true map, faults, and the room rendere
   CHECK_FALSE(Find(true_map, s.faults[1].id));
   CHECK(Find(true_map, s.faults[2].id));
   CHECK(std::isnan(true_map.survey_sigma));
-  CHECK(fs::exists(dir + "/map_faults.yaml"));
-  CHECK(MapFaultsYaml(s.faults, "cm").find("kind: not-in-room") != std::string::npos);
+  const std::string faults = ReadText(dir + "/map_faults.yaml");
+  CHECK(faults == MapFaultsYaml(s.faults, "cm"));
+  CHECK(faults.find("kind: not-in-room") != std::string::npos);
+  const std::string case_yaml = ReadText(dir + "/case.yaml");
+  for (const char* line : {"map_sigma: 0.5", "map_gross: 3", "map_faults: map_faults.yaml", "map_seed: 2"})
+    CHECK(case_yaml.find(line) != std::string::npos);
+  CHECK(case_yaml.find("map_offset_sigma") == std::string::npos);
   // The frames show the room: without the rectangle that is not in it.
   const Scene room = Scene::FromMap(s.room, true), full = Scene::FromMap(c.map, true);
   const cv::Mat frame = cv::imread(dir + "/frames/frame_0001.png", cv::IMREAD_UNCHANGED);
