@@ -346,6 +346,7 @@ void AddSurveyOptions(CLI::App* seq, SequenceArgs* a) {
   seq->add_option("--map-gross-offset", a->survey.gross_offset,
                   "How far --map-gross moves a rectangle (map units). Default: 8 cm in the map's units")
       ->check(CLI::PositiveNumber)
+      ->default_str("8 cm")
       ->group(group);
   a->o_map_seed =
       seq->add_option("--map-seed", a->survey.seed, "Seed of the survey errors")->default_val(1)->group(group);
@@ -357,7 +358,8 @@ CLI::App* AddSequence(CLI::App* app, SequenceArgs* a) {
       "Render a test sequence with its ground truth into a folder. Writes DIR/video.mp4 (H.264), "
       "DIR/gt.csv (ground truth, spec section 5), DIR/gt.tum (the same for evo: metres, the video's "
       "clock), DIR/map.yaml (no distractors), DIR/calib.yaml, DIR/case.yaml, and DIR/frames/ with "
-      "--frames.");
+      "--frames; with survey error (--map-*) also DIR/map_true.yaml (the room rendered) and, with --map-gross, "
+      "DIR/map_faults.yaml.");
   seq->add_option("--preset", a->preset,
                   "Built-in case (panosim presets lists them): paper-synthetic, paper-real, cluttered, kidnap, "
                   "fast-turns, motion-blur, real-conditions, long-run, long-run-blur, paper-real-map-error, "
