@@ -76,6 +76,9 @@ struct MapCheckOptions {
   // for with these options of panomap build, unless off.
   bool find_unmapped = true;
   MapBuildOptions unmapped;
+  // ... from the frames whose median bearing residual of the map's edges is
+  // within this (radians): a pose that does not fit the map misplaces them.
+  double unmapped_pose_residual = 0.3 * M_PI / 180;
   void Check() const;
 };
 

@@ -70,6 +70,19 @@ class Frames {
   bool done_ = false;
 };
 
+// Whether the map's edges fit the frame's pose: the median bearing residual
+// of the edges found within `limit` (radians). A pose off by centimetres
+// (the localiser on a faulty map) would place the edges the map lacks wrong,
+// so such frames are left out of the search for them.
+bool PoseFitsTheMap(const FrameCheck& fc, double limit) {
+  std::vector<double> r;
+  for (const EdgeFrameMeasurement& m : fc.edges)
+    if (m.found && m.has_residual) r.push_back(std::abs(m.bearing_residual));
+  if (r.size() < 3) return false;
+  std::nth_element(r.begin(), r.begin() + static_cast<long>(r.size() / 2), r.end());
+  return r[r.size() / 2] <= limit;
+}
+
 std::shared_ptr<const RadiusTable> TableFor(const Calibration& calib, const Map& map) {
   const LutRanges need = RangesForMap(map, calib.sensor);
   if (!calib.lut_resolved.empty()) {
@@ -213,18 +226,18 @@ MapCheckReport RunMapCheck(const MapCheckJob& job) {
     }
     FrameCheck fc;
     fc.frame = frame;
-    if (builder) {
-      if (pose)
-        builder->AddFrame(grey, *pose);
-      else
-        builder->AddFrameWithoutPose();
-    }
     if (pose) {
       fc = checker.Measure(grey, frame, *pose);
       if (localise)
         checker.SetHeldOutResiduals(&fc);
       else
         checker.SetResiduals(&fc);
+    }
+    if (builder) {
+      if (pose && PoseFitsTheMap(fc, job.options.unmapped_pose_residual))
+        builder->AddFrame(grey, *pose);
+      else
+        builder->AddFrameWithoutPose();
     }
     if (!job.overlay.empty() && IsImageOutput(job.overlay) &&
         (best < 0 || fc.edges.size() > checks[best].edges.size())) {
