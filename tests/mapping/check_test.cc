@@ -244,6 +244,28 @@ TEST_CASE("map check: rectangles found in the images are mapped ones, moved ones
   CHECK(measured.findings[0].message.find("(140.0, 100.0)") != std::string::npos);
 }
 
+TEST_CASE("map check: only frames whose pose fits the map look for what it lacks", "[check_unmapped]") {
+  const double deg = M_PI / 180;
+  FrameCheck fc;
+  auto add = [&](bool found, bool has_residual, double residual_deg) {
+    EdgeFrameMeasurement m;
+    m.found = found;
+    m.has_residual = has_residual;
+    m.bearing_residual = residual_deg * deg;
+    fc.edges.push_back(m);
+  };
+  add(true, true, 0.05);
+  add(true, true, -0.1);
+  CHECK_FALSE(PoseFitsTheMap(fc, 0.3 * deg));  // two edges: too few to judge
+  add(true, true, 2.0);                         // one edge off (a moved rectangle) ...
+  add(false, false, 0.0);
+  CHECK(PoseFitsTheMap(fc, 0.3 * deg));         // ... the median fits
+  add(true, true, -0.5);
+  add(true, true, 0.6);
+  CHECK_FALSE(PoseFitsTheMap(fc, 0.3 * deg));   // most edges off: the pose is
+  CHECK(PoseFitsTheMap(fc, 0.6 * deg));
+}
+
 TEST_CASE("map check: panosim's gross survey errors are each flagged", "[check_gross]") {
   // paper-real's first 30 frames; seed 3 slides n3 8 cm along its wall,
   // leaves e1 out of the room and e2 out of the map.

@@ -191,6 +191,12 @@ class FrameChecker {
 MapCheckReport SummarizeMapCheck(const Map& map, std::vector<EdgeCheck> edges,
                                  const std::vector<FrameCheck>& frames, const MapCheckOptions& options);
 
+// Whether the map's edges fit the frame's pose: at least 3 found with a
+// residual, their median |bearing residual| within `limit` (radians). A
+// pose centimetres off (the localiser on a faulty map) would place the edges
+// the map lacks wrong: such frames are left out of the search for them.
+bool PoseFitsTheMap(const FrameCheck& fc, double limit);
+
 // The rectangles that `built` (a MapBuilder seeded with `map`, fed the
 // checked frames) found. One that stands where a mapped rectangle does
 // (both ends within the tolerance: a rectangle seen from where the map does

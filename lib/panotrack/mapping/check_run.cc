@@ -70,19 +70,6 @@ class Frames {
   bool done_ = false;
 };
 
-// Whether the map's edges fit the frame's pose: the median bearing residual
-// of the edges found within `limit` (radians). A pose off by centimetres
-// (the localiser on a faulty map) would place the edges the map lacks wrong,
-// so such frames are left out of the search for them.
-bool PoseFitsTheMap(const FrameCheck& fc, double limit) {
-  std::vector<double> r;
-  for (const EdgeFrameMeasurement& m : fc.edges)
-    if (m.found && m.has_residual) r.push_back(std::abs(m.bearing_residual));
-  if (r.size() < 3) return false;
-  std::nth_element(r.begin(), r.begin() + static_cast<long>(r.size() / 2), r.end());
-  return r[r.size() / 2] <= limit;
-}
-
 std::shared_ptr<const RadiusTable> TableFor(const Calibration& calib, const Map& map) {
   const LutRanges need = RangesForMap(map, calib.sensor);
   if (!calib.lut_resolved.empty()) {
@@ -165,6 +152,15 @@ void WriteMapCheckCsv(const std::string& path, const MapCheckReport& report) {
     text += line;
   }
   WriteFileAtomic(path, text);
+}
+
+bool PoseFitsTheMap(const FrameCheck& fc, double limit) {
+  std::vector<double> r;
+  for (const EdgeFrameMeasurement& m : fc.edges)
+    if (m.found && m.has_residual) r.push_back(std::abs(m.bearing_residual));
+  if (r.size() < 3) return false;
+  std::nth_element(r.begin(), r.begin() + static_cast<long>(r.size() / 2), r.end());
+  return r[r.size() / 2] <= limit;
 }
 
 void MapCheckJob::Check() const {
