@@ -34,7 +34,9 @@ void AddCheckCommand(CLI::App& app) {
       "(--pose, --poses, or else localised with the map) and looked for near their predicted edges. Prints, per "
       "vertical edge of the map, how often it was in view and found, whether its step has the polarity the map's "
       "shades imply, and its bearing residual (measured minus predicted, degrees); then the findings: never "
-      "found (not in the room, or moved), wrong polarity (shade inverted), biased (corner mis-measured). Without "
+      "found (not in the room, or moved), wrong polarity (shade inverted), biased (corner mis-measured), not in "
+      "the map (a rectangle the images show that the map lacks, found as panomap build finds new ones; near a "
+      "mapped rectangle with a finding it says where that one stands instead). Without "
       "poses, each object's residuals are measured from the pose solved from the other objects' bearings, so a "
       "mis-measured corner cannot pull the pose. Findings are results: the exit status is 0 once the map was "
       "checked.");
@@ -56,6 +58,13 @@ void AddCheckCommand(CLI::App& app) {
   cmd->add_option("--bias-floor", o->job.options.bias_floor_deg,
                   "Smallest mean bearing residual (degrees) reported as biased")
       ->capture_default_str();
+  cmd->add_option("--bias-survey-sigmas", o->job.options.bias_survey_sigmas,
+                  "When the map states a survey_sigma: a corner is reported biased only when off by more than "
+                  "this many survey sigmas across the line of sight")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  cmd->add_flag("--no-unmapped", [o](int64_t) { o->job.options.find_unmapped = false; },
+                "Do not look for rectangles that the map lacks (most of the check's time on a long video)");
   cmd->add_flag("--force", o->job.overwrite, "Replace existing output files");
   cmd->add_flag("-q,--quiet", o->quiet, "Print only the findings");
   cmd->add_flag("-v,--verbose", "Print the libraries' logs");

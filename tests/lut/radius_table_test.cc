@@ -239,6 +239,10 @@ TEST_CASE("ranges for a map cover the room seen from anywhere in it", "[ranges]"
   CHECK(r.z_min <= -30.0);
   CHECK(r.z_max >= 90.0);
   CHECK(r.d_min > 0.0);
+  // A corner a hair below the floor (a measured or refined map): still covered.
+  m.rectangles.push_back({"low", {200, 50}, {200, 90}, -0.5, 100, 0.1});
+  CHECK(RangesForMap(m, s).z_min <= -30.5);
+  CHECK(RangesForMap(m, s).z_max == r.z_max);
   LutRanges bad{10.0, 5.0, 0.0, 1.0};
   CHECK_THROWS_AS(bad.Check("x"), Error);
   LutSize tiny;

@@ -15,6 +15,7 @@
 #include "panotrack/io/map.h"
 #include "panotrack/mapping/check.h"
 #include "panotrack/render/presets.h"
+#include "panotrack/render/sequence.h"
 #include "panotrack/render/writers.h"
 #include "test_paths.h"
 
@@ -184,6 +185,141 @@ TEST_CASE("map check: the true map has no findings", "[check_flags]") {
   const MapCheckReport r = RunMapCheck(job);
   INFO(FormatMapCheckTable(r));
   CHECK(r.findings.empty());
+}
+
+// A rectangle that panomap build found, from `from` to `to`.
+BuiltRectangle Built(Eigen::Vector2d from, Eigen::Vector2d to) {
+  BuiltRectangle b;
+  b.rectangle.from = from;
+  b.rectangle.to = to;
+  b.rectangle.z0 = 0.0;
+  b.rectangle.z1 = 60.0;
+  b.edge_from = 0;
+  b.edge_to = 1;
+  return b;
+}
+
+TEST_CASE("map check: rectangles found in the images are mapped ones, moved ones or not in the map",
+          "[check_unmapped]") {
+  Map map = MakePreset("paper-real").map;  // 220 cm: the tolerance is 2.2 cm
+  map.distractors.clear();
+  MapBuildResult built;
+  built.edges.resize(2);
+  built.edges[0].views = 40;
+  built.edges[1].views = 50;
+  MapCheckReport report;
+  ObjectFinding biased;
+  biased.object = "e2";
+  biased.kind = MapFinding::kBiased;
+  biased.message = "e2: corner mis-measured";
+  report.findings.push_back(biased);
+  const MapRectangle* e2 = Find(&map, "e2");
+  const MapRectangle* s1 = Find(&map, "s1");
+  REQUIRE(e2);
+  REQUIRE(s1);
+  const Eigen::Vector2d shift(0.0, 6.0);
+  // s1 seen from where the map does not predict it, reversed: s1 itself.
+  built.rectangles.push_back(Built(s1->to + Eigen::Vector2d(1.0, 0.5), s1->from));
+  // e2 where it stands, 6 cm from the map's: e2's finding says so.
+  built.rectangles.push_back(Built(e2->from + shift, e2->to + shift));
+  // s1 shifted as well, but s1 has no finding: a rectangle not in the map.
+  built.rectangles.push_back(Built(s1->from + shift, s1->to + shift));
+  // Nothing mapped near it (the middle of the room).
+  built.rectangles.push_back(Built({140.0, 100.0}, {160.0, 100.0}));
+  AddUnmappedFindings(map, built, &report);
+  INFO(FormatMapCheckTable(report));
+  REQUIRE(report.findings.size() == 3);
+  CHECK(report.findings[0].message.find("stands 6.0 cm from it") != std::string::npos);
+  CHECK(report.findings[1].object == "unmapped-1");
+  CHECK(report.findings[1].kind == MapFinding::kNotInMap);
+  CHECK(report.findings[2].object == "unmapped-2");
+  CHECK(report.findings[2].message.find("(140.0, 100.0) to (160.0, 100.0), z 0 to 60 cm, seen in 50 frames") !=
+        std::string::npos);
+  // A map measured to 2.5 cm: 3 sigmas of tolerance take the shifted
+  // rectangles for the mapped ones.
+  map.survey_sigma = 2.5;
+  MapCheckReport measured;
+  AddUnmappedFindings(map, built, &measured);
+  REQUIRE(measured.findings.size() == 1);
+  CHECK(measured.findings[0].message.find("(140.0, 100.0)") != std::string::npos);
+}
+
+TEST_CASE("map check: only frames whose pose fits the map look for what it lacks", "[check_unmapped]") {
+  const double deg = M_PI / 180;
+  FrameCheck fc;
+  auto add = [&](bool found, bool has_residual, double residual_deg) {
+    EdgeFrameMeasurement m;
+    m.found = found;
+    m.has_residual = has_residual;
+    m.bearing_residual = residual_deg * deg;
+    fc.edges.push_back(m);
+  };
+  add(true, true, 0.05);
+  add(true, true, -0.1);
+  CHECK_FALSE(PoseFitsTheMap(fc, 0.3 * deg));  // two edges: too few to judge
+  add(true, true, 2.0);                         // one edge off (a moved rectangle) ...
+  add(false, false, 0.0);
+  CHECK(PoseFitsTheMap(fc, 0.3 * deg));         // ... the median fits
+  add(true, true, -0.5);
+  add(true, true, 0.6);
+  CHECK_FALSE(PoseFitsTheMap(fc, 0.3 * deg));   // most edges off: the pose is
+  CHECK(PoseFitsTheMap(fc, 0.6 * deg));
+}
+
+TEST_CASE("map check: panosim's gross survey errors are each flagged", "[check_gross]") {
+  // paper-real's first 30 frames; seed 3 slides n3 8 cm along its wall,
+  // leaves e1 out of the room and e2 out of the map.
+  SequenceCase sc = MakePreset("paper-real");
+  sc.poses.resize(kFrames);
+  sc.survey.gross = 3;
+  sc.survey.seed = 3;
+  const SurveyedMap survey = SurveyMap(sc.map, sc.survey);
+  REQUIRE(survey.faults.size() == 3);
+  CHECK(survey.faults[0].id == "n3");
+  CHECK(survey.faults[1].id == "e1");
+  CHECK(survey.faults[2].id == "e2");
+  const std::string dir = test::ScratchDir("mapping_gross") + "/seq";
+  SequenceWriteOptions w;
+  w.frames = true;
+  w.video = false;
+  w.quiet = true;
+  WriteSequence(sc, dir, w);
+  MapCheckJob job;
+  job.map_path = dir + "/map.yaml";
+  job.calib_path = dir + "/calib.yaml";
+  job.input = dir + "/frames";
+  const auto three_flagged = [](const MapCheckReport& r) {
+    INFO(FormatMapCheckTable(r));
+    REQUIRE(r.findings.size() == 3);
+    CHECK(Flagged(r) == std::set<std::string>{"n3", "e1", "unmapped-1"});
+    // Off by about 8 cm across its line of sight (its true place is seen
+    // over too little parallax on 30 frames to be placed; on all 300 frames
+    // of paper-real-map-error the finding adds where it stands).
+    CHECK(FindingOf(r, "n3")->kind == MapFinding::kBiased);
+    CHECK(FindingOf(r, "e1")->kind == MapFinding::kNeverFound);
+    const ObjectFinding* unmapped = FindingOf(r, "unmapped-1");
+    CHECK(unmapped->kind == MapFinding::kNotInMap);
+    CHECK(unmapped->message.find("(219.5, 90.0) to (219.5, 125.0)") != std::string::npos);
+  };
+  SECTION("ground-truth poses") {
+    job.poses_path = dir + "/gt.csv";
+    three_flagged(RunMapCheck(job));
+  }
+  SECTION("self-localised") { three_flagged(RunMapCheck(job)); }
+  SECTION("the same faults in a map measured to 0.5 cm, whose corners are all a little off") {
+    // The frames do not depend on the survey sigma: the same room.
+    SurveyError measured = sc.survey;
+    measured.sigma = 0.5;
+    job.map_path = dir + "/measured.yaml";
+    WriteMap(job.map_path, SurveyMap(sc.map, measured).map);
+    job.poses_path = dir + "/gt.csv";
+    three_flagged(RunMapCheck(job));
+  }
+  SECTION("without the search for rectangles the map lacks, the missing one goes unseen") {
+    job.poses_path = dir + "/gt.csv";
+    job.options.find_unmapped = false;
+    CHECK(Flagged(RunMapCheck(job)) == std::set<std::string>{"n3", "e1"});
+  }
 }
 
 TEST_CASE("map check: one vertical edge per rectangle end and box corner", "[check_edges]") {

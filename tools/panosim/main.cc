@@ -316,13 +316,42 @@ struct SequenceArgs {
   double fps = 10.0;
   bool frames = false, no_video = false;
   CLI::Option* o_fps = nullptr;
-  double map_sigma = 0.0;
-  uint64_t map_seed = 1;
+  pano::SurveyError survey;
   CLI::Option *o_map_sigma = nullptr, *o_map_seed = nullptr;
   RenderFlags flags;
   RigFlags rig;
   CommonFlags common;
 };
+
+// The survey error of map.yaml (render/sequence.h SurveyMap).
+void AddSurveyOptions(CLI::App* seq, SequenceArgs* a) {
+  const char* group = "Survey error";
+  a->o_map_sigma = seq->add_option("--map-sigma", a->survey.sigma,
+                                   "Survey error of map.yaml: every rectangle's end points (x, y) and heights, "
+                                   "and every box coordinate, moved by Gaussian errors of this sigma (map "
+                                   "units); map.yaml then states survey_sigma and the true map is written as "
+                                   "map_true.yaml. Default: the preset's (0 for most)")
+                       ->check(CLI::NonNegativeNumber)
+                       ->group(group);
+  seq->add_option("--map-offset-sigma", a->survey.offset_sigma,
+                  "Each rectangle and box of map.yaml moved as a whole by Gaussian errors of this sigma in x and "
+                  "y (map units): placed from one reference measurement that was off")
+      ->check(CLI::NonNegativeNumber)
+      ->group(group);
+  seq->add_option("--map-gross", a->survey.gross,
+                  "Gross errors: this many rectangles (picked by --map-seed) get a fault in turn: moved by "
+                  "--map-gross-offset along its bottom edge, in the map but not rendered, rendered but left out of the map; listed "
+                  "in DIR/map_faults.yaml")
+      ->check(CLI::NonNegativeNumber)
+      ->group(group);
+  seq->add_option("--map-gross-offset", a->survey.gross_offset,
+                  "How far --map-gross moves a rectangle (map units). Default: 8 cm in the map's units")
+      ->check(CLI::PositiveNumber)
+      ->default_str("8 cm")
+      ->group(group);
+  a->o_map_seed =
+      seq->add_option("--map-seed", a->survey.seed, "Seed of the survey errors")->default_val(1)->group(group);
+}
 
 CLI::App* AddSequence(CLI::App* app, SequenceArgs* a) {
   CLI::App* seq = app->add_subcommand(
@@ -330,7 +359,8 @@ CLI::App* AddSequence(CLI::App* app, SequenceArgs* a) {
       "Render a test sequence with its ground truth into a folder. Writes DIR/video.mp4 (H.264), "
       "DIR/gt.csv (ground truth, spec section 5), DIR/gt.tum (the same for evo: metres, the video's "
       "clock), DIR/map.yaml (no distractors), DIR/calib.yaml, DIR/case.yaml, and DIR/frames/ with "
-      "--frames.");
+      "--frames; with survey error (--map-*) also DIR/map_true.yaml (the room rendered) and, with --map-gross, "
+      "DIR/map_faults.yaml.");
   seq->add_option("--preset", a->preset,
                   "Built-in case (panosim presets lists them): paper-synthetic, paper-real, cluttered, kidnap, "
                   "fast-turns, motion-blur, real-conditions, long-run, long-run-blur, paper-real-map-error, "
@@ -346,12 +376,7 @@ CLI::App* AddSequence(CLI::App* app, SequenceArgs* a) {
       ->group("Output");
   seq->add_flag("--frames", a->frames, "Also write lossless DIR/frames/frame_%04d.png")->group("Output");
   seq->add_flag("--no-video", a->no_video, "Do not write video.mp4 (needs --frames)")->group("Output");
-  a->o_map_sigma = seq->add_option("--map-sigma", a->map_sigma,
-                                   "Survey error of map.yaml: every rectangle's end points (x, y) and heights "
-                                   "moved by Gaussian errors of this sigma (map units); the true map is then "
-                                   "written as map_true.yaml. Default: the preset's (0 for most)")
-                       ->check(CLI::NonNegativeNumber);
-  a->o_map_seed = seq->add_option("--map-seed", a->map_seed, "Seed of the --map-sigma errors")->default_val(1);
+  AddSurveyOptions(seq, a);
   GroupInputs(seq);
   a->common.Add(seq, "Replace an existing output folder");
   a->flags.Add(seq, true, true);
@@ -379,8 +404,11 @@ void RunSequence(const SequenceArgs& a) {
       {{"--map", a.map_path}, {"--calib", a.calib_path}, {"--trajectory", a.traj_path}}, "-o", a.out);
   pano::SequenceCase c = SequenceCaseOf(a);
   a.rig.Apply(&c.calib.sensor);
-  if (a.o_map_sigma->count()) c.map_sigma = a.map_sigma;
-  if (a.o_map_seed->count()) c.map_seed = a.map_seed;
+  // A preset's survey error stays unless an option replaces it.
+  const pano::SurveyError preset = c.survey;
+  c.survey = a.survey;
+  if (!a.o_map_sigma->count()) c.survey.sigma = preset.sigma;
+  if (!a.o_map_seed->count()) c.survey.seed = preset.seed;
   a.flags.Apply(&c.options, true);
   c.options.Check("options");
   pano::SequenceWriteOptions wo;

@@ -92,6 +92,22 @@ void LutSize::Check(const std::string& what) const {
     throw Error(what + ": table size: more than 1e8 nodes");
 }
 
+namespace {
+
+// The lowest point of the map: the floor, or a corner below it. A measured
+// or refined map may put a corner standing on the floor a hair below it
+// (survey error, a refinement that frees the floor contacts); the table
+// must still reach it.
+double MapBottom(const Map& map) {
+  double z = 0.0;
+  for (const auto* rects : {&map.rectangles, &map.distractors})
+    for (const MapRectangle& r : *rects) z = std::min(z, r.z0);
+  for (const MapBox& b : map.boxes) z = std::min(z, b.min.z());
+  return z;
+}
+
+}  // namespace
+
 LutRanges RangesForMap(const Map& map, const Sensor& sensor) {
   // Farthest distance: the diagonal of the room (or of the landmarks' extent).
   Eigen::Vector2d lo, hi;
@@ -102,7 +118,7 @@ LutRanges RangesForMap(const Map& map, const Sensor& sensor) {
   const double diag = (hi - lo).norm();
   r.d_min = std::max(2.0 * sensor.mirror_distance(), 1e-3 * diag);
   r.d_max = 1.5 * diag + r.d_min;
-  r.z_min = -map.sensor_height - 1e-6;
+  r.z_min = MapBottom(map) - map.sensor_height - 1e-6;
   r.z_max = z_top - map.sensor_height + 1e-6;
   return r;
 }

@@ -26,7 +26,9 @@ struct LutRanges {
   void Check(const std::string& what) const;
 };
 
-// Ranges that cover every point of the map seen from anywhere in its room.
+// Ranges that cover every point of the map seen from anywhere in its room,
+// from the floor (or the lowest corner, when one lies below it) to the
+// ceiling (or the highest corner).
 LutRanges RangesForMap(const Map& map, const Sensor& sensor);
 // Ranges for a sensor alone (used by panocalib when no map is given):
 // distances from 2 to 400 mirror distances, heights within +-D_max/2.

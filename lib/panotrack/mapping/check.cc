@@ -25,8 +25,10 @@ void MapCheckOptions::Check() const {
   if (!(min_found_fraction >= 0 && min_found_fraction <= 1) ||
       !(min_polarity_agreement >= 0 && min_polarity_agreement <= 1))
     throw Error("map check: min_found_fraction and min_polarity_agreement: expected 0..1");
-  if (!(bias_sigmas > 0) || !(bias_floor_deg >= 0) || !(hold_out_outlier > 0))
-    throw Error("map check: bias_sigmas, hold_out_outlier (> 0) and bias_floor_deg (>= 0) expected");
+  if (!(bias_sigmas > 0) || !(bias_floor_deg >= 0) || !(hold_out_outlier > 0) || !(bias_survey_sigmas >= 0))
+    throw Error("map check: bias_sigmas, hold_out_outlier (> 0), bias_floor_deg and bias_survey_sigmas (>= 0) "
+                "expected");
+  unmapped.Check();
 }
 
 const char* map_finding_name(MapFinding f) {
@@ -34,6 +36,7 @@ const char* map_finding_name(MapFinding f) {
     case MapFinding::kNeverFound: return "never found";
     case MapFinding::kWrongPolarity: return "wrong polarity";
     case MapFinding::kBiased: return "biased";
+    case MapFinding::kNotInMap: return "not in map";
   }
   return "?";
 }
@@ -388,6 +391,22 @@ std::vector<double> Trimmed(const std::vector<double>& v, double floor) {
 
 }  // namespace
 
+namespace {
+
+// The survey sigma of the edge's object (NaN when the map does not state one).
+double ObjectSurveySigma(const Map& map, const EdgeCheck& e) {
+  if (e.box) {
+    for (size_t k = 0; k < map.boxes.size(); ++k)
+      if (map.boxes[k].id == e.object) return map.BoxSurveySigma(k);
+  } else {
+    for (size_t k = 0; k < map.rectangles.size(); ++k)
+      if (map.rectangles[k].id == e.object) return map.RectangleSurveySigma(k);
+  }
+  return std::nan("");
+}
+
+}  // namespace
+
 MapCheckReport SummarizeMapCheck(const Map& map, std::vector<EdgeCheck> edges,
                                  const std::vector<FrameCheck>& frames, const MapCheckOptions& options) {
   MapCheckReport rep;
@@ -451,7 +470,11 @@ MapCheckReport SummarizeMapCheck(const Map& map, std::vector<EdgeCheck> edges,
     if (e.residual_frames >= options.min_found_frames_for_bias) {
       const double m = std::abs(e.mean_residual_deg);
       const double se = e.std_residual_deg / std::sqrt(double(e.residual_frames));
-      if (m > options.bias_sigmas * se && m > options.bias_floor_deg) e.findings.push_back(MapFinding::kBiased);
+      const double off = m / kDeg * e.mean_distance;  // across the line of sight, map units
+      const double sigma = ObjectSurveySigma(map, e);
+      const bool beyond_survey = !(sigma > 0.0) || off > options.bias_survey_sigmas * sigma;
+      if (m > options.bias_sigmas * se && m > options.bias_floor_deg && beyond_survey)
+        e.findings.push_back(MapFinding::kBiased);
     }
   }
   // One finding of each kind per object, in map order.
@@ -502,6 +525,81 @@ MapCheckReport SummarizeMapCheck(const Map& map, std::vector<EdgeCheck> edges,
   }
   rep.edges = std::move(edges);
   return rep;
+}
+
+namespace {
+
+// How a rectangle found in the images relates to a mapped one.
+enum class Match { kNone, kSame, kShifted };
+
+// `found` against `mapped`, either way round: the same when both ends are
+// within `tol`; shifted when both ends moved by one vector (within `tol`)
+// no longer than `max_shift`, which is returned in `shift`.
+Match MatchRectangle(const MapRectangle& found, const MapRectangle& mapped, double tol, double max_shift,
+                     Eigen::Vector2d* shift) {
+  Match best = Match::kNone;
+  for (bool swap : {false, true}) {
+    const Eigen::Vector2d& a = swap ? mapped.to : mapped.from;
+    const Eigen::Vector2d& b = swap ? mapped.from : mapped.to;
+    const Eigen::Vector2d da = found.from - a, db = found.to - b;
+    if (da.norm() < tol && db.norm() < tol) return Match::kSame;
+    const Eigen::Vector2d mean = 0.5 * (da + db);
+    if ((da - db).norm() < tol && mean.norm() <= max_shift && best == Match::kNone) {
+      best = Match::kShifted;
+      *shift = mean;
+    }
+  }
+  return best;
+}
+
+std::string PointText(const Eigen::Vector2d& p) { return "(" + Fixed(p.x(), 1) + ", " + Fixed(p.y(), 1) + ")"; }
+
+int FrameViews(const MapBuildResult& built, const BuiltRectangle& r) {
+  const size_t from = static_cast<size_t>(r.edge_from), to = static_cast<size_t>(r.edge_to);
+  return std::max(built.edges[from].views, built.edges[to].views);
+}
+
+}  // namespace
+
+void AddUnmappedFindings(const Map& map, const MapBuildResult& built, MapCheckReport* report) {
+  Eigen::Vector2d lo, hi;
+  double top;
+  map.Extent(&lo, &hi, &top);
+  const double size = std::max(hi.x() - lo.x(), hi.y() - lo.y());
+  double tol = 0.01 * size;
+  if (std::isfinite(map.survey_sigma)) tol = std::max(tol, 3.0 * map.survey_sigma);
+  int unmapped = 0;
+  std::vector<std::string> placed;  // objects whose finding already says where they stand
+  for (const BuiltRectangle& b : built.rectangles) {
+    const MapRectangle& found = b.rectangle;
+    bool known = false;
+    for (const MapRectangle& m : map.rectangles) {
+      Eigen::Vector2d shift = Eigen::Vector2d::Zero();
+      const Match match = MatchRectangle(found, m, tol, 0.1 * size, &shift);
+      if (match == Match::kSame) known = true;
+      if (match != Match::kShifted) continue;
+      // Only a mapped rectangle the check found wrong is taken to be moved.
+      if (std::find(placed.begin(), placed.end(), m.id) != placed.end()) continue;
+      for (ObjectFinding& f : report->findings) {
+        if (f.object != m.id || f.kind == MapFinding::kWrongPolarity) continue;
+        f.message += "; a rectangle of its size stands " + Fixed(shift.norm(), 1) + " " + map.units +
+                     " from it, from " + PointText(found.from) + " to " + PointText(found.to) +
+                     ": it was moved there";
+        placed.push_back(m.id);
+        known = true;
+        break;
+      }
+    }
+    if (known) continue;
+    ObjectFinding f;
+    f.object = "unmapped-" + std::to_string(++unmapped);
+    f.kind = MapFinding::kNotInMap;
+    f.message = f.object + ": not in the map: a rectangle from " + PointText(found.from) + " to " +
+                PointText(found.to) + ", z " + Fixed(found.z0, 0) + " to " + Fixed(found.z1, 0) + " " + map.units +
+                ", seen in " + std::to_string(FrameViews(built, b)) +
+                " frames: add it (panomap build adds such rectangles)";
+    report->findings.push_back(f);
+  }
 }
 
 namespace {

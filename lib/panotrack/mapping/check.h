@@ -8,7 +8,10 @@
 // often it was in view and found, whether its step had the polarity the
 // map's shades imply, and the mean and spread of its bearing residual.
 // Those figures become findings: never found (not in the room, or moved far),
-// wrong polarity (shade inverted), biased (corner mis-measured).
+// wrong polarity (shade inverted), biased (corner mis-measured). Rectangles
+// the camera sees that the map lacks are found as panomap build finds new
+// ones (mapping/build.h), seeded with the whole map: not in the map, or (near
+// a mapped rectangle with a finding) where that one really stands.
 //
 // The residuals are measured from the frame's pose: a given one (ground
 // truth, a pose CSV) or one solved from the bearings of every other map
@@ -25,6 +28,7 @@
 #include <opencv2/core.hpp>
 
 #include "panotrack/lut/radius_table.h"
+#include "panotrack/mapping/build.h"
 #include "panotrack/scene/map.h"
 #include "panotrack/scene/scene.h"
 #include "panotrack/sensor/calibration.h"
@@ -55,13 +59,26 @@ struct MapCheckOptions {
   int min_visible_frames = 3;
   double min_found_fraction = 0.5;     // below: "never found"
   double min_polarity_agreement = 0.5; // below (of the frames found): "wrong polarity"
-  // Biased: |mean residual| > bias_sigmas * std / sqrt(n) and > bias_floor_deg.
+  // Biased: |mean residual| > bias_sigmas * std / sqrt(n) and > bias_floor_deg
+  // (and beyond bias_survey_sigmas of the survey, below).
   double bias_sigmas = 4.0;
   double bias_floor_deg = 0.1;
+  // ... and, when the map states how well the object was surveyed (its
+  // survey_sigma, else the map's), further across the line of sight than
+  // this many survey sigmas: a measured map's corners are all a little off,
+  // and only the ones off by more than the survey's error are mis-measured.
+  double bias_survey_sigmas = 4.0;
   int min_found_frames_for_bias = 3;
   // Self-localised poses: bearings further than this from a held-out solve
   // are left out of it (radians).
   double hold_out_outlier = 1.0 * M_PI / 180;
+  // Rectangles in the room but not in the map (AddUnmappedFindings): looked
+  // for with these options of panomap build, unless off.
+  bool find_unmapped = true;
+  MapBuildOptions unmapped;
+  // ... from the frames whose median bearing residual of the map's edges is
+  // within this (radians): a pose that does not fit the map misplaces them.
+  double unmapped_pose_residual = 0.3 * M_PI / 180;
   void Check() const;
 };
 
@@ -94,7 +111,7 @@ struct FrameCheck {
   std::vector<EdgeFrameMeasurement> edges;
 };
 
-enum class MapFinding { kNeverFound, kWrongPolarity, kBiased };
+enum class MapFinding { kNeverFound, kWrongPolarity, kBiased, kNotInMap };
 const char* map_finding_name(MapFinding f);
 
 // One vertical edge of the map over the run.
@@ -173,6 +190,22 @@ class FrameChecker {
 // The run's figures and findings from its frames.
 MapCheckReport SummarizeMapCheck(const Map& map, std::vector<EdgeCheck> edges,
                                  const std::vector<FrameCheck>& frames, const MapCheckOptions& options);
+
+// Whether the map's edges fit the frame's pose: at least 3 found with a
+// residual, their median |bearing residual| within `limit` (radians). A
+// pose centimetres off (the localiser on a faulty map) would place the edges
+// the map lacks wrong: such frames are left out of the search for them.
+bool PoseFitsTheMap(const FrameCheck& fc, double limit);
+
+// The rectangles that `built` (a MapBuilder seeded with `map`, fed the
+// checked frames) found. One that stands where a mapped rectangle does
+// (both ends within the tolerance: a rectangle seen from where the map does
+// not predict it, from behind) is that one. One that is a mapped rectangle
+// with a finding shifted as a whole (by up to a tenth of the map's size)
+// shows where that one stands: its finding says so. Any other is a finding
+// of its own, kNotInMap, named "unmapped-<k>". The tolerance is 1 % of the
+// map's size, or 3 survey sigmas when larger.
+void AddUnmappedFindings(const Map& map, const MapBuildResult& built, MapCheckReport* report);
 
 // The table panomap check prints (one row per edge), and its findings.
 std::string FormatMapCheckTable(const MapCheckReport& report);

@@ -154,6 +154,15 @@ void WriteMapCheckCsv(const std::string& path, const MapCheckReport& report) {
   WriteFileAtomic(path, text);
 }
 
+bool PoseFitsTheMap(const FrameCheck& fc, double limit) {
+  std::vector<double> r;
+  for (const EdgeFrameMeasurement& m : fc.edges)
+    if (m.found && m.has_residual) r.push_back(std::abs(m.bearing_residual));
+  if (r.size() < 3) return false;
+  std::nth_element(r.begin(), r.begin() + static_cast<long>(r.size() / 2), r.end());
+  return r[r.size() / 2] <= limit;
+}
+
 void MapCheckJob::Check() const {
   if (map_path.empty()) throw Error("--map (map_path): required");
   if (calib_path.empty()) throw Error("--calib (calib_path): required");
@@ -189,6 +198,8 @@ MapCheckReport RunMapCheck(const MapCheckJob& job) {
     localizer = std::make_unique<Localizer>(calib, map, table, LocalizerOptions());
     localizer->ResetUnknown();
   }
+  std::unique_ptr<MapBuilder> builder;
+  if (job.options.find_unmapped) builder = std::make_unique<MapBuilder>(calib, map, job.options.unmapped);
   std::vector<FrameCheck> checks;
   cv::Mat grey, best_grey;
   int best = -1;
@@ -219,6 +230,12 @@ MapCheckReport RunMapCheck(const MapCheckJob& job) {
       else
         checker.SetResiduals(&fc);
     }
+    if (builder) {
+      if (pose && PoseFitsTheMap(fc, job.options.unmapped_pose_residual))
+        builder->AddFrame(grey, *pose);
+      else
+        builder->AddFrameWithoutPose();
+    }
     if (!job.overlay.empty() && IsImageOutput(job.overlay) &&
         (best < 0 || fc.edges.size() > checks[best].edges.size())) {
       best = frame;
@@ -231,6 +248,7 @@ MapCheckReport RunMapCheck(const MapCheckJob& job) {
     throw Error(job.poses_path + ": " + std::to_string(rows.size()) + " rows for the " + std::to_string(n) +
                 " frames of " + job.input + " (one row per frame expected)");
   MapCheckReport report = SummarizeMapCheck(map, checker.edges(), checks, job.options);
+  if (builder) AddUnmappedFindings(map, builder->Build(), &report);
   if (report.frames_with_pose == 0)
     throw Error(job.input + ": not localised in any of its " + std::to_string(n) + " frames with " + job.map_path +
                 " (give the poses with --pose or --poses)");

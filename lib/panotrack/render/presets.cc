@@ -467,8 +467,8 @@ SequenceCase PaperRealMapError() {
   c.poses = EllipseLoop({120, 80}, 55, 30, 20.0 * M_PI / 180);
   c.fps = 10.0;
   c.options.seed = 301;
-  c.map_sigma = 1.0;
-  c.map_seed = 7;
+  c.survey.sigma = 1.0;
+  c.survey.seed = 7;
   return c;
 }
 
@@ -480,8 +480,8 @@ SequenceCase PaperSyntheticMapError() {
       "rectangle's end points and heights off by sigma 1 unit (map_true.yaml: the truth)";
   c.poses = EllipseLoop({85, 75}, 45, 28, 20.0 * M_PI / 180);
   c.options.seed = 302;
-  c.map_sigma = 1.0;
-  c.map_seed = 8;
+  c.survey.sigma = 1.0;
+  c.survey.seed = 8;
   return c;
 }
 
@@ -538,6 +538,7 @@ void CheckCase(const SequenceCase& c, const std::string& what, double clearance)
   try {
     CoveredFrames(c.options, n);  // also checks the dropped frames
     DroppedFrames(c.options, n);
+    SurveyMap(c.map, c.survey);   // the survey's options and whether its faults fit the map
   } catch (const Error& e) {
     throw Error(what + ": " + e.what());
   }

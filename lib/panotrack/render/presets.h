@@ -12,6 +12,25 @@
 
 namespace pano {
 
+// The errors of a survey of the room: map.yaml is the room as such a survey
+// measured it (render/sequence.h SurveyMap), map_true.yaml the room rendered.
+struct SurveyError {
+  // Each rectangle end point (x, y), height and box coordinate moved by its
+  // own Gaussian error of this sigma (map units).
+  double sigma = 0.0;
+  // Each rectangle and box moved as a whole by a Gaussian error of this
+  // sigma in x and in y: placed from one reference measurement that was off.
+  double offset_sigma = 0.0;
+  // Rectangles with a gross fault, in turn: moved by gross_offset, in the
+  // map but not in the room, in the room but not in the map.
+  int gross = 0;
+  double gross_offset = 0.0;  // map units; 0: 8 cm in the map's units
+  uint64_t seed = 1;
+  bool any() const { return sigma > 0.0 || offset_sigma > 0.0 || gross > 0; }
+  // Throws pano::Error naming the panosim option that is out of range.
+  void Check() const;
+};
+
 struct SequenceCase {
   std::string name;         // preset name, or "custom"
   std::string description;  // one line
@@ -21,11 +40,10 @@ struct SequenceCase {
   double fps = 10.0;
   RenderOptions options;
   std::vector<int> kidnap_frames;  // first frames after sudden jumps of the pose (ascending)
-  // Survey error of the map handed to the localiser (render/sequence.h
-  // PerturbedMap): 0 writes the true map as map.yaml; above 0 map.yaml is
-  // the perturbed map and map_true.yaml the true one.
-  double map_sigma = 0.0;
-  uint64_t map_seed = 1;
+  // Survey error of the map handed to the localiser: none writes the true
+  // map as map.yaml; else map.yaml is the surveyed map and map_true.yaml
+  // the true one.
+  SurveyError survey;
 };
 
 // Names of the built-in presets: paper-synthetic, paper-real, cluttered, kidnap,

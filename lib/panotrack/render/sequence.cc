@@ -22,7 +22,13 @@ Mix MixFor(uint64_t seed, uint64_t salt) {
 }
 
 enum Salt : uint64_t { kGainSalt = 11, kDropSalt = 12, kCoverSalt = 13, kPeopleSalt = 14, kSectorSalt = 15,
-             kMapSalt = 16 };
+             kMapSalt = 16, kMapOffsetSalt = 17, kMapGrossSalt = 18 };
+
+// Box-Muller on the seeded uniforms: the same errors on every platform.
+double Gauss(Mix* rng, double sigma) {
+  const double u1 = rng->Uniform(), u2 = rng->Uniform();
+  return sigma * std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * M_PI * u2);
+}
 
 std::vector<int> PickFrames(Mix rng, int count, int n_frames, const std::vector<int>& excluded,
                             const char* option) {
@@ -207,11 +213,7 @@ Map PerturbedMap(const Map& map, double sigma, uint64_t seed) {
   Map out = map;
   if (sigma == 0.0) return out;
   Mix rng = MixFor(seed, kMapSalt);
-  // Box-Muller on the seeded uniforms: the same errors on every platform.
-  auto gauss = [&rng, sigma]() {
-    const double u1 = rng.Uniform(), u2 = rng.Uniform();
-    return sigma * std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * M_PI * u2);
-  };
+  auto gauss = [&rng, sigma]() { return Gauss(&rng, sigma); };
   for (MapRectangle& r : out.rectangles) {
     r.from.x() += gauss();
     r.from.y() += gauss();
@@ -222,7 +224,118 @@ Map PerturbedMap(const Map& map, double sigma, uint64_t seed) {
     if (r.z0 != 0.0) r.z0 = std::max(0.0, r.z0 + dz0);
     r.z1 = std::max(r.z0 + sigma, r.z1 + gauss());
   }
+  // The boxes after every rectangle, so that the rectangles' errors do not
+  // depend on whether the map has boxes.
+  for (MapBox& b : out.boxes) {
+    for (int i = 0; i < 2; ++i) {
+      b.min[i] += gauss();
+      b.max[i] = std::max(b.min[i] + sigma, b.max[i] + gauss());
+    }
+    const double dz0 = gauss();
+    if (b.min.z() != 0.0) b.min.z() = std::max(0.0, b.min.z() + dz0);
+    b.max.z() = std::max(b.min.z() + sigma, b.max.z() + gauss());
+  }
   return out;
+}
+
+Map OffsetMap(const Map& map, double sigma, uint64_t seed) {
+  if (!(sigma >= 0.0) || !std::isfinite(sigma)) throw Error("map-offset-sigma: expected a number >= 0");
+  Map out = map;
+  if (sigma == 0.0) return out;
+  Mix rng = MixFor(seed, kMapOffsetSalt);
+  for (MapRectangle& r : out.rectangles) {
+    const Eigen::Vector2d d(Gauss(&rng, sigma), Gauss(&rng, sigma));
+    r.from += d;
+    r.to += d;
+  }
+  for (MapBox& b : out.boxes) {
+    const Eigen::Vector3d d(Gauss(&rng, sigma), Gauss(&rng, sigma), 0.0);
+    b.min += d;
+    b.max += d;
+  }
+  return out;
+}
+
+const char* map_fault_name(MapFaultKind kind) {
+  switch (kind) {
+    case MapFaultKind::kMoved: return "moved";
+    case MapFaultKind::kNotInRoom: return "not-in-room";
+    case MapFaultKind::kNotInMap: return "not-in-map";
+  }
+  return "?";
+}
+
+void SurveyError::Check() const {
+  auto sigma_ok = [](double s) { return s >= 0.0 && std::isfinite(s); };
+  if (!sigma_ok(sigma)) throw Error("map-sigma: expected a number >= 0");
+  if (!sigma_ok(offset_sigma)) throw Error("map-offset-sigma: expected a number >= 0");
+  if (gross < 0) throw Error("map-gross: expected a count >= 0");
+  if (!sigma_ok(gross_offset)) throw Error("map-gross-offset: expected a distance >= 0 (0: 8 cm)");
+}
+
+namespace {
+
+// `count` distinct indices below `n`, in the order drawn.
+std::vector<size_t> PickDistinct(Mix* rng, int count, size_t n) {
+  std::vector<size_t> out;
+  while (static_cast<int>(out.size()) < count) {
+    const size_t k = static_cast<size_t>(rng->Next() % n);
+    if (std::find(out.begin(), out.end(), k) == out.end()) out.push_back(k);
+  }
+  return out;
+}
+
+void RemoveRectangles(const std::vector<std::string>& ids, Map* map) {
+  auto gone = [&](const MapRectangle& r) { return std::find(ids.begin(), ids.end(), r.id) != ids.end(); };
+  map->rectangles.erase(std::remove_if(map->rectangles.begin(), map->rectangles.end(), gone),
+                        map->rectangles.end());
+}
+
+// Applies error.gross faults to the surveyed map and the rendered room.
+void AddGrossFaults(const SurveyError& error, SurveyedMap* s) {
+  if (error.gross == 0) return;
+  const size_t n = s->room.rectangles.size();
+  if (static_cast<size_t>(error.gross) > n)
+    throw Error("map-gross: " + std::to_string(error.gross) + " faults for a map of " + std::to_string(n) +
+                " rectangles (at most one per rectangle)");
+  const double distance = error.gross_offset > 0.0 ? error.gross_offset : 0.08 * s->room.UnitsPerMetre();
+  Mix rng = MixFor(error.seed, kMapGrossSalt);
+  std::vector<std::string> not_in_room, not_in_map;
+  const std::vector<size_t> picked = PickDistinct(&rng, error.gross, n);
+  for (size_t k = 0; k < picked.size(); ++k) {
+    MapFault f;
+    f.kind = static_cast<MapFaultKind>(k % 3);
+    f.id = s->room.rectangles[picked[k]].id;
+    // Slid along its own bottom edge (a wall rectangle stays on its wall, as
+    // when the tape was read from the wrong mark), either way; drawn for
+    // every fault so that the kinds do not shift the stream.
+    const double side = rng.Uniform() < 0.5 ? -1.0 : 1.0;
+    if (f.kind == MapFaultKind::kMoved) {
+      const MapRectangle& stands = s->room.rectangles[picked[k]];
+      f.offset = side * distance * (stands.to - stands.from).normalized();
+      MapRectangle& r = s->map.rectangles[picked[k]];
+      r.from += f.offset;
+      r.to += f.offset;
+    }
+    if (f.kind == MapFaultKind::kNotInRoom) not_in_room.push_back(f.id);
+    if (f.kind == MapFaultKind::kNotInMap) not_in_map.push_back(f.id);
+    s->faults.push_back(f);
+  }
+  RemoveRectangles(not_in_room, &s->room);
+  RemoveRectangles(not_in_map, &s->map);
+}
+
+}  // namespace
+
+SurveyedMap SurveyMap(const Map& truth, const SurveyError& error) {
+  error.Check();
+  SurveyedMap s;
+  s.room = truth;
+  s.map = OffsetMap(PerturbedMap(truth, error.sigma, error.seed), error.offset_sigma, error.seed);
+  const double sigma = std::hypot(error.sigma, error.offset_sigma);
+  if (sigma > 0.0) s.map.survey_sigma = sigma;
+  AddGrossFaults(error, &s);
+  return s;
 }
 
 SequenceRenderer::SequenceRenderer(const SequenceCase& c)

@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include <string>
 #include <vector>
 
 #include "panotrack/render/presets.h"
@@ -67,11 +68,49 @@ std::vector<Surface> PeopleSurfaces(const std::vector<Person>& people, double ti
 // The map a survey with errors would give: each rectangle's floor end points
 // (x and y of `from` and `to`) and heights (z0, z1) moved by independent
 // Gaussian errors of standard deviation `sigma` (map units), deterministic in
-// `seed`. A rectangle standing on the floor (z0 = 0) keeps z0 = 0 (a survey
-// sees the contact); heights stay ordered (z1 at least sigma above z0) and z0
-// at or above the floor; the room, boxes and distractors are kept as they are (so a
-// rectangle near a wall may be surveyed a little behind it).
+// `seed`; then each box's six coordinates likewise. A rectangle or box
+// standing on the floor (bottom at 0) keeps it there (a survey sees the
+// contact); heights stay ordered (top at least sigma above bottom) and
+// bottoms at or above the floor; the room and distractors are kept as they
+// are (so a rectangle near a wall may be surveyed a little behind it).
 Map PerturbedMap(const Map& map, double sigma, uint64_t seed);
+
+// Each rectangle and box of `map` moved as a whole by independent Gaussian
+// errors of standard deviation `sigma` in x and in y (heights kept),
+// deterministic in `seed`.
+Map OffsetMap(const Map& map, double sigma, uint64_t seed);
+
+// A gross error of a survey, on one rectangle.
+enum class MapFaultKind {
+  kMoved,     // in the map, `offset` away from where it stands, along its bottom edge
+  kNotInRoom, // in the map, but not in the room (taken down since)
+  kNotInMap,  // in the room, but left out of the map
+};
+const char* map_fault_name(MapFaultKind kind);  // "moved", "not-in-room", "not-in-map"
+
+struct MapFault {
+  MapFaultKind kind = MapFaultKind::kMoved;
+  std::string id;               // the rectangle's
+  Eigen::Vector2d offset{0, 0}; // kMoved: the map's rectangle minus the room's
+};
+
+// The room a survey measured and what it wrote down.
+struct SurveyedMap {
+  Map room;  // rendered: the true room, without the not-in-room rectangles
+  Map map;   // the survey (map.yaml): survey_sigma stated when sigma or offsets
+  std::vector<MapFault> faults;  // in the order they were picked
+};
+
+// `truth` with the errors of `error`: PerturbedMap (error.sigma), then
+// OffsetMap (error.offset_sigma), then error.gross distinct rectangles
+// picked by the seed, the k-th given fault k mod 3 (so 3 give one of each).
+// map.survey_sigma is sqrt(sigma^2 + offset_sigma^2), the standard deviation
+// of each coordinate, when above 0 (the gross faults are blunders, not in
+// it). Each kind of error has its own generator: turning one on changes no
+// other; the kinds in turn leave the map and the room a landmark each.
+// Throws pano::Error naming the option when error is out of range or asks
+// for more gross faults than the map has rectangles.
+SurveyedMap SurveyMap(const Map& truth, const SurveyError& error);
 
 // Renders the frames of a case with every factor of its options.
 class SequenceRenderer {

@@ -92,9 +92,15 @@ std::string CaseYaml(const SequenceCase& c, const std::string& codec) {
   w.Key("frames").Int(static_cast<long long>(c.poses.size()));
   w.Key("fps").Double(c.fps);
   w.Key("seed").Unsigned(r.seed);
-  if (c.map_sigma > 0.0) {
-    w.Key("map_sigma").Double(c.map_sigma);
-    w.Key("map_seed").Unsigned(c.map_seed);
+  const SurveyError& e = c.survey;
+  if (e.any()) {
+    if (e.sigma > 0.0) w.Key("map_sigma").Double(e.sigma);
+    if (e.offset_sigma > 0.0) w.Key("map_offset_sigma").Double(e.offset_sigma);
+    if (e.gross > 0) {
+      w.Key("map_gross").Int(e.gross);
+      w.Key("map_faults").String("map_faults.yaml");
+    }
+    w.Key("map_seed").Unsigned(e.seed);
   }
   w.Key("initial_pose").BeginMap();
   w.Key("x").Double(c.poses.front().x);
@@ -157,13 +163,34 @@ double AsWritten(double v, const char* format) {
 
 }  // namespace
 
+std::string MapFaultsYaml(const std::vector<MapFault>& faults, const std::string& units) {
+  YamlWriter w;
+  w.Comment("panosim: the gross errors of map.yaml; map_true.yaml is the room rendered.");
+  w.BeginMap();
+  w.Key("units").String(units);
+  w.Key("faults").BeginList();
+  for (const MapFault& f : faults) {
+    w.BeginMap();
+    w.Key("id").String(f.id);
+    w.Key("kind").String(map_fault_name(f.kind));
+    if (f.kind == MapFaultKind::kMoved) w.Key("offset").Numbers({f.offset.x(), f.offset.y()});
+    w.EndMap();
+  }
+  w.EndList();
+  w.EndMap();
+  return w.Text();
+}
+
 SequenceWriteResult WriteSequence(const SequenceCase& c, const std::string& dir,
                                   const SequenceWriteOptions& wo) {
   CheckCase(c, c.name == "custom" ? "sequence" : "preset '" + c.name + "'");
   if (!wo.video && !wo.frames) throw Error("--no-video: nothing to write (give --frames)");
   StagingDir sd(dir, wo.overwrite);
   const Sensor& sensor = c.calib.sensor;
-  const SequenceRenderer renderer(c);
+  const SurveyedMap survey = SurveyMap(c.map, c.survey);
+  SequenceCase rendered = c;  // the room as it stands
+  rendered.map = survey.room;
+  const SequenceRenderer renderer(rendered);
   const Scene& scene = renderer.scene();
   SequenceWriteResult res;
   cv::VideoWriter video;
@@ -206,7 +233,7 @@ SequenceWriteResult WriteSequence(const SequenceCase& c, const std::string& dir,
     row.time_s = i / c.fps;
     row.status = PoseStatus::kOk;
     row.pose = pose;
-    row.n_landmarks = static_cast<int>(VisibleCorners(sensor, c.map, scene, pose).size());
+    row.n_landmarks = static_cast<int>(VisibleCorners(sensor, survey.room, scene, pose).size());
     row.residual = 0.0;
     gt.Write(row);
     // On the video's clock (its frame / fps), which panoloc's rows carry,
@@ -223,12 +250,10 @@ SequenceWriteResult WriteSequence(const SequenceCase& c, const std::string& dir,
   gt.Close();
   gt_tum.Close();
   if (wo.video) video.release();
-  if (c.map_sigma > 0.0) {
-    WriteMap(sd.File("map.yaml"), PerturbedMap(c.map, c.map_sigma, c.map_seed), false);
-    WriteMap(sd.File("map_true.yaml"), c.map, false);
-  } else {
-    WriteMap(sd.File("map.yaml"), c.map, false);
-  }
+  WriteMap(sd.File("map.yaml"), survey.map, false);
+  if (c.survey.any()) WriteMap(sd.File("map_true.yaml"), survey.room, false);
+  if (!survey.faults.empty())
+    WriteFileAtomic(sd.File("map_faults.yaml"), MapFaultsYaml(survey.faults, c.map.units));
   Calibration calib = c.calib;
   calib.lut.clear();
   WriteCalibration(sd.File("calib.yaml"), calib);

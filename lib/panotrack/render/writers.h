@@ -3,10 +3,12 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
 #include "panotrack/render/presets.h"
+#include "panotrack/render/sequence.h"
 
 namespace pano {
 
@@ -47,7 +49,9 @@ struct SequenceWriteResult {
 
 // Renders every pose and writes DIR/video.mp4, DIR/gt.csv, DIR/gt.tum, DIR/map.yaml
 // (without distractors), DIR/calib.yaml, DIR/case.yaml and, when asked,
-// DIR/frames/. gt.csv: status ok, n_landmarks = corners in view of the map's
+// DIR/frames/. With survey error (c.survey) map.yaml is the surveyed map
+// (render/sequence.h SurveyMap), DIR/map_true.yaml the room rendered and,
+// with gross faults, DIR/map_faults.yaml lists them (MapFaultsYaml). gt.csv: status ok, n_landmarks = corners in view of the map's
 // surfaces (people and covers not counted), residual 0. Frames are rendered by
 // SequenceRenderer (render/sequence.h); dropped frames are left out of the
 // video, gt.csv and frames/, so gt.csv's frame column is the video's frame
@@ -60,5 +64,10 @@ SequenceWriteResult WriteSequence(const SequenceCase& c, const std::string& dir,
 
 // case.yaml text.
 std::string CaseYaml(const SequenceCase& c, const std::string& codec);
+
+// map_faults.yaml text: the map's units, then one entry per fault (id,
+// kind: moved / not-in-room / not-in-map, and for a moved one its offset,
+// the map's rectangle minus the room's).
+std::string MapFaultsYaml(const std::vector<MapFault>& faults, const std::string& units);
 
 }  // namespace pano
