@@ -66,7 +66,16 @@ folder, path, preset, method, sigma, stated, seed = sys.argv[1:8]
 gt = {int(r["frame"]): r for r in csv.DictReader(open(folder + "/gt.csv"))}
 rows = list(csv.DictReader(open(path)))
 case = yaml.safe_load(open(folder + "/case.yaml")) if __import__("os").path.exists(folder + "/case.yaml") else {}
-covered = set(case.get("covered_frames", []) or [])
+def find(node, key):
+    if isinstance(node, dict):
+        if key in node:
+            return node[key]
+        for v in node.values():
+            found = find(v, key)
+            if found is not None:
+                return found
+    return None
+covered = set(find(case, "covered_frames") or [])
 fps = float(case.get("fps", 10.0))
 truth = yaml.safe_load(open(folder + ("/map_true.yaml" if __import__("os").path.exists(folder + "/map_true.yaml") else "/map.yaml")))
 corners = []

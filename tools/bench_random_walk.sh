@@ -61,15 +61,18 @@ for i in range(n):
     if i in kidnaps:
         p, heading, turn = random_free(), rng.uniform(-math.pi, math.pi), 0.0
     print(f"{p[0]:.4f},{p[1]:.4f},{math.remainder(heading, 2 * math.pi):.6f}")
-    # Slow turns (about 1 degree a frame), now and then a faster one.
+    # Slow turns (about 1 degree a frame), now and then a faster one, never
+    # above 10 degrees a frame.
+    limit = math.radians(10)
     turn = 0.9 * turn + 0.1 * rng.normal(0, math.radians(1.5 if rng.random() > 0.05 else 8))
+    turn = max(-limit, min(limit, turn))
     speed = step * (0.5 + rng.random())
-    for _ in range(50):
-        q = p + speed * np.array([math.cos(heading + turn), math.sin(heading + turn)])
-        if free(q):
-            break
-        turn += math.radians(rng.choice([-1, 1]) * 10)  # turn away from the wall
-    else:
+    q = p + speed * np.array([math.cos(heading + turn), math.sin(heading + turn)])
+    if not free(q):
+        # Blocked: stop and turn towards the middle of the room.
+        centre = 0.5 * (lo + hi)
+        want = math.atan2(centre[1] - p[1], centre[0] - p[0])
+        turn = max(-limit, min(limit, math.remainder(want - heading, 2 * math.pi)))
         q = p
     heading += turn
     p = q

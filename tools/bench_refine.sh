@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Map refinement end to end (panomap refine). For each room: render the
-# 300-frame map-error preset (map.yaml off by sigma 1 map unit per
-# coordinate, map_true.yaml the truth), localise it with panoloc on the
+# 300-frame map-error preset (map.yaml off by sigma SIGMA map units per
+# coordinate, default 1, and stating it as its survey_sigma; map_true.yaml
+# the truth), localise it with panoloc on the
 # surveyed map, refine the map from that video with poses from three
 # sources, and print for each
 #  (a) the RMS corner error against the truth, surveyed -> refined, raw and
@@ -17,9 +18,7 @@
 # map again), "gt" (panosim's gt.csv with the default --pose-sigma auto: a
 # reference trajectory, its positions held with a tenth of --map-sigma, fix
 # the gauge) and "gt, --pose-sigma 0" (the survey fixes the gauge). The true and the surveyed map give the reference
-# rows. The surveyed map is tracked with panoloc's integrity bound off
-# (--alert-fraction 0): the bound assumes an exact map, and with 1 unit of
-# survey error most frames would be held back.
+# rows. The refinement's --map-sigma is the map's survey_sigma.
 # Usage: tools/bench_refine.sh [BUILD_DIR] [WORK_DIR]
 set -euo pipefail
 build=${1:-build}
@@ -30,6 +29,7 @@ for tool in panosim panoloc panomap; do
   [ -x "$bin/$tool" ] || { echo "bench_refine.sh: $bin/$tool not found (build first)" >&2; exit 1; }
 done
 rounds=${ROUNDS:-2}
+sigma=${SIGMA:-1}
 # room preset : second sequence (same room and sensor, another path)
 cases=${CASES:-"paper-real:fast-turns paper-synthetic:paper-synthetic"}
 
@@ -107,16 +107,16 @@ for c in $cases; do
   room=${c%%:*}
   second=${c#*:}
   p="$room-map-error"
-  d="$work/$p"
+  d="$work/$p-s$sigma"
   s="$work/$second"
-  [ -f "$d/video.mp4" ] || "$bin/panosim" sequence --preset "$p" -o "$d" --force --quiet
+  [ -f "$d/video.mp4" ] || "$bin/panosim" sequence --preset "$p" --map-sigma "$sigma" -o "$d" --force --quiet
   [ -f "$s/video.mp4" ] || "$bin/panosim" sequence --preset "$second" -o "$s" --force --quiet
-  localise "$d/video.mp4" "$d/map.yaml" "$d/poses.csv" "$d/gt.csv" --alert-fraction 0
+  localise "$d/video.mp4" "$d/map.yaml" "$d/poses.csv" "$d/gt.csv"
   refine() {  # name poses.csv [panomap options]
     local name=$1 poses=$2
     shift 2
     "$bin/panomap" refine --map "$d/map.yaml" --calib "$d/calib.yaml" --poses "$poses" "$d/video.mp4" \
-      -o "$d/refined_$name.yaml" --report "$d/report_$name.csv" --map-sigma 1 --force "$@" > "$d/refine_$name.txt"
+      -o "$d/refined_$name.yaml" --report "$d/report_$name.csv" --force "$@" > "$d/refine_$name.txt"
   }
   poses="$d/poses.csv"
   for r in $(seq 1 "$rounds"); do

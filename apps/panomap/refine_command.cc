@@ -46,9 +46,12 @@ void AddRefineCommand(CLI::App& app) {
   cmd->add_option("-o,--output", o->out, "Refined map YAML")->required()->group("Output");
   cmd->add_option("--report", o->report, "Per-landmark corrections as CSV")->group("Output");
   cmd->add_flag("--force", o->force, "Replace existing output files")->group("Output");
-  cmd->add_option("--map-sigma", o->map_sigma, "Survey error: prior sigma of each coordinate (map units)")
-      ->check(CLI::PositiveNumber)
-      ->capture_default_str();
+  CLI::Option* map_sigma_option =
+      cmd->add_option("--map-sigma", o->map_sigma,
+                      "Survey error: prior sigma of each coordinate (map units); default: the map's survey_sigma "
+                      "where it states one, else 1")
+          ->check(CLI::PositiveNumber)
+          ->capture_default_str();
   cmd->add_option("--pose-sigma", o->pose_sigma,
                   "Prior sigma of each pose's position at its CSV value (map units), 0 for none, or auto: a "
                   "tenth of --map-sigma when the pose CSVs are a reference trajectory (ground truth, motion "
@@ -94,7 +97,8 @@ void AddRefineCommand(CLI::App& app) {
   cmd->add_option("-j,--jobs,--threads", o->threads, "Threads (0: every core)")->group("Run");
   cmd->add_flag("-q,--quiet", o->quiet, "No table (errors still on stderr)")->group("Run");
   cmd->add_flag("-v,--verbose", o->verbose, "Also the libraries' logs")->group("Run");
-  cmd->callback([o]() {
+  cmd->callback([o, map_sigma_option]() {
+    const bool map_sigma_given = map_sigma_option->count() > 0;
     CheckThreadCount(o->threads, "--threads");
     if (o->poses.size() != o->videos.size())
       throw Error("--poses: " + std::to_string(o->poses.size()) + " pose CSVs for " +
@@ -109,6 +113,8 @@ void AddRefineCommand(CLI::App& app) {
     std::vector<RefineVideo> videos;
     for (size_t i = 0; i < o->videos.size(); ++i) videos.push_back({o->videos[i], o->poses[i], ReadPoseCsv(o->poses[i])});
     RefineOptions opt;
+    // Without --map-sigma, the survey error the map states.
+    if (!map_sigma_given && map.survey_sigma > 0.0) o->map_sigma = map.survey_sigma;
     opt.map_sigma = o->map_sigma;
     opt.pose_sigma = o->pose_sigma == "auto" ? AutoPoseSigma(videos, o->map_sigma) : std::stod(o->pose_sigma);
     opt.reject_sigmas = o->reject_sigmas;

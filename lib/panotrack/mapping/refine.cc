@@ -278,6 +278,31 @@ double Rms(const std::vector<double>& v) {
 
 }  // namespace
 
+namespace {
+
+// The refined map states how well its corners are now known, for the
+// localiser: each rectangle the RMS standard deviation of its floor
+// coordinates (their gauge included), the map the RMS over its rectangles;
+// boxes, not refined, keep what the survey stated.
+void StateRefinedSurveySigma(const Map& surveyed, RefineResult* res) {
+  if (!res->covariance_ok) return;
+  double sum = 0.0;
+  int n = 0;
+  for (size_t k = 0; k < res->landmarks.size(); ++k) {
+    const auto& sd = res->landmarks[k].std;
+    const double sigma = std::sqrt((sd[0] * sd[0] + sd[1] * sd[1] + sd[2] * sd[2] + sd[3] * sd[3]) / 4.0);
+    if (!std::isfinite(sigma)) continue;
+    res->map.rectangles[k].survey_sigma = sigma;
+    sum += sigma * sigma;
+    ++n;
+  }
+  if (n == 0) return;
+  for (size_t k = 0; k < res->map.boxes.size(); ++k) res->map.boxes[k].survey_sigma = surveyed.BoxSurveySigma(k);
+  res->map.survey_sigma = std::sqrt(sum / n);
+}
+
+}  // namespace
+
 RefineResult SolveMapRefinement(const Calibration& calib, const Map& surveyed, const std::vector<Pose2>& poses,
                                 const std::vector<CornerObservation>& observations, const RefineOptions& opt,
                                 const std::vector<Pose2>* start) {
@@ -467,6 +492,7 @@ RefineResult SolveMapRefinement(const Calibration& calib, const Map& surveyed, c
     }
     res.landmarks.push_back(lc);
   }
+  StateRefinedSurveySigma(surveyed, &res);
   for (const auto& p : u.poses) res.poses.push_back({p[0], p[1], wrap_angle(p[2])});
   for (char used : frame_used) res.frames_used += used;
   return res;

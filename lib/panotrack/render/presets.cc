@@ -61,6 +61,7 @@ MapRectangle FreeRect(const std::string& id, Eigen::Vector2d from, Eigen::Vector
 void SetRoom(Map* m, double w, double d, double h, double sensor_height, const std::string& units) {
   m->units = units;
   m->sensor_height = sensor_height;
+  m->survey_sigma = 0.0;  // the rendered room is the map: exact
   m->room.present = true;
   m->room.min = {0, 0};
   m->room.max = {w, d};

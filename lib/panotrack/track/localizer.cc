@@ -150,6 +150,8 @@ void Localizer::Reset(const Pose2& robot_initial, bool hint) {
   held_ = false;
   bearing_sigma_ = 0.0;
   survey_.Reset();
+  residual_memory_.assign(landmarks_.size(), 0.0);
+  residual_frame_.assign(landmarks_.size(), -2);
   motion_updates_ = 0;
   frame_pose_ = initial;
   ForgetCompassHistory();
@@ -421,6 +423,7 @@ TriangulationResult Localizer::Solve(const FrameResult& fr, const Pose2& prior) 
   const std::vector<BearingObservation> obs = Observations(fr);
   TriangulationResult out = SolveBearings(obs, prior);
   if (!out.ok) return out;
+  DropSuddenResiduals(fr, obs, prior, &out);
   // The RMS residual in units of image noise: the map's share taken out.
   out.rms_bearing = NormalizedRms(obs, out);
   // A few residuals can fit better than the bearings' noise: the covariance
@@ -433,6 +436,67 @@ TriangulationResult Localizer::Solve(const FrameResult& fr, const Pose2& prior) 
     out.variance_factor = floor2;
   }
   return out;
+}
+
+std::vector<int> Localizer::SuddenResiduals(const FrameResult& fr, const std::vector<BearingObservation>& obs,
+                                            const TriangulationResult& tri) const {
+  // Each inlier tracked on the previous frame, its bearing moved by the
+  // residual it had there: the map's error taken out, what is left is the
+  // image noise and whatever changed since.
+  std::vector<BearingObservation> corrected;
+  std::vector<int> which;
+  for (int i : tri.inliers) {
+    const BearingObservation& o = obs[static_cast<size_t>(i)];
+    const size_t index = static_cast<size_t>(fr.predicted[static_cast<size_t>(o.id)].index);
+    if (residual_frame_[index] != frame_ - 1) continue;
+    BearingObservation c = o;
+    c.bearing = wrap_angle(o.bearing + residual_memory_[index]);
+    c.weight = o.weight * o.spread * o.spread;
+    c.spread = 1.0;
+    corrected.push_back(c);
+    which.push_back(i);
+  }
+  std::vector<int> all(corrected.size());
+  for (size_t k = 0; k < all.size(); ++k) all[k] = static_cast<int>(k);
+  if (DistinctBearings(corrected, all) < 6) return {};
+  RobustPoseOptions robust = opt_.robust;
+  robust.inlier_threshold = InlierThreshold();
+  const RobustTriangulationResult r = RobustTriangulate(corrected, tri.pose, robust, opt_.triangulation);
+  if (!r.ok) return {};
+  std::vector<char> agrees(corrected.size(), 0);
+  for (int k : r.inliers) agrees[static_cast<size_t>(k)] = 1;
+  std::vector<int> sudden;
+  for (size_t k = 0; k < corrected.size(); ++k)
+    if (!agrees[k]) sudden.push_back(which[k]);
+  // Most must agree: else the view changed (a kidnap, a jump of the pose),
+  // not a few edges.
+  if (3 * sudden.size() > corrected.size()) return {};
+  return sudden;
+}
+
+void Localizer::DropSuddenResiduals(const FrameResult& fr, const std::vector<BearingObservation>& obs,
+                                    const Pose2& prior, TriangulationResult* tri) const {
+  // Only where the survey's tolerance is wide enough to hide a bias (an
+  // edge half hidden by someone walking past); with an exact map the
+  // consensus's own threshold rejects it.
+  if (!(MaxLandmarks() != opt_.max_landmarks)) return;
+  const std::vector<int> sudden = SuddenResiduals(fr, obs, *tri);
+  if (sudden.empty()) return;
+  std::vector<char> drop(obs.size(), 0);
+  for (int i : sudden) drop[static_cast<size_t>(i)] = 1;
+  std::vector<BearingObservation> kept;
+  std::vector<int> index;
+  for (size_t i = 0; i < obs.size(); ++i)
+    if (!drop[i]) {
+      kept.push_back(obs[i]);
+      index.push_back(static_cast<int>(i));
+    }
+  TriangulationResult again = SolveBearings(kept, prior);
+  if (!again.ok) return;
+  for (int& i : again.inliers) i = index[static_cast<size_t>(i)];
+  again.bearing_residuals.assign(obs.size(), 0.0);
+  for (size_t i = 0; i < obs.size(); ++i) again.bearing_residuals[i] = BearingResidual(obs[i], again.pose);
+  *tri = std::move(again);
 }
 
 TriangulationResult Localizer::SolveBearings(const std::vector<BearingObservation>& obs, const Pose2& prior) const {
@@ -982,6 +1046,11 @@ void Localizer::UpdateNoiseEstimates(const FrameResult& fr, const TriangulationR
     bearing_sigma_ = bearing_sigma_ > 0 ? 0.9 * bearing_sigma_ + 0.1 * scale : scale;
   }
   UpdateSurveyEstimate(obs, tri);
+  for (int i : tri.inliers) {
+    const size_t index = static_cast<size_t>(fr.predicted[static_cast<size_t>(obs[static_cast<size_t>(i)].id)].index);
+    residual_memory_[index] = tri.bearing_residuals[static_cast<size_t>(i)];
+    residual_frame_[index] = frame_;
+  }
 }
 
 void Localizer::UpdateSurveyEstimate(const std::vector<BearingObservation>& obs, const TriangulationResult& tri) {
@@ -1049,6 +1118,7 @@ void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, b
 FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double time_s,
                                const OdometryIncrement* odometry) {
   CheckFrame(frame_image, frame);
+  frame_ = frame;
   if (view_) view_->Resample(frame_image, &view_frame_);
   const cv::Mat& grey = view_ ? view_frame_ : frame_image;
   motion_stepped_ = false;

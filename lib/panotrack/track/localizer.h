@@ -319,6 +319,15 @@ class Localizer {
   // squares); its rms_bearing in units of each bearing's spread.
   TriangulationResult Solve(const FrameResult& fr, const Pose2& prior) const;
   TriangulationResult SolveBearings(const std::vector<BearingObservation>& obs, const Pose2& prior) const;
+  // The inliers (indices into obs) whose residual changed suddenly since
+  // the previous frame: the pose from bearings corrected by their previous
+  // residuals (which hold the map's error) leaves them out. Empty when too
+  // few were tracked then, or when most changed.
+  std::vector<int> SuddenResiduals(const FrameResult& fr, const std::vector<BearingObservation>& obs,
+                                   const TriangulationResult& tri) const;
+  // With a surveyed map: `tri` solved again without those.
+  void DropSuddenResiduals(const FrameResult& fr, const std::vector<BearingObservation>& obs, const Pose2& prior,
+                           TriangulationResult* tri) const;
   bool Acceptable(const FrameResult& fr, const TriangulationResult& tri) const;
   // The found landmarks' bearings, each with its spread: its expected error
   // (the image noise `reference_sigma`, radians, and its corner's survey
@@ -472,6 +481,11 @@ class Localizer {
   // typical distance it is scaled by.
   double typical_distance_ = 1.0;
   SurveyErrorEstimate survey_;
+  // Per landmark: its bearing residual on the last accepted frame that had
+  // it as an inlier, and that frame (SuddenResiduals).
+  std::vector<double> residual_memory_;
+  std::vector<int> residual_frame_;
+  int frame_ = -1;  // the frame being processed
   // A room-wide search's best pose, unambiguous but inconsistent with the
   // survey error assumed: evidence of it while the estimate is not yet
   // confident (Relocalize is const; RelocalizeIfLost learns from it).

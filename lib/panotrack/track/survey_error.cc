@@ -26,6 +26,7 @@ void SurveyErrorEstimate::Reset() {
 }
 
 double SurveyErrorEstimate::Sigma(double stated) const {
+  if (stated == 0.0) return 0.0;  // exact (a rendered room, a CAD model): the residuals are the image's
   if (!std::isnan(stated)) return confident() ? std::max(stated, survey_) : stated;
   return confident() ? survey_ : opt_.unstated_fraction * typical_distance_;
 }

@@ -41,9 +41,9 @@ class SurveyErrorEstimate {
   SurveyErrorEstimate(const SurveyErrorOptions& options, double typical_distance);
   void Reset();
   // The survey sigma to use for a corner whose map states `stated` (NaN:
-  // not stated): the statement, raised by the estimate where the residuals
-  // show more; without one, the estimate once there is enough evidence,
-  // else the unstated default.
+  // not stated; 0: exact, kept exact): the statement, raised by the
+  // estimate where the residuals show more; without one, the estimate once
+  // there is enough evidence, else the unstated default.
   double Sigma(double stated) const;
   // One accepted frame: its inlier bearings' residuals (radians) and
   // horizontal distances, and the number of pose parameters fitted to them
