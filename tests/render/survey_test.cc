@@ -88,8 +88,8 @@ TEST_CASE("per-coordinate survey error: stated in the map, boxes after the recta
     CHECK((s.map.boxes[k].min - truth.boxes[k].min).norm() + (s.map.boxes[k].max - truth.boxes[k].max).norm() > 0.0);
     if (truth.boxes[k].min.z() == 0.0) CHECK(s.map.boxes[k].min.z() == 0.0);
   }
-  // Exact maps state nothing (a rendered room was never surveyed).
-  CHECK(std::isnan(SurveyMap(truth, SurveyError{}).map.survey_sigma));
+  // An exact map states that it is exact (the rendered room is the map).
+  CHECK(SurveyMap(truth, SurveyError{}).map.survey_sigma == 0.0);
 }
 
 TEST_CASE("box coordinates get errors of sigma, their floor contact none", "[survey]") {
@@ -151,7 +151,7 @@ TEST_CASE("gross faults: one of each kind for three, seeded, 8 cm by default", "
   e.seed = 4;
   const SurveyedMap s = SurveyMap(truth, e);
   REQUIRE(s.faults.size() == 3);
-  CHECK(std::isnan(s.map.survey_sigma));  // blunders are not a survey sigma
+  CHECK(s.map.survey_sigma == 0.0);  // blunders are not a survey sigma: the rest is exact
   CHECK(s.faults[0].kind == MapFaultKind::kMoved);
   CHECK(s.faults[1].kind == MapFaultKind::kNotInRoom);
   CHECK(s.faults[2].kind == MapFaultKind::kNotInMap);
@@ -232,7 +232,7 @@ TEST_CASE("sequence writer: surveyed map, true map, faults, and the room rendere
   CHECK_FALSE(Find(written, s.faults[2].id));
   CHECK_FALSE(Find(true_map, s.faults[1].id));
   CHECK(Find(true_map, s.faults[2].id));
-  CHECK(std::isnan(true_map.survey_sigma));
+  CHECK(true_map.survey_sigma == 0.0);
   const std::string faults = ReadText(dir + "/map_faults.yaml");
   CHECK(faults == MapFaultsYaml(s.faults, "cm"));
   CHECK(faults.find("kind: not-in-room") != std::string::npos);
