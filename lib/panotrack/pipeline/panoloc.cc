@@ -279,7 +279,7 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
     auto samples = std::make_shared<const std::vector<OdometrySample>>(ReadOdometryCsv(opt.odometry));
     for (PlannedJob& p : jobs) p.job.odometry = samples;
   }
-  if (!opt.out_dir.empty()) fs::create_directories(opt.out_dir);
+  if (!opt.out_dir.empty()) CreateOutputFolder(opt.out_dir, "--out-dir");
   // What the table build would refuse, refused here, before any input starts.
   res.calib.sensor.Check(opt.calib_path);
   RangesForMap(res.map, res.calib.sensor).Check(opt.map_path + ": lookup table ranges");
