@@ -108,5 +108,43 @@ TEST_CASE("absurd values of flags: the flag named, with the value given", "[absu
   CHECK_FALSE(fs::exists(dir + "/a.csv"));
 }
 
+TEST_CASE("--gt of another length than the video is refused; --gt auto without gt.csv says so",
+          "[absurd_inputs]") {
+  const std::string dir = test::ScratchDir("apps_absurd_gt");
+  const std::string& seq = Sequence();
+  // The header and the first 4 of the 8 rows.
+  std::istringstream gt(Read(seq + "/gt.csv"));
+  std::ofstream short_gt(dir + "/gt4.csv");
+  std::string line;
+  for (int i = 0; i < 5 && std::getline(gt, line); ++i) short_gt << line << "\n";
+  short_gt.close();
+  ExpectOneLineError(Panoloc("-o " + dir + "/a.csv --gt " + dir + "/gt4.csv"),
+                     "panoloc: --gt " + dir + "/gt4.csv: 4 rows for the 8 frames of " + seq +
+                         "/video.mp4 (one row per frame expected)");
+  CHECK_FALSE(fs::exists(dir + "/a.csv"));
+  // The right length: the accuracy line.
+  test::CommandRun r = test::RunProgram("panoloc " + seq + "/video.mp4 --calib " + seq + "/calib.yaml --map " + seq +
+                                        "/map.yaml -o " + dir + "/b.csv --gt auto");
+  INFO(r.out);
+  CHECK(r.out.find("frames tracked 8/8") != std::string::npos);
+  // A video with no gt.csv beside it.
+  fs::create_directories(dir + "/alone");
+  fs::copy_file(seq + "/video.mp4", dir + "/alone/video.mp4", fs::copy_options::overwrite_existing);
+  r = test::RunProgram("panoloc " + dir + "/alone/video.mp4 --calib " + seq + "/calib.yaml --map " + seq +
+                       "/map.yaml -o " + dir + "/c.csv --gt auto");
+  INFO(r.out);
+  CHECK(r.out.find("panoloc: note: " + dir + "/alone/video.mp4: --gt auto: no gt.csv beside it, no accuracy\n") !=
+        std::string::npos);
+}
+
+TEST_CASE("panocalib backproject --pixels - fed binary data: one line, exit 1", "[absurd_inputs]") {
+  const std::string& seq = Sequence();
+  const std::string bin = test::ScratchDir("apps_absurd_binary") + "/a.out";
+  std::ofstream(bin, std::ios::binary) << std::string("\x7f" "ELF\x02\x01\x01\0\0\0\xff\xfe", 12);
+  const test::CommandRun r =
+      test::RunProgram("panocalib backproject --calib " + seq + "/calib.yaml --pixels - < " + bin);
+  ExpectOneLineError(r, "panocalib: <stdin>:1: not a text file of numbers (byte 0x7F at column 1)");
+}
+
 }  // namespace
 }  // namespace pano

@@ -161,6 +161,8 @@ std::vector<PlannedJob> PlanJobs(const PanolocOptions& opt, const Map& map) {
     j.input = opt.inputs[i];
     j.output = outputs[i];
     j.gt = opt.gt == "auto" ? GtBeside(j.input) : opt.gt;
+    if (opt.gt == "auto" && j.gt.empty() && !opt.quiet)
+      std::fprintf(stderr, "panoloc: note: %s: --gt auto: no gt.csv beside it, no accuracy\n", j.input.c_str());
     j.debug_video = opt.debug_video;
     j.plot = opt.plot;
     j.tum = opt.tum;
