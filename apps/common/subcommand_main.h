@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "cli_errors.h"
 #include "panotrack/core/error.h"
 
 namespace pano::app {
@@ -59,7 +60,7 @@ inline int RunSubcommandApp(CLI::App& app, const char* tool, int argc, char** ar
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : 1;  // --help, --version; bad options exit 1 like bad files
+    return ExitOnParseError(app, e, tool);
   } catch (const pano::Error& e) {
     std::fprintf(stderr, "%s: %s\n", tool, OneLine(e.what()).c_str());
     return 1;

@@ -1,3 +1,4 @@
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -15,12 +16,16 @@ namespace pano::app {
 
 namespace {
 
-// A comma-separated option of exactly n finite numbers ("x,y,z").
+// A comma-separated option of exactly n finite numbers, its form ("x,y,z")
+// the first word of its help: its type name, which its parse errors quote.
 CLI::Option* AddNumbers(CLI::App* app, const std::string& name, std::vector<double>& values, int n,
                         const std::string& help) {
+  std::string form = help.substr(0, help.find(' '));
+  for (char& c : form) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
   return app->add_option(name, values, help)
       ->delimiter(',')
       ->expected(n)
+      ->type_name(form)
       ->check(CLI::Validator(
           [](std::string& v) {
             char* end = nullptr;

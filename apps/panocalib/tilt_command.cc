@@ -41,6 +41,7 @@ void AddTiltCommand(CLI::App& app) {
                   "The pose x,y,theta at the first frame (map units, radians); default: initial_pose of the "
                   "case.yaml beside the input, else the room-wide search")
       ->expected(3)
+      ->type_name("X,Y,THETA")
       ->delimiter(',');
   cmd->add_option("--frames", o->tilt.max_frames, "Frames used, from the start");
   cmd->add_flag("--decentre", o->tilt.fit_decentre,

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "cli_errors.h"
 #include "panotrack/core/error.h"
 #include "panotrack/config.h"
 #include "panotrack/pipeline/panoloc.h"
@@ -151,6 +152,7 @@ int main(int argc, char** argv) {
                  "frame is localised by searching the whole room")
       ->delimiter(',')
       ->expected(3)
+      ->type_name("X,Y,THETA")
       ->default_str("")
       ->group(tracking);
   app.add_option("--fps", o.fps,
@@ -228,7 +230,7 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : 1;  // --help, --version; bad options exit 1 like bad files
+    return pano::app::ExitOnParseError(app, e, "panoloc");
   }
   pano::SetDecoderLogging(verbose);
   try {

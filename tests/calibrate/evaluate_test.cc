@@ -113,6 +113,14 @@ TEST_CASE("batch projection: a line that cannot be read names the file and line"
   CHECK(test::ErrorOf([&] { BackprojectPixelsCsv(sensor, "1 nan\n", "<stdin>"); }) ==
         "<stdin>:1: expected 2 finite numbers (u v), got 'nan'");
   CHECK(ProjectPointsCsv(sensor, "# nothing\n\n", "p.csv").count == 0);
+  // Binary data: neither a header nor an empty file.
+  CHECK(test::ErrorOf([&] { BackprojectPixelsCsv(sensor, std::string("\x7f" "ELF\x02\x01\x01\0\0", 9), "-"); }) ==
+        "-:1: not a text file of numbers (byte 0x7F at column 1)");
+  CHECK(test::ErrorOf([&] { BackprojectPixelsCsv(sensor, "u v\n1 2\n3\x01 4\n", "p.csv"); }) ==
+        "p.csv:3: not a text file of numbers (byte 0x01 at column 2)");
+  // A first line of other words than the fields' count is no header.
+  CHECK(test::ErrorOf([&] { BackprojectPixelsCsv(sensor, "\xe9\xff garbage bytes here\n", "p.csv"); }) ==
+        "p.csv:1: expected 2 finite numbers (u v), got 4 fields");
 }
 
 TEST_CASE("evaluate: the true calibration scores near the corner noise, a 2 % focal error far above",

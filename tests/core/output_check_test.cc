@@ -57,5 +57,17 @@ TEST_CASE("an output folder replaced as a whole may hold no input", "[output_che
   CHECK_NOTHROW(CheckFolderOutputHoldsNoInput({{"--map", dir + "/map.yaml"}}, "-o", dir + "/d"));
 }
 
+TEST_CASE("an output folder where a file stands is refused, naming the option", "[output_check]") {
+  const std::string dir = test::ScratchDir("core_output_folder");
+  std::ofstream(dir + "/od") << "a file";
+  CHECK(ErrorOf([&] { CreateOutputFolder(dir + "/od", "--out-dir"); }) ==
+        "--out-dir: " + dir + "/od is a file, not a folder");
+  CHECK(ErrorOf([&] { CreateOutputFolder(dir + "/od/sub", "--out-dir"); }) ==
+        "--out-dir: " + dir + "/od is a file, not a folder (in the path " + dir + "/od/sub)");
+  CreateOutputFolder(dir + "/new/sub", "--out-dir");
+  CHECK(fs::is_directory(dir + "/new/sub"));
+  CHECK_NOTHROW(CreateOutputFolder(dir + "/new/sub", "--out-dir"));  // already there
+}
+
 }  // namespace
 }  // namespace pano

@@ -79,6 +79,20 @@ class Nasty {
       if (d > 0.0) return d;
     }
   }
+  // A map coordinate: the edge cases of Any() within the +-1e6 map units
+  // that maps accept.
+  double Coordinate() {
+    for (;;) {
+      const double d = Any();
+      if (std::abs(d) < 1e6) return d;
+    }
+  }
+  double PositiveCoordinate() {
+    for (;;) {
+      const double d = std::abs(Coordinate());
+      if (d > 0.0) return d;
+    }
+  }
   double Shade() {
     switch (rng_() % 5) {
       case 0: return 0.0;
@@ -105,12 +119,12 @@ MapRectangle RandomRectangle(Nasty& g, std::set<std::string>* ids) {
   MapRectangle r;
   r.id = g.UniqueId(ids);
   do {
-    r.from = {g.Any(), g.Any()};
-    r.to = {g.Any(), g.Any()};
+    r.from = {g.Coordinate(), g.Coordinate()};
+    r.to = {g.Coordinate(), g.Coordinate()};
   } while (!((r.to - r.from).norm() > 0.0));
   do {
-    r.z0 = g.Any();
-    r.z1 = g.Any();
+    r.z0 = g.Coordinate();
+    r.z1 = g.Coordinate();
   } while (!(r.z1 > r.z0));
   r.shade = g.Shade();
   return r;
@@ -119,14 +133,14 @@ MapRectangle RandomRectangle(Nasty& g, std::set<std::string>* ids) {
 Map RandomMap(Nasty& g) {
   Map m;
   m.units = g.String();
-  m.sensor_height = g.Positive();
+  m.sensor_height = g.PositiveCoordinate();
   if (g.Chance(0.7)) {
     m.room.present = true;
     do {
-      m.room.min = {g.Any(), g.Any()};
-      m.room.max = {g.Any(), g.Any()};
+      m.room.min = {g.Coordinate(), g.Coordinate()};
+      m.room.max = {g.Coordinate(), g.Coordinate()};
     } while (!(m.room.max.x() > m.room.min.x() && m.room.max.y() > m.room.min.y()));
-    do m.room.height = g.Positive();
+    do m.room.height = g.PositiveCoordinate();
     while (!(m.room.height > m.sensor_height));
     m.room.wall_shade = g.Shade();
     m.room.floor_shade = g.Shade();
@@ -139,8 +153,8 @@ Map RandomMap(Nasty& g) {
     MapBox b;
     b.id = g.UniqueId(&ids);
     do {
-      b.min = {g.Any(), g.Any(), g.Any()};
-      b.max = {g.Any(), g.Any(), g.Any()};
+      b.min = {g.Coordinate(), g.Coordinate(), g.Coordinate()};
+      b.max = {g.Coordinate(), g.Coordinate(), g.Coordinate()};
     } while (!(b.max.array() > b.min.array()).all());
     b.shade = g.Shade();
     m.boxes.push_back(b);

@@ -47,6 +47,21 @@ TEST_CASE("output names: inputs with one name get their folders in front; clashe
   CHECK(ErrorOf([&] { names({"a/run.mp4", "a/../a/run.mp4"}); }).find("given twice") != std::string::npos);
 }
 
+TEST_CASE("output names: non-ASCII names kept, bytes that are not UTF-8 kept apart", "[output_names]") {
+  auto names = [&](const std::vector<std::string>& inputs) {
+    std::vector<std::string> out;
+    for (const std::string& p : OutputPathsInDir(inputs, "out")) out.push_back(fs::path(p).filename().string());
+    return out;
+  };
+  CHECK(names({"été.mp4", "ôté.mp4", "走廊.mp4", "Δ-run.mp4"}) ==
+        std::vector<std::string>{"été.csv", "ôté.csv", "走廊.csv", "Δ-run.csv"});
+  CHECK(names({"été/prise 1.mp4", "ôté/prise 1.mp4"}) ==
+        std::vector<std::string>{"été_prise_1.csv", "ôté_prise_1.csv"});
+  // Latin-1 names (not UTF-8), a stray continuation byte, an overlong '/', a C1 control.
+  CHECK(names({"caf\xe9.mp4", "caf\xe8.mp4", "a\x80" "b.mp4", "x\xc0\xafy.mp4", "c\xc2\x85" "d.mp4"}) ==
+        std::vector<std::string>{"caf_E9.csv", "caf_E8.csv", "a_80b.csv", "x_C0_AFy.csv", "c_C2_85d.csv"});
+}
+
 TEST_CASE("two inputs with one name under --out-dir: two CSVs, each with its own rows", "[output_names]") {
   const test::SmallCase& c = test::GetSmallCase();
   const std::string dir = Scratch("pipeline_names_run");

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "cli_errors.h"
 #include "cli_help.h"
 #include "panotrack/config.h"
 #include "panotrack/core/error.h"
@@ -550,9 +551,11 @@ int ParseCommandLine(CLI::App* app, int argc, char** argv) {
   } catch (const CLI::CallForVersion& e) {
     return app->exit(e);
   } catch (const CLI::ParseError& e) {
-    std::string message = e.what();
+    std::string message = pano::app::ParseErrorMessage(*app, e, "panosim");
+    // The form of a list option where the message does not already say what is expected.
     for (const auto& [name, form] : ListForms())
-      if (message.rfind(name + ":", 0) == 0) message += " (expected " + form + ")";
+      if (message.rfind(name + ":", 0) == 0 && message.find("expected") == std::string::npos)
+        message += " (expected " + form + ")";
     std::cerr << "panosim: " << message << "\n";
     return 1;
   }

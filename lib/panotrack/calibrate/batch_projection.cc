@@ -40,10 +40,29 @@ bool ParseNumber(const std::string& s, double* x) {
   return end == s.c_str() + s.size() && std::isfinite(*x);
 }
 
+// Throws "SOURCE:LINE: ..." at the first control character other than tab,
+// CR and LF: binary data, whose first "line" would otherwise pass as a
+// header and leave no row (and no output) at all.
+void CheckText(const std::string& text, const std::string& source) {
+  int line_no = 1;
+  for (size_t i = 0, line_start = 0; i < text.size(); ++i) {
+    const unsigned char c = static_cast<unsigned char>(text[i]);
+    if (c == '\n') ++line_no, line_start = i + 1;
+    if ((c < 0x20 && c != '\t' && c != '\r' && c != '\n') || c == 0x7F) {
+      char what[96];
+      std::snprintf(what, sizeof(what), ": not a text file of numbers (byte 0x%02X at column %zu)", c,
+                    i - line_start + 1);
+      throw Error(source + ":" + std::to_string(line_no) + what);
+    }
+  }
+}
+
 // Calls `use` with the n numbers of every data line (header, comments and
-// blank lines skipped); throws "SOURCE:LINE: ..." on a bad line.
+// blank lines skipped); throws "SOURCE:LINE: ..." on a bad line. A header is
+// a first line of n fields, none of them a number.
 template <typename Use>
 void ForEachRow(const std::string& csv, const std::string& source, size_t n, const char* what, Use use) {
+  CheckText(csv, source);
   std::istringstream in(csv);
   std::string line;
   int line_no = 0;
@@ -61,7 +80,7 @@ void ForEachRow(const std::string& csv, const std::string& source, size_t n, con
       double x;
       if (ParseNumber(fields[k], &x)) ++numeric;
     }
-    if (first && numeric == 0) continue;  // a header line ("x,y,z")
+    if (first && numeric == 0 && fields.size() == n) continue;  // a header line ("x,y,z")
     if (fields.size() != n || numeric != n) {
       std::string bad;
       for (const std::string& f : fields) {

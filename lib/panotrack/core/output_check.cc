@@ -98,6 +98,20 @@ void CheckFolderOutputHoldsNoInput(const NamedPaths& reads, const std::string& o
   }
 }
 
+void CreateOutputFolder(const std::string& dir, const std::string& option) {
+  std::error_code ec;
+  // A file at the folder's place (or at a parent's) would otherwise surface
+  // as std::filesystem's "Not a directory" with no option named.
+  for (fs::path p = dir; !p.empty(); p = p.parent_path()) {
+    if (fs::exists(p, ec) && !fs::is_directory(p, ec))
+      throw Error(option + ": " + p.string() + " is a file, not a folder" +
+                  (p == fs::path(dir) ? "" : " (in the path " + dir + ")"));
+    if (p == p.parent_path()) break;
+  }
+  fs::create_directories(dir, ec);
+  if (ec) throw Error(option + ": cannot create the folder " + dir + ": " + ec.message());
+}
+
 void CheckPlannedOutputs(const NamedPaths& reads, const NamedPaths& writes, bool overwrite) {
   CheckOutputsDistinct(reads, writes);
   std::vector<std::string> paths;

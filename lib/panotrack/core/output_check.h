@@ -59,6 +59,11 @@ void CheckOutputsDistinct(const NamedPaths& reads, const NamedPaths& writes);
 // the reads.
 void CheckFolderOutputHoldsNoInput(const NamedPaths& reads, const std::string& option, const std::string& dir);
 
+// Creates the output folder `dir` (given by `option`) and its parents where
+// missing. Throws pano::Error naming the option and the folder where a file
+// stands in the way or the folder cannot be made.
+void CreateOutputFolder(const std::string& dir, const std::string& option);
+
 // Both checks every program runs on its planned outputs before any work:
 // CheckOutputsDistinct, then RefuseToReplace unless `overwrite`.
 void CheckPlannedOutputs(const NamedPaths& reads, const NamedPaths& writes, bool overwrite);

@@ -47,6 +47,14 @@ namespace {
 
 std::string SizeText(int width, int height) { return std::to_string(width) + "x" + std::to_string(height); }
 
+// The ground truth has one row per frame, matched by frame number: a file of
+// another length belongs to another video, and its accuracy would compare
+// the wrong frames (or few of them).
+std::string GtLengthMismatch(const VideoJob& job, size_t gt_rows, int frames) {
+  return "--gt " + job.gt + ": " + std::to_string(gt_rows) + " rows for the " + std::to_string(frames) +
+         " frames of " + job.input + " (one row per frame expected)";
+}
+
 // The size frames are tracked at: as ScaledSensor rounds.
 cv::Size TrackedSize(int width, int height, double scale) {
   if (scale == 1.0) return {width, height};
@@ -289,8 +297,17 @@ void LocalizeInto(const VideoJob& job, const SharedResources& res, const VideoRu
                                   : std::string()) +
                 " does not match the calibration's " + SizeText(s.image_width, s.image_height) + " (" +
                 res.calib_path + (opt.scale != 1.0 ? " scaled" : "") + ")");
+  // Checked before any output where the input states its length; after
+  // tracking where it does not (streams, live inputs).
+  if (!job.gt.empty() && source.frame_count() > 0 && gt.size() != static_cast<size_t>(source.frame_count()))
+    throw Error(GtLengthMismatch(job, gt.size(), source.frame_count()));
   std::vector<PoseRow> smoothed;
   const std::vector<PoseRow> rows = TrackFrames(job, res, opt, &source, sum, &smoothed);
+  if (!job.gt.empty() && sum->end == VideoEnd::kDone && gt.size() != static_cast<size_t>(sum->frames)) {
+    if (!opt.quiet)
+      std::fprintf(stderr, "panoloc: note: %s: no accuracy\n", GtLengthMismatch(job, gt.size(), sum->frames).c_str());
+    gt.clear();
+  }
   if (!job.plot.empty()) WritePlot(job.plot, res.map, rows, gt);
   if (!gt.empty()) {
     sum->has_accuracy = true;

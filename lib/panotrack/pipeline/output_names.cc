@@ -13,10 +13,46 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// The length of the UTF-8 sequence at `s[i]` that encodes a printable
+// character beyond ASCII (U+00A0 and up); 0 for anything else (ASCII, a
+// stray or overlong byte, a surrogate, C1 controls).
+size_t NonAsciiCharLength(const std::string& s, size_t i) {
+  const auto byte = [&](size_t k) { return static_cast<unsigned char>(s[k]); };
+  const unsigned char lead = byte(i);
+  const size_t n = lead >= 0xF0 && lead <= 0xF4 ? 4 : lead >= 0xE0 ? 3 : lead >= 0xC2 ? 2 : 0;
+  if (n == 0 || lead > 0xF4 || i + n > s.size()) return 0;
+  unsigned long code = lead & (0x7F >> n);
+  for (size_t k = 1; k < n; ++k) {
+    if ((byte(i + k) & 0xC0) != 0x80) return 0;
+    code = (code << 6) | (byte(i + k) & 0x3F);
+  }
+  const unsigned long least[] = {0, 0, 0xA0, 0x800, 0x10000};  // shorter forms are overlong
+  if (code < least[n] || code > 0x10FFFF || (code >= 0xD800 && code <= 0xDFFF)) return 0;
+  return n;
+}
+
+// A part of an input's path as a part of a file name: letters, digits, '-',
+// '_', '.' and every non-ASCII character (UTF-8) kept, so that names in any
+// script stay apart; other ASCII characters become '_'; a byte that is not
+// UTF-8 (a Latin-1 name) becomes '_' and its two hex digits (caf\xe9 ->
+// caf_E9), which keeps such names apart too.
 std::string Sanitized(const std::string& part) {
-  std::string out = part;
-  for (char& c : out)
-    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_' && c != '.') c = '_';
+  std::string out;
+  for (size_t i = 0; i < part.size();) {
+    const unsigned char c = static_cast<unsigned char>(part[i]);
+    if (const size_t n = NonAsciiCharLength(part, i)) {
+      out.append(part, i, n);
+      i += n;
+      continue;
+    }
+    if (c >= 0x80) {
+      static const char kHex[] = "0123456789ABCDEF";
+      out += {'_', kHex[c >> 4], kHex[c & 15]};
+    } else {
+      out += std::isalnum(c) || c == '-' || c == '_' || c == '.' ? static_cast<char>(c) : '_';
+    }
+    ++i;
+  }
   return out;
 }
 

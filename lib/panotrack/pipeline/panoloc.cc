@@ -24,6 +24,27 @@ namespace pano {
 
 namespace fs = std::filesystem;
 
+namespace {
+
+std::string ShortNumber(double v) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%g", v);
+  return text;
+}
+
+// The localiser's options that panoloc's flags set, checked under the flags'
+// names: LocalizerOptions::Check names the fields of the library's struct.
+void CheckTrackingFlags(const LocalizerOptions& l) {
+  if (!(l.search_px > 0 && l.search_px <= l.max_search_px))
+    throw Error("--search-px: expected a half-width above 0 and at most " + ShortNumber(l.max_search_px) +
+                " px, got " + ShortNumber(l.search_px));
+  if (!(l.junction.min_step > 0 && l.junction.min_step < 256))
+    throw Error("--min-step: expected an intensity step above 0 and below 256 grey levels, got " +
+                ShortNumber(l.junction.min_step));
+}
+
+}  // namespace
+
 void PanolocOptions::Check() const {
   if (inputs.empty()) throw Error("inputs: no input video given");
   if (calib_path.empty()) throw Error("--calib (calib_path): required");
@@ -41,7 +62,10 @@ void PanolocOptions::Check() const {
   CheckThreadCount(num_threads, "--threads (num_threads)");
   if (decode_memory_mib < 0 || decode_memory_mib > (1 << 20))
     throw Error("--decode-memory (decode_memory_mib): expected 0 to 1048576 MiB");
-  if (fps < 0 || !std::isfinite(fps)) throw Error("--fps (fps): expected a positive number");
+  // From a frame every few hours (time-lapse) to a high-speed camera's rate.
+  if (!(fps == 0 || (fps >= 1e-4 && fps <= 1e5)))
+    throw Error("--fps (fps): expected 0 (the input's timestamps) or a frame rate from 0.0001 to 100000 "
+                "frames/s, got " + ShortNumber(fps));
   if (!(scale > 0 && scale <= 1)) throw Error("--scale (scale): expected a factor in (0, 1]");
   if (smooth && out_dir.empty() && PoseCsvWriter::WritesDirectly(output))
     throw Error("--smooth (smooth): needs a file output (-o FILE.csv or --out-dir DIR) beside which to "
@@ -63,6 +87,7 @@ void PanolocOptions::Check() const {
                 "map's units");
   if (init && (!std::isfinite(init->x) || !std::isfinite(init->y) || !std::isfinite(init->theta)))
     throw Error("--init (init): expected finite x,y,theta");
+  CheckTrackingFlags(localizer);
   localizer.Check();
 }
 
@@ -136,6 +161,8 @@ std::vector<PlannedJob> PlanJobs(const PanolocOptions& opt, const Map& map) {
     j.input = opt.inputs[i];
     j.output = outputs[i];
     j.gt = opt.gt == "auto" ? GtBeside(j.input) : opt.gt;
+    if (opt.gt == "auto" && j.gt.empty() && !opt.quiet)
+      std::fprintf(stderr, "panoloc: note: %s: --gt auto: no gt.csv beside it, no accuracy\n", j.input.c_str());
     j.debug_video = opt.debug_video;
     j.plot = opt.plot;
     j.tum = opt.tum;
@@ -279,7 +306,7 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
     auto samples = std::make_shared<const std::vector<OdometrySample>>(ReadOdometryCsv(opt.odometry));
     for (PlannedJob& p : jobs) p.job.odometry = samples;
   }
-  if (!opt.out_dir.empty()) fs::create_directories(opt.out_dir);
+  if (!opt.out_dir.empty()) CreateOutputFolder(opt.out_dir, "--out-dir");
   // What the table build would refuse, refused here, before any input starts.
   res.calib.sensor.Check(opt.calib_path);
   RangesForMap(res.map, res.calib.sensor).Check(opt.map_path + ": lookup table ranges");

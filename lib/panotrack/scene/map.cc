@@ -1,6 +1,9 @@
 #include "panotrack/scene/map.h"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <initializer_list>
 #include <set>
 
 #include "panotrack/core/error.h"
@@ -33,7 +36,51 @@ void Map::Extent(Eigen::Vector2d* lo, Eigen::Vector2d* hi, double* top) const {
   for (const MapBox& b : boxes) add(b.min.head<2>(), b.max.z()), add(b.max.head<2>(), b.max.z());
 }
 
+namespace {
+
+// Every coordinate within a sane room. A mistyped exponent (1e300) would
+// otherwise pass the checks of order and surface later as a distance range
+// or a table that names no rectangle, or overflow to infinity.
+void CheckCoordinatesInRoom(const Map& m, const std::string& what) {
+  constexpr double kMaxCoordinate = 1e6;  // map units: a kilometre in mm
+  auto check = [&](std::initializer_list<double> values, const std::string& key, const std::string& id) {
+    for (double v : values) {
+      if (std::abs(v) < kMaxCoordinate) continue;
+      char got[32];
+      std::snprintf(got, sizeof(got), "%g", v);
+      throw Error(what + ": " + key + (id.empty() ? "" : " ('" + id + "')") +
+                  ": expected coordinates within +-1e6 map units, got " + got);
+    }
+  };
+  check({m.sensor_height}, "sensor_height", "");
+  if (m.room.present) {
+    check({m.room.min.x(), m.room.min.y()}, "room.min", "");
+    check({m.room.max.x(), m.room.max.y()}, "room.max", "");
+    check({m.room.height}, "room.height", "");
+  }
+  auto check_rects = [&](const std::vector<MapRectangle>& rects, const std::string& key) {
+    for (size_t i = 0; i < rects.size(); ++i) {
+      const MapRectangle& r = rects[i];
+      const std::string path = key + "[" + std::to_string(i) + "]";
+      check({r.from.x(), r.from.y()}, path + ".from", r.id);
+      check({r.to.x(), r.to.y()}, path + ".to", r.id);
+      check({r.z0, r.z1}, path + ".z", r.id);
+    }
+  };
+  check_rects(m.rectangles, "rectangles");
+  check_rects(m.distractors, "distractors");
+  for (size_t i = 0; i < m.boxes.size(); ++i) {
+    const MapBox& b = m.boxes[i];
+    const std::string path = "boxes[" + std::to_string(i) + "]";
+    check({b.min.x(), b.min.y(), b.min.z()}, path + ".min", b.id);
+    check({b.max.x(), b.max.y(), b.max.z()}, path + ".max", b.id);
+  }
+}
+
+}  // namespace
+
 void CheckMap(const Map& m, const std::string& what) {
+  CheckCoordinatesInRoom(m, what);
   auto fail = [&](const std::string& key, const std::string& problem) {
     throw Error(what + ": " + key + ": " + problem);
   };

@@ -1,6 +1,7 @@
 #include "panotrack/sensor/sensor.h"
 
 #include <cmath>
+#include <cstdio>
 #include <sstream>
 
 #include "panotrack/core/angles.h"
@@ -73,6 +74,19 @@ void Sensor::Check(const std::string& what) const {
     if (!std::isfinite(v)) fail("parameters", "not a finite number (NaN or infinity)");
   if (image_width <= 0 || image_height <= 0)
     fail("image_width/image_height", "expected positive integers");
+  // The principal point, where the mirror's axis meets the image, lies in
+  // the image (which spans -0.5 to size - 0.5 around the pixel centres): a
+  // value beyond it is a typo, which later fails as a calibration that
+  // tracks nothing, with no parameter named.
+  auto check_centre = [&](double c, int size, const std::string& key) {
+    if (c >= -0.5 && c <= size - 0.5) return;
+    char text[96];
+    std::snprintf(text, sizeof(text), "expected the principal point inside the image (-0.5 to %g px), got %g",
+                  size - 0.5, c);
+    fail(key, text);
+  };
+  check_centre(p.cx, image_width, "cx");
+  check_centre(p.cy, image_height, "cy");
   if (!(p.focal_px > 0.0)) fail("focal_px", "expected a positive focal length in pixels");
   if (!(p.aspect > 0.0)) fail("aspect", "expected a positive aspect ratio");
   if (!(p.curvature_radius > 0.0))

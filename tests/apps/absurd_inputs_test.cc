@@ -1,0 +1,150 @@
+// Inputs a careful user would not give, answered as the programs answer bad
+// input: one line naming the flag, file or field and the problem, exit 1,
+// no output left behind; or, where the run can go on, a clear note.
+#include <catch2/catch.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "panotrack/render/presets.h"
+#include "panotrack/render/writers.h"
+#include "run_command.h"
+#include "test_paths.h"
+
+namespace pano {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A short rendered sequence (8 frames of paper-real), made once.
+const std::string& Sequence() {
+  static const std::string seq = [] {
+    const std::string dir = test::ScratchDir("apps_absurd") + "/seq";
+    SequenceCase sc = MakePreset("paper-real");
+    sc.poses.resize(8);
+    SequenceWriteOptions w;
+    w.quiet = true;
+    w.overwrite = true;
+    WriteSequence(sc, dir, w);
+    return dir;
+  }();
+  return seq;
+}
+
+std::string Read(const std::string& path) {
+  std::ostringstream text;
+  text << std::ifstream(path).rdbuf();
+  return text.str();
+}
+
+// panoloc on the sequence with `args` added; `--calib`/`--map` as given or the sequence's.
+test::CommandRun Panoloc(const std::string& args, const std::string& calib = "", const std::string& map = "") {
+  const std::string& seq = Sequence();
+  return test::RunProgram("panoloc " + seq + "/video.mp4 --calib " + (calib.empty() ? seq + "/calib.yaml" : calib) +
+                          " --map " + (map.empty() ? seq + "/map.yaml" : map) + " -q " + args);
+}
+
+void ExpectOneLineError(const test::CommandRun& r, const std::string& part) {
+  INFO(r.out);
+  CHECK(r.code == 1);
+  CHECK(test::CountLines(r.out) == 1);
+  CHECK(r.out.find(part) != std::string::npos);
+}
+
+TEST_CASE("--out-dir naming a file: one line naming the option", "[absurd_inputs]") {
+  const std::string dir = test::ScratchDir("apps_absurd_outdir");
+  std::ofstream(dir + "/od") << "not a folder\n";
+  test::CommandRun r = Panoloc("--out-dir " + dir + "/od");
+  ExpectOneLineError(r, "panoloc: --out-dir: " + dir + "/od is a file, not a folder");
+  r = Panoloc("--out-dir " + dir + "/od/sub");
+  ExpectOneLineError(r, "panoloc: --out-dir: " + dir + "/od is a file, not a folder");
+  CHECK(Read(dir + "/od") == "not a folder\n");
+}
+
+// `path`'s text with the first line starting with `key` replaced by `line`, written to `out`.
+void WriteWithLine(const std::string& path, const std::string& key, const std::string& line,
+                   const std::string& out) {
+  std::istringstream in(Read(path));
+  std::ofstream o(out);
+  bool done = false;
+  for (std::string l; std::getline(in, l);) {
+    const bool match = !done && l.find(key) != std::string::npos;
+    o << (match ? line : l) << "\n";
+    done = done || match;
+  }
+  REQUIRE(done);
+}
+
+TEST_CASE("absurd values in files: the field named, by what it means", "[absurd_inputs]") {
+  const std::string dir = test::ScratchDir("apps_absurd_files");
+  const std::string& seq = Sequence();
+  WriteWithLine(seq + "/calib.yaml", "cx:", "cx: 1e308", dir + "/calib.yaml");
+  ExpectOneLineError(Panoloc("-o " + dir + "/a.csv", dir + "/calib.yaml"),
+                     "panoloc: " + dir + "/calib.yaml: cx: expected the principal point inside the image");
+  CHECK_FALSE(fs::exists(dir + "/a.csv"));
+  WriteWithLine(seq + "/calib.yaml", "cy:", "cy: -3", dir + "/calib_cy.yaml");
+  ExpectOneLineError(test::RunProgram("panocalib project --calib " + dir + "/calib_cy.yaml --point 100,0,-10"),
+                     "cy: expected the principal point inside the image");
+  // A corner 1e300 away: the rectangle named, not a distance range of the table.
+  WriteWithLine(seq + "/map.yaml", "from:", "    from: [1e300, 60.0]", dir + "/map.yaml");
+  ExpectOneLineError(Panoloc("-o " + dir + "/b.csv", "", dir + "/map.yaml"),
+                     "panoloc: " + dir + "/map.yaml: rectangles[0].from ('");
+  ExpectOneLineError(Panoloc("-o " + dir + "/b.csv", "", dir + "/map.yaml"),
+                     "expected coordinates within +-1e6 map units, got 1e+300");
+  CHECK_FALSE(fs::exists(dir + "/b.csv"));
+}
+
+TEST_CASE("absurd values of flags: the flag named, with the value given", "[absurd_inputs]") {
+  const std::string dir = test::ScratchDir("apps_absurd_flags");
+  const std::string out = " -o " + dir + "/a.csv";
+  ExpectOneLineError(Panoloc(out + " --fps 1e-300"), "panoloc: --fps (fps): expected 0 (the input's timestamps) or "
+                                                    "a frame rate from 0.0001 to 100000 frames/s, got 1e-300");
+  ExpectOneLineError(Panoloc(out + " --fps 1e300"), "got 1e+300");
+  ExpectOneLineError(Panoloc(out + " --search-px -1"),
+                     "panoloc: --search-px: expected a half-width above 0 and at most 20 px, got -1");
+  ExpectOneLineError(Panoloc(out + " --min-step 0"), "panoloc: --min-step: expected an intensity step above 0");
+  CHECK_FALSE(fs::exists(dir + "/a.csv"));
+}
+
+TEST_CASE("--gt of another length than the video is refused; --gt auto without gt.csv says so",
+          "[absurd_inputs]") {
+  const std::string dir = test::ScratchDir("apps_absurd_gt");
+  const std::string& seq = Sequence();
+  // The header and the first 4 of the 8 rows.
+  std::istringstream gt(Read(seq + "/gt.csv"));
+  std::ofstream short_gt(dir + "/gt4.csv");
+  std::string line;
+  for (int i = 0; i < 5 && std::getline(gt, line); ++i) short_gt << line << "\n";
+  short_gt.close();
+  ExpectOneLineError(Panoloc("-o " + dir + "/a.csv --gt " + dir + "/gt4.csv"),
+                     "panoloc: --gt " + dir + "/gt4.csv: 4 rows for the 8 frames of " + seq +
+                         "/video.mp4 (one row per frame expected)");
+  CHECK_FALSE(fs::exists(dir + "/a.csv"));
+  // The right length: the accuracy line.
+  test::CommandRun r = test::RunProgram("panoloc " + seq + "/video.mp4 --calib " + seq + "/calib.yaml --map " + seq +
+                                        "/map.yaml -o " + dir + "/b.csv --gt auto");
+  INFO(r.out);
+  CHECK(r.out.find("frames tracked 8/8") != std::string::npos);
+  // A video with no gt.csv beside it.
+  fs::create_directories(dir + "/alone");
+  fs::copy_file(seq + "/video.mp4", dir + "/alone/video.mp4", fs::copy_options::overwrite_existing);
+  r = test::RunProgram("panoloc " + dir + "/alone/video.mp4 --calib " + seq + "/calib.yaml --map " + seq +
+                       "/map.yaml -o " + dir + "/c.csv --gt auto");
+  INFO(r.out);
+  CHECK(r.out.find("panoloc: note: " + dir + "/alone/video.mp4: --gt auto: no gt.csv beside it, no accuracy\n") !=
+        std::string::npos);
+}
+
+TEST_CASE("panocalib backproject --pixels - fed binary data: one line, exit 1", "[absurd_inputs]") {
+  const std::string& seq = Sequence();
+  const std::string bin = test::ScratchDir("apps_absurd_binary") + "/a.out";
+  std::ofstream(bin, std::ios::binary) << std::string("\x7f" "ELF\x02\x01\x01\0\0\0\xff\xfe", 12);
+  const test::CommandRun r =
+      test::RunProgram("panocalib backproject --calib " + seq + "/calib.yaml --pixels - < " + bin);
+  ExpectOneLineError(r, "panocalib: <stdin>:1: not a text file of numbers (byte 0x7F at column 1)");
+}
+
+}  // namespace
+}  // namespace pano
