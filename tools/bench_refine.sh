@@ -30,13 +30,15 @@ for tool in panosim panoloc panomap; do
 done
 rounds=${ROUNDS:-2}
 sigma=${SIGMA:-1}
+python=/usr/bin/python3
+[ -x "$python" ] || python=python3
 # room preset : second sequence (same room and sensor, another path)
 cases=${CASES:-"paper-real:fast-turns paper-synthetic:paper-synthetic"}
 
 # panoloc's position RMS against the ground truth, raw and after the rigid
 # 2-D transform that best aligns its ok rows to the truth, and the rows ok.
 traj_rms() {  # poses.csv gt.csv
-  python3 - "$1" "$2" <<'PY'
+  "$python" - "$1" "$2" <<'PY'
 import csv, math, sys
 import numpy as np
 rows = {int(r["frame"]): r for r in csv.DictReader(open(sys.argv[1])) if r["status"] == "ok"}
@@ -58,7 +60,7 @@ PY
 }
 # RMS distance between the rectangle corners of two maps, raw and after the gauge.
 corner_rms() {
-  python3 - "$1" "$2" <<'PY'
+  "$python" - "$1" "$2" <<'PY'
 import math, sys, yaml
 import numpy as np
 a, b = (yaml.safe_load(open(p)) for p in sys.argv[1:3])
@@ -130,7 +132,7 @@ for c in $cases; do
   refine gt_noprior "$d/gt.csv" --pose-sigma 0
   row "$room" "(true map)" "$d/map_true.yaml" - "$d" "$s" loc_true
   row "$room" "(surveyed map)" "$d/map.yaml" - "$d" "$s" loc_surveyed
-  ok=$(python3 -c 'import csv,sys; print(sum(r["status"]=="ok" for r in csv.DictReader(open(sys.argv[1]))))' "$d/poses.csv")
+  ok=$("$python" -c 'import csv,sys; print(sum(r["status"]=="ok" for r in csv.DictReader(open(sys.argv[1]))))' "$d/poses.csv")
   for r in $(seq 1 "$rounds"); do
     row "$room" "panoloc ($ok/300 ok), round $r" "$d/refined_panoloc$r.yaml" "$d/refine_panoloc$r.txt" "$d" "$s" "loc_panoloc$r"
   done
