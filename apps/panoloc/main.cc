@@ -195,6 +195,7 @@ int main(int argc, char** argv) {
                  "How well the map was measured: the standard deviation of each corner coordinate (map "
                  "units); default: the map's survey_sigma, checked against the images (docs/maps.md)")
       ->check(CLI::NonNegativeNumber)
+      ->default_str("the map's")
       ->group(tracking);
   std::string table_cache;
   bool no_table_cache = false;
