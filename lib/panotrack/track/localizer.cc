@@ -125,6 +125,7 @@ Localizer::Localizer(const Calibration& calib, const Map& map,
   const double typical = TypicalLandmarkDistance(map_);
   typical_distance_ = typical > 0 ? typical : 1.0;
   survey_ = SurveyErrorEstimate(opt_.survey, typical_distance_);
+  UpdateLandmarkBudget();
   motion_options_ = opt_.motion.Scaled(map_.UnitsPerMetre());
   motion_ = MotionModel(motion_options_);
   tracker_ = MakeTracker(opt_.method, calib_.sensor, table_, opt_, std::move(ph_tables));
@@ -152,6 +153,7 @@ void Localizer::Reset(const Pose2& robot_initial, bool hint) {
   survey_.Reset();
   residual_memory_.assign(landmarks_.size(), 0.0);
   residual_frame_.assign(landmarks_.size(), -2);
+  UpdateLandmarkBudget();
   motion_updates_ = 0;
   frame_pose_ = initial;
   ForgetCompassHistory();
@@ -362,10 +364,13 @@ double Localizer::MeanSurveySigma() const {
   return landmarks_.empty() ? 0.0 : sum / static_cast<double>(landmarks_.size());
 }
 
-int Localizer::MaxLandmarks() const {
-  if (opt_.max_landmarks == 0) return 0;
-  if (!(MeanSurveySigma() / typical_distance_ > ReferenceSigma())) return opt_.max_landmarks;
-  return opt_.max_landmarks_uncertain_map == 0 ? 0 : std::max(opt_.max_landmarks, opt_.max_landmarks_uncertain_map);
+void Localizer::UpdateLandmarkBudget() {
+  // It changes only with the noise and survey estimates: computed when they
+  // change, not on every call in a frame (the mean runs over the whole map).
+  max_landmarks_ = opt_.max_landmarks;
+  if (opt_.max_landmarks != 0 && MeanSurveySigma() / typical_distance_ > ReferenceSigma())
+    max_landmarks_ =
+        opt_.max_landmarks_uncertain_map == 0 ? 0 : std::max(opt_.max_landmarks, opt_.max_landmarks_uncertain_map);
 }
 
 double Localizer::SearchWidth(const PredictedLandmark& p, double search_px) const {
@@ -431,7 +436,7 @@ TriangulationResult Localizer::Solve(const FrameResult& fr, const Pose2& prior) 
   // error dominates, that noise also holds what the survey estimate has not
   // caught up with yet, and the covariance is the map's anyway.)
   const double floor2 = bearing_sigma_ * bearing_sigma_;
-  if (MaxLandmarks() == opt_.max_landmarks && out.variance_factor > 0 && out.variance_factor < floor2) {
+  if (!SurveyLimits() && out.variance_factor > 0 && out.variance_factor < floor2) {
     out.covariance *= floor2 / out.variance_factor;
     out.variance_factor = floor2;
   }
@@ -479,7 +484,7 @@ void Localizer::DropSuddenResiduals(const FrameResult& fr, const std::vector<Bea
   // Only where the survey's tolerance is wide enough to hide a bias (an
   // edge half hidden by someone walking past); with an exact map the
   // consensus's own threshold rejects it.
-  if (!(MaxLandmarks() != opt_.max_landmarks)) return;
+  if (!SurveyLimits()) return;
   const std::vector<int> sudden = SuddenResiduals(fr, obs, *tri);
   if (sudden.empty()) return;
   std::vector<char> drop(obs.size(), 0);
@@ -952,13 +957,18 @@ bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, F
   return true;
 }
 
+namespace {
+
+// Of `predicted` landmarks, those within a per-frame budget (0: all).
+double WithinBudget(size_t predicted, int budget) {
+  return static_cast<double>(budget > 0 ? std::min<size_t>(predicted, static_cast<size_t>(budget)) : predicted);
+}
+
+}  // namespace
+
 double Localizer::ChosenLandmarks(const FrameResult& fr) const {
-  // More are tracked when few of the chosen ones are found, or where the
-  // map's survey error makes more worth tracking (MaxLandmarks): those
-  // count only when found, as the extras do.
-  const int max_landmarks = opt_.max_landmarks;
-  return static_cast<double>(max_landmarks > 0 ? std::min<size_t>(fr.predicted.size(), max_landmarks)
-                                                     : fr.predicted.size());
+  // More are tracked when few of the chosen ones are found.
+  return WithinBudget(fr.predicted.size(), opt_.max_landmarks);
 }
 
 int Localizer::BackedOffRelocalizeFrame(int frame) const {
@@ -974,16 +984,14 @@ bool Localizer::EnoughForRelocalized(const FrameResult& fr, const TriangulationR
     return false;
   // Where the survey error widens every tolerance, wrong correspondences
   // fit too: most of what was found must agree (a confirmed fraction).
-  if (!(SurveyChosenLandmarks(fr) > ChosenLandmarks(fr))) return true;
+  if (!SurveyLimits()) return true;
   int found = 0;
   for (const LandmarkMeasurement& m : fr.measurements) found += m.found;
   return inliers >= opt_.relocalize_confirmed_fraction * found;
 }
 
 double Localizer::SurveyChosenLandmarks(const FrameResult& fr) const {
-  const int max_landmarks = MaxLandmarks();
-  return static_cast<double>(max_landmarks > 0 ? std::min<size_t>(fr.predicted.size(), max_landmarks)
-                                               : fr.predicted.size());
+  return WithinBudget(fr.predicted.size(), MaxLandmarks());
 }
 
 bool Localizer::Corroborated(const FrameResult& fr, const TriangulationResult& tri) const {
@@ -1065,6 +1073,7 @@ void Localizer::UpdateSurveyEstimate(const std::vector<BearingObservation>& obs,
     distances.push_back((o.landmark - Eigen::Vector2d(tri.pose.x, tri.pose.y)).norm());
   }
   survey_.Update(residuals, distances);
+  UpdateLandmarkBudget();
 }
 
 void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, bool accepted, int n_found) {

@@ -353,7 +353,12 @@ class Localizer {
   double MeanSurveySigma() const;
   // Landmarks to track per frame (0: all): max_landmarks, or more where
   // the survey error dominates (max_landmarks_uncertain_map).
-  int MaxLandmarks() const;
+  int MaxLandmarks() const { return max_landmarks_; }
+  // Whether the map's survey error limits the bearings (more landmarks
+  // are tracked for it).
+  bool SurveyLimits() const { return max_landmarks_ != opt_.max_landmarks; }
+  // Sets max_landmarks_ from the noise and survey estimates.
+  void UpdateLandmarkBudget();
   // The recent bearing noise and the survey estimate, from an accepted frame.
   void UpdateNoiseEstimates(const FrameResult& fr, const TriangulationResult& tri);
   // The survey estimate from the inlier bearings of a solution.
@@ -481,6 +486,7 @@ class Localizer {
   // typical distance it is scaled by.
   double typical_distance_ = 1.0;
   SurveyErrorEstimate survey_;
+  int max_landmarks_ = 0;  // MaxLandmarks
   // Per landmark: its bearing residual on the last accepted frame that had
   // it as an inlier, and that frame (SuddenResiduals).
   std::vector<double> residual_memory_;
