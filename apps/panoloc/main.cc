@@ -188,7 +188,8 @@ int main(int argc, char** argv) {
       ->group(tracking);
   app.add_option("--alert-limit", o.localizer.alert_limit,
                  "The error bound a frame must be within (map units), instead of --alert-fraction of the "
-                 "distance plus 5 survey sigmas; 0: that automatic limit")
+                 "distance plus 5 times the map's error (its survey sigma, or what the residuals show); 0: that "
+                 "automatic limit")
       ->check(CLI::NonNegativeNumber)
       ->group(tracking);
   app.add_option("--survey-sigma", o.localizer.survey_sigma,

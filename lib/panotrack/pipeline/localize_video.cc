@@ -270,6 +270,16 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
                  "predicted without it\n",
                  job.input.c_str(), sum->frames_without_odometry, std::max(0, sum->frames - 1),
                  job.odometry->front().time_s, job.odometry->back().time_s);
+  if (!opt.quiet && !std::isnan(loc.ShownSurveySigma())) {
+    // The residuals overruled the map's survey_sigma, or estimated it.
+    const double stated = loc.StatedSurveySigma();
+    char statement[64] = "the map does not state it";
+    if (!std::isnan(stated)) std::snprintf(statement, sizeof statement, "the map states %.2g", stated);
+    std::fprintf(stderr,
+                 "panoloc: note: %s: the map's corners look measured to about %.2g %s per coordinate (%s): poses "
+                 "are weighed by that; state survey_sigma in the map (docs/maps.md)\n",
+                 job.input.c_str(), loc.ShownSurveySigma(), res.map.units.c_str(), statement);
+  }
   if (!opt.quiet)
     for (const std::string& id : loc.ContradictedShades())
       std::fprintf(stderr,

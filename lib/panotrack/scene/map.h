@@ -51,8 +51,9 @@ struct Map {
   // How well the corners were measured: the standard deviation of each
   // coordinate (map units) of a corner, as a tape measure gives it
   // (docs/maps.md). 0: exact (a rendered room, a survey far better than
-  // the images); NaN: not stated (the localiser estimates it from the
-  // residuals it sees).
+  // the images; the localiser still overrules it where the residuals
+  // clearly show a survey error); NaN: not stated (the localiser estimates
+  // it from the residuals it sees).
   double survey_sigma = std::nan("");
   MapRoom room;
   std::vector<MapRectangle> rectangles;

@@ -355,7 +355,7 @@ double Localizer::InlierThreshold() const {
 }
 
 double Localizer::SurveySigma(const Landmark& l) const {
-  return survey_.Sigma(std::isnan(opt_.survey_sigma) ? l.survey_sigma : opt_.survey_sigma);
+  return std::max(survey_.Sigma(std::isnan(opt_.survey_sigma) ? l.survey_sigma : opt_.survey_sigma), probe_sigma_);
 }
 
 double Localizer::MeanSurveySigma() const {
@@ -700,7 +700,21 @@ bool Localizer::Consistent(FrameResult* fr, const TriangulationResult& tri) cons
   double survey = 0.0;
   for (int i : tri.inliers) survey += SurveySigma(*fr->predicted[static_cast<size_t>(obs[static_cast<size_t>(i)].id)].landmark);
   survey /= std::max<size_t>(1, tri.inliers.size());
-  io.alert_margin = opt_.protection_sigmas * survey;
+  // The position error the map allows: its survey error, or the error
+  // this frame's residuals show across the landmarks' distances, whichever
+  // is larger (with few landmarks at similar distances the image's and the
+  // map's shares of the residuals cannot be told apart, and a map stated
+  // exact may not be).
+  double sum_squares = 0.0;
+  for (int i : tri.inliers) {
+    const BearingObservation& o = obs[static_cast<size_t>(i)];
+    const double d = (o.landmark - Eigen::Vector2d(tri.pose.x, tri.pose.y)).norm();
+    const double r = tri.bearing_residuals[static_cast<size_t>(i)] * d;
+    sum_squares += r * r;
+  }
+  const size_t n = tri.inliers.size();
+  const double shown = n > 3 ? std::sqrt(sum_squares / static_cast<double>(n - 3)) : 0.0;
+  io.alert_margin = opt_.protection_sigmas * std::max(survey, shown);
   io.reference_position_std += survey;
   fr->integrity = IntegrityCheck(tri, obs, io);
   // Three bearings always fit a pose: without a spare one nothing is checked.
@@ -723,6 +737,47 @@ bool Localizer::SurveyEvidence(const FrameResult& fr, const TriangulationResult&
   const PoseMeasurement m =
       MeasurementOf(tri, Observations(fr), opt_.gate_position_fraction, opt_.gate_heading_sigma);
   return motion_.Innovation(m) <= opt_.gate_chi2;
+}
+
+double Localizer::StatedSurveySigma() const {
+  return std::isnan(opt_.survey_sigma) ? map_.survey_sigma : opt_.survey_sigma;
+}
+
+double Localizer::ShownSurveySigma() const {
+  const double stated = StatedSurveySigma();
+  const double used = survey_.Sigma(stated);
+  if (std::isnan(stated)) return survey_.confident() ? used : std::nan("");
+  return used > 1.5 * stated ? used : std::nan("");
+}
+
+bool Localizer::ProbeSurveyError(const Pose2& pred) {
+  // The smallest of a ladder of survey errors under which the frame's
+  // bearings agree: a map error makes them miss an exact map's narrow
+  // tolerance (or its search windows) by a few of its sigmas, which the
+  // right level explains. Most of what is found must agree: a wrong pose
+  // fits a few bearings within a wide tolerance, not most of them.
+  double current = 0.0;
+  for (const Landmark& l : landmarks_) current = std::max(current, SurveySigma(l));
+  for (double fraction : {0.0025, 0.005, 0.01, 0.02, opt_.survey.max_fraction}) {
+    const double level = fraction * typical_distance_;
+    if (level <= 1.5 * current) continue;
+    probe_sigma_ = level;
+    FrameResult fr;
+    fr.predicted_pose = pred;
+    TriangulationResult tri;
+    TrackPredictions(pred, &fr, &tri);
+    RefineAroundSolution(&fr, &tri);
+    size_t n_found = 0;
+    for (const auto& m : fr.measurements) n_found += m.found;
+    const bool agree = SurveyEvidence(fr, tri) && Consistent(&fr, tri) && 3 * tri.inliers.size() >= 2 * n_found;
+    probe_sigma_ = 0.0;
+    if (agree) {
+      survey_.Provisional(level);
+      UpdateLandmarkBudget();
+      return true;
+    }
+  }
+  return false;
 }
 
 void Localizer::CheckFrame(const cv::Mat& grey, int frame) const {
@@ -940,7 +995,7 @@ bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, F
   TriangulationResult t;
   survey_evidence_.reset();
   const bool relocalized = Relocalize(grey, &found, &t);
-  if (survey_evidence_) UpdateSurveyEstimate(Observations(survey_evidence_->first), survey_evidence_->second);
+  if (survey_evidence_) UpdateSurveyEstimate(survey_evidence_->first, survey_evidence_->second);
   survey_evidence_.reset();
   if (!relocalized) {
     ++relocalize_failures_;
@@ -1044,16 +1099,24 @@ void Localizer::UpdateNoiseEstimates(const FrameResult& fr, const TriangulationR
   const std::vector<BearingObservation> obs = Observations(fr);
   // The noise from all the bearings (a robust scale, the median absolute
   // residual in units of each one's spread): the inliers' own RMS is
-  // trimmed by the threshold it sets.
+  // trimmed by the threshold it sets. The first frame's from its inliers
+  // alone: with no noise known yet its search may have found as many wrong
+  // edges as right ones, which would set every later threshold far too
+  // wide.
   std::vector<double> abs_residuals;
-  for (size_t i = 0; i < obs.size() && i < tri.bearing_residuals.size(); ++i)
-    abs_residuals.push_back(std::abs(tri.bearing_residuals[i]) / obs[i].spread);
+  if (bearing_sigma_ > 0) {
+    for (size_t i = 0; i < obs.size() && i < tri.bearing_residuals.size(); ++i)
+      abs_residuals.push_back(std::abs(tri.bearing_residuals[i]) / obs[i].spread);
+  } else {
+    for (int i : tri.inliers)
+      abs_residuals.push_back(std::abs(tri.bearing_residuals[static_cast<size_t>(i)]) / obs[static_cast<size_t>(i)].spread);
+  }
   if (!abs_residuals.empty()) {
     std::nth_element(abs_residuals.begin(), abs_residuals.begin() + abs_residuals.size() / 2, abs_residuals.end());
     const double scale = 1.4826 * abs_residuals[abs_residuals.size() / 2];
     bearing_sigma_ = bearing_sigma_ > 0 ? 0.9 * bearing_sigma_ + 0.1 * scale : scale;
   }
-  UpdateSurveyEstimate(obs, tri);
+  UpdateSurveyEstimate(fr, tri);
   for (int i : tri.inliers) {
     const size_t index = static_cast<size_t>(fr.predicted[static_cast<size_t>(obs[static_cast<size_t>(i)].id)].index);
     residual_memory_[index] = tri.bearing_residuals[static_cast<size_t>(i)];
@@ -1061,18 +1124,35 @@ void Localizer::UpdateNoiseEstimates(const FrameResult& fr, const TriangulationR
   }
 }
 
-void Localizer::UpdateSurveyEstimate(const std::vector<BearingObservation>& obs, const TriangulationResult& tri) {
-  // The survey error the inliers show, one bearing per vertical edge.
-  std::vector<double> residuals, distances;
-  std::vector<int> groups;
-  for (int i : tri.inliers) {
+void Localizer::UpdateSurveyEstimate(const FrameResult& fr, const TriangulationResult& tri) {
+  // The tolerances of the survey error assumed cut the residuals of a
+  // larger one short: the map error they do not admit is then seen
+  // nowhere, and the estimate stays low. The residuals are taken from the
+  // pose solved again under twice the survey error assumed, at least a
+  // careful tape survey's (the unstated default).
+  const double shadow = std::max(opt_.survey.unstated_fraction * typical_distance_, 2.0 * MeanSurveySigma());
+  probe_sigma_ = shadow;
+  const std::vector<BearingObservation> obs = Observations(fr);
+  TriangulationResult shadowed = SolveBearings(obs, tri.pose);
+  probe_sigma_ = 0.0;
+  const TriangulationResult* used = shadowed.ok ? &shadowed : &tri;
+  // The survey error the inliers show, one bearing per vertical edge; the
+  // image noise alone, from the edges whose two corners were both found.
+  std::vector<double> residuals, distances, pairs;
+  std::vector<std::pair<int, double>> groups;  // an edge's group and its first inlier's residual
+  for (int i : used->inliers) {
     const BearingObservation& o = obs[static_cast<size_t>(i)];
-    if (o.group >= 0 && std::find(groups.begin(), groups.end(), o.group) != groups.end()) continue;
-    if (o.group >= 0) groups.push_back(o.group);
-    residuals.push_back(tri.bearing_residuals[static_cast<size_t>(i)]);
-    distances.push_back((o.landmark - Eigen::Vector2d(tri.pose.x, tri.pose.y)).norm());
+    const double r = BearingResidual(o, used->pose);
+    const auto seen = std::find_if(groups.begin(), groups.end(), [&](const auto& g) { return g.first == o.group; });
+    if (o.group >= 0 && seen != groups.end()) {
+      pairs.push_back(r - seen->second);
+      continue;
+    }
+    if (o.group >= 0) groups.emplace_back(o.group, r);
+    residuals.push_back(r);
+    distances.push_back((o.landmark - Eigen::Vector2d(used->pose.x, used->pose.y)).norm());
   }
-  survey_.Update(residuals, distances);
+  survey_.Update(residuals, distances, pairs);
   UpdateLandmarkBudget();
 }
 
@@ -1179,13 +1259,44 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
   // Until the residuals have shown how well the map was measured, a frame
   // whose bearings agree on a pose (a consensus of many) but not within the
   // survey error assumed teaches it, though it is not reported.
-  if (!accepted && !survey_.confident() && SurveyEvidence(fr, tri)) UpdateSurveyEstimate(Observations(fr), tri);
+  if (!accepted && !survey_.confident() && (known_start_ || ever_tracked_)) {
+    if (SurveyEvidence(fr, tri)) UpdateSurveyEstimate(fr, tri);
+    if (ProbeSurveyError(fr.predicted_pose)) {
+      // Tracked again under the survey error the probe found.
+      const PoseRow row = fr.row;
+      const Pose2 pred = fr.predicted_pose;
+      fr = FrameResult();
+      fr.row = row;
+      fr.predicted_pose = pred;
+      TrackPredictions(pred, &fr, &tri);
+      RefineAroundSolution(&fr, &tri);
+      accepted = Acceptable(fr, tri) && Consistent(&fr, tri) && AgreesWithMotion(&fr, tri);
+    }
+  }
   int n_found = 0;  // before any relocalisation: what tracking from the prediction found
   for (const auto& m : fr.measurements) n_found += m.found;
   // Lost for a while (the robot may have been carried), or never found: search the room.
-  if (!accepted && RelocalizeIfLost(grey, frame, ever_tracked_ && ViewUnlikePrediction(fr, tri), &fr, &tri)) {
-    accepted = Corroborated(fr, tri);
-    fr.unconfirmed = !accepted;
+  if (!accepted) {
+    // A pose near the prediction whose bearings agree, though its error
+    // bound was too wide to report it: the robot is there, and a pose the
+    // room-wide search finds far away is a look-alike (a room nearly
+    // symmetric, a map error that makes another place fit as well).
+    const bool near_consistent = fr.integrity.testable && fr.integrity.consistent;
+    std::optional<std::pair<FrameResult, TriangulationResult>> near;
+    if (near_consistent) near.emplace(fr, tri);
+    if (RelocalizeIfLost(grey, frame, ever_tracked_ && ViewUnlikePrediction(fr, tri), &fr, &tri)) {
+      Eigen::Vector2d lo, hi;
+      double top;
+      map_.Extent(&lo, &hi, &top);
+      if (near && std::hypot(tri.pose.x - near->second.pose.x, tri.pose.y - near->second.pose.y) >
+                      opt_.relocalize_distinct * (hi - lo).maxCoeff()) {
+        fr = std::move(near->first);
+        tri = near->second;
+      } else {
+        accepted = Corroborated(fr, tri);
+        fr.unconfirmed = !accepted;
+      }
+    }
   }
   fr.triangulation = tri;
   if (opt_.compass) last_signature_ = std::move(signature);

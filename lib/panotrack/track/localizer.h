@@ -71,10 +71,11 @@ struct LocalizerOptions {
   double alert_fraction = 0.01;
   // ... or, above 0, this many map units: the accuracy the user needs. At
   // 0 the limit is alert_fraction of the landmarks' distance plus
-  // protection_sigmas times the map's survey sigma: a map measured to a
-  // centimetre cannot place the robot to a millimetre, and its poses are
-  // still right; a geometry too weak to average the survey error down
-  // (a position std above the survey sigma) is still refused.
+  // protection_sigmas times the map's error (its survey sigma, or the
+  // error the frame's residuals show across the landmarks' distances,
+  // whichever is larger): a map measured to a centimetre cannot place the
+  // robot to a millimetre, and its poses are still right; a geometry too
+  // weak to average the map error down is still refused.
   double alert_limit = 0.0;
   // The map's survey error (map units, each corner coordinate). NaN: what
   // the map states (Map::survey_sigma), checked against the residuals of
@@ -296,6 +297,14 @@ class Localizer {
   // contradict (an edge's polarity learned against the map's over
   // polarity_learn_frames or more tracked frames): "map shade looks inverted".
   std::vector<std::string> ContradictedShades() const;
+  // The survey sigma the images showed (map units per corner coordinate)
+  // where it differs from the map's statement: more than half again a
+  // stated one, any for a map stated exact, or the estimate for a map that
+  // states none; NaN otherwise (and before the residuals have said enough).
+  double ShownSurveySigma() const;
+  // The map's statement as the localiser takes it (--survey-sigma, else the
+  // map's survey_sigma; NaN: none).
+  double StatedSurveySigma() const;
 
  private:
   // `motion`: this frame's motion when better known than the prediction
@@ -362,10 +371,15 @@ class Localizer {
   // The recent bearing noise and the survey estimate, from an accepted frame.
   void UpdateNoiseEstimates(const FrameResult& fr, const TriangulationResult& tri);
   // The survey estimate from the inlier bearings of a solution.
-  void UpdateSurveyEstimate(const std::vector<BearingObservation>& obs, const TriangulationResult& tri);
+  void UpdateSurveyEstimate(const FrameResult& fr, const TriangulationResult& tri);
   // Whether a solution that was not reported still shows the survey error:
   // many inliers agreeing (Acceptable) on a pose the motion allows.
   bool SurveyEvidence(const FrameResult& fr, const TriangulationResult& tri) const;
+  // A frame that fails before the survey error is known, tried again from
+  // `pred` under a ladder of larger survey errors: the smallest under which
+  // its bearings agree (a consensus of most found, consistent, agreeing
+  // with the motion) becomes the provisional survey sigma. True if one did.
+  bool ProbeSurveyError(const Pose2& pred);
   // The indices into fr.predicted of the solution's inlier observations.
   std::vector<int> InlierPredictions(const FrameResult& fr, const TriangulationResult& tri) const;
   // The integrity test of an acceptable solution (fills fr->integrity).
@@ -496,6 +510,8 @@ class Localizer {
   // survey error assumed: evidence of it while the estimate is not yet
   // confident (Relocalize is const; RelocalizeIfLost learns from it).
   mutable std::optional<std::pair<FrameResult, TriangulationResult>> survey_evidence_;
+  // The survey sigma a probe assumes (ProbeSurveyError; 0 otherwise).
+  double probe_sigma_ = 0.0;
   // Polarities learned from the images, per landmark; per map object
   // (rectangle, box) whether the images contradict its shade; whether they
   // contradict most of the map (then no map polarity is trusted) or have

@@ -6,10 +6,17 @@
 
 namespace pano {
 
+namespace {
+// Pairs needed before they cap the image noise.
+constexpr double kMinPairs = 5.0;
+}  // namespace
+
 void SurveyErrorOptions::Check() const {
   if (!(unstated_fraction >= 0.0) || !(max_fraction >= unstated_fraction) || !std::isfinite(max_fraction))
     throw Error("survey error: unstated_fraction: expected >= 0, max_fraction: expected >= unstated_fraction");
   if (!(min_bearings >= 0.0)) throw Error("survey error: min_bearings: expected >= 0");
+  if (!(exact_doubt_fraction >= 0.0) || !std::isfinite(exact_doubt_fraction))
+    throw Error("survey error: exact_doubt_fraction: expected >= 0");
   if (!(forgetting > 0.0 && forgetting <= 1.0)) throw Error("survey error: forgetting: expected in (0, 1]");
 }
 
@@ -22,17 +29,22 @@ SurveyErrorEstimate::SurveyErrorEstimate(const SurveyErrorOptions& options, doub
 
 void SurveyErrorEstimate::Reset() {
   n_ = su_ = suu_ = sy_ = suy_ = 0.0;
-  survey_ = image_variance_ = 0.0;
+  n_pairs_ = s_pairs_ = 0.0;
+  survey_ = image_variance_ = provisional_ = 0.0;
 }
 
 double SurveyErrorEstimate::Sigma(double stated) const {
-  if (stated == 0.0) return 0.0;  // exact (a rendered room, a CAD model): the residuals are the image's
-  if (!std::isnan(stated)) return confident() ? std::max(stated, survey_) : stated;
-  return confident() ? survey_ : opt_.unstated_fraction * typical_distance_;
+  if (!confident()) return std::max(std::isnan(stated) ? opt_.unstated_fraction * typical_distance_ : stated, provisional_);
+  if (std::isnan(stated)) return survey_;
+  // An exact map (a rendered room, a CAD model) stays exact unless the
+  // residuals clearly say otherwise: below that the image's noise and the
+  // fit's leave a small survey term in any estimate.
+  if (stated == 0.0) return survey_ > opt_.exact_doubt_fraction * typical_distance_ ? survey_ : 0.0;
+  return std::max(stated, survey_);
 }
 
 void SurveyErrorEstimate::Update(const std::vector<double>& residuals, const std::vector<double>& distances,
-                                 int fitted) {
+                                 const std::vector<double>& pairs, int fitted) {
   const size_t n = std::min(residuals.size(), distances.size());
   if (static_cast<int>(n) <= fitted) return;
   // Residuals of a least-squares fit are smaller than the errors by about
@@ -44,6 +56,13 @@ void SurveyErrorEstimate::Update(const std::vector<double>& residuals, const std
   suu_ *= keep;
   sy_ *= keep;
   suy_ *= keep;
+  n_pairs_ *= keep;
+  s_pairs_ *= keep;
+  for (double q : pairs) {
+    if (!std::isfinite(q)) continue;
+    n_pairs_ += 1.0;
+    s_pairs_ += 0.5 * q * q;
+  }
   for (size_t i = 0; i < n; ++i) {
     if (!(distances[i] > 0.0) || !std::isfinite(residuals[i])) continue;
     const double u = 1.0 / (distances[i] * distances[i]);
@@ -70,6 +89,15 @@ void SurveyErrorEstimate::Fit() {
     if (a < 0.0) {  // all of it the survey's
       a = 0.0;
       b = my / mu;
+    }
+  }
+  // The pairs' image noise, with a margin (four times its variance: a few
+  // pairs vary), caps the image's share; the rest is the survey's.
+  if (n_pairs_ >= kMinPairs && suu_ > 0.0) {
+    const double image_bound = 4.0 * s_pairs_ / n_pairs_;
+    if (a > image_bound) {
+      a = image_bound;
+      b = std::max(0.0, (suy_ - a * su_) / suu_);
     }
   }
   image_variance_ = a;

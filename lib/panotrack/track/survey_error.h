@@ -10,6 +10,7 @@
 // survey error the images show.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -27,6 +28,11 @@ struct SurveyErrorOptions {
   // The estimate replaces the unstated default (and may raise a stated
   // sigma) once this many inlier bearings have been seen.
   double min_bearings = 60.0;
+  // A map stated exact (0) whose residuals show a survey error above this
+  // fraction of the typical landmark distance is taken to be measured after
+  // all (0.05 %: 0.6 mm at 1.2 m; a rendered map edited by hand, a CAD
+  // model of a room built a little differently).
+  double exact_doubt_fraction = 0.0005;
   // Each frame's evidence weighs this much less on the next (about 100
   // frames of memory).
   double forgetting = 0.99;
@@ -41,14 +47,28 @@ class SurveyErrorEstimate {
   SurveyErrorEstimate(const SurveyErrorOptions& options, double typical_distance);
   void Reset();
   // The survey sigma to use for a corner whose map states `stated` (NaN:
-  // not stated; 0: exact, kept exact): the statement, raised by the
-  // estimate where the residuals show more; without one, the estimate once
-  // there is enough evidence, else the unstated default.
+  // not stated; 0: exact): the statement, raised by the estimate where the
+  // residuals show more (an exact map only beyond exact_doubt_fraction);
+  // without one, the estimate once there is enough evidence, else the
+  // unstated default. Until the estimate is confident, never below the
+  // provisional sigma.
   double Sigma(double stated) const;
   // One accepted frame: its inlier bearings' residuals (radians) and
   // horizontal distances, and the number of pose parameters fitted to them
-  // (the residuals are that much smaller than the errors).
-  void Update(const std::vector<double>& residuals, const std::vector<double>& distances, int fitted = 3);
+  // (the residuals are that much smaller than the errors). `pairs`: the
+  // differences between the residuals of two corners of one vertical edge
+  // (its top and bottom junctions): their bearing shares the corners'
+  // survey error, so the difference is image noise alone (twice its
+  // variance). They bound the image's share where the distances cannot
+  // tell it from the survey's (the pose fit absorbs the near landmarks'
+  // errors more than the far ones', which flattens the 1/d^2 pattern).
+  void Update(const std::vector<double>& residuals, const std::vector<double>& distances,
+              const std::vector<double>& pairs = {}, int fitted = 3);
+  // A frame whose bearings agree with the motion only once the map is
+  // assumed this far off: the sigma is at least this much until the
+  // residuals have said more.
+  void Provisional(double sigma) { provisional_ = std::max(provisional_, sigma); }
+  double provisional() const { return provisional_; }
   // The survey error the residuals show (map units; 0 until there is
   // evidence) and the image noise they leave (radians).
   double estimated() const { return survey_; }
@@ -62,8 +82,11 @@ class SurveyErrorEstimate {
   // Exponentially forgotten sums over inlier bearings of 1, u = 1/d^2, u^2,
   // y = r^2 (corrected for the fit) and u y.
   double n_ = 0.0, su_ = 0.0, suu_ = 0.0, sy_ = 0.0, suy_ = 0.0;
+  // The same for the squared pair differences.
+  double n_pairs_ = 0.0, s_pairs_ = 0.0;
   double survey_ = 0.0;
   double image_variance_ = 0.0;
+  double provisional_ = 0.0;
 };
 
 }  // namespace pano

@@ -1,0 +1,108 @@
+// The survey error estimate: the map's survey sigma as the localiser uses
+// it, checked against bearing residuals at various distances.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <limits>
+#include <random>
+#include <vector>
+
+#include "expect_error.h"
+#include "panotrack/track/survey_error.h"
+#include "test_rng.h"
+
+namespace pano {
+namespace {
+
+constexpr double kUnstated = std::numeric_limits<double>::quiet_NaN();
+
+// `frames` frames of `n` bearings at distances uniform in [50, 250]: each
+// residual drawn from N(0, image^2 + (survey / d)^2).
+void Feed(SurveyErrorEstimate* e, std::mt19937_64& rng, double survey, double image, int frames, int n = 15) {
+  std::uniform_real_distribution<double> distance(50.0, 250.0);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  for (int f = 0; f < frames; ++f) {
+    std::vector<double> residuals, distances;
+    for (int i = 0; i < n; ++i) {
+      const double d = distance(rng);
+      distances.push_back(d);
+      residuals.push_back(unit(rng) * std::hypot(image, survey / d));
+    }
+    // Residuals of a 3-parameter fit are smaller than the errors: feed them
+    // without the pose's share (fitted = 0) so the scale is the error's.
+    e->Update(residuals, distances, {}, 0);
+  }
+}
+
+TEST_CASE("survey error: the fit tells a map's error from the image noise by the landmarks' distances",
+          "[survey_error]") {
+  PANO_SEEDED_RNG(37);
+  SurveyErrorOptions o;
+  SurveyErrorEstimate e(o, 120.0);
+  CHECK(!e.confident());
+  // Comparable shares: the image noise is a third of the survey's at the
+  // typical distance (1 / 120 rad).
+  Feed(&e, rng, 1.0, 0.003, 60);
+  REQUIRE(e.confident());
+  INFO("survey " << e.estimated() << " image " << e.image_sigma());
+  CHECK(e.estimated() == Approx(1.0).epsilon(0.25));
+  // The split's image share is the noisier one (squared residuals are
+  // heavy-tailed): bounded, not pinned.
+  CHECK(e.image_sigma() < 0.006);
+}
+
+TEST_CASE("survey error: an exact map's residuals show no survey error", "[survey_error]") {
+  PANO_SEEDED_RNG(38);
+  SurveyErrorEstimate e(SurveyErrorOptions(), 120.0);
+  Feed(&e, rng, 0.0, 0.0005, 40);
+  INFO("survey " << e.estimated());
+  // Below the doubt of an exact map (0.05 % of 120).
+  CHECK(e.estimated() < 0.06);
+  CHECK(e.Sigma(0.0) == 0.0);
+}
+
+TEST_CASE("survey error: the sigma used for a stated, an unstated and an exact map", "[survey_error]") {
+  PANO_SEEDED_RNG(39);
+  SurveyErrorOptions o;
+  SurveyErrorEstimate e(o, 120.0);
+  // Before any evidence: the statement, or a careful tape survey.
+  CHECK(e.Sigma(kUnstated) == Approx(o.unstated_fraction * 120.0));
+  CHECK(e.Sigma(0.0) == 0.0);
+  CHECK(e.Sigma(0.3) == 0.3);
+  // A probe's finding holds until the residuals say more.
+  e.Provisional(0.6);
+  e.Provisional(0.3);  // never lowered
+  CHECK(e.provisional() == 0.6);
+  CHECK(e.Sigma(0.0) == 0.6);
+  CHECK(e.Sigma(1.0) == 1.0);
+  // Residuals of a 2 cm survey: an exact statement is doubted, a smaller
+  // one raised, a larger one kept; an unstated map takes the estimate.
+  Feed(&e, rng, 2.0, 0.0005, 40);
+  REQUIRE(e.confident());
+  CHECK(e.Sigma(0.0) == Approx(e.estimated()));
+  CHECK(e.Sigma(0.5) == Approx(e.estimated()));
+  CHECK(e.Sigma(3.0) == 3.0);
+  CHECK(e.Sigma(kUnstated) == Approx(e.estimated()));
+  CHECK(e.estimated() == Approx(2.0).epsilon(0.25));
+  // The cap: beyond 3 % of the typical distance a corner is wrong, not
+  // imprecise.
+  Feed(&e, rng, 20.0, 0.0005, 100);
+  CHECK(e.estimated() == Approx(o.max_fraction * 120.0));
+  e.Reset();
+  CHECK(!e.confident());
+  CHECK(e.provisional() == 0.0);
+}
+
+TEST_CASE("survey error: options out of range are named", "[survey_error]") {
+  SurveyErrorOptions o;
+  o.exact_doubt_fraction = -1.0;
+  CHECK_THAT(test::ErrorOf([&] { o.Check(); }), Catch::Contains("exact_doubt_fraction"));
+  o = SurveyErrorOptions();
+  o.forgetting = 0.0;
+  CHECK_THAT(test::ErrorOf([&] { o.Check(); }), Catch::Contains("forgetting"));
+  CHECK_THAT(test::ErrorOf([] { SurveyErrorEstimate(SurveyErrorOptions(), 0.0); }),
+             Catch::Contains("typical landmark distance"));
+}
+
+}  // namespace
+}  // namespace pano
