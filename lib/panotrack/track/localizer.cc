@@ -1130,10 +1130,14 @@ void Localizer::UpdateSurveyEstimate(const FrameResult& fr, const TriangulationR
   // nowhere, and the estimate stays low. The residuals are taken from the
   // pose solved again under twice the survey error assumed, at least a
   // careful tape survey's (the unstated default).
-  const double shadow = std::max(opt_.survey.unstated_fraction * typical_distance_, 2.0 * MeanSurveySigma());
-  probe_sigma_ = shadow;
+  // (Not once a map taken as exact has shown nothing for a while: the
+  // second solve of every frame would only confirm it.)
+  const double assumed = MeanSurveySigma();
+  const bool settled_exact = survey_.confident() && assumed == 0.0 &&
+                             survey_.estimated() < 0.5 * opt_.survey.exact_doubt_fraction * typical_distance_;
+  probe_sigma_ = settled_exact ? 0.0 : std::max(opt_.survey.unstated_fraction * typical_distance_, 2.0 * assumed);
   const std::vector<BearingObservation> obs = Observations(fr);
-  TriangulationResult shadowed = SolveBearings(obs, tri.pose);
+  TriangulationResult shadowed = settled_exact ? TriangulationResult() : SolveBearings(obs, tri.pose);
   probe_sigma_ = 0.0;
   const TriangulationResult* used = shadowed.ok ? &shadowed : &tri;
   // The survey error the inliers show, one bearing per vertical edge; the
