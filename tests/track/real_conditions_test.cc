@@ -226,7 +226,10 @@ TEST_CASE("most landmarks chosen hidden by people: the frame tracks with the oth
   CHECK(last.row.status == PoseStatus::kOk);
   CHECK(last.predicted.size() > 12);
   CHECK(std::hypot(last.row.pose.x - r.truth.back().pose.x, last.row.pose.y - r.truth.back().pose.y) <= 0.02);
-  CHECK(CompareToGroundTruth(rows, r.truth).tracked == n - 1);  // measured: frame 133 lost
+  // Measured: all 14 (frame 133, with someone in front of an edge, within
+  // 0.5 cm; it was lost before the alert margin took the error the
+  // residuals show).
+  CHECK(CompareToGroundTruth(rows, r.truth).tracked == n);
   CHECK(WrongOk(rows, r.truth, 0.5) == 0);
 }
 

@@ -30,11 +30,16 @@ class TiltObjective {
  public:
   TiltObjective(const Calibration& calib, const Map& map, const std::vector<cv::Mat>& frames,
                 const SensorTiltOptions& o)
-      : calib_(calib), map_(map), frames_(frames), o_(o), table_(TableForMap(calib, map, /*quiet=*/true)) {}
+      : calib_(calib), map_(map), frames_(frames), o_(o), table_(TableForMap(calib, map, /*quiet=*/true)) {
+    // The map as it states itself: a wrong trial's residuals are what is
+    // measured, not a survey error to be learned.
+    localizer_ = o.localizer;
+    localizer_.survey.check = false;
+  }
 
   Trial operator()(const Calibration& c) {
     ++trials_;
-    Localizer loc(c, map_, table_, o_.localizer);
+    Localizer loc(c, map_, table_, localizer_);
     if (o_.init)
       loc.Reset(*o_.init);
     else
@@ -59,6 +64,7 @@ class TiltObjective {
   const Map& map_;
   const std::vector<cv::Mat>& frames_;
   const SensorTiltOptions& o_;
+  LocalizerOptions localizer_;
   std::shared_ptr<const RadiusTable> table_;
   int trials_ = 0;
 };

@@ -713,7 +713,7 @@ bool Localizer::Consistent(FrameResult* fr, const TriangulationResult& tri) cons
     sum_squares += r * r;
   }
   const size_t n = tri.inliers.size();
-  const double shown = n > 3 ? std::sqrt(sum_squares / static_cast<double>(n - 3)) : 0.0;
+  const double shown = n > 3 && opt_.survey.check ? std::sqrt(sum_squares / static_cast<double>(n - 3)) : 0.0;
   io.alert_margin = opt_.protection_sigmas * std::max(survey, shown);
   io.reference_position_std += survey;
   fr->integrity = IntegrityCheck(tri, obs, io);
@@ -1263,7 +1263,7 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
   // Until the residuals have shown how well the map was measured, a frame
   // whose bearings agree on a pose (a consensus of many) but not within the
   // survey error assumed teaches it, though it is not reported.
-  if (!accepted && !survey_.confident() && (known_start_ || ever_tracked_)) {
+  if (!accepted && opt_.survey.check && !survey_.confident() && (known_start_ || ever_tracked_)) {
     if (SurveyEvidence(fr, tri)) UpdateSurveyEstimate(fr, tri);
     if (ProbeSurveyError(fr.predicted_pose)) {
       // Tracked again under the survey error the probe found.

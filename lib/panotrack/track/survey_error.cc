@@ -34,6 +34,7 @@ void SurveyErrorEstimate::Reset() {
 }
 
 double SurveyErrorEstimate::Sigma(double stated) const {
+  if (!opt_.check) return std::isnan(stated) ? opt_.unstated_fraction * typical_distance_ : stated;
   if (!confident()) return std::max(std::isnan(stated) ? opt_.unstated_fraction * typical_distance_ : stated, provisional_);
   if (std::isnan(stated)) return survey_;
   // An exact map (a rendered room, a CAD model) stays exact unless the

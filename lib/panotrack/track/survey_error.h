@@ -33,6 +33,11 @@ struct SurveyErrorOptions {
   // all (0.05 %: 0.6 mm at 1.2 m; a rendered map edited by hand, a CAD
   // model of a room built a little differently).
   double exact_doubt_fraction = 0.0005;
+  // Check the statement against the residuals at all (and let the alert
+  // limit take the error they show). Off: the map's statement as it is (a
+  // calibration search, whose wrong trials' residuals must not be taken for
+  // survey error).
+  bool check = true;
   // Each frame's evidence weighs this much less on the next (about 100
   // frames of memory).
   double forgetting = 0.99;
