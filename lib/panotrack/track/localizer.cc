@@ -60,9 +60,10 @@ void LocalizerOptions::Check() const {
   if (!(relocalize_confirmed_fraction >= 0))
     throw Error("localiser: relocalize_confirmed_fraction: expected >= 0 (above 1: every pose confirmed first)");
   if (!(relocalize_min_fraction >= 0 && relocalize_min_fraction <= 1) || relocalize_margin < 0 ||
-      !(relocalize_distinct > 0) || !(relocalize_symmetry_tolerance >= 0))
+      !(relocalize_distinct > 0) || !(relocalize_symmetry_tolerance >= 0) ||
+      !(relocalize_ambiguity > 0 && relocalize_ambiguity <= 1))
     throw Error("localiser: relocalize_min_fraction 0..1, relocalize_margin >= 0, relocalize_distinct > 0, "
-                "relocalize_symmetry_tolerance >= 0 expected");
+                "relocalize_symmetry_tolerance >= 0, relocalize_ambiguity in (0, 1] expected");
   if (polarity_learn_frames < 1 || polarity_forget_misses < 1 || polarity_max_flips < 0)
     throw Error("localiser: polarity_learn_frames and polarity_forget_misses: expected >= 1, "
                 "polarity_max_flips: expected >= 0");
@@ -551,7 +552,7 @@ bool Localizer::TrackFrom(const Pose2& pose, double search_px, FrameResult* fr,
   return Acceptable(*fr, *tri);
 }
 
-bool Localizer::Relocalize(const cv::Mat& grey, FrameResult* fr, TriangulationResult* tri) const {
+bool Localizer::Relocalize(const cv::Mat& grey, bool near_last, FrameResult* fr, TriangulationResult* tri) const {
   if (!relocalization_index_) {
     const auto build = [this] {
       return std::make_unique<const RelocalizationIndex>(calib_.sensor, *table_, map_, scene_, landmarks_,
@@ -563,10 +564,11 @@ bool Localizer::Relocalize(const cv::Mat& grey, FrameResult* fr, TriangulationRe
   const std::vector<PoseHypothesis> hyps = relocalization_index_->Hypotheses(grey, SearchThreadCount(opt_));
   // With the map's polarities, then (while the images have not confirmed
   // them) with either.
-  return RelocalizeWith(hyps, false, fr, tri) || (EitherFallbackUseful() && RelocalizeWith(hyps, true, fr, tri));
+  return RelocalizeWith(hyps, false, near_last, fr, tri) ||
+         (EitherFallbackUseful() && RelocalizeWith(hyps, true, near_last, fr, tri));
 }
 
-bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool either, FrameResult* fr,
+bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool either, bool near_last, FrameResult* fr,
                                TriangulationResult* tri) const {
   Eigen::Vector2d lo, hi;
   double top;
@@ -599,7 +601,9 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
                                      [&](const Verified& a, const Verified& b) { return count(a) < count(b); });
   for (const Verified& v : verified) {
     const double apart = std::hypot(v.tri.pose.x - best->tri.pose.x, v.tri.pose.y - best->tri.pose.y);
-    if (&v != &*best && apart > distinct && count(v) > count(*best) - opt_.relocalize_margin) return false;
+    if (&v != &*best && apart > distinct &&
+        (count(v) > count(*best) - opt_.relocalize_margin || count(v) >= opt_.relocalize_ambiguity * count(*best)))
+      return false;
   }
   // The best-supported pose, unambiguous, must also pass the integrity test
   // (a pose with fewer inliers that passes it is no better: few bearings
@@ -608,13 +612,13 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
     if (!survey_.confident() && SurveyEvidence(best->fr, best->tri)) survey_evidence_.emplace(best->fr, best->tri);
     return false;
   }
-  if (!ChooseAmongTwins(either, &best->fr, &best->tri)) return false;
+  if (!ChooseAmongTwins(either, near_last, &best->fr, &best->tri)) return false;
   *fr = std::move(best->fr);
   *tri = best->tri;
   return true;
 }
 
-bool Localizer::ChooseAmongTwins(bool either, FrameResult* fr, TriangulationResult* tri) const {
+bool Localizer::ChooseAmongTwins(bool either, bool near_last, FrameResult* fr, TriangulationResult* tri) const {
   std::vector<int> seen;
   for (int i : InlierPredictions(*fr, *tri)) seen.push_back(fr->predicted[static_cast<size_t>(i)].index);
   Eigen::Vector2d lo, hi;
@@ -628,7 +632,10 @@ bool Localizer::ChooseAmongTwins(bool either, FrameResult* fr, TriangulationResu
     if (map_.IsFree(twin.x, twin.y)) poses.push_back(twin);  // not behind a wall
   }
   if (poses.size() == 1) return true;
-  if (!ever_tracked_ && !known_start_) return false;
+  // Which twin is nearest the last pose tells only while the robot is
+  // likely still near it: after a jump of the view (a kidnap) the twins
+  // stay ambiguous until a view breaks the symmetry.
+  if ((!ever_tracked_ && !known_start_) || !near_last) return false;
   auto from_last = [this](const Pose2& p) { return std::hypot(p.x - last_.x, p.y - last_.y); };
   std::stable_sort(poses.begin(), poses.end(),
                    [&](const Pose2& a, const Pose2& b) { return from_last(a) < from_last(b); });
@@ -994,7 +1001,7 @@ bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, F
   FrameResult found;
   TriangulationResult t;
   survey_evidence_.reset();
-  const bool relocalized = Relocalize(grey, &found, &t);
+  const bool relocalized = Relocalize(grey, !at_once, &found, &t);
   if (survey_evidence_) UpdateSurveyEstimate(survey_evidence_->first, survey_evidence_->second);
   survey_evidence_.reset();
   if (!relocalized) {

@@ -148,9 +148,13 @@ struct LocalizerOptions {
   // A relocalised pose also needs this fraction of its predicted landmarks
   // as inliers, and must beat every hypothesis elsewhere in the room
   // (further than relocalize_distinct, as a fraction of the room's size) by
-  // relocalize_margin inliers: symmetric rooms offer near-copies of a view.
+  // relocalize_margin inliers and by relocalize_ambiguity of its own:
+  // symmetric rooms offer near-copies of a view, and the copy can fit a few
+  // more landmarks than the true pose (the half-turned twin of a room laid
+  // out nearly point-symmetrically: 16 inliers against the true pose's 12).
   double relocalize_min_fraction = 0.5;
   int relocalize_margin = 2;
+  double relocalize_ambiguity = 0.7;
   double relocalize_distinct = 0.05;
   // A map that repeats what a relocalised pose sees (a floor motion carrying
   // its inlier landmarks onto others, within this fraction of the room's
@@ -389,12 +393,14 @@ class Localizer {
   // Tracks from `pose` (first a wide, then a narrow search); true if accepted.
   bool TrackFrom(const Pose2& pose, double search_px, FrameResult* fr, TriangulationResult* tri,
                  bool either = false) const;
-  bool Relocalize(const cv::Mat& grey, FrameResult* fr, TriangulationResult* tri) const;
+  // `near_last`: the robot is likely still near the last pose it had (a
+  // short loss, the view as predicted), not carried off.
+  bool Relocalize(const cv::Mat& grey, bool near_last, FrameResult* fr, TriangulationResult* tri) const;
   // Among a relocalised pose and its twins under the map's symmetries, the
   // one clearly nearest the last known pose (tracked from); false when
   // there are twins and none is.
-  bool ChooseAmongTwins(bool either, FrameResult* fr, TriangulationResult* tri) const;
-  bool RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool either, FrameResult* fr,
+  bool ChooseAmongTwins(bool either, bool near_last, FrameResult* fr, TriangulationResult* tri) const;
+  bool RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool either, bool near_last, FrameResult* fr,
                       TriangulationResult* tri) const;
   // The steps of Process:
   void CheckFrame(const cv::Mat& grey, int frame) const;
