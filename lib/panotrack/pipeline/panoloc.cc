@@ -112,15 +112,23 @@ std::string SmoothedOutputPath(const std::string& output) {
   return fs::path(output).replace_extension(".smoothed.csv").string();
 }
 
-std::optional<Pose2> InitialPoseBeside(const std::string& input) {
-  if (FrameSource::IsLive(input)) return std::nullopt;
+// The case.yaml files whose initial_pose an input may start from: beside
+// it, then one folder up.
+std::vector<std::string> CaseFilesBeside(const std::string& input) {
+  if (FrameSource::IsLive(input)) return {};
   fs::path dir = fs::is_directory(input) ? fs::path(input) : fs::path(input).parent_path();
   if (dir.empty()) dir = ".";  // a file in the current folder
+  std::vector<std::string> files;
   for (int up = 0; up < 2 && !dir.empty(); ++up, dir = dir.parent_path()) {
     const fs::path p = dir / "case.yaml";
-    if (!fs::exists(p)) continue;
-    if (std::optional<Pose2> pose = ReadCaseInitialPose(p.string())) return pose;
+    if (fs::exists(p)) files.push_back(p.string());
   }
+  return files;
+}
+
+std::optional<Pose2> InitialPoseBeside(const std::string& input) {
+  for (const std::string& p : CaseFilesBeside(input))
+    if (std::optional<Pose2> pose = ReadCaseInitialPose(p)) return pose;
   return std::nullopt;
 }
 
@@ -185,6 +193,8 @@ void CheckOutputs(const PanolocOptions& opt, const std::vector<PlannedJob>& jobs
   for (const PlannedJob& p : jobs) {
     for (const auto& read : FrameSource::InputReads(p.job.input)) reads.push_back(read);
     reads.push_back({"--gt", p.job.gt});
+    if (!opt.init)
+      for (const std::string& c : CaseFilesBeside(p.job.input)) reads.push_back({"the case.yaml of " + p.job.input, c});
     writes.push_back({out_option, p.job.output});
     writes.push_back({"--debug-video", p.job.debug_video});
     writes.push_back({"--plot", p.job.plot});
