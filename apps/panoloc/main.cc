@@ -230,6 +230,7 @@ int main(int argc, char** argv) {
   app.set_help_flag("-h,--help", "Print this help and exit")->group(run);
   try {
     app.parse(argc, argv);
+    pano::app::RefuseNonFiniteNumbers(app);
   } catch (const CLI::ParseError& e) {
     return pano::app::ExitOnParseError(app, e, "panoloc");
   }

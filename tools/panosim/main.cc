@@ -543,6 +543,7 @@ void ListPresets() {
 int ParseCommandLine(CLI::App* app, int argc, char** argv) {
   try {
     app->parse(argc, argv);
+    pano::app::RefuseNonFiniteNumbers(*app);
     return -1;
   } catch (const CLI::CallForHelp& e) {
     return app->exit(e);
