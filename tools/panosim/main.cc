@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 
 #include <omp.h>
+#include <opencv2/core/utils/logger.hpp>
 
 #include <cctype>
 #include <chrono>
@@ -160,6 +161,12 @@ struct RenderFlags {
   }
 };
 
+std::string Joined(const std::vector<double>& values) {
+  std::ostringstream s;
+  for (size_t i = 0; i < values.size(); ++i) s << (i ? "," : "") << values[i];
+  return s.str();
+}
+
 // Faults of a real rig (sensor/general_model.h) set on the sensor being
 // rendered; each replaces that fault of the preset or calibration file.
 struct RigFlags {
@@ -203,8 +210,11 @@ struct RigFlags {
     if (!distortion.empty()) {
       if (distortion.size() == 3)
         throw pano::Error("--distortion: expected k1,k2 or k1,k2,p1,p2 or k1,k2,p1,p2,k3");
+      // A real lens's Brown coefficients (normalised coordinates) are well within this.
+      constexpr double kMaxCoefficient = 10.0;
       for (double v : distortion)
-        if (!std::isfinite(v)) throw pano::Error("--distortion: expected finite numbers");
+        if (!(std::abs(v) <= kMaxCoefficient))
+          throw pano::Error("--distortion: expected coefficients within +-10, got " + Joined(distortion));
       s->params.k1 = distortion[0];
       s->params.k2 = distortion[1];
       f.p1 = distortion.size() >= 4 ? distortion[2] : 0.0;
@@ -404,6 +414,9 @@ void RunSequence(const SequenceArgs& a) {
   pano::CheckFolderOutputHoldsNoInput(
       {{"--map", a.map_path}, {"--calib", a.calib_path}, {"--trajectory", a.traj_path}}, "-o", a.out);
   pano::SequenceCase c = SequenceCaseOf(a);
+  // The video encoder's range of frame rates (x264 fails outside it with its own lines).
+  if (!(c.fps >= 0.01 && c.fps <= 1000))
+    throw pano::Error("--fps: expected a frame rate from 0.01 to 1000 frames/s, got " + Joined({c.fps}));
   a.rig.Apply(&c.calib.sensor);
   // A preset's survey error stays unless an option replaces it.
   const pano::SurveyError preset = c.survey;
@@ -476,11 +489,9 @@ CLI::App* AddTargets(CLI::App* app, TargetsArgs* a) {
   return tg;
 }
 
-std::string Joined(const std::vector<double>& values) {
-  std::ostringstream s;
-  for (size_t i = 0; i < values.size(); ++i) s << (i ? "," : "") << values[i];
-  return s.str();
-}
+
+// Board images --auto renders at most (a calibration uses 20..50).
+constexpr int kMaxAutoImages = 1000;
 
 pano::TargetBoard BoardOf(const std::vector<double>& b) {
   pano::TargetBoard board;
@@ -490,6 +501,7 @@ pano::TargetBoard BoardOf(const std::vector<double>& b) {
   if (board.cols != b[0] || board.rows != b[1] || board.cols < 2 || board.rows < 2 || !(board.square > 0.0))
     throw pano::Error("--board: expected integer cols,rows >= 2 and a positive square size, got " +
                       Joined(b));
+  pano::CheckTargetBoard(board, "--board");  // at most kMaxBoardCorners a side
   return board;
 }
 
@@ -503,7 +515,12 @@ std::vector<pano::BoardPose> BoardPosesOf(const TargetsArgs& a, const pano::Sens
                   << ": not every inner corner of the board is in view\n";
     return poses;
   }
-  if (a.o_auto->count()) return pano::AutoBoardPoses(sensor, board, a.auto_n, seed, a.min_visible);
+  if (a.o_auto->count()) {
+    if (a.auto_n < 1 || a.auto_n > kMaxAutoImages)
+      throw pano::Error("--auto: expected 1.." + std::to_string(kMaxAutoImages) + " images, got " +
+                        std::to_string(a.auto_n));
+    return pano::AutoBoardPoses(sensor, board, a.auto_n, seed, a.min_visible);
+  }
   throw pano::Error("--poses or --auto: give the board poses file or the number of images to generate");
 }
 
@@ -597,6 +614,9 @@ int main(int argc, char** argv) {
     // The renderer's loops take OpenMP's default team size.
     if (common) pano::CheckThreadCount(common->jobs, "-j/--jobs");
     if (common && common->jobs > 0) omp_set_num_threads(common->jobs);
+    // OpenCV's warnings (an image it cannot write) only with --verbose: the error says it in one line.
+    cv::utils::logging::setLogLevel(common && common->verbose ? cv::utils::logging::LOG_LEVEL_WARNING
+                                                              : cv::utils::logging::LOG_LEVEL_ERROR);
     const auto t0 = std::chrono::steady_clock::now();
     if (*still) RunStill(still_args);
     if (*seq) RunSequence(seq_args);
