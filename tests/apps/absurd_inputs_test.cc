@@ -164,6 +164,30 @@ TEST_CASE("flags whose options a library checks: the flag named, not the field",
   for (const char* out : {"t.yaml", "u.png", "cv.yml", "b.yaml", "a.csv", "sq"}) CHECK_FALSE(fs::exists(dir + "/" + out));
 }
 
+TEST_CASE("a PNG cut short among the frames: the tool's own line, not libpng's", "[absurd_inputs]") {
+  const std::string dir = test::ScratchDir("apps_absurd_torn");
+  SequenceCase sc = MakePreset("paper-real");
+  sc.poses.resize(4);
+  SequenceWriteOptions w;
+  w.quiet = true;
+  w.frames = true;
+  w.video = false;
+  WriteSequence(sc, dir + "/seq", w);
+  const std::string seq = dir + "/seq", frames = seq + "/frames", torn = frames + "/frame_0002.png";
+  const std::string bytes = Read(torn);
+  const std::string half = bytes.substr(0, bytes.size() / 2);
+  std::ofstream(torn, std::ios::binary | std::ios::trunc) << half;
+  const std::string files = " --calib " + seq + "/calib.yaml --map " + seq + "/map.yaml";
+  test::CommandRun r = test::RunProgram("panoloc " + frames + files + " -q -o " + dir + "/a.csv");
+  INFO(r.out);
+  CHECK(r.code == 1);
+  CHECK(r.out == "panoloc: " + frames + ": incomplete: decode error at frame 2: " + torn +
+                     ": a PNG cut short (its last chunk, IEND, is missing; " + std::to_string(half.size()) +
+                     " bytes)\n");
+  ExpectOneLineError(test::RunProgram("panomap check " + torn + files + " --pose 40,35,0"),
+                     "panomap: " + torn + ": a PNG cut short");
+}
+
 TEST_CASE("--gt of another length than the video is refused; --gt auto without gt.csv says so",
           "[absurd_inputs]") {
   const std::string dir = test::ScratchDir("apps_absurd_gt");
