@@ -575,6 +575,7 @@ c fail --elevation panocalib unwarp "$F/frame_0000.png" --calib "$CAL" -o u.png 
 c fail --elevation panocalib unwarp "$F/frame_0000.png" --calib "$CAL" -o u.png --elevation nan,10
 c fail --distance panocalib unwarp "$F/frame_0000.png" --calib "$CAL" -o u.png --distance -5
 c fail random.png panocalib unwarp "$D/random.png" --calib "$CAL" -o u.png
+c fail frame_0003.png panocalib unwarp "$D/fr_trunc/frame_0003.png" --calib "$CAL" -o u.png
 c fail empty.png panocalib unwarp "$D/empty.png" --calib "$CAL" -o u.png
 c fail frame_0004.png panocalib unwarp "$D/fr_size/frame_0004.png" --calib "$CAL" -o u.png
 c fail u.xyz panocalib unwarp "$F/frame_0000.png" --calib "$CAL" -o u.xyz
@@ -608,6 +609,8 @@ c fail --bias-floor panomap check "$V" --map "$MAP" --calib "$CAL" --pose 40,35,
 for f in gt_short.csv gt_nan.csv gt_torn.csv random.csv empty.csv; do
   c fail "$f" panomap check "$V" --map "$MAP" --calib "$CAL" --poses "$D/$f"
 done
+c fail frame_0003.png panomap check "$D/fr_trunc/frame_0003.png" --map "$MAP" --calib "$CAL" --pose 40,35,0
+c fail frame_0003.png panomap check "$D/fr_trunc" --map "$MAP" --calib "$CAL" --pose 40,35,0
 for f in half.mp4 zeroed.mp4 empty.mp4 random.mp4; do c fail "$f" panomap check "$D/$f" --map "$MAP" --calib "$CAL" --pose 40,35,0; done
 for f in map_nan.yaml map_huge.yaml map_no_rect.yaml bomb.yaml; do c fail "$f" panomap check "$V" --map "$D/$f" --calib "$CAL" --pose 40,35,0; done
 c fail /dev/full panomap check "$V" --map "$MAP" --calib "$CAL" --pose 40,35,0 --report /dev/full
