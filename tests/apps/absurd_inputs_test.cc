@@ -123,10 +123,14 @@ TEST_CASE("huge flag values: refused under the flag's name, nothing written", "[
                      "panosim: options: noise: expected a noise sigma of 0..255 grey levels");
   ExpectOneLineError(test::RunProgram(still + "--distortion 1e300,0"),
                      "panosim: --distortion: expected coefficients within +-10, got 1e+300,0");
+  ExpectOneLineError(test::RunProgram(still + "--camera-tilt 1000,0"),
+                     "panosim: --camera-tilt: expected angles within +-28.6 degrees (0.5 rad), got 1000,0");
   CHECK_FALSE(fs::exists(dir + "/s.png"));
   const std::string targets = "panosim targets --preset paper-real --supersample 1 -o " + dir + "/t ";
   ExpectOneLineError(test::RunProgram(targets + "--board 6,4,2 --auto 100000000"),
                      "panosim: --auto: expected 1..1000 images, got 100000000");
+  ExpectOneLineError(test::RunProgram(targets + "--board 6,4,2 --auto 3 --charuco 1 --dictionary DICT_BOGUS"),
+                     "panosim: --dictionary: unknown ArUco dictionary 'DICT_BOGUS'");
   ExpectOneLineError(test::RunProgram(targets + "--board 100000,100000,2 --auto 3"),
                      "panosim: --board: expected 2..1000 inner corners along each side, got 100000 x 100000");
   CHECK_FALSE(fs::exists(dir + "/t"));

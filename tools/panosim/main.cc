@@ -14,6 +14,7 @@
 #include <map>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "cli_errors.h"
@@ -203,6 +204,13 @@ struct RigFlags {
       f.mirror_offset[0] = decentre[0];
       f.mirror_offset[1] = decentre[1];
     }
+    // The sensor model's bound on a tilt (0.5 rad), checked under the flags' names.
+    constexpr double kMaxTiltDeg = 0.5 * 180.0 / M_PI;
+    for (const auto& [flag, angles] : {std::pair{"--camera-tilt", &camera_tilt}, {"--sensor-tilt", &sensor_tilt}})
+      for (double v : *angles)
+        if (!(std::abs(v) <= kMaxTiltDeg))
+          throw pano::Error(std::string(flag) + ": expected angles within +-28.6 degrees (0.5 rad), got " +
+                            Joined(*angles));
     if (!camera_tilt.empty()) {
       f.camera_tilt[0] = camera_tilt[0] * deg;
       f.camera_tilt[1] = camera_tilt[1] * deg;
@@ -535,7 +543,7 @@ void RunTargets(const TargetsArgs& a) {
     board.type = "charuco";
     board.marker = a.charuco_marker;
     board.dictionary = a.dictionary;
-    pano::CheckTargetBoard(board, "--charuco");
+    pano::CheckTargetBoard(board, pano::ArucoDictionaryId(board.dictionary) < 0 ? "--dictionary" : "--charuco");
   }
   pano::RenderOptions ro;
   a.flags.Apply(&ro, false);
