@@ -485,7 +485,9 @@ c fail - panoloc "$V" "${LOC[@]}" -o ""
 AS_NOBODY=1 AS_NOBODY=1 c fail ro panoloc "$V" "${LOC[@]}" --out-dir "$IN/ro"
 AS_NOBODY=1 c fail ro panoloc "$V" "${LOC[@]}" -o a.csv --plot "$IN/ro/p.png"
 c fail /proc panoloc "$V" "${LOC[@]}" -o /proc/version
-(timeout 120 cat "$T/fifo" >/dev/null) & fifo_reader=$!
+# A reader for the FIFO (its own fds: none of the script's output left open).
+timeout 120 cat "$T/fifo" </dev/null >/dev/null 2>&1 &
+fifo_reader=$!
 c ok - panoloc "$V" "${LOC[@]}" -o "$T/fifo"
 kill "$fifo_reader" 2>/dev/null; wait "$fifo_reader" 2>/dev/null; fifo_reader=
 c fail dir/ panoloc "$V" "${LOC[@]}" -o "$IN/dir/"
