@@ -78,7 +78,8 @@ awk -F, 'NR > 1 { printf "%s,%s,%s,%s\n", $2, $3, $4, $5 }' "$S/gt.csv" >>"$IN/o
 D=$IN/bad
 mkdir -p "$D"
 : >"$D/empty.mp4"; : >"$D/empty.yaml"; : >"$D/empty.csv"; : >"$D/empty.png"
-head -c 65536 /dev/urandom >"$D/random.bin"
+# Random bytes, the same every run, starting with control characters and line breaks.
+python3 -c 'import random, sys; r = random.Random(40); sys.stdout.buffer.write(b"\x0c\r\x1b[2J\x00" + bytes(r.getrandbits(8) for _ in range(65536)))' >"$D/random.bin"
 cp "$D/random.bin" "$D/random.mp4"; cp "$D/random.bin" "$D/random.yaml"; cp "$D/random.bin" "$D/random.csv"
 cp "$D/random.bin" "$D/random.png"
 echo "not a video at all" >"$D/text.mp4"
