@@ -128,7 +128,7 @@ TEST_CASE("huge flag values: refused under the flag's name, nothing written", "[
   CHECK_FALSE(fs::exists(dir + "/s.png"));
   const std::string targets = "panosim targets --preset paper-real --supersample 1 -o " + dir + "/t ";
   ExpectOneLineError(test::RunProgram(targets + "--board 6,4,2 --auto 100000000"),
-                     "panosim: --auto: expected 1..1000 images, got 100000000");
+                     "panosim: --auto: expected at most 1000 images, got 100000000");
   ExpectOneLineError(test::RunProgram(targets + "--board 6,4,2 --auto 3 --charuco 1 --dictionary DICT_BOGUS"),
                      "panosim: --dictionary: unknown ArUco dictionary 'DICT_BOGUS'");
   ExpectOneLineError(test::RunProgram(targets + "--board 100000,100000,2 --auto 3"),

@@ -524,8 +524,8 @@ std::vector<pano::BoardPose> BoardPosesOf(const TargetsArgs& a, const pano::Sens
     return poses;
   }
   if (a.o_auto->count()) {
-    if (a.auto_n < 1 || a.auto_n > kMaxAutoImages)
-      throw pano::Error("--auto: expected 1.." + std::to_string(kMaxAutoImages) + " images, got " +
+    if (a.auto_n > kMaxAutoImages)  // (below 1: AutoBoardPoses says so)
+      throw pano::Error("--auto: expected at most " + std::to_string(kMaxAutoImages) + " images, got " +
                         std::to_string(a.auto_n));
     return pano::AutoBoardPoses(sensor, board, a.auto_n, seed, a.min_visible);
   }
