@@ -8,7 +8,9 @@
 #include <CLI/CLI.hpp>
 
 #include <cctype>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <regex>
 #include <sstream>
@@ -34,6 +36,11 @@ inline const CLI::Option* FindOption(const CLI::App& app, const std::string& nam
 
 inline std::string Lower(std::string s) {
   for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+inline std::string Upper(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
   return s;
 }
 
@@ -149,14 +156,33 @@ inline std::string ExtrasMessage(const CLI::App& app, const std::string& message
   return "unexpected argument" + std::string(first == args ? " '" : "s '") + args + "'" + help;
 }
 
-inline std::string RequiredMessage(const CLI::App& app, const std::string& message) {
+// An unknown option among the arguments left over, as ExtrasMessage names
+// it; "" when none. CLI11 checks the required options before the unknown
+// ones, but a mistyped option is the likelier mistake ("--otput x": "--output
+// is required").
+inline std::string UnknownOptionLeft(const CLI::App& app, const char* tool) {
+  for (const std::string& arg : app.remaining(true)) {
+    const bool option = arg.size() > 1 && arg[0] == '-' && !std::isdigit(static_cast<unsigned char>(arg[1])) &&
+                        arg[1] != '.';
+    if (!option) continue;
+    std::string command = tool;
+    for (const CLI::App* sub : app.get_subcommands()) command += " " + sub->get_name();
+    return arg.substr(0, arg.find('=')) + ": unknown option (see " + command + " --help)";
+  }
+  return "";
+}
+
+inline std::string RequiredMessage(const CLI::App& app, const std::string& message, const char* tool) {
   if (message == "A subcommand is required") {
     const std::vector<std::string> left = app.remaining();
     const std::string names = " (one of: " + SubcommandNames(app) + ")";
     if (!left.empty() && !left.front().empty() && left.front()[0] != '-')
       return "unknown subcommand '" + left.front() + "'" + names;
-    return "a subcommand is required" + names;
+    const std::string unknown = UnknownOptionLeft(app, tool);
+    return unknown.empty() ? "a subcommand is required" + names : unknown;
   }
+  const std::string unknown = UnknownOptionLeft(app, tool);
+  if (!unknown.empty()) return unknown;
   static const std::regex required("(.*) is required");
   std::smatch m;
   if (std::regex_match(message, m, required)) return m[1].str() + ": required";
@@ -174,11 +200,38 @@ inline std::string ParseErrorMessage(const CLI::App& app, const CLI::ParseError&
   if (dynamic_cast<const CLI::ArgumentMismatch*>(&e)) return in::ArgumentMismatchMessage(app, message);
   if (dynamic_cast<const CLI::ConversionError*>(&e)) return in::ConversionMessage(app, message);
   if (dynamic_cast<const CLI::ExtrasError*>(&e)) return in::ExtrasMessage(app, message, tool);
-  if (dynamic_cast<const CLI::RequiredError*>(&e)) return in::RequiredMessage(app, message);
+  if (dynamic_cast<const CLI::RequiredError*>(&e)) return in::RequiredMessage(app, message, tool);
   std::string name, rest;
   if (dynamic_cast<const CLI::ValidationError*>(&e) && in::SplitName(message, &name, &rest))
     return name + ": " + in::RangeMessage(rest, in::FindOption(app, name));
   return message;
+}
+
+// Throws CLI::ValidationError naming the flag when a number option of `app`
+// or of a subcommand given was set to NaN or an infinity ("nan", "inf",
+// "1e999"): no flag of the programs means anything by them, and CLI11's
+// range validators let NaN through (every comparison with it is false).
+// Number options are those whose type is FLOAT or NUMBER or a list form of
+// numbers (X,Y,THETA); each comma-separated value is checked.
+inline void RefuseNonFiniteNumbers(const CLI::App& app) {
+  for (const CLI::Option* o : app.get_options()) {
+    if (o->count() == 0) continue;
+    std::string type = o->get_type_name();
+    type = type.substr(0, type.find(':'));
+    const bool number = type == "FLOAT" || type == "NUMBER" ||
+                        (type.find(',') != std::string::npos && type == cli_errors_internal::Upper(type));
+    if (!number) continue;
+    for (const std::string& given : o->results()) {
+      std::istringstream list(given);
+      for (std::string value; std::getline(list, value, ',');) {
+        char* end = nullptr;
+        const double v = std::strtod(value.c_str(), &end);
+        if (end != value.c_str() && *end == '\0' && !std::isfinite(v))
+          throw CLI::ValidationError(o->get_name(), "expected a finite number, got '" + given + "'");
+      }
+    }
+  }
+  for (const CLI::App* sub : app.get_subcommands()) RefuseNonFiniteNumbers(*sub);
 }
 
 // What main() does with a failed parse: help and version printed as CLI11

@@ -56,7 +56,10 @@ inline std::string OneLine(const char* what) {
 inline int RunSubcommandApp(CLI::App& app, const char* tool, int argc, char** argv) {
   CommandLine().assign(argv, argv + argc);
   // Runs after the arguments are parsed and before the subcommand's callback.
-  app.parse_complete_callback([&app, argv]() { SetUpLogging(argv[0], VerboseRequested(app)); });
+  app.parse_complete_callback([&app, argv]() {
+    RefuseNonFiniteNumbers(app);
+    SetUpLogging(argv[0], VerboseRequested(app));
+  });
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

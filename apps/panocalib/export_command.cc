@@ -30,6 +30,7 @@ void AddExportCommand(CLI::App& app) {
   cmd->add_option("--distance", o->omnidir.distance,
                   "Horizontal distance (calibration units) at which the omnidir model is fitted; "
                   "0: the far field (1000 mirror distances)")
+      ->check(CLI::Range(0.0, 1e6))
       ->capture_default_str();
   cmd->add_flag("--force", o->force, "Replace an existing output file (otherwise nothing is done)");
   cmd->add_flag("-q,--quiet", o->quiet, "Print nothing but errors");

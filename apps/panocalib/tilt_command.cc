@@ -17,6 +17,17 @@
 
 namespace pano::app {
 
+namespace {
+
+// A flag's value as typed in messages.
+std::string Num(double v) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%g", v);
+  return text;
+}
+
+}  // namespace
+
 void AddTiltCommand(CLI::App& app) {
   struct Opts {
     std::string calib, map, input, output;
@@ -61,6 +72,13 @@ void AddTiltCommand(CLI::App& app) {
     SensorTiltOptions opt = o->tilt;
     if (o->init.size() == 3) opt.init = Pose2{o->init[0], o->init[1], o->init[2]};
     else opt.init = InitialPoseBeside(o->input);
+    // The flags under their own names (SensorTiltOptions::Check names its fields).
+    if (opt.max_frames < 5) throw Error("--frames: expected 5 or more, got " + std::to_string(opt.max_frames));
+    if (!(opt.search_deg > 0)) throw Error("--step: expected a positive angle (degrees), got " + Num(opt.search_deg));
+    if (!(opt.tolerance_deg > 0 && opt.tolerance_deg < opt.search_deg))
+      throw Error("--tolerance: expected a positive angle below --step (" + Num(opt.search_deg) + " degrees), got " +
+                  Num(opt.tolerance_deg));
+    if (opt.max_trials < 3) throw Error("--max-trials: expected 3 or more, got " + std::to_string(opt.max_trials));
     opt.Check();
     Calibration calib = ReadCalibration(o->calib);
     const Map map = ReadMap(o->map);

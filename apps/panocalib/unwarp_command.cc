@@ -13,6 +13,13 @@ namespace pano::app {
 namespace {
 
 // "WxH" with both sides positive.
+// A flag's value as typed in messages.
+std::string Num(double v) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%g", v);
+  return text;
+}
+
 void ParseSize(const std::string& text, int* width, int* height) {
   int w = 0, h = 0;
   char x = 0, extra = 0;
@@ -76,6 +83,16 @@ void AddUnwarpCommand(CLI::App& app) {
     UnwarpOptions opt;
     opt.kind = o->perspective ? UnwarpKind::kPerspective : UnwarpKind::kPanorama;
     if (!o->size.empty()) ParseSize(o->size, &opt.width, &opt.height);
+    // The flags under their own names (UnwarpOptions::Check names its fields).
+    if (!o->size.empty() && !(opt.width >= 2 && opt.width <= 65536 && opt.height >= 2 && opt.height <= 65536))
+      throw Error("--size: expected WxH of 2..65536 pixels each, got " + o->size);
+    if (!(o->distance >= 0))
+      throw Error("--distance: expected a distance >= 0 (0: infinitely far), got " + Num(o->distance));
+    if (!o->elevation.empty() && !(o->elevation[0] < o->elevation[1]))
+      throw Error("--elevation: expected MIN,MAX with MIN below MAX (degrees), got " + Num(o->elevation[0]) + "," +
+                  Num(o->elevation[1]));
+    if (o->perspective && !(o->fov > 0 && o->fov <= 170))
+      throw Error("--fov: expected 0 < fov <= 170 degrees, got " + Num(o->fov));
     opt.distance = o->distance;
     if (!o->elevation.empty()) {
       opt.min_elevation_deg = o->elevation[0];

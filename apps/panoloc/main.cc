@@ -53,7 +53,8 @@ void ShowProgress(const pano::Progress& p) {
 
 void ClearProgress() { std::fprintf(stderr, "\r%*s\r", 70, ""); }
 
-// One line per input on `out` (unless quiet); failures on stderr. Returns
+// One line per input on `out` (unless quiet); failures (an input that
+// failed, broke off or was hardly tracked) on stderr. Returns
 // whether the input was done completely.
 bool Report(const pano::VideoSummary& s, bool quiet, std::FILE* out) {
   using pano::VideoEnd;
@@ -78,9 +79,10 @@ bool Report(const pano::VideoSummary& s, bool quiet, std::FILE* out) {
     if (s.has_smoothed_accuracy)
       std::fprintf(out, "  smoothed: %s\n", pano::FormatAccuracy(s.smoothed_accuracy, "units").c_str());
     std::fflush(out);
-  } else if (!why.empty()) {
-    std::fprintf(stderr, "panoloc: %s: %s\n", s.input.c_str(), why.c_str());
   }
+  // An input that broke off is an error: on stderr too, quiet or not.
+  if (s.end == VideoEnd::kIncomplete || (quiet && !why.empty()))
+    std::fprintf(stderr, "panoloc: %s: %s\n", s.input.c_str(), why.c_str());
   if (s.end == VideoEnd::kNotTracked) std::fprintf(stderr, "panoloc: %s\n", s.error.c_str());
   return s.ok;
 }
@@ -231,6 +233,7 @@ int main(int argc, char** argv) {
   app.set_help_flag("-h,--help", "Print this help and exit")->group(run);
   try {
     app.parse(argc, argv);
+    pano::app::RefuseNonFiniteNumbers(app);
   } catch (const CLI::ParseError& e) {
     return pano::app::ExitOnParseError(app, e, "panoloc");
   }

@@ -40,6 +40,7 @@ void AddBuildCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--max-std", o->job.options.max_std_fraction,
                   "Largest position std of an accepted edge, as a fraction of the map's size")
+      ->check(CLI::PositiveNumber)
       ->capture_default_str();
   cmd->add_option("--min-score", o->job.options.min_horizontal_score,
                   "Fraction of a new rectangle's horizontal edge samples that must show the step")

@@ -51,12 +51,15 @@ void AddCheckCommand(CLI::App& app) {
                   "edges in view) or a video such as .mp4 (every frame)");
   cmd->add_option("--report", o->job.report_csv, "Per-edge figures as CSV");
   cmd->add_option("--search", o->job.options.search_px, "Half-width (px) searched across each predicted edge")
+      ->check(CLI::Range(0.5, 2000.0))
       ->capture_default_str();
   cmd->add_option("--min-found", o->job.options.min_found_fraction,
                   "Edges found in fewer than this fraction of the frames that show them are 'never found'")
+      ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
   cmd->add_option("--bias-floor", o->job.options.bias_floor_deg,
                   "Smallest mean bearing residual (degrees) reported as biased")
+      ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   cmd->add_option("--bias-survey-sigmas", o->job.options.bias_survey_sigmas,
                   "When the map states a survey_sigma: a corner is reported biased only when off by more than "

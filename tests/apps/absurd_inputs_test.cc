@@ -108,6 +108,90 @@ TEST_CASE("absurd values of flags: the flag named, with the value given", "[absu
   CHECK_FALSE(fs::exists(dir + "/a.csv"));
 }
 
+TEST_CASE("huge flag values: refused under the flag's name, nothing written", "[absurd_inputs]") {
+  const std::string dir = test::ScratchDir("apps_absurd_huge");
+  const std::string& seq = Sequence();
+  ExpectOneLineError(Panoloc("-o " + dir + "/a.csv --tum " + dir + "/a.tum --tum-scale 1e300"),
+                     "panoloc: --tum-scale (tum_scale): expected a positive number of metres per map unit up to "
+                     "1e+06, or 0 for the map's units, got 1e+300");
+  CHECK_FALSE(fs::exists(dir + "/a.csv"));
+  ExpectOneLineError(test::RunProgram("panomap check " + seq + "/video.mp4 --map " + seq + "/map.yaml --calib " +
+                                      seq + "/calib.yaml --pose 40,35,0 --search 1e300"),
+                     "panomap: --search: expected a value from 0.5 to 2000, got 1e300");
+  const std::string still = "panosim still --preset paper-real --supersample 1 -o " + dir + "/s.png ";
+  ExpectOneLineError(test::RunProgram(still + "--noise 1e300"),
+                     "panosim: options: noise: expected a noise sigma of 0..255 grey levels");
+  ExpectOneLineError(test::RunProgram(still + "--distortion 1e300,0"),
+                     "panosim: --distortion: expected coefficients within +-10, got 1e+300,0");
+  ExpectOneLineError(test::RunProgram(still + "--camera-tilt 1000,0"),
+                     "panosim: --camera-tilt: expected angles within +-28.6 degrees (0.5 rad), got 1000,0");
+  CHECK_FALSE(fs::exists(dir + "/s.png"));
+  const std::string targets = "panosim targets --preset paper-real --supersample 1 -o " + dir + "/t ";
+  ExpectOneLineError(test::RunProgram(targets + "--board 6,4,2 --auto 100000000"),
+                     "panosim: --auto: expected at most 1000 images, got 100000000");
+  ExpectOneLineError(test::RunProgram(targets + "--board 6,4,2 --auto 3 --charuco 1 --dictionary DICT_BOGUS"),
+                     "panosim: --dictionary: unknown ArUco dictionary 'DICT_BOGUS'");
+  ExpectOneLineError(test::RunProgram(targets + "--board 100000,100000,2 --auto 3"),
+                     "panosim: --board: expected 2..1000 inner corners along each side, got 100000 x 100000");
+  CHECK_FALSE(fs::exists(dir + "/t"));
+}
+
+TEST_CASE("flags whose options a library checks: the flag named, not the field", "[absurd_inputs]") {
+  const std::string dir = test::ScratchDir("apps_absurd_fields");
+  const std::string& seq = Sequence();
+  const std::string files = " --calib " + seq + "/calib.yaml --map " + seq + "/map.yaml ";
+  const std::string tilt = "panocalib tilt " + seq + "/video.mp4" + files + "-o " + dir + "/t.yaml ";
+  ExpectOneLineError(test::RunProgram(tilt + "--frames 0"), "panocalib: --frames: expected 5 or more, got 0");
+  ExpectOneLineError(test::RunProgram(tilt + "--step -1"), "panocalib: --step: expected a positive angle");
+  ExpectOneLineError(test::RunProgram(tilt + "--tolerance 2 --step 1"),
+                     "panocalib: --tolerance: expected a positive angle below --step (1 degrees), got 2");
+  ExpectOneLineError(test::RunProgram(tilt + "--max-trials -4"), "panocalib: --max-trials: expected 3 or more");
+  const std::string unwarp =
+      "panocalib unwarp " + seq + "/video.mp4 --calib " + seq + "/calib.yaml -o " + dir + "/u.png ";
+  ExpectOneLineError(test::RunProgram(unwarp + "--perspective --fov 180"),
+                     "panocalib: --fov: expected 0 < fov <= 170 degrees, got 180");
+  ExpectOneLineError(test::RunProgram(unwarp + "--elevation 50,-50"),
+                     "panocalib: --elevation: expected MIN,MAX with MIN below MAX (degrees), got 50,-50");
+  ExpectOneLineError(test::RunProgram(unwarp + "--size 100000x100"),
+                     "panocalib: --size: expected WxH of 2..65536 pixels each, got 100000x100");
+  ExpectOneLineError(test::RunProgram(unwarp + "--distance -5"), "panocalib: --distance: expected a distance >= 0");
+  ExpectOneLineError(
+      test::RunProgram("panocalib export --opencv --calib " + seq + "/calib.yaml -o " + dir + "/cv.yml --distance -1"),
+      "panocalib: --distance: expected a value from 0 to 1e+06, got -1");
+  ExpectOneLineError(test::RunProgram("panomap build " + seq + "/video.mp4" + files + "--poses " + seq +
+                                      "/gt.csv -o " + dir + "/b.yaml --max-std -1"),
+                     "panomap: --max-std: expected a positive number, got -1");
+  ExpectOneLineError(Panoloc("-o " + dir + "/a.csv --scale 1e-300"),
+                     "panoloc: --scale 1e-300: no pixel left of the 640x480 frames of " + seq + "/calib.yaml");
+  ExpectOneLineError(test::RunProgram("panosim sequence --preset paper-real -o " + dir + "/sq --fps 1e300"),
+                     "panosim: --fps: expected a frame rate from 0.01 to 1000 frames/s, got 1e+300");
+  for (const char* out : {"t.yaml", "u.png", "cv.yml", "b.yaml", "a.csv", "sq"}) CHECK_FALSE(fs::exists(dir + "/" + out));
+}
+
+TEST_CASE("a PNG cut short among the frames: the tool's own line, not libpng's", "[absurd_inputs]") {
+  const std::string dir = test::ScratchDir("apps_absurd_torn");
+  SequenceCase sc = MakePreset("paper-real");
+  sc.poses.resize(4);
+  SequenceWriteOptions w;
+  w.quiet = true;
+  w.frames = true;
+  w.video = false;
+  WriteSequence(sc, dir + "/seq", w);
+  const std::string seq = dir + "/seq", frames = seq + "/frames", torn = frames + "/frame_0002.png";
+  const std::string bytes = Read(torn);
+  const std::string half = bytes.substr(0, bytes.size() / 2);
+  std::ofstream(torn, std::ios::binary | std::ios::trunc) << half;
+  const std::string files = " --calib " + seq + "/calib.yaml --map " + seq + "/map.yaml";
+  test::CommandRun r = test::RunProgram("panoloc " + frames + files + " -q -o " + dir + "/a.csv");
+  INFO(r.out);
+  CHECK(r.code == 1);
+  CHECK(r.out == "panoloc: " + frames + ": incomplete: decode error at frame 2: " + torn +
+                     ": a PNG cut short (its last chunk, IEND, is missing; " + std::to_string(half.size()) +
+                     " bytes)\n");
+  ExpectOneLineError(test::RunProgram("panomap check " + torn + files + " --pose 40,35,0"),
+                     "panomap: " + torn + ": a PNG cut short");
+}
+
 TEST_CASE("--gt of another length than the video is refused; --gt auto without gt.csv says so",
           "[absurd_inputs]") {
   const std::string dir = test::ScratchDir("apps_absurd_gt");

@@ -79,6 +79,23 @@ TEST_CASE("panoloc and panomap check: no output over a frame of a folder or patt
   CHECK_FALSE(fs::exists(dir + "/est.csv"));
 }
 
+TEST_CASE("panoloc: no output over the case.yaml whose initial pose it reads", "[output_guard]") {
+  const std::string dir = test::ScratchDir("apps_guard_case");
+  const std::string seq = FramesCase(dir), frames = seq + "/frames";
+  REQUIRE(fs::exists(seq + "/case.yaml"));
+  const std::string files = " --calib " + seq + "/calib.yaml --map " + seq + "/map.yaml -o " + dir + "/est.csv";
+  ExpectRefused("panoloc " + frames + files + " --summary-json " + seq + "/case.yaml --force", "--summary-json",
+                seq + "/case.yaml", seq + "/case.yaml");
+  ExpectRefused("panoloc " + frames + files + " --plot " + seq + "/case.yaml --force", "--plot", seq + "/case.yaml",
+                seq + "/case.yaml");
+  CHECK_FALSE(fs::exists(dir + "/est.csv"));
+  // With --init the case.yaml is not read, and may be written over.
+  const test::CommandRun r =
+      test::RunProgram("panoloc " + frames + files + " --init 40,35,0 -q --summary-json " + seq + "/case.yaml --force");
+  INFO(r.out);
+  CHECK(r.code == 0);
+}
+
 TEST_CASE("panocalib calibrate and evaluate: no output over a board image", "[output_guard]") {
   const std::string dir = test::ScratchDir("apps_guard_boards");
   const std::string calib = test::SourcePath("calib/paper-real.yaml");

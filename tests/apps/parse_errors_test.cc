@@ -50,6 +50,26 @@ TEST_CASE("range errors: readable bounds and the value typed", "[parse_errors]")
   ExpectLine(kLoc + "--alert-fraction 2", "panoloc: --alert-fraction: expected a value from 0 to 1, got 2");
 }
 
+TEST_CASE("an unknown option is named before a required one that is missing", "[parse_errors]") {
+  ExpectLine("panoloc --bogus", "panoloc: --bogus: unknown option (see panoloc --help)");
+  ExpectLine("panocalib --bogus", "panocalib: --bogus: unknown option (see panocalib --help)");
+  ExpectLine("panocalib lut --bogus x --calib c.yaml", "panocalib: --bogus: unknown option (see panocalib lut --help)");
+  ExpectLine("panosim targets --otput=x", "panosim: --otput: unknown option (see panosim targets --help)");
+}
+
+TEST_CASE("NaN and infinities are refused under the flag's name", "[parse_errors]") {
+  // CLI11's range checks let NaN through.
+  ExpectLine(kLoc + "--survey-sigma nan", "panoloc: --survey-sigma: expected a finite number, got 'nan'");
+  ExpectLine(kLoc + "--alert-fraction nan", "panoloc: --alert-fraction: expected a finite number, got 'nan'");
+  ExpectLine(kLoc + "--init 40,35,inf", "panoloc: --init: expected a finite number, got 'inf'");
+  ExpectLine("panocalib unwarp in.png --calib c.yaml -o u.png --elevation nan,10",
+             "panocalib: --elevation: expected a finite number, got 'nan'");
+  ExpectLine("panomap check in.mp4 --map m.yaml --calib c.yaml --bias-floor nan",
+             "panomap: --bias-floor: expected a finite number, got 'nan'");
+  ExpectLine("panosim still --preset paper-real -o s.png --noise 1e999",
+             "panosim: --noise: expected a finite number, got '1e999'");
+}
+
 TEST_CASE("a subcommand missing or unknown is named with the known ones", "[parse_errors]") {
   ExpectLine("panomap frob", "panomap: unknown subcommand 'frob' (one of: check, refine, build)");
   ExpectLine("panomap", "panomap: a subcommand is required (one of: check, refine, build)");

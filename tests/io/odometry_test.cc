@@ -56,6 +56,12 @@ TEST_CASE("odometry CSV: read back; each bad file named with its line and proble
   check("nan.csv", h + "0,0,0,nan\n", "line 2: column theta: expected a finite number, got 'nan'");
   check("blank.csv", h + ",0,0,0\n", "line 2: column time: expected a finite number, got ''");
   check("inf.csv", h + "0,0,1e999,0\n", "line 2: column y: expected a finite number, got '1e999'");
+  // A binary file: its bytes quoted as \xNN, the message one line.
+  check("binary.csv", std::string("ti\rme\x1b[2J,\x0c\xff\0,y\n", 16),
+        "line 1: expected the header 'time,x,y,theta', got 'ti\\x0Dme\\x1B[2J,\\x0C\\xFF\\x00,y'");
+  check("control.csv", h + "0,4\x0b" "2,0,0\n", "line 2: column x: expected a finite number, got '4\\x0B2'");
+  check("long.csv", h + "0," + std::string(100, '7') + "x,0,0\n",
+        "line 2: column x: expected a finite number, got '" + std::string(60, '7') + "...'");
   check("same.csv", h + "0.5,0,0,0\n0.5,1,0,0\n", "line 3: times must increase strictly (0.5 after 0.5)");
   check("back.csv", h + "0.5,0,0,0\n0.25,1,0,0\n", "line 3: times must increase strictly (0.25 after 0.5)");
 }

@@ -154,6 +154,8 @@ TEST_CASE("panoloc exit codes: a folder that cannot be read, nothing tracked, a 
   CHECK(r.code == 1);
   CHECK(r.out.find("7 frames, 7 ok, 0 lost") != std::string::npos);
   CHECK(r.out.find("-> " + dir + "/cut.csv (incomplete: decode error at frame 7: ") != std::string::npos);
+  // An input that broke off is an error on stderr too, not only in the summary.
+  CHECK(r.err.find("panoloc: " + dir + "/cut: incomplete: decode error at frame 7: ") != std::string::npos);
   CHECK(ReadPoseCsv(dir + "/cut.csv").size() == 7);
   // Refused outputs: -o over the input, -o with --out-dir.
   r = test::Run(Panoloc(c.video + " -o " + c.video), dir);

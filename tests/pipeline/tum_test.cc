@@ -137,8 +137,11 @@ TEST_CASE("--tum: one input, a file, a valid scale; printed after the run", "[tu
                     "--tum (tum): expected a file name (the TUM file cannot go to standard output)");
   o.tum = dir + "/est.tum";
   o.tum_scale = -1;
-  CHECK_THROWS_WITH(o.Check(), "--tum-scale (tum_scale): expected a positive number (metres per map unit), "
-                               "or 0 for the map's units");
+  CHECK_THROWS_WITH(o.Check(), "--tum-scale (tum_scale): expected a positive number of metres per map unit up "
+                               "to 1e+06, or 0 for the map's units, got -1");
+  o.tum_scale = 1e300;  // coordinates beyond any double once scaled
+  CHECK_THROWS_WITH(o.Check(), "--tum-scale (tum_scale): expected a positive number of metres per map unit up "
+                               "to 1e+06, or 0 for the map's units, got 1e+300");
   // The TUM file may not overwrite the pose CSV.
   o.tum_scale = 0;
   o.tum = o.output;

@@ -8,6 +8,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 
 #include "expect_error.h"
@@ -88,6 +89,14 @@ TEST_CASE("unwarp files: atomic, never replacing without overwrite", "[bad_input
   CHECK_THAT(ErrorOf([&] { UnwarpImageFile(calib, dir + "/not-an-image.png", dir + "/o2.png", p, false); }),
              Catch::Contains("not-an-image.png: cannot read the image"));
   CHECK_THAT(ErrorOf([&] { UnwarpImageFile(calib, dir, dir + "/o3.png", p, false); }), Catch::Contains("folder"));
+  {  // A PNG cut short: named as such (not libpng's line on stderr and "not an image format").
+    std::ifstream in(raw, std::ios::binary);
+    const std::string png((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::ofstream(dir + "/torn.png", std::ios::binary) << png.substr(0, png.size() / 2);
+  }
+  CHECK(ErrorOf([&] { UnwarpImageFile(calib, dir + "/torn.png", dir + "/o6.png", p, false); }) ==
+        dir + "/torn.png: a PNG cut short (its last chunk, IEND, is missing; " +
+            std::to_string(std::filesystem::file_size(dir + "/torn.png")) + " bytes)");
   CHECK_THAT(ErrorOf([&] { UnwarpImageFile(calib, raw, dir + "/o4.unknown-extension", p, false); }),
              Catch::Contains("o4.unknown-extension: cannot write"));
   CHECK_THAT(ErrorOf([&] { UnwarpImageFile(dir + "/missing.yaml", raw, dir + "/o5.png", p, false); }),
@@ -98,7 +107,7 @@ TEST_CASE("unwarp files: atomic, never replacing without overwrite", "[bad_input
     (void)e;
     ++files;
   }
-  CHECK(files == 4);  // calib.yaml, raw.png, out.png, not-an-image.png
+  CHECK(files == 5);  // calib.yaml, raw.png, out.png, not-an-image.png, torn.png
 }
 
 TEST_CASE("panocalib unwarp", "[cli]") {
@@ -132,7 +141,7 @@ TEST_CASE("panocalib unwarp", "[cli]") {
   CHECK(r.out == "panocalib: --size: expected WxH (e.g. 1600x400, each side at least 2), got '300'\n");
   r = test::RunProgram(base + " -o " + dir + "/x.png --perspective --fov 200");
   CHECK(r.code == 1);
-  CHECK_THAT(r.out, Catch::StartsWith("panocalib: unwarp fov_deg: expected 0 < fov <= 170 degrees, got 200"));
+  CHECK(r.out == "panocalib: --fov: expected 0 < fov <= 170 degrees, got 200\n");
   for (const char* wrong : {" --perspective --panorama", " --yaw 30", " --perspective --clockwise",
                             " --perspective --elevation -10,10"}) {
     INFO(wrong);

@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 
 #include <omp.h>
+#include <opencv2/core/utils/logger.hpp>
 
 #include <cctype>
 #include <chrono>
@@ -13,6 +14,7 @@
 #include <map>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "cli_errors.h"
@@ -160,6 +162,12 @@ struct RenderFlags {
   }
 };
 
+std::string Joined(const std::vector<double>& values) {
+  std::ostringstream s;
+  for (size_t i = 0; i < values.size(); ++i) s << (i ? "," : "") << values[i];
+  return s.str();
+}
+
 // Faults of a real rig (sensor/general_model.h) set on the sensor being
 // rendered; each replaces that fault of the preset or calibration file.
 struct RigFlags {
@@ -196,6 +204,13 @@ struct RigFlags {
       f.mirror_offset[0] = decentre[0];
       f.mirror_offset[1] = decentre[1];
     }
+    // The sensor model's bound on a tilt (0.5 rad), checked under the flags' names.
+    constexpr double kMaxTiltDeg = 0.5 * 180.0 / M_PI;
+    for (const auto& [flag, angles] : {std::pair{"--camera-tilt", &camera_tilt}, {"--sensor-tilt", &sensor_tilt}})
+      for (double v : *angles)
+        if (!(std::abs(v) <= kMaxTiltDeg))
+          throw pano::Error(std::string(flag) + ": expected angles within +-28.6 degrees (0.5 rad), got " +
+                            Joined(*angles));
     if (!camera_tilt.empty()) {
       f.camera_tilt[0] = camera_tilt[0] * deg;
       f.camera_tilt[1] = camera_tilt[1] * deg;
@@ -203,8 +218,11 @@ struct RigFlags {
     if (!distortion.empty()) {
       if (distortion.size() == 3)
         throw pano::Error("--distortion: expected k1,k2 or k1,k2,p1,p2 or k1,k2,p1,p2,k3");
+      // A real lens's Brown coefficients (normalised coordinates) are well within this.
+      constexpr double kMaxCoefficient = 10.0;
       for (double v : distortion)
-        if (!std::isfinite(v)) throw pano::Error("--distortion: expected finite numbers");
+        if (!(std::abs(v) <= kMaxCoefficient))
+          throw pano::Error("--distortion: expected coefficients within +-10, got " + Joined(distortion));
       s->params.k1 = distortion[0];
       s->params.k2 = distortion[1];
       f.p1 = distortion.size() >= 4 ? distortion[2] : 0.0;
@@ -404,6 +422,9 @@ void RunSequence(const SequenceArgs& a) {
   pano::CheckFolderOutputHoldsNoInput(
       {{"--map", a.map_path}, {"--calib", a.calib_path}, {"--trajectory", a.traj_path}}, "-o", a.out);
   pano::SequenceCase c = SequenceCaseOf(a);
+  // The video encoder's range of frame rates (x264 fails outside it with its own lines).
+  if (!(c.fps >= 0.01 && c.fps <= 1000))
+    throw pano::Error("--fps: expected a frame rate from 0.01 to 1000 frames/s, got " + Joined({c.fps}));
   a.rig.Apply(&c.calib.sensor);
   // A preset's survey error stays unless an option replaces it.
   const pano::SurveyError preset = c.survey;
@@ -476,11 +497,9 @@ CLI::App* AddTargets(CLI::App* app, TargetsArgs* a) {
   return tg;
 }
 
-std::string Joined(const std::vector<double>& values) {
-  std::ostringstream s;
-  for (size_t i = 0; i < values.size(); ++i) s << (i ? "," : "") << values[i];
-  return s.str();
-}
+
+// Board images --auto renders at most (a calibration uses 20..50).
+constexpr int kMaxAutoImages = 1000;
 
 pano::TargetBoard BoardOf(const std::vector<double>& b) {
   pano::TargetBoard board;
@@ -490,6 +509,7 @@ pano::TargetBoard BoardOf(const std::vector<double>& b) {
   if (board.cols != b[0] || board.rows != b[1] || board.cols < 2 || board.rows < 2 || !(board.square > 0.0))
     throw pano::Error("--board: expected integer cols,rows >= 2 and a positive square size, got " +
                       Joined(b));
+  pano::CheckTargetBoard(board, "--board");  // at most kMaxBoardCorners a side
   return board;
 }
 
@@ -503,7 +523,12 @@ std::vector<pano::BoardPose> BoardPosesOf(const TargetsArgs& a, const pano::Sens
                   << ": not every inner corner of the board is in view\n";
     return poses;
   }
-  if (a.o_auto->count()) return pano::AutoBoardPoses(sensor, board, a.auto_n, seed, a.min_visible);
+  if (a.o_auto->count()) {
+    if (a.auto_n > kMaxAutoImages)  // (below 1: AutoBoardPoses says so)
+      throw pano::Error("--auto: expected at most " + std::to_string(kMaxAutoImages) + " images, got " +
+                        std::to_string(a.auto_n));
+    return pano::AutoBoardPoses(sensor, board, a.auto_n, seed, a.min_visible);
+  }
   throw pano::Error("--poses or --auto: give the board poses file or the number of images to generate");
 }
 
@@ -518,7 +543,7 @@ void RunTargets(const TargetsArgs& a) {
     board.type = "charuco";
     board.marker = a.charuco_marker;
     board.dictionary = a.dictionary;
-    pano::CheckTargetBoard(board, "--charuco");
+    pano::CheckTargetBoard(board, pano::ArucoDictionaryId(board.dictionary) < 0 ? "--dictionary" : "--charuco");
   }
   pano::RenderOptions ro;
   a.flags.Apply(&ro, false);
@@ -543,6 +568,7 @@ void ListPresets() {
 int ParseCommandLine(CLI::App* app, int argc, char** argv) {
   try {
     app->parse(argc, argv);
+    pano::app::RefuseNonFiniteNumbers(*app);
     return -1;
   } catch (const CLI::CallForHelp& e) {
     return app->exit(e);
@@ -596,6 +622,9 @@ int main(int argc, char** argv) {
     // The renderer's loops take OpenMP's default team size.
     if (common) pano::CheckThreadCount(common->jobs, "-j/--jobs");
     if (common && common->jobs > 0) omp_set_num_threads(common->jobs);
+    // OpenCV's warnings (an image it cannot write) only with --verbose: the error says it in one line.
+    cv::utils::logging::setLogLevel(common && common->verbose ? cv::utils::logging::LOG_LEVEL_WARNING
+                                                              : cv::utils::logging::LOG_LEVEL_ERROR);
     const auto t0 = std::chrono::steady_clock::now();
     if (*still) RunStill(still_args);
     if (*seq) RunSequence(seq_args);

@@ -64,7 +64,7 @@ std::vector<OdometrySample> ReadOdometryCsv(const std::string& path) {
   if (!line.empty() && line.back() == '\r') line.pop_back();
   if (line != kOdometryCsvHeader)
     throw Error(path + ": line 1: expected the header '" + std::string(kOdometryCsvHeader) + "', got '" +
-                line + "'");
+                QuotedText(line) + "'");
   std::vector<OdometrySample> samples;
   for (int lineno = 2; std::getline(in, line); ++lineno) {
     if (line.empty() || line == "\r") continue;

@@ -45,6 +45,7 @@ class Frames {
  public:
   explicit Frames(const std::string& input) : input_(input) {
     if (IsImageFile(input)) {
+      FrameSource::CheckImageComplete(input);
       image_ = cv::imread(input, cv::IMREAD_GRAYSCALE);
       if (image_.empty()) throw Error(input + ": cannot read this image");
     } else {

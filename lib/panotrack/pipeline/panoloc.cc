@@ -26,6 +26,9 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// The largest --tum-scale, metres per map unit: a map in kilometres is 1000.
+constexpr double kMaxTumScale = 1e6;
+
 std::string ShortNumber(double v) {
   char text[32];
   std::snprintf(text, sizeof(text), "%g", v);
@@ -82,9 +85,9 @@ void PanolocOptions::Check() const {
     throw Error("--summary-json (summary_json): standard output already carries the pose CSV (-o -)");
   if (tum == "-")
     throw Error("--tum (tum): expected a file name (the TUM file cannot go to standard output)");
-  if (!(tum_scale >= 0) || !std::isfinite(tum_scale))
-    throw Error("--tum-scale (tum_scale): expected a positive number (metres per map unit), or 0 for the "
-                "map's units");
+  if (!(tum_scale >= 0) || !(tum_scale <= kMaxTumScale))
+    throw Error("--tum-scale (tum_scale): expected a positive number of metres per map unit up to " +
+                ShortNumber(kMaxTumScale) + ", or 0 for the map's units, got " + ShortNumber(tum_scale));
   if (init && (!std::isfinite(init->x) || !std::isfinite(init->y) || !std::isfinite(init->theta)))
     throw Error("--init (init): expected finite x,y,theta");
   CheckTrackingFlags(localizer);
@@ -112,15 +115,23 @@ std::string SmoothedOutputPath(const std::string& output) {
   return fs::path(output).replace_extension(".smoothed.csv").string();
 }
 
-std::optional<Pose2> InitialPoseBeside(const std::string& input) {
-  if (FrameSource::IsLive(input)) return std::nullopt;
+// The case.yaml files whose initial_pose an input may start from: beside
+// it, then one folder up.
+std::vector<std::string> CaseFilesBeside(const std::string& input) {
+  if (FrameSource::IsLive(input)) return {};
   fs::path dir = fs::is_directory(input) ? fs::path(input) : fs::path(input).parent_path();
   if (dir.empty()) dir = ".";  // a file in the current folder
+  std::vector<std::string> files;
   for (int up = 0; up < 2 && !dir.empty(); ++up, dir = dir.parent_path()) {
     const fs::path p = dir / "case.yaml";
-    if (!fs::exists(p)) continue;
-    if (std::optional<Pose2> pose = ReadCaseInitialPose(p.string())) return pose;
+    if (fs::exists(p)) files.push_back(p.string());
   }
+  return files;
+}
+
+std::optional<Pose2> InitialPoseBeside(const std::string& input) {
+  for (const std::string& p : CaseFilesBeside(input))
+    if (std::optional<Pose2> pose = ReadCaseInitialPose(p)) return pose;
   return std::nullopt;
 }
 
@@ -185,6 +196,8 @@ void CheckOutputs(const PanolocOptions& opt, const std::vector<PlannedJob>& jobs
   for (const PlannedJob& p : jobs) {
     for (const auto& read : FrameSource::InputReads(p.job.input)) reads.push_back(read);
     reads.push_back({"--gt", p.job.gt});
+    if (!opt.init)
+      for (const std::string& c : CaseFilesBeside(p.job.input)) reads.push_back({"the case.yaml of " + p.job.input, c});
     writes.push_back({out_option, p.job.output});
     writes.push_back({"--debug-video", p.job.debug_video});
     writes.push_back({"--plot", p.job.plot});
@@ -286,7 +299,11 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
   res.calib = ReadCalibration(opt.calib_path);
   res.calib_path = opt.calib_path;
   if (opt.scale != 1.0) {
-    res.calib.sensor = ScaledSensor(res.calib.sensor, opt.scale);
+    const Sensor& full = res.calib.sensor;
+    if (!(std::lround(full.image_width * opt.scale) >= 1 && std::lround(full.image_height * opt.scale) >= 1))
+      throw Error("--scale " + ShortNumber(opt.scale) + ": no pixel left of the " + std::to_string(full.image_width) +
+                  "x" + std::to_string(full.image_height) + " frames of " + opt.calib_path);
+    res.calib.sensor = ScaledSensor(full, opt.scale);
     // The calibration's own table is for full-size frames.
     res.calib.lut.clear();
     res.calib.lut_resolved.clear();

@@ -104,6 +104,10 @@ std::shared_ptr<const RadiusTable> TableForMap(const Calibration& calib, const M
 // `<output stem>.smoothed.csv` beside a pose CSV (out.csv -> out.smoothed.csv).
 std::string SmoothedOutputPath(const std::string& output);
 
+// The case.yaml files beside `input` (then one folder up) that
+// InitialPoseBeside reads, those that exist; none for a live input.
+std::vector<std::string> CaseFilesBeside(const std::string& input);
+
 // Reads initial_pose from the case.yaml beside `input` (or one folder up),
 // when there is one. None for live inputs.
 std::optional<Pose2> InitialPoseBeside(const std::string& input);

@@ -44,7 +44,8 @@ void RenderOptions::Check(const std::string& what) const {
     throw Error(what + ": " + key + ": " + problem);
   };
   if (supersample < 1 || supersample > 8) fail("supersample", "expected 1..8 rays per pixel side, got " + std::to_string(supersample));
-  if (!(noise_sigma >= 0.0) || !std::isfinite(noise_sigma)) fail("noise", "expected a non-negative noise sigma in grey levels");
+  if (!(noise_sigma >= 0.0 && noise_sigma <= 255.0))
+    fail("noise", "expected a noise sigma of 0..255 grey levels, got " + std::to_string(noise_sigma));
   if (!(illumination > 0.0) || !std::isfinite(illumination)) fail("illumination", "expected a positive gain");
   if (!(gradient >= 0.0 && gradient < 1.0)) fail("gradient", "expected 0 <= gradient < 1 (relative change across the scene)");
   if (!std::isfinite(gradient_angle)) fail("gradient-angle", "expected a finite angle in radians");

@@ -7,6 +7,7 @@
 #include "panotrack/core/output_check.h"
 #include "panotrack/io/calibration.h"
 #include "panotrack/unwarp/unwarp.h"
+#include "panotrack/video/frame_source.h"
 
 namespace pano {
 
@@ -20,6 +21,7 @@ UnwarpView UnwarpImageFile(const std::string& calib_path, const std::string& ima
   // imread says nothing about why it fails.
   const std::string bytes = ReadFile(image_path, size_t{256} << 20);
   if (bytes.empty()) throw Error(image_path + ": empty file, expected an image");
+  FrameSource::CheckImageComplete(image_path);  // before libpng prints its own line
   cv::Mat image;
   try {
     image = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<char*>(bytes.data())),

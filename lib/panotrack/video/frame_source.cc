@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <regex>
@@ -91,6 +93,21 @@ std::string DecodeError(const std::string& name, long frame, const std::string& 
   return name + ": decode error at frame " + std::to_string(frame) + ": " + why;
 }
 }  // namespace
+
+void FrameSource::CheckImageComplete(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  char signature[8];
+  if (!in.read(signature, 8) || std::memcmp(signature, "\x89PNG\r\n\x1a\n", 8) != 0) return;
+  in.seekg(0, std::ios::end);
+  const std::streamoff size = in.tellg();
+  // Data after IEND is allowed, but a PNG ends with it in practice.
+  const std::streamoff tail = std::min<std::streamoff>(size - 8, 65536);
+  std::string bytes(static_cast<size_t>(tail), '\0');
+  in.seekg(size - tail);
+  if (!in.read(&bytes[0], tail)) return;  // the decoder says what is wrong
+  if (bytes.find("IEND") == std::string::npos)
+    throw Error(path + ": a PNG cut short (its last chunk, IEND, is missing; " + std::to_string(size) + " bytes)");
+}
 
 FrameSource::FrameSource(const std::string& path, const FrameSourceOptions& options)
     : path_(path), name_(InputName(path)), capacity_(8) {
@@ -241,6 +258,7 @@ bool FrameSource::ReadDirect(Frame* frame) {
   if (!files_.empty()) {
     if (next_file_ >= files_.size()) return false;
     const std::string& f = files_[next_file_++];
+    CheckImageComplete(f);
     frame->image = opencv_io::imread(f, cv::IMREAD_UNCHANGED);
     if (frame->image.empty()) throw Error(f + ": cannot decode the image");
     return true;

@@ -80,6 +80,13 @@ class FrameSource {
   // inputs are not opened: -1.
   static int FrameCount(const std::string& path);
 
+  // Throws pano::Error naming `path` when it is a PNG file cut short (a copy
+  // or a download that stopped): its last chunk, IEND, is not in its last
+  // 64 KiB. libpng would otherwise print its own "libpng error: Read Error"
+  // on stderr from inside the decoder. Other files pass unread but for 8
+  // bytes.
+  static void CheckImageComplete(const std::string& path);
+
   // Next frame; false at the clean end. Throws pano::Error for a frame that
   // cannot be decoded or an input that ends before its container says.
   // Frames are not copied out: *grey may share the decoder's buffer (rows
