@@ -225,6 +225,12 @@ struct CalibrationResult {
   std::vector<double> image_rms;  // per view, pixels
   std::vector<std::vector<Eigen::Vector2d>> residuals;  // per view, per corner (projected - observed)
   double rms_px = 0.0;            // Euclidean RMS over all corners
+  // The final model on the detector's corners as found (before their
+  // refinement through the model; the unwarped boards' as mapped back), only
+  // each board's pose refitted (FitBoardPose): what `panocalib evaluate
+  // --no-refine` gives on these images. NaN when not computed (CalibrateViews).
+  double rms_raw_px = NAN;
+  int raw_boards = 0;             // boards scored for rms_raw_px
   double fit_cost = 0.0;          // the fit's objective at the end (weighted, robust)
   std::vector<ParameterEstimate> parameters;
   std::vector<int> not_found;  // images without a board (target file indices)

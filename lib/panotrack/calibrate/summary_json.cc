@@ -51,6 +51,7 @@ std::string CalibrationSummaryJson(const CalibrationResult& r, const Calibration
                   {"poses_known", r.poses_known},
                   {"boards_used", r.views.size()},
                   {"rms_px", r.rms_px},
+                  {"rms_raw_px", std::isfinite(r.rms_raw_px) ? json(r.rms_raw_px) : json(nullptr)},
                   {"image_rms_px", image_rms},
                   {"detection", detection},
                   {"parameters", parameters},
