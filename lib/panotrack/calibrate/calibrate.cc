@@ -75,6 +75,8 @@ void CalibrateOptions::Check() const {
     throw Error("model selection: expected 2..100 folds, got " + std::to_string(selection_folds));
   if (select_model && !(selection_margin >= 0.0 && selection_margin < 1.0))
     throw Error("model selection: expected a margin in [0, 1)");
+  if (select_model && !(selection_max_focal_rel_std > 0.0))
+    throw Error("model selection: selection_max_focal_rel_std: expected a positive fraction");
   if (distortion_terms < -1 || distortion_terms > 2)
     throw Error("--distortion: expected 0, 1 or 2 radial terms, got " + std::to_string(distortion_terms));
   if (!(huber_px >= 0.0) || !std::isfinite(huber_px))
@@ -494,14 +496,33 @@ void RedetectUnwarped(Pipeline* p) {
 }
 
 // On request (CalibrateOptions::select_model): the candidates scored by
-// cross-validation on the corners refined so far, the chosen one fitted to
-// them from its own initialisation and its corners refined through it.
+// cross-validation on the corners refined so far (the conic's fit, p->res,
+// starts that candidate), the chosen one's fit to all boards finished as the
+// calibration and its corners refined through it.
 ModelSelection SelectModelAndRefit(Pipeline* p, const CalibrateOptions& options) {
   const Sensor& s = p->res.calib.sensor;
-  ModelSelection sel = SelectMirrorModel(p->res.views, p->targets.board, s.image_width, s.image_height,
-                                         p->targets.units, options);
-  p->options = ModelCandidates(options)[sel.chosen];
-  p->res = CalibrateViews(p->res.views, p->targets.board, s.image_width, s.image_height, p->targets.units, p->options);
+  if (options.selection_fallback &&
+      !SelectionPossible(static_cast<int>(p->res.views.size()), options.selection_folds)) {
+    p->options = options;
+    p->options.select_model = false;
+    p->carried.push_back(std::to_string(p->res.views.size()) +
+                         " boards are too few to choose the model by cross-validation (4 at least): the " +
+                         mirror_model_name(options.model) + " model fitted");
+    p->res = CalibrateViews(p->res.views, p->targets.board, s.image_width, s.image_height, p->targets.units,
+                            p->options);
+    RefineThroughModel(p);
+    return {};
+  }
+  ModelSelection sel = SelectModel(p->res.views, p->targets.board, s.image_width, s.image_height, p->targets.units,
+                                   options, &p->res, &p->options);
+  p->options = sel.options;
+  std::optional<CalibrationResult> chosen =
+      TryRefit("the chosen model's fit", sel.fit.views, p->targets.board,
+               StartFrom(sel.fit, "model selection: " + sel.reason), p->poses_known, p->targets.units, p->options,
+               &p->carried);
+  p->res = chosen ? std::move(*chosen)
+                  : CalibrateViews(p->res.views, p->targets.board, s.image_width, s.image_height, p->targets.units,
+                                   p->options);
   RefineThroughModel(p);
   return sel;
 }
@@ -709,6 +730,7 @@ CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>
   CalibrationResult res = Complete(&p, clock);
   res.model_scores = std::move(selection.scores);
   res.model_chosen = selection.chosen;
+  res.model_reason = selection.reason;
   return res;
 }
 
@@ -754,7 +776,10 @@ std::string Summary(const CalibrationResult& r) {
     for (const std::string& f : r.not_found_files) o << " " << f;
     o << "\n";
   }
-  if (!r.model_scores.empty()) o << ModelSelectionTable(r.model_scores, r.model_chosen);
+  if (!r.model_scores.empty()) {
+    o << ModelSelectionTable(r.model_scores, r.model_chosen);
+    if (!r.model_reason.empty()) o << "chosen: " << r.model_reason << "\n";
+  }
   std::snprintf(line, sizeof line, "time: detection %.2f s, fit %.2f s\n", r.seconds_detect, r.seconds_fit);
   o << line;
   for (const std::string& w : r.warnings) o << "warning: " << w << "\n";

@@ -33,8 +33,11 @@ std::string CalibrationSummaryJson(const CalibrationResult& r, const Calibration
                             {"training_rms_px", std::isfinite(m.training_rms_px) ? json(m.training_rms_px) : json(nullptr)},
                             {"heldout_rms_px", std::isfinite(m.heldout_rms_px) ? json(m.heldout_rms_px) : json(nullptr)},
                             {"heldout_boards", m.heldout_boards},
-                            {"failed_boards", m.failed_boards}});
+                            {"failed_boards", m.failed_boards},
+                            {"parameters", m.parameters},
+                            {"refused", m.refused.empty() ? json(nullptr) : json(m.refused)}});
     selection = {{"chosen", r.model_chosen >= 0 ? json(r.model_scores[r.model_chosen].name) : json(nullptr)},
+                 {"reason", r.model_reason},
                  {"candidates", candidates}};
   }
   json written = json::object();
