@@ -1,7 +1,7 @@
 // --model auto: the mirror profile, lens distortion and rig faults chosen by
 // cross-validation over the boards. On rendered boards of a mirror bent away
 // from any conic the asphere maps held-out boards far better and is chosen;
-// behind a lens with radial distortion the sphere with k1 k2 is; on the
+// behind a lens with strong radial distortion the sphere with k1 k2 is; on the
 // paper's sphere no richer model does better by the margin and the sphere
 // stays. A candidate the boards do not determine is refused.
 #include <catch2/catch.hpp>
@@ -26,7 +26,7 @@ const ModelScore& Score(const CalibrationResult& r, const std::string& name) {
 }
 
 // lens_given: distortion_terms 0 for every candidate (then 6 candidates),
-// else the lens is chosen too (7).
+// else the lens is chosen too (8).
 CalibrationResult CalibrateAuto(const std::string& name, const Calibration& truth, bool lens_given = true,
                                 const std::string& target_file = "targets.yaml") {
   const TargetSet targets = ReadTargets(test::RenderTargets(name, truth, 14, 5) + "/" + target_file);
@@ -36,7 +36,7 @@ CalibrationResult CalibrateAuto(const std::string& name, const Calibration& trut
   o.num_threads = 2;
   const CalibrationResult r = Calibrate(targets, o);
   WARN(ModelSelectionTable(r.model_scores, r.model_chosen) << "chosen: " << r.model_reason);
-  REQUIRE(r.model_scores.size() == (lens_given ? 6u : 7u));
+  REQUIRE(r.model_scores.size() == (lens_given ? 6u : 8u));
   REQUIRE(r.model_chosen >= 0);
   return r;
 }
@@ -71,18 +71,23 @@ TEST_CASE("model selection: the asphere for a mirror that is not a conic, the sp
 
 TEST_CASE("model selection: lens distortion chosen behind a distorting lens", "[model_selection]") {
   Calibration truth = ReadCalibration(test::SourcePath("calib/paper-real.yaml"));
-  truth.sensor.params.k1 = -0.05;
+  truth.sensor.params.k1 = -0.12;
+  truth.sensor.params.k2 = 0.08;
   truth.sensor.Check("truth");
   const CalibrationResult r = CalibrateAuto("model_selection_lens", truth, /*lens_given=*/false);
   CHECK(r.model_scores[r.model_chosen].name == "sphere + k1 k2");
   CHECK(r.calib.sensor.model == MirrorModel::kSphere);
   CHECK(r.model_reason.find("sphere + k1 k2") == 0);
-  // Measured: sphere 0.0988 px, sphere + decentre 0.0974 px, sphere + k1 k2
-  // 0.0690 px held out (the richer models no better); the asphere (a4, a6)
-  // refused (k2 0.06 +- 1.26).
-  CHECK(Score(r, "sphere + k1 k2").heldout_rms_px < 0.8 * Score(r, "sphere").heldout_rms_px);
-  CHECK(Score(r, "sphere + k1 k2").heldout_rms_px < 0.076);
-  CHECK(r.calib.sensor.params.k1 == Approx(-0.05).margin(0.01));
+  // Measured: sphere 0.1541 px, conic 0.0741 px (a conic absorbs much of
+  // the lens: with k1 -0.05 alone it maps held-out boards within 1 % of the
+  // sphere + k1 k2 and, simpler, is chosen), sphere + k1 k2 0.0726 px held
+  // out (the richer models 0.0727 px); the asphere (a4, a6) refused (k2
+  // -0.31 +- 1.62).
+  CHECK(Score(r, "sphere + k1 k2").heldout_rms_px < 0.6 * Score(r, "sphere").heldout_rms_px);
+  CHECK(Score(r, "sphere + k1 k2").heldout_rms_px < 0.99 * Score(r, "conic").heldout_rms_px);
+  CHECK(Score(r, "sphere + k1 k2").heldout_rms_px < 0.08);
+  CHECK_FALSE(Score(r, "asphere (a4, a6) + k1 k2").refused.empty());
+  CHECK(r.calib.sensor.params.k1 == Approx(-0.12).margin(0.015));
 }
 
 TEST_CASE("model selection: a model the boards do not determine is refused", "[model_selection]") {

@@ -515,6 +515,7 @@ ModelSelection SelectModelAndRefit(Pipeline* p, const CalibrateOptions& options)
   }
   ModelSelection sel = SelectModel(p->res.views, p->targets.board, s.image_width, s.image_height, p->targets.units,
                                    options, &p->res, &p->options);
+  p->carried.insert(p->carried.end(), sel.warnings.begin(), sel.warnings.end());
   p->options = sel.options;
   std::optional<CalibrationResult> chosen =
       TryRefit("the chosen model's fit", sel.fit.views, p->targets.board,

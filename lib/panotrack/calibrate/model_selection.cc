@@ -185,6 +185,7 @@ std::vector<SelectionCandidate> SelectionCandidates(const CalibrateOptions& opti
     out.push_back(c);
   };
   add(MirrorModel::kSphere, 0, 0, false);
+  add(MirrorModel::kConic, 0, 0, false);
   add(MirrorModel::kSphere, 0, 0, true);
   add(MirrorModel::kSphere, 0, 2, false);
   add(MirrorModel::kConic, 0, 2, false);
@@ -195,20 +196,27 @@ std::vector<SelectionCandidate> SelectionCandidates(const CalibrateOptions& opti
     return a.parameters < b.parameters;
   });
   // Starts (each before its candidate, having fewer parameters): a sphere
-  // from the simplest sphere, a conic and the asphere (a4) from the simplest
-  // conic, the asphere (a4, a6) from the asphere (a4).
-  auto first = [&](MirrorModel m, int terms) {
+  // from the simplest sphere; a conic, and the asphere (a4), from the conic
+  // with the same lens terms (else the simplest conic); the asphere (a4, a6)
+  // from the asphere (a4).
+  auto first = [&](MirrorModel m, int terms, int lens) {
     for (size_t i = 0; i < out.size(); ++i)
-      if (out[i].options.model == m && (m != MirrorModel::kAsphere || out[i].options.asphere_terms == terms))
+      if (out[i].options.model == m && (m != MirrorModel::kAsphere || out[i].options.asphere_terms == terms) &&
+          (lens < 0 || (out[i].options.DistortionTerms() == lens && !out[i].options.Faults().Any())))
         return static_cast<int>(i);
     return -1;
   };
   for (size_t i = 0; i < out.size(); ++i) {
     const CalibrateOptions& o = out[i].options;
     int s = -1;
-    if (o.model == MirrorModel::kSphere) s = first(MirrorModel::kSphere, 0);
-    else if (o.model == MirrorModel::kConic || o.asphere_terms == 1) s = first(MirrorModel::kConic, 0);
-    else s = first(MirrorModel::kAsphere, 1);
+    if (o.model == MirrorModel::kSphere) {
+      s = first(MirrorModel::kSphere, 0, -1);
+    } else if (o.model == MirrorModel::kConic || o.asphere_terms == 1) {
+      s = first(MirrorModel::kConic, 0, o.DistortionTerms());
+      if (s < 0 || s >= static_cast<int>(i)) s = first(MirrorModel::kConic, 0, -1);
+    } else {
+      s = first(MirrorModel::kAsphere, 1, -1);
+    }
     out[i].start = s >= 0 && s < static_cast<int>(i) ? s : -1;
   }
   return out;
@@ -363,37 +371,65 @@ ModelSelection SelectModel(const std::vector<BoardView>& views, const TargetBoar
     if (held_n) score.heldout_rms_px = std::sqrt(held_s2 / held_n);
     sel.scores.push_back(score);
   }
-  // A candidate that cannot map every held-out board extrapolates badly there.
+  // A candidate that cannot map every held-out board extrapolates badly
+  // there: those that map the most held-out boards compete.
+  int fewest_failed = std::numeric_limits<int>::max();
+  for (const ModelScore& s : sel.scores)
+    if (s.refused.empty() && s.heldout_boards > 0 && std::isfinite(s.heldout_rms_px))
+      fewest_failed = std::min(fewest_failed, s.failed_boards);
+  auto competes = [&](const ModelScore& s) {
+    return s.refused.empty() && s.heldout_boards > 0 && std::isfinite(s.heldout_rms_px) &&
+           s.failed_boards == fewest_failed;
+  };
   double best = std::numeric_limits<double>::infinity();
   for (const ModelScore& s : sel.scores)
-    if (s.refused.empty() && s.failed_boards == 0 && std::isfinite(s.heldout_rms_px))
-      best = std::min(best, s.heldout_rms_px);
+    if (competes(s)) best = std::min(best, s.heldout_rms_px);
+  char line[400];
   if (!std::isfinite(best)) {
-    std::string why;
-    for (const ModelScore& s : sel.scores)
-      why += " " + s.name + ": " +
-             (!s.refused.empty() ? s.refused : s.failure.empty() ? std::string("no score") : s.failure) + ";";
-    throw Error("model selection: no candidate model maps every held-out board;" + why.substr(0, why.size() - 1));
+    // None scored: the simplest candidate that fitted all boards, said so.
+    for (size_t i = 0; i < sel.scores.size() && sel.chosen < 0; ++i)
+      if (full_ok[i]) sel.chosen = static_cast<int>(i);
+    if (sel.chosen < 0) {
+      std::string why;
+      for (const ModelScore& s : sel.scores) why += " " + s.name + ": " + s.failure + ";";
+      throw Error("model selection: no candidate model fits the boards;" + why.substr(0, why.size() - 1));
+    }
+    sel.reason = sel.scores[sel.chosen].name +
+                 ": the simplest model that fits the boards; no candidate could be scored on boards left out of "
+                 "the fit (their poses could not be fitted, or the boards do not determine the model)";
+    sel.warnings.push_back("model selection: no candidate model could be scored on boards left out of the fit; the " +
+                           sel.scores[sel.chosen].name +
+                           " model is fitted, unchecked (see the model selection table; the calibration may not "
+                           "map images other than these)");
+  } else {
+    int best_index = -1;
+    for (size_t i = 0; i < sel.scores.size(); ++i) {
+      const ModelScore& s = sel.scores[i];
+      if (!competes(s)) continue;
+      if (s.heldout_rms_px == best && best_index < 0) best_index = static_cast<int>(i);
+      if (sel.chosen < 0 && s.heldout_rms_px <= best * (1.0 + options.selection_margin))
+        sel.chosen = static_cast<int>(i);
+    }
+    const ModelScore& ch = sel.scores[sel.chosen];
+    if (sel.chosen == best_index)
+      std::snprintf(line, sizeof line, "%s: the lowest error on boards left out of the fit (%.4f px)",
+                    ch.name.c_str(), ch.heldout_rms_px);
+    else
+      std::snprintf(line, sizeof line,
+                    "%s: the simplest model within %.0f %% of the lowest error on boards left out of the fit "
+                    "(%.4f px against %s's %.4f px)",
+                    ch.name.c_str(), 100.0 * options.selection_margin, ch.heldout_rms_px,
+                    sel.scores[best_index].name.c_str(), best);
+    sel.reason = line;
+    if (fewest_failed > 0) {
+      std::snprintf(line, sizeof line,
+                    "model selection: no candidate model maps every board left out of the fit (the best %d of "
+                    "%d); the %s model maps the most, but may not map images other than these",
+                    ch.heldout_boards, ch.heldout_boards + ch.failed_boards, ch.name.c_str());
+      sel.warnings.push_back(line);
+      sel.reason += "; no candidate maps every board left out";
+    }
   }
-  int best_index = -1;
-  for (size_t i = 0; i < sel.scores.size(); ++i) {
-    const ModelScore& s = sel.scores[i];
-    if (!s.refused.empty() || s.failed_boards != 0) continue;
-    if (s.heldout_rms_px == best && best_index < 0) best_index = static_cast<int>(i);
-    if (sel.chosen < 0 && s.heldout_rms_px <= best * (1.0 + options.selection_margin)) sel.chosen = static_cast<int>(i);
-  }
-  const ModelScore& ch = sel.scores[sel.chosen];
-  char line[300];
-  if (sel.chosen == best_index)
-    std::snprintf(line, sizeof line, "%s: the lowest error on boards left out of the fit (%.4f px)", ch.name.c_str(),
-                  ch.heldout_rms_px);
-  else
-    std::snprintf(line, sizeof line,
-                  "%s: the simplest model within %.0f %% of the lowest error on boards left out of the fit "
-                  "(%.4f px against %s's %.4f px)",
-                  ch.name.c_str(), 100.0 * options.selection_margin, ch.heldout_rms_px,
-                  sel.scores[best_index].name.c_str(), best);
-  sel.reason = line;
   int refused = 0;
   for (const ModelScore& s : sel.scores) refused += !s.refused.empty();
   if (refused) sel.reason += "; " + std::to_string(refused) + " refused as not determined by the boards";

@@ -40,8 +40,8 @@ struct SelectionCandidate {
   int start = -1;            // index of the candidate whose fit starts this one; -1: its own initialisation
 };
 
-// The candidates, simplest first (fewest parameters): sphere; sphere +
-// decentre; sphere + k1 k2; conic + k1 k2; asphere (a4) + k1 k2; asphere
+// The candidates, simplest first (fewest parameters): sphere; conic;
+// sphere + decentre; sphere + k1 k2; conic + k1 k2; asphere (a4) + k1 k2; asphere
 // (a4, a6) + k1 k2; conic + k1 k2 + decentre, camera tilt. Lens distortion
 // given in `options` (distortion_terms >= 0) holds for every candidate, and
 // so do rig faults given (free_faults_auto or any free fault): then
@@ -67,6 +67,7 @@ struct ModelSelection {
   CalibrateOptions options;        // the chosen candidate's options
   CalibrationResult fit;           // the chosen candidate fitted to all boards
   std::string reason;              // why it was chosen, one sentence
+  std::vector<std::string> warnings;  // a choice made without every held-out board, or without any
 };
 
 // Chooses the mirror profile, the lens distortion and the rig faults by
@@ -79,10 +80,12 @@ struct ModelSelection {
 // (UndeterminedParameters) is refused. Each fold's fit starts from the
 // candidate's fit to all boards, without the held-out boards, and only each
 // held-out board's pose is fitted through it (FitBoardPose). Among the
-// candidates not refused that scored every held-out board, the simplest
-// whose held-out RMS is within options.selection_margin (a fraction) of the
-// lowest is chosen. Throws pano::Error when there are too few boards to
-// hold any out or no candidate scores every board.
+// candidates not refused that scored the most held-out boards (every one,
+// normally; fewer with a warning), the simplest whose held-out RMS is
+// within options.selection_margin (a fraction) of the lowest is chosen;
+// when none could be scored, the simplest that fitted all boards, with a
+// warning. Throws pano::Error when there are too few boards to hold any out
+// or no candidate fits the boards at all.
 ModelSelection SelectModel(const std::vector<BoardView>& views, const TargetBoard& board, int width, int height,
                            const std::string& units, const CalibrateOptions& options,
                            const CalibrationResult* start_fit = nullptr,
