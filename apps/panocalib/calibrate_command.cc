@@ -17,7 +17,7 @@ namespace pano::app {
 
 void AddCalibrateCommand(CLI::App& app) {
   struct Opts {
-    std::string targets, out, lut, report, model = "sphere", distortion = "auto", free = "none";
+    std::string targets, out, lut, report, model = "auto", distortion = "auto", free = "none";
     double huber = 1.0, max_rms = 5.0, full_weight = CalibrateOptions().full_weight_px;
     int max_iterations = 200, threads = 0, asphere_terms = 2;
     bool no_aspect = false, ignore_poses = false, no_unwarp = false, limb = false, verbose = false;
@@ -62,18 +62,24 @@ void AddCalibrateCommand(CLI::App& app) {
   cmd->add_option("--lut", o->lut, "Also write the E(D,Z) lookup table here (referenced from the YAML)");
   cmd->add_option("--report", o->report, "Also write a report PNG (per-image RMS, residual vectors)");
   cmd->add_option("--model", o->model,
-                  "Mirror profile: sphere (spec section 2), conic (quadric of revolution) or asphere (the conic "
-                  "plus even-asphere terms a4, a6, for a mirror whose maker does not publish its shape), or auto "
-                  "(the simplest of these whose error on boards left out of the fit is within 1 % of the best, "
-                  "by 5-fold cross-validation: about 20 more fits, minutes rather than seconds)")
+                  "Mirror profile: auto (the default: the mirror profile, the lens distortion and the rig faults "
+                  "chosen by 5-fold cross-validation over the boards among sphere, sphere + decentre, sphere + "
+                  "k1 k2, conic + k1 k2, asphere (a4) + k1 k2, asphere (a4, a6) + k1 k2 and conic + k1 k2 + "
+                  "decentre, camera tilt: the simplest whose error on boards left out of the fit is within 1 % of "
+                  "the best, refusing a model whose parameters the boards do not determine; --distortion or --free "
+                  "given hold for every candidate; fewer than 4 boards: the sphere), sphere (spec section 2), conic "
+                  "(quadric of revolution) or asphere (the conic plus even-asphere terms a4, a6, for a mirror "
+                  "whose maker does not publish its shape)")
       ->capture_default_str();
   cmd->add_option("--asphere-terms", o->asphere_terms, "Even-asphere terms fitted with --model asphere: 1 (a4) or 2 (a4, a6)")
       ->capture_default_str();
   cmd->add_option("--distortion", o->distortion,
-                  "Lens radial distortion terms fitted: auto (none for sphere, k1 k2 for conic and asphere), 0, 1 or 2")
+                  "Lens radial distortion terms fitted: auto (chosen with --model auto; else none for sphere, k1 k2 for "
+                  "conic and asphere), 0, 1 or 2")
       ->capture_default_str();
-  cmd->add_option("--free", o->free,
-                  "Rig faults fitted (general model): none (the aligned model), auto (decentre and camera-tilt "
+  CLI::Option* free_opt = cmd->add_option("--free", o->free,
+                  "Rig faults fitted (general model; with --model auto and no --free they are chosen): none (the "
+                  "aligned model), auto (decentre and camera-tilt "
                   "for conic; decentre for sphere, whose centre off the axis and a camera tilt are one and the "
                   "same; with estimated poses they trade against cx, cy), or a "
                   "comma list of decentre, camera-tilt, k1, k2 (as --distortion), tangential (p1 p2), k3, "
@@ -113,12 +119,12 @@ void AddCalibrateCommand(CLI::App& app) {
     return {{"-o", o->out}, {"--lut", o->lut}, {"--report", o->report}, {"--summary-json", run->summary_json}};
   };
   cmd->parse_complete_callback([o, run, outputs]() { CheckPlannedOutputs({{"", o->targets}}, outputs(), run->force); });
-  cmd->callback([o, bo, run, outputs]() {
+  cmd->callback([o, bo, run, outputs, free_opt]() {
     CalibrateOptions opt;
     if (o->model == "sphere") opt.model = MirrorModel::kSphere;
     else if (o->model == "conic") opt.model = MirrorModel::kConic;
     else if (o->model == "asphere") opt.model = MirrorModel::kAsphere;
-    else if (o->model == "auto") opt.select_model = true;
+    else if (o->model == "auto") opt.select_model = opt.selection_fallback = true;
     else throw Error("--model: expected sphere, conic, asphere or auto, got '" + o->model + "'");
     opt.asphere_terms = o->asphere_terms;
     if (o->distortion == "auto") opt.distortion_terms = -1;
@@ -128,6 +134,7 @@ void AddCalibrateCommand(CLI::App& app) {
       int radial = -1;
       opt.free_faults = ParseFreeFaults(o->free, opt.model, &radial);
       opt.free_faults_auto = o->free == "auto";
+      opt.selection_fixed_faults = free_opt->count() > 0;
       if (radial >= 0) {
         if (o->distortion != "auto" && opt.distortion_terms != radial)
           throw Error("--free: names k1/k2 but --distortion says " + o->distortion);

@@ -24,7 +24,7 @@ void AddEvaluateCommand(CLI::App& app) {
     double square = 0.0, marker = 0.0;
     int every = 0;
     EvaluateOptions eval;
-    bool no_refine = false, force = false, quiet = false;
+    bool no_refine = false, no_unwarp = false, force = false, quiet = false;
   };
   auto o = std::make_shared<Opts>();
   CLI::App* cmd = app.add_subcommand(
@@ -52,6 +52,9 @@ void AddEvaluateCommand(CLI::App& app) {
   cmd->add_flag("--no-refine", o->no_refine,
                 "Score the detector's corners as found (default: located again through the model, as "
                 "calibrate does before its final fit)");
+  cmd->add_flag("--no-unwarp", o->no_unwarp,
+                "Do not search images without a board in views unwarped through the calibration (calibrate's "
+                "step 4; default: searched, so that the boards scored are the ones calibrate used)");
   cmd->add_option("-j,--jobs,--threads", o->eval.num_threads, "Threads for the image searches (0: every core)");
   cmd->add_option("--summary-json", o->summary_json,
                   "Also write the figures (per image and overall) as JSON; - writes it to standard output");
@@ -65,6 +68,7 @@ void AddEvaluateCommand(CLI::App& app) {
     EvaluateOptions opt = o->eval;
     SetDecoderLogging(opt.verbose);  // a board video's FFmpeg lines only with -v
     if (o->no_refine) opt.refine_passes = 0;
+    opt.unwarp_fallback = !o->no_unwarp;
     opt.Check();
     TargetInputBoard input;
     input.board_given = !o->board.empty();

@@ -104,8 +104,9 @@ TEST_CASE("panocalib evaluate: per-image lines, overall RMS, --summary-json; exi
                                   " --board 9,6,3 --auto 8 --noise 2 --seed 7 -q -o " + dir + "/t");
   INFO(r.out);
   REQUIRE(r.code == 0);
-  r = RunProgram("panocalib evaluate --calib " + dir + "/t/truth.yaml " + dir + "/t/targets.yaml -j 2 --summary-json " +
-                 dir + "/ev.json");
+  // --no-unwarp: the raw search alone, which misses the board of cal_007.png.
+  r = RunProgram("panocalib evaluate --calib " + dir + "/t/truth.yaml " + dir +
+                 "/t/targets.yaml -j 2 --no-unwarp --summary-json " + dir + "/ev.json");
   CHECK(r.code == 0);
   CHECK(r.out.find("  cal_000.png: 54 corners, RMS ") == 0);
   CHECK(r.out.find("  cal_007.png: no board\n") != std::string::npos);
@@ -127,6 +128,11 @@ TEST_CASE("panocalib evaluate: per-image lines, overall RMS, --summary-json; exi
   r = RunProgram("panocalib evaluate --calib " + dir + "/t/truth.yaml " + dir + "/t --board 9x6 --square 3 --no-refine");
   CHECK(r.code == 0);
   CHECK(r.out.find("held-out RMS reprojection error 0.2") != std::string::npos);
+  // By default the image without a board is searched in views unwarped
+  // through the calibration, as calibrate does: every board found.
+  r = RunProgram("panocalib evaluate --calib " + dir + "/t/truth.yaml " + dir + "/t --board 9x6 --square 3");
+  CHECK(r.code == 0);
+  CHECK(r.out.find("board found in 8 of 8 images, 8 fitted") != std::string::npos);
   // No board anywhere (a still of the paper's room): exit 1, one line. The
   // board's units must be the calibration's.
   const std::string synthetic = test::SourcePath("calib/paper-synthetic.yaml");

@@ -58,6 +58,10 @@ TEST_CASE("panocalib calibrate: -j/--threads, quiet libraries unless --verbose, 
         Approx(written.extras.at("focal_px_std")).epsilon(1e-6));
   CHECK(j.at("images_not_found").empty());
   CHECK(j.at("iterations").get<int>() > 0);
+  // The default --model auto: the model chosen by held-out error, and why.
+  CHECK(Contains(r.out, "\nchosen: "));
+  CHECK(j.at("model_selection").at("chosen").is_string());
+  CHECK(j.at("model_selection").at("candidates").size() == 8);
   CHECK(j.at("outputs").at("calibration") == dir + "/two.yaml");
   // Again: the outputs exist, so nothing is done without --force; -q prints nothing else.
   const auto yaml_time = fs::last_write_time(dir + "/two.yaml");

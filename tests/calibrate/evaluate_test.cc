@@ -131,6 +131,7 @@ TEST_CASE("evaluate: the true calibration scores near the corner noise, a 2 % fo
   const std::vector<cv::Mat> images = LoadTargetImages(targets);
   EvaluateOptions options;
   options.num_threads = 2;
+  options.unwarp_fallback = false;  // the raw search alone
   const EvaluationResult r = EvaluateCalibration(targets, images, truth, options);
   REQUIRE(r.images.size() == 8);
   CHECK(r.boards_found == 7);  // measured: the 8th board is not found in the raw image
@@ -152,6 +153,16 @@ TEST_CASE("evaluate: the true calibration scores near the corner noise, a 2 % fo
   const EvaluationResult raw = EvaluateCalibration(targets, images, truth, options);
   WARN("unrefined corners: RMS " << raw.rms_px << " px");
   CHECK(raw.rms_px == Approx(0.2224).margin(0.02));
+
+  // As calibrate does, the image without a board in the raw search is
+  // searched in views unwarped through the calibration: 8 of 8 boards.
+  EvaluateOptions unwarp;
+  unwarp.num_threads = 2;
+  const EvaluationResult all = EvaluateCalibration(targets, images, truth, unwarp);
+  WARN("with the unwarped search: " << all.boards_found << " boards, RMS " << all.rms_px << " px");
+  CHECK(all.boards_found == 8);
+  CHECK(all.boards_fitted == 8);
+  CHECK(all.rms_px == Approx(0.0684).margin(0.006));  // measured (the 8th board lies near the limb)
 
   // The text and JSON name every image; a calibration for other units or
   // images with no board at all are errors.

@@ -1,5 +1,6 @@
 // The calibration pipeline: options, orchestration, outputs and summary.
 #include "panotrack/calibrate/calibrate.h"
+#include "panotrack/calibrate/evaluate.h"
 #include "panotrack/calibrate/model_selection.h"
 #include "panotrack/config.h"
 
@@ -74,6 +75,8 @@ void CalibrateOptions::Check() const {
     throw Error("model selection: expected 2..100 folds, got " + std::to_string(selection_folds));
   if (select_model && !(selection_margin >= 0.0 && selection_margin < 1.0))
     throw Error("model selection: expected a margin in [0, 1)");
+  if (select_model && !(selection_max_focal_rel_std > 0.0))
+    throw Error("model selection: selection_max_focal_rel_std: expected a positive fraction");
   if (distortion_terms < -1 || distortion_terms > 2)
     throw Error("--distortion: expected 0, 1 or 2 radial terms, got " + std::to_string(distortion_terms));
   if (!(huber_px >= 0.0) || !std::isfinite(huber_px))
@@ -141,6 +144,7 @@ void Describe(CalibrationResult* result, bool poses_known, const std::string& un
   for (const ParameterEstimate& p : res.parameters)
     if (!p.fixed && std::isfinite(p.stddev)) c.extras[p.name + "_std"] = p.stddev;
   c.extras["rms_px"] = res.rms_px;
+  if (std::isfinite(res.rms_raw_px)) c.extras["rms_raw_px"] = res.rms_raw_px;
   c.images.clear();
   for (size_t i = 0; i < res.views.size(); ++i) {
     const BoardView& v = res.views[i];
@@ -159,7 +163,9 @@ void Describe(CalibrationResult* result, bool poses_known, const std::string& un
   std::ostringstream cm;
   cm << "panocalib calibrate: " << mirror_model_name(options.model) << " model, " << res.views.size()
      << " boards, " << (poses_known ? "known" : "unknown (estimated)") << " board poses, RMS "
-     << res.rms_px << " px.\n";
+     << res.rms_px << " px";
+  if (std::isfinite(res.rms_raw_px)) cm << " (" << res.rms_raw_px << " px on the detector's corners)";
+  cm << ".\n";
   std::vector<std::string> undetermined;
   for (const ParameterEstimate& p : res.parameters)
     if (!p.fixed && !std::isfinite(p.stddev)) undetermined.push_back(p.name);
@@ -284,6 +290,9 @@ struct Pipeline {
   CalibrationResult res;
   std::vector<std::string> carried;
   LimbObservation limb;  // the mirror's limb, once measured
+  // Every board used, with the corners as the detector found them (raw, or
+  // mapped back from an unwarped view), for the raw-corner figure.
+  std::vector<BoardView> found_views;
 };
 
 // The limb for a refit's start, its points weighted against the corners'
@@ -311,63 +320,18 @@ void CheckImages(const TargetSet& targets, const std::vector<cv::Mat>& images) {
       throw Error(targets.images[i].resolved + ": image size differs from the first image's");
 }
 
-// Median horizontal distance and height of the fitted boards' centres:
-// where the unwarped views look for the missing boards.
-struct BoardPlace {
-  double distance = 0.0, height = 0.0;
-};
-BoardPlace TypicalBoardPlace(const std::vector<BoardView>& views, const TargetBoard& board) {
-  std::vector<double> dist, hgt;
-  for (const BoardView& v : views) {
-    const double mid[3] = {0.5 * (board.cols - 1) * board.square, 0.5 * (board.rows - 1) * board.square, 0.0};
-    Eigen::Vector3d centre;
-    ceres::AngleAxisRotatePoint(v.rvec.data(), mid, centre.data());
-    centre += v.tvec;
-    dist.push_back(std::hypot(centre.x(), centre.y()));
-    hgt.push_back(centre.z());
-  }
-  std::nth_element(dist.begin(), dist.begin() + dist.size() / 2, dist.end());
-  std::nth_element(hgt.begin(), hgt.begin() + hgt.size() / 2, hgt.end());
-  return {dist[dist.size() / 2], hgt[hgt.size() / 2]};
-}
-
 // Step 4a: the images without a board searched in views unwarped through the
-// current fit, in parallel over images (each search then serial; a single
-// image searches its views in parallel instead). Searches that raised an
-// error are warned about.
+// current fit (FindUnwarpedBoards).
 std::vector<BoardView> FindUnwarpedBoards(Pipeline* p) {
-  const BoardPlace place = TypicalBoardPlace(p->res.views, p->targets.board);
-  const std::vector<int>& missing = p->det.not_found;
-  const int n_missing = static_cast<int>(missing.size()), threads = p->options.Threads();
-  std::vector<std::vector<Eigen::Vector2d>> corners(n_missing);
-  std::vector<std::vector<int>> ids(n_missing);
-  std::vector<std::string> failures(n_missing);
-  std::vector<char> ok(n_missing, 0);
-  ParallelFor(
-      n_missing,
-      [&](int k) {
-        ok[k] = DetectBoardUnwarped(p->images[missing[k]], p->targets.board, p->res.calib.sensor,
-                                    place.distance, place.height, &corners[k], n_missing > 1 ? 1 : threads,
-                                    &failures[k], &ids[k]);
-      },
-      true, threads);
-  std::vector<BoardView> found;
-  for (int k = 0; k < n_missing; ++k) {
-    if (ok[k]) {
-      found.push_back(ViewOfImage(p->targets, missing[k], corners[k], "unwarped"));
-      found.back().ids = ids[k];
-    } else if (!failures[k].empty())
-      p->carried.push_back(p->det.not_found_files[k] + ": the search in unwarped views failed (" +
-                           failures[k] + ")");
-  }
-  return found;
+  return calib_internal::FindUnwarpedBoards(p->targets, p->images, p->det.not_found, p->res.views,
+                                            p->res.calib.sensor, p->options.Threads(), &p->carried);
 }
 
 // Step 4b: the refit's start: the fitted boards at their fitted poses, the
 // new ones at their known poses or at their poses through the fitted sensor
 // (left out when that fails), in image order.
-void StartWithUnwarpedBoards(const Pipeline& p, std::vector<BoardView> extra, std::vector<BoardView>* views,
-                             InitialEstimate* start) {
+void StartWithUnwarpedBoards(const Pipeline& p, const std::vector<BoardView>& base, std::vector<BoardView> extra,
+                             std::vector<BoardView>* views, InitialEstimate* start) {
   struct Item {
     BoardView view;
     std::array<double, 6> pose;
@@ -375,13 +339,13 @@ void StartWithUnwarpedBoards(const Pipeline& p, std::vector<BoardView> extra, st
   const TargetBoard& board = p.targets.board;
   const Sensor& sensor = p.res.calib.sensor;
   std::vector<Item> items;
-  for (const BoardView& v : p.res.views) items.push_back({v, PackPose(v)});
+  for (const BoardView& v : base) items.push_back({v, PackPose(v)});
   if (p.poses_known) OrderCornersByKnownPose(board, sensor.params.cx, sensor.params.cy, &extra);
   for (const BoardView& v : extra) {
     std::array<double, 6> pose{};
     if (p.poses_known) {
       pose = PackPose(v);
-    } else if (!InitialPoseFromSensor(v, board, sensor, &pose)) {
+    } else if (!InitialPoseFromSensor(v, board, sensor, &pose) && !PoseFromRays(v, board, sensor, &pose)) {
       continue;
     }
     items.push_back({v, pose});
@@ -430,7 +394,7 @@ void RetryUnwarped(Pipeline* p) {
   if (extra.empty()) return;
   std::vector<BoardView> views;
   InitialEstimate start;
-  StartWithUnwarpedBoards(*p, extra, &views, &start);
+  StartWithUnwarpedBoards(*p, p->res.views, extra, &views, &start);
   std::optional<CalibrationResult> again =
       TryRefit("the refit with the boards found in unwarped views", views, p->targets.board, start,
                p->poses_known, p->targets.units, p->options, &p->carried);
@@ -442,6 +406,8 @@ void RetryUnwarped(Pipeline* p) {
     return;
   }
   p->res = std::move(*again);
+  for (const BoardView& v : p->res.views)
+    if (v.method == "unwarped") p->found_views.push_back(v);
   DropFoundImages(p->res.views, &p->det);
 }
 
@@ -464,15 +430,100 @@ void RefineThroughModel(Pipeline* p) {
   }
 }
 
+// Step 5b: the boards of the unwarped views searched for again, with the
+// images still without one, through the final model. The first search went
+// through the first fit, which can place a board near the limb a little off
+// or miss it; searched through the final model they are the boards and
+// corners `panocalib evaluate` finds through the calibration. When the
+// boards change, the fit is repeated and the corners refined through it.
+void RedetectUnwarped(Pipeline* p) {
+  std::vector<int> missing = p->det.not_found;
+  std::vector<BoardView> raw;
+  for (const BoardView& v : p->res.views) {
+    if (v.method == "unwarped") missing.push_back(v.image_index);
+    else raw.push_back(v);
+  }
+  if (missing.empty() || raw.empty()) return;
+  std::sort(missing.begin(), missing.end());
+  std::vector<std::string> warnings;
+  const std::vector<BoardView> extra = calib_internal::FindUnwarpedBoards(
+      p->targets, p->images, missing, raw, p->res.calib.sensor, p->options.Threads(), &warnings);
+  // Unchanged: the same images, the same corners as first found.
+  std::vector<BoardView> before;
+  for (const BoardView& v : p->found_views)
+    if (v.method == "unwarped") before.push_back(v);
+  bool same = before.size() == extra.size();
+  for (size_t k = 0; same && k < extra.size(); ++k) {
+    same = before[k].image_index == extra[k].image_index && before[k].corners.size() == extra[k].corners.size();
+    for (size_t j = 0; same && j < extra[k].corners.size(); ++j)
+      same = (before[k].corners[j] - extra[k].corners[j]).norm() < 1e-3;
+  }
+  if (same) return;
+  std::vector<BoardView> views;
+  InitialEstimate start;
+  StartWithUnwarpedBoards(*p, raw, extra, &views, &start);
+  std::optional<CalibrationResult> again =
+      TryRefit("the refit with the boards found again through the final model", views, p->targets.board, start,
+               p->poses_known, p->targets.units, p->options, &p->carried);
+  if (!again) return;
+  const std::string outliers = OutlyingUnwarpedBoards(*again);
+  if (!outliers.empty()) {
+    p->carried.push_back("boards found in views unwarped through the final model (" + outliers +
+                         ") fit far worse than the others: the previous fit stands");
+    return;
+  }
+  p->carried.insert(p->carried.end(), warnings.begin(), warnings.end());
+  p->res = std::move(*again);
+  std::vector<BoardView> found;
+  for (const BoardView& v : p->found_views)
+    if (v.method != "unwarped") found.push_back(v);
+  for (const BoardView& v : p->res.views)
+    if (v.method == "unwarped") found.push_back(v);
+  p->found_views = found;
+  // The images without a board now.
+  DetectionResult& det = p->det;
+  det.not_found.clear();
+  det.not_found_files.clear();
+  for (int i = 0; i < static_cast<int>(p->targets.images.size()); ++i) {
+    bool used = false;
+    for (const BoardView& v : p->res.views) used = used || v.image_index == i;
+    if (!used) {
+      det.not_found.push_back(i);
+      det.not_found_files.push_back(p->targets.images[static_cast<size_t>(i)].file);
+    }
+  }
+  RefineThroughModel(p);
+}
+
 // On request (CalibrateOptions::select_model): the candidates scored by
-// cross-validation on the corners refined so far, the chosen one fitted to
-// them from its own initialisation and its corners refined through it.
+// cross-validation on the corners refined so far (the conic's fit, p->res,
+// starts that candidate), the chosen one's fit to all boards finished as the
+// calibration and its corners refined through it.
 ModelSelection SelectModelAndRefit(Pipeline* p, const CalibrateOptions& options) {
   const Sensor& s = p->res.calib.sensor;
-  ModelSelection sel = SelectMirrorModel(p->res.views, p->targets.board, s.image_width, s.image_height,
-                                         p->targets.units, options);
-  p->options = ModelCandidates(options)[sel.chosen];
-  p->res = CalibrateViews(p->res.views, p->targets.board, s.image_width, s.image_height, p->targets.units, p->options);
+  if (options.selection_fallback &&
+      !SelectionPossible(static_cast<int>(p->res.views.size()), options.selection_folds)) {
+    p->options = options;
+    p->options.select_model = false;
+    p->carried.push_back(std::to_string(p->res.views.size()) +
+                         " boards are too few to choose the model by cross-validation (4 at least): the " +
+                         mirror_model_name(options.model) + " model fitted");
+    p->res = CalibrateViews(p->res.views, p->targets.board, s.image_width, s.image_height, p->targets.units,
+                            p->options);
+    RefineThroughModel(p);
+    return {};
+  }
+  ModelSelection sel = SelectModel(p->res.views, p->targets.board, s.image_width, s.image_height, p->targets.units,
+                                   options, &p->res, &p->options);
+  p->carried.insert(p->carried.end(), sel.warnings.begin(), sel.warnings.end());
+  p->options = sel.options;
+  std::optional<CalibrationResult> chosen =
+      TryRefit("the chosen model's fit", sel.fit.views, p->targets.board,
+               StartFrom(sel.fit, "model selection: " + sel.reason), p->poses_known, p->targets.units, p->options,
+               &p->carried);
+  p->res = chosen ? std::move(*chosen)
+                  : CalibrateViews(p->res.views, p->targets.board, s.image_width, s.image_height, p->targets.units,
+                                   p->options);
   RefineThroughModel(p);
   return sel;
 }
@@ -490,6 +541,27 @@ void RefitWithLimb(Pipeline* p) {
   else p->limb = LimbObservation();
 }
 
+// The raw-corner figure (CalibrationResult::rms_raw_px): the final model on
+// the corners as found, each board's pose refitted as `panocalib evaluate`
+// fits it (the calibration's loss and weights).
+void ScoreFoundCorners(const Pipeline& p, CalibrationResult* res) {
+  std::vector<BoardView> views = p.found_views;
+  std::sort(views.begin(), views.end(),
+            [](const BoardView& a, const BoardView& b) { return a.image_index < b.image_index; });
+  EvaluateOptions eo;
+  eo.huber_px = p.options.huber_px;
+  eo.full_weight_px = p.options.full_weight_px;
+  eo.num_threads = p.options.num_threads;
+  try {
+    const EvaluationResult e = EvaluateViews(views, p.targets.board, res->calib.sensor, eo);
+    res->rms_raw_px = e.rms_px;
+    res->raw_boards = e.boards_fitted;
+  } catch (const Error& e) {
+    res->warnings.push_back(std::string("the detector's corners could not be scored through the final model (") +
+                            e.what() + ")");
+  }
+}
+
 // The final result: the images without a board, every carried warning, the
 // calibration file's comment, the times.
 CalibrationResult Complete(Pipeline* p, const StepClock& clock) {
@@ -503,6 +575,7 @@ CalibrationResult Complete(Pipeline* p, const StepClock& clock) {
   for (const std::string& w : p->carried)
     if (std::find(res.warnings.begin(), res.warnings.end(), w) == res.warnings.end())
       res.warnings.push_back(w);
+  ScoreFoundCorners(*p, &res);
   Describe(&res, p->poses_known, p->targets.units, p->options);
   res.seconds_detect = p->det.seconds;
   res.seconds_fit = clock.Seconds() - p->det.seconds;
@@ -518,6 +591,60 @@ CalibrationResult Complete(Pipeline* p, const StepClock& clock) {
 }  // namespace
 
 namespace calib_internal {
+
+namespace {
+
+// Median horizontal distance and height of the fitted boards' centres:
+// where the unwarped views look for the missing boards.
+struct BoardPlace {
+  double distance = 0.0, height = 0.0;
+};
+BoardPlace TypicalBoardPlace(const std::vector<BoardView>& views, const TargetBoard& board) {
+  std::vector<double> dist, hgt;
+  for (const BoardView& v : views) {
+    const double mid[3] = {0.5 * (board.cols - 1) * board.square, 0.5 * (board.rows - 1) * board.square, 0.0};
+    Eigen::Vector3d centre;
+    ceres::AngleAxisRotatePoint(v.rvec.data(), mid, centre.data());
+    centre += v.tvec;
+    dist.push_back(std::hypot(centre.x(), centre.y()));
+    hgt.push_back(centre.z());
+  }
+  std::nth_element(dist.begin(), dist.begin() + dist.size() / 2, dist.end());
+  std::nth_element(hgt.begin(), hgt.begin() + hgt.size() / 2, hgt.end());
+  return {dist[dist.size() / 2], hgt[hgt.size() / 2]};
+}
+
+}  // namespace
+
+std::vector<BoardView> FindUnwarpedBoards(const TargetSet& targets, const std::vector<cv::Mat>& images,
+                                          const std::vector<int>& missing, const std::vector<BoardView>& fitted,
+                                          const Sensor& sensor, int threads, std::vector<std::string>* warnings) {
+  if (missing.empty() || fitted.empty()) return {};
+  const BoardPlace place = TypicalBoardPlace(fitted, targets.board);
+  const int n_missing = static_cast<int>(missing.size());
+  std::vector<std::vector<Eigen::Vector2d>> corners(n_missing);
+  std::vector<std::vector<int>> ids(n_missing);
+  std::vector<std::string> failures(n_missing);
+  std::vector<char> ok(n_missing, 0);
+  ParallelFor(
+      n_missing,
+      [&](int k) {
+        ok[k] = DetectBoardUnwarped(images[missing[k]], targets.board, sensor, place.distance, place.height,
+                                    &corners[k], n_missing > 1 ? 1 : threads, &failures[k], &ids[k]);
+      },
+      true, threads);
+  std::vector<BoardView> found;
+  for (int k = 0; k < n_missing; ++k) {
+    if (ok[k]) {
+      found.push_back(ViewOfImage(targets, missing[k], corners[k], "unwarped"));
+      found.back().ids = ids[k];
+    } else if (!failures[k].empty() && warnings) {
+      warnings->push_back(targets.images[static_cast<size_t>(missing[k])].file +
+                          ": the search in unwarped views failed (" + failures[k] + ")");
+    }
+  }
+  return found;
+}
 
 std::optional<CalibrationResult> TryRefit(const std::string& what, const std::vector<BoardView>& views,
                                           const TargetBoard& board, const InitialEstimate& start,
@@ -580,6 +707,7 @@ CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>
   }
   p.res = CalibrateViews(p.det.views, targets.board, p.det.image_width, p.det.image_height, targets.units,
                          p.options);
+  p.found_views = p.det.views;
   clock.Done("initialisation and first fit");
   MeasureLimbStep(&p);
   clock.Done("limb");
@@ -594,11 +722,16 @@ CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>
     selection = SelectModelAndRefit(&p, options);
     clock.Done("model selection and refit");
   }
+  if (options.unwarp_fallback) {
+    RedetectUnwarped(&p);
+    clock.Done("unwarped detection through the final model");
+  }
   RefitWithLimb(&p);
   clock.Done("refit with the limb");
   CalibrationResult res = Complete(&p, clock);
   res.model_scores = std::move(selection.scores);
   res.model_chosen = selection.chosen;
+  res.model_reason = selection.reason;
   return res;
 }
 
@@ -619,8 +752,16 @@ std::string Summary(const CalibrationResult& r) {
   }
   if (s.params.rim_radius > 0)
     o << "  rim_radius        " << s.params.rim_radius << " (set to cover the image; not fitted)\n";
-  std::snprintf(line, sizeof line, "RMS reprojection error %.4f px over %zu boards\n", r.rms_px, r.views.size());
+  std::snprintf(line, sizeof line, "RMS reprojection error %.4f px over %zu boards (corners refined through the model)\n",
+                r.rms_px, r.views.size());
   o << line;
+  if (std::isfinite(r.rms_raw_px)) {
+    std::snprintf(line, sizeof line,
+                  "RMS reprojection error %.4f px on the detector's corners over %d boards (poses refitted; "
+                  "`panocalib evaluate --no-refine` on these images)\n",
+                  r.rms_raw_px, r.raw_boards);
+    o << line;
+  }
   if (!r.limb.Empty()) {
     std::snprintf(line, sizeof line, "mirror limb: %zu points from %d images, RMS %.4f px (a point's sigma %.3f px)\n",
                   r.limb.points.size(), r.limb.images_used, r.limb_rms_px, r.limb.point_sigma_px);
@@ -636,7 +777,10 @@ std::string Summary(const CalibrationResult& r) {
     for (const std::string& f : r.not_found_files) o << " " << f;
     o << "\n";
   }
-  if (!r.model_scores.empty()) o << ModelSelectionTable(r.model_scores, r.model_chosen);
+  if (!r.model_scores.empty()) {
+    o << ModelSelectionTable(r.model_scores, r.model_chosen);
+    if (!r.model_reason.empty()) o << "chosen: " << r.model_reason << "\n";
+  }
   std::snprintf(line, sizeof line, "time: detection %.2f s, fit %.2f s\n", r.seconds_detect, r.seconds_fit);
   o << line;
   for (const std::string& w : r.warnings) o << "warning: " << w << "\n";

@@ -74,13 +74,27 @@ struct CalibrateOptions {
   MirrorModel model = MirrorModel::kSphere;
   // Even-asphere terms fitted with model asphere: 1 (a4) or 2 (a4, a6).
   int asphere_terms = 2;
-  // Choose model and asphere_terms by cross-validation over the boards
-  // found (model_selection.h) instead of taking them as given: the simplest
-  // profile whose held-out RMS is within selection_margin (a fraction) of
-  // the best, from selection_folds folds.
+  // Choose the mirror profile (model, asphere_terms), the lens distortion
+  // (unless distortion_terms is given) and the rig faults (unless
+  // free_faults_auto or a free fault is given) by cross-validation over the
+  // boards found (model_selection.h: SelectModel) instead of taking them as
+  // given: the simplest candidate whose held-out RMS is within
+  // selection_margin (a fraction) of the best, from selection_folds folds;
+  // a candidate whose parameters the boards leave undetermined (the focal
+  // length's relative standard deviation above selection_max_focal_rel_std,
+  // or a parameter without one) is refused.
   bool select_model = false;
   int selection_folds = 5;
   double selection_margin = 0.01;
+  double selection_max_focal_rel_std = 0.2;
+  // With select_model: when the boards are too few to hold any out (fewer
+  // than 4), fit `model` (with the lens and faults given) and say so in a
+  // warning, instead of failing.
+  bool selection_fallback = false;
+  // With select_model: the rig faults given (free_faults, free_faults_auto)
+  // hold for every candidate even when none is free; otherwise they are
+  // chosen unless free_faults_auto or a free fault is given.
+  bool selection_fixed_faults = false;
   // Progress of the long steps (the model selection's fits), one short line
   // each; empty: none.
   std::function<void(const std::string&)> on_progress;
@@ -216,6 +230,10 @@ struct ModelScore {
   // Held-out board file -> (sum of squared corner errors in px^2, corners).
   std::map<std::string, std::pair<double, size_t>> board_errors;
   std::string failure;                // the first failure, when any
+  // Model selection (SelectModel): sensor parameters beyond the plain
+  // sphere's, and why the candidate was refused ("": it was not).
+  int parameters = 0;
+  std::string refused;
 };
 
 struct CalibrationResult {
@@ -225,6 +243,12 @@ struct CalibrationResult {
   std::vector<double> image_rms;  // per view, pixels
   std::vector<std::vector<Eigen::Vector2d>> residuals;  // per view, per corner (projected - observed)
   double rms_px = 0.0;            // Euclidean RMS over all corners
+  // The final model on the detector's corners as found (before their
+  // refinement through the model; the unwarped boards' as mapped back), only
+  // each board's pose refitted (FitBoardPose): what `panocalib evaluate
+  // --no-refine` gives on these images. NaN when not computed (CalibrateViews).
+  double rms_raw_px = NAN;
+  int raw_boards = 0;             // boards scored for rms_raw_px
   double fit_cost = 0.0;          // the fit's objective at the end (weighted, robust)
   std::vector<ParameterEstimate> parameters;
   std::vector<int> not_found;  // images without a board (target file indices)
@@ -236,10 +260,11 @@ struct CalibrationResult {
   LimbObservation limb;      // the limb fitted (empty: none)
   double limb_rms_px = NAN;  // the limb points' RMS distance from the fitted limb
   int iterations = 0;
-  // With CalibrateOptions::select_model: every candidate's score and the
-  // chosen one's index (-1: no selection was made).
+  // With CalibrateOptions::select_model: every candidate's score, the
+  // chosen one's index (-1: no selection was made) and why it was chosen.
   std::vector<ModelScore> model_scores;
   int model_chosen = -1;
+  std::string model_reason;
   double seconds_detect = 0.0;
   double seconds_fit = 0.0;
 };

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -20,22 +21,55 @@ using namespace calib_internal;
 
 namespace {
 
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+
 double Seconds(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// Errors of every corner through the sensor block and pose; fills the fit's
+// One corner's reprojection residual through a fixed sensor, the board pose
+// the only parameter: the calibration's whole model (rig faults and asphere
+// terms included), as the calibration's fit computes it (the same rim cap).
+struct PoseCornerCost {
+  PoseCornerCost(const GeneralSensorParams<double>& g, const Eigen::Vector3d& board_point,
+                 const Eigen::Vector2d& pixel, const Eigen::Matrix2d& sqrt_info = Eigen::Matrix2d::Identity())
+      : g(g), X(board_point), obs(pixel), L(sqrt_info) {}
+  template <typename T>
+  bool operator()(const T* pose, T* residual) const {
+    T Xs[3];
+    BoardPointInSensor(pose, X, Xs);
+    T u, v;
+    const GeneralSensorParams<T> gt = g.template cast<T>();
+    if (g.IsAligned() ? !project(gt.aligned, Xs, &u, &v) : !project_general(gt, Xs, &u, &v)) return false;
+    WhitenedResidual(L, u, v, obs, residual);
+    return true;
+  }
+  GeneralSensorParams<double> g;
+  Eigen::Vector3d X;
+  Eigen::Vector2d obs;
+  Eigen::Matrix2d L;
+};
+
+// The sensor as the calibration's fit projects through it: the rim that caps
+// the mirror at the image's reach (CapRadiusPx), whatever the file says.
+GeneralSensorParams<double> FitModel(const Sensor& sensor) {
+  GeneralSensorParams<double> g = sensor.general();
+  g.aligned.rim_radius = RimForRadius(g.aligned, CapRadiusPx(sensor.image_width, sensor.image_height) /
+                                                     g.aligned.focal_px);
+  return g;
+}
+
+// Errors of every corner through the sensor and pose; fills the fit's
 // residuals, counts and RMS.
-void Score(const BoardView& view, const std::vector<Eigen::Vector3d>& pts, const std::array<double, kNumSensor>& s,
-           const SensorParams<double>& asphere, const std::array<double, 6>& pose, double cap, BoardPoseFit* fit) {
+void Score(const BoardView& view, const std::vector<Eigen::Vector3d>& pts, const GeneralSensorParams<double>& g,
+           const std::array<double, 6>& pose, BoardPoseFit* fit) {
   fit->residuals.clear();
   double s2 = 0.0, worst = 0.0;
   int n = 0;
   for (size_t j = 0; j < view.corners.size(); ++j) {
-    CornerCost c(pts[view.PointId(j)], view.corners[j], cap);
-    c.WithAsphere(asphere);
+    PoseCornerCost c(g, pts[view.PointId(j)], view.corners[j]);
     double r[2];
-    if (!c(s.data(), pose.data(), r)) {
+    if (!c(pose.data(), r)) {
       fit->residuals.emplace_back(NAN, NAN);
       continue;
     }
@@ -48,6 +82,51 @@ void Score(const BoardView& view, const std::vector<Eigen::Vector3d>& pts, const
   fit->corners_used = n;
   fit->rms_px = n > 0 ? std::sqrt(s2 / n) : NAN;
   fit->max_px = n > 0 ? std::sqrt(worst) : NAN;
+}
+
+// The pose fit from one start: Ceres on the corners visible from it. The
+// final cost (weighted, robust), or infinity when too few corners are
+// visible or the fit fails.
+double FitPoseFrom(const BoardView& view, const std::vector<Eigen::Vector3d>& pts, const GeneralSensorParams<double>& g,
+                   const std::vector<Eigen::Matrix2d>& weights, const EvaluateOptions& options,
+                   std::array<double, 6>* pose, std::string* failure) {
+  ceres::Problem problem;
+  problem.AddParameterBlock(pose->data(), 6);
+  size_t n_obs = 0;
+  for (size_t j = 0; j < view.corners.size(); ++j) {
+    const Eigen::Vector3d& X = pts[view.PointId(j)];
+    double r[2];
+    if (!PoseCornerCost(g, X, view.corners[j])(pose->data(), r)) continue;
+    ceres::LossFunction* loss = options.huber_px > 0 ? new ceres::HuberLoss(options.huber_px) : nullptr;
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PoseCornerCost, 2, 6>(
+                                 new PoseCornerCost(g, X, view.corners[j], weights[j])),
+                             loss, pose->data());
+    ++n_obs;
+  }
+  if (n_obs < 3 || n_obs * 2 < view.corners.size()) {
+    *failure = "the initial pose sees only " + std::to_string(n_obs) + " of " + std::to_string(view.corners.size()) +
+               " corners";
+    return kInfinity;
+  }
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.max_num_iterations = options.max_iterations;
+  so.num_threads = 1;
+  so.function_tolerance = 1e-12;
+  so.parameter_tolerance = 1e-12;
+  so.gradient_tolerance = 1e-12;
+  so.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  if (options.verbose) std::fprintf(stderr, "%s: %s\n", view.file.c_str(), summary.BriefReport().c_str());
+  bool finite = true;
+  for (double v : *pose) finite = finite && std::isfinite(v);
+  if (summary.termination_type == ceres::FAILURE || !finite) {
+    *failure = "the pose fit failed (" + summary.message + ")";
+    return kInfinity;
+  }
+  // Per corner it saw, so that a start that sees fewer does not win by that.
+  return summary.final_cost / static_cast<double>(n_obs);
 }
 
 void Summarise(EvaluationResult* r) {
@@ -81,56 +160,40 @@ BoardPoseFit FitBoardPose(const BoardView& view, const TargetBoard& board, const
   BoardPoseFit fit;
   CheckBoardView(view, board);
   const std::vector<Eigen::Vector3d> pts = BoardPoints(board);
-  std::array<double, kNumSensor> s = BlockFromParams(sensor.params);
-  const double cap = CapRadiusPx(sensor.image_width, sensor.image_height);
-  std::array<double, 6> pose{};
-  if (!InitialPoseFromSensor(view, board, sensor, &pose)) {
+  const GeneralSensorParams<double> g = FitModel(sensor);
+  const std::vector<Eigen::Matrix2d> weights = CornerWeights(view, board, options.full_weight_px);
+  // Two starts, the better fit kept: the in-plane solve about the principal
+  // point (the calibration's own), and the homography to the corners' rays
+  // through the whole model, which a decentred or tilted mirror (whose image
+  // is not centred on cx, cy) needs.
+  std::array<std::array<double, 6>, 2> starts{};
+  std::array<bool, 2> have = {InitialPoseFromSensor(view, board, sensor, &starts[0]),
+                              PoseFromRays(view, board, sensor, &starts[1])};
+  if (!have[0] && !have[1]) {
     fit.failure = "the board's pose through the calibration could not be initialised";
     return fit;
   }
-  ceres::Problem problem;
-  problem.AddParameterBlock(s.data(), kNumSensor);
-  problem.SetParameterBlockConstant(s.data());  // the calibration is fixed
-  problem.AddParameterBlock(pose.data(), 6);
-  const std::vector<Eigen::Matrix2d> weights = CornerWeights(view, board, options.full_weight_px);
-  size_t n_obs = 0;
-  for (size_t j = 0; j < view.corners.size(); ++j) {
-    const Eigen::Vector3d& X = pts[view.PointId(j)];
-    CornerCost probe(X, view.corners[j], cap);
-    probe.WithAsphere(sensor.params);
-    double r[2];
-    if (!probe(s.data(), pose.data(), r)) continue;
-    ceres::LossFunction* loss = options.huber_px > 0 ? new ceres::HuberLoss(options.huber_px) : nullptr;
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CornerCost, 2, kNumSensor, 6>(
-                                 &(new CornerCost(X, view.corners[j], cap, weights[j]))->WithAsphere(sensor.params)),
-                             loss, s.data(), pose.data());
-    ++n_obs;
+  double best = kInfinity;
+  std::array<double, 6> pose{};
+  for (size_t k = 0; k < starts.size(); ++k) {
+    if (!have[k]) continue;
+    std::string why;
+    const double cost = FitPoseFrom(view, pts, g, weights, options, &starts[k], &why);
+    if (cost < best) {
+      best = cost;
+      pose = starts[k];
+    } else if (!std::isfinite(best) && fit.failure.empty()) {
+      fit.failure = why;
+    }
   }
-  if (n_obs < 3 || n_obs * 2 < view.corners.size()) {
-    fit.failure = "the initial pose sees only " + std::to_string(n_obs) + " of " +
-                  std::to_string(view.corners.size()) + " corners";
+  if (!std::isfinite(best)) {
+    if (fit.failure.empty()) fit.failure = "the pose fit failed from every start";
     return fit;
   }
-  ceres::Solver::Options so;
-  so.linear_solver_type = ceres::DENSE_QR;
-  so.max_num_iterations = options.max_iterations;
-  so.num_threads = 1;
-  so.function_tolerance = 1e-12;
-  so.parameter_tolerance = 1e-12;
-  so.gradient_tolerance = 1e-12;
-  so.logging_type = ceres::SILENT;
-  ceres::Solver::Summary summary;
-  ceres::Solve(so, &problem, &summary);
-  if (options.verbose) std::fprintf(stderr, "%s: %s\n", view.file.c_str(), summary.BriefReport().c_str());
-  bool finite = true;
-  for (double v : pose) finite = finite && std::isfinite(v);
-  if (summary.termination_type == ceres::FAILURE || !finite) {
-    fit.failure = "the pose fit failed (" + summary.message + ")";
-    return fit;
-  }
+  fit.failure.clear();
   fit.rvec = Eigen::Vector3d(pose[0], pose[1], pose[2]);
   fit.tvec = Eigen::Vector3d(pose[3], pose[4], pose[5]);
-  Score(view, pts, s, sensor.params, pose, cap, &fit);
+  Score(view, pts, g, pose, &fit);
   if (fit.corners_used * 2 < static_cast<int>(view.corners.size())) {
     fit.failure = "the fitted pose sees only " + std::to_string(fit.corners_used) + " of " +
                   std::to_string(view.corners.size()) + " corners";
@@ -173,7 +236,12 @@ EvaluationResult EvaluateCalibration(const TargetSet& targets, const std::vector
   CalibrateOptions detect;
   detect.num_threads = options.num_threads;
   detect.verbose = options.verbose;
-  const DetectionResult det = DetectBoards(targets, images, detect);
+  // The detection calibrate runs: the quick raw search (the exhaustive one
+  // only where too few boards are found), then the images without a board
+  // searched in views unwarped through the calibration, so that both score
+  // the same boards.
+  detect.unwarp_fallback = options.unwarp_fallback;
+  DetectionResult det = DetectBoards(targets, images, detect, /*defer_to_unwarped=*/true);
   const Sensor& sensor = calib.sensor;
   if (det.image_width != sensor.image_width || det.image_height != sensor.image_height)
     throw Error("the images are " + std::to_string(det.image_width) + "x" + std::to_string(det.image_height) +
@@ -187,6 +255,47 @@ EvaluationResult EvaluateCalibration(const TargetSet& targets, const std::vector
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<BoardView> views = det.views;
   EvaluationResult r = EvaluateViews(views, targets.board, sensor, options);
+  if (options.unwarp_fallback && !det.not_found.empty()) {
+    std::vector<BoardView> fitted;
+    for (size_t i = 0; i < views.size(); ++i)
+      if (r.images[i].fit.ok) {
+        fitted.push_back(views[i]);
+        fitted.back().rvec = r.images[i].fit.rvec;
+        fitted.back().tvec = r.images[i].fit.tvec;
+      }
+    std::vector<BoardView> extra = FindUnwarpedBoards(targets, images, det.not_found, fitted, sensor,
+                                                      detect.Threads(), &det.warnings);
+    if (!extra.empty()) {
+      views.insert(views.end(), extra.begin(), extra.end());
+      std::sort(views.begin(), views.end(),
+                [](const BoardView& a, const BoardView& b) { return a.image_index < b.image_index; });
+      r = EvaluateViews(views, targets.board, sensor, options);
+      // As calibrate: a board of an unwarped view that fits far worse than
+      // the raw ones (a misdetection) is left out, with a warning.
+      double s2 = 0.0;
+      int n = 0;
+      for (size_t i = 0; i < views.size(); ++i) {
+        const BoardPoseFit& f = r.images[i].fit;
+        if (!f.ok || views[i].method != "raw") continue;
+        s2 += f.rms_px * f.rms_px * f.corners_used;
+        n += f.corners_used;
+      }
+      const double limit = std::max(1.0, 3.0 * (n > 0 ? std::sqrt(s2 / n) : 0.0));
+      std::vector<BoardView> kept;
+      for (size_t i = 0; i < views.size(); ++i) {
+        if (views[i].method == "unwarped" && r.images[i].fit.ok && r.images[i].fit.rms_px > limit) {
+          det.warnings.push_back(views[i].file + ": the board found in an unwarped view fits far worse than the " +
+                                 "others (RMS " + std::to_string(r.images[i].fit.rms_px) + " px): left out");
+          continue;
+        }
+        kept.push_back(views[i]);
+      }
+      if (kept.size() != views.size()) {
+        views = kept;
+        r = EvaluateViews(views, targets.board, sensor, options);
+      }
+    }
+  }
   for (int pass = 0; pass < options.refine_passes; ++pass) {
     // Refinement needs each board's pose: the fitted boards only.
     std::vector<BoardView> fitted;

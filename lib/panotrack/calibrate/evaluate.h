@@ -28,6 +28,9 @@ struct EvaluateOptions {
   // Passes of corner refinement through the fixed model (as calibrate's
   // step 5, so that the figures compare with its RMS); 0: the detector's corners.
   int refine_passes = CalibrateOptions().refine_passes;
+  // Images where the raw search finds no board are searched again in views
+  // unwarped through the calibration, as calibrate does (its step 4).
+  bool unwarp_fallback = true;
   int max_iterations = 100;
   int num_threads = 0;  // detection and refinement; 0: every core
   bool verbose = false;
@@ -79,8 +82,9 @@ struct EvaluationResult {
 EvaluationResult EvaluateViews(const std::vector<BoardView>& views, const TargetBoard& board,
                                const Sensor& sensor, const EvaluateOptions& options);
 
-// Detects the board in every image (calibrate's raw detection), fits each
-// board's pose through `calib`, refines the corners through the model
+// Detects the board in every image as calibrate does (the raw search, then
+// the images without a board in views unwarped through `calib`, with
+// options.unwarp_fallback), fits each board's pose through `calib`, refines the corners through the model
 // (options.refine_passes) and scores them. Throws pano::Error when the
 // units or image size differ from the calibration's, or when no board is
 // found in any image (or none can be fitted).

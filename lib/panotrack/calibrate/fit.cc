@@ -371,7 +371,12 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
     if (!poor.empty())
       res.warnings.push_back("rig faults not determined by these boards (covariance rank-deficient or standard "
                              "deviation too large): " + poor +
-                             "; fix them (--free) or take boards at more heights and azimuths");
+                             "; fix them (--free) or take boards at more heights and azimuths" +
+                             (!poses_known && poor.find("decentre") != std::string::npos
+                                  ? std::string("; with estimated board poses the mirror's offset trades against "
+                                                "the principal point: measure it from a short video in a mapped "
+                                                "room with `panocalib tilt --decentre`")
+                                  : std::string()));
     if (options.Faults().sensor_tilt && !poses_known)
       res.warnings.push_back("sensor tilt held at zero: with estimated board poses it is a turn of every board");
   }

@@ -365,6 +365,68 @@ bool InitialPoseFromSensor(const BoardView& view, const TargetBoard& board, cons
   return std::isfinite(best);
 }
 
+bool PoseFromRays(const BoardView& view, const TargetBoard& board, const Sensor& sensor,
+                  std::array<double, 6>* pose) {
+  const std::vector<Eigen::Vector3d> pts = BoardPoints(board);
+  const double scale = board.square * std::max(board.cols, board.rows);  // conditions the solve
+  const size_t n = view.corners.size();
+  std::vector<Eigen::Vector3d> o(n), d(n);
+  for (size_t j = 0; j < n; ++j)
+    if (!sensor.backproject(view.corners[j], &o[j], &d[j])) return false;
+  // d x (H p) = 0 with p = (X / scale, Y / scale, 1) and H = [r1 r2 t] up to
+  // a factor; h holds H row by row.
+  Eigen::MatrixXd A(3 * n, 9);
+  A.setZero();
+  for (size_t j = 0; j < n; ++j) {
+    const Eigen::Vector3d& X = pts[view.PointId(j)];
+    const Eigen::RowVector3d p(X.x() / scale, X.y() / scale, 1.0);
+    const Eigen::Vector3d& b = d[j];
+    A.block<1, 3>(3 * j, 3) = -b.z() * p;
+    A.block<1, 3>(3 * j, 6) = b.y() * p;
+    A.block<1, 3>(3 * j + 1, 0) = b.z() * p;
+    A.block<1, 3>(3 * j + 1, 6) = -b.x() * p;
+    A.block<1, 3>(3 * j + 2, 0) = -b.y() * p;
+    A.block<1, 3>(3 * j + 2, 3) = b.x() * p;
+  }
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeFullV);
+  const Eigen::VectorXd h = svd.matrixV().col(8);
+  Eigen::Matrix3d H;
+  H << h(0), h(1), h(2), h(3), h(4), h(5), h(6), h(7), h(8);
+  const double k = 0.5 * (H.col(0).norm() + H.col(1).norm());
+  if (!(k > 1e-12) || !H.allFinite()) return false;
+  Eigen::Vector3d r1 = H.col(0) / k, r2 = H.col(1) / k, t = H.col(2) * scale / k;
+  // In front along the rays.
+  int ahead = 0;
+  for (size_t j = 0; j < n; ++j) {
+    const Eigen::Vector3d& X = pts[view.PointId(j)];
+    ahead += d[j].dot(r1 * X.x() + r2 * X.y() + t - o[j]) > 0 ? 1 : -1;
+  }
+  if (ahead < 0) {
+    r1 = -r1;
+    r2 = -r2;
+    t = -t;
+  }
+  Eigen::Matrix3d M;
+  M.col(0) = r1;
+  M.col(1) = r2;
+  M.col(2) = r1.cross(r2);
+  const Eigen::Matrix3d R = NearestRotation(M);
+  // The translation again with the rotation fixed and the rays' own origins:
+  // d x (R X + t - o) = 0, linear in t.
+  Eigen::MatrixXd At(3 * n, 3);
+  Eigen::VectorXd bt(3 * n);
+  for (size_t j = 0; j < n; ++j) {
+    Eigen::Matrix3d Dx;
+    Dx << 0, -d[j].z(), d[j].y(), d[j].z(), 0, -d[j].x(), -d[j].y(), d[j].x(), 0;
+    At.block<3, 3>(3 * j, 0) = Dx;
+    bt.segment<3>(3 * j) = Dx * (o[j] - R * pts[view.PointId(j)]);
+  }
+  const Eigen::Vector3d t2 = At.colPivHouseholderQr().solve(bt);
+  if (!t2.allFinite()) return false;
+  *pose = PoseFromRt(R, t2);
+  return true;
+}
+
 }  // namespace calib_internal
 
 namespace {

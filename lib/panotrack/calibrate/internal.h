@@ -298,6 +298,24 @@ inline double CapRadiusPx(int width, int height) { return 0.75 * std::hypot(widt
 bool InitialPoseFromSensor(const BoardView& view, const TargetBoard& board, const Sensor& sensor,
                            std::array<double, 6>* pose);
 
+// Step 4a: the images `missing` (target file indices) searched in views
+// unwarped through `sensor`, near where the fitted boards `fitted` lie
+// (their median distance and height), in parallel over images. Returns the
+// boards found (method "unwarped", corners refined in the raw image);
+// searches that raised an error are added to *warnings (when given).
+std::vector<BoardView> FindUnwarpedBoards(const TargetSet& targets, const std::vector<cv::Mat>& images,
+                                          const std::vector<int>& missing, const std::vector<BoardView>& fitted,
+                                          const Sensor& sensor, int threads, std::vector<std::string>* warnings);
+
+// Pose of one more board from the rays of its corners through `sensor`
+// (rig faults and asphere terms included): the homography from the board
+// plane to the rays' directions, made a rotation, then the translation with
+// the rays' own origins. A start that does not depend on the image centre
+// (InitialPoseFromSensor's in-plane solve is about cx, cy, where a decentred
+// mirror's image is not centred). False on failure.
+bool PoseFromRays(const BoardView& view, const TargetBoard& board, const Sensor& sensor,
+                  std::array<double, 6>* pose);
+
 // Indices of the sensor block held fixed for this model and these options.
 std::vector<int> FixedSensorIndices(bool poses_known, const CalibrateOptions& o);
 

@@ -33,8 +33,11 @@ std::string CalibrationSummaryJson(const CalibrationResult& r, const Calibration
                             {"training_rms_px", std::isfinite(m.training_rms_px) ? json(m.training_rms_px) : json(nullptr)},
                             {"heldout_rms_px", std::isfinite(m.heldout_rms_px) ? json(m.heldout_rms_px) : json(nullptr)},
                             {"heldout_boards", m.heldout_boards},
-                            {"failed_boards", m.failed_boards}});
+                            {"failed_boards", m.failed_boards},
+                            {"parameters", m.parameters},
+                            {"refused", m.refused.empty() ? json(nullptr) : json(m.refused)}});
     selection = {{"chosen", r.model_chosen >= 0 ? json(r.model_scores[r.model_chosen].name) : json(nullptr)},
+                 {"reason", r.model_reason},
                  {"candidates", candidates}};
   }
   json written = json::object();
@@ -51,6 +54,7 @@ std::string CalibrationSummaryJson(const CalibrationResult& r, const Calibration
                   {"poses_known", r.poses_known},
                   {"boards_used", r.views.size()},
                   {"rms_px", r.rms_px},
+                  {"rms_raw_px", std::isfinite(r.rms_raw_px) ? json(r.rms_raw_px) : json(nullptr)},
                   {"image_rms_px", image_rms},
                   {"detection", detection},
                   {"parameters", parameters},

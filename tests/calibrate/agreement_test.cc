@@ -1,0 +1,123 @@
+// One truth about a calibration: `panocalib evaluate` of a calibration on the
+// very images it was fitted to reproduces the RMS that `panocalib calibrate`
+// reported, for every model and option, with corners refined through the
+// model (the calibration's rms_px) and with the detector's corners as found
+// (rms_raw_px, `evaluate --no-refine`). The calibration goes through its
+// file, as a user's does.
+#include <catch2/catch.hpp>
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "panotrack/calibrate/calibrate.h"
+#include "panotrack/calibrate/evaluate.h"
+#include "panotrack/io/calibration.h"
+#include "panotrack/io/targets.h"
+#include "panotrack/render/presets.h"
+#include "rendered_targets.h"
+#include "test_paths.h"
+#include "test_skip.h"
+
+namespace pano {
+namespace {
+
+struct Case {
+  const char* name;
+  MirrorModel model;
+  bool free_auto;
+};
+
+const Case kCases[] = {{"sphere", MirrorModel::kSphere, false},
+                       {"conic", MirrorModel::kConic, false},
+                       {"sphere --free auto", MirrorModel::kSphere, true},
+                       {"conic --free auto", MirrorModel::kConic, true}};
+
+struct Agreement {
+  double calibrate_refined, evaluate_refined, calibrate_raw, evaluate_raw;
+  int boards_used, boards_evaluated;
+};
+
+Agreement CalibrateThenEvaluate(const TargetSet& targets, const std::vector<cv::Mat>& images, const Case& c,
+                                const std::string& scratch) {
+  CalibrateOptions o;
+  o.model = c.model;
+  o.free_faults_auto = c.free_auto;
+  o.num_threads = 2;
+  const CalibrationResult r = Calibrate(targets, images, o);
+  const std::string file = scratch + "/calib.yaml";
+  WriteCalibrationOutputs(r, {file, "", "", "", {}}, cv::Mat());
+  const Calibration read = ReadCalibration(file);
+  EvaluateOptions eo;
+  eo.num_threads = 2;
+  const EvaluationResult refined = EvaluateCalibration(targets, images, read, eo);
+  eo.refine_passes = 0;
+  const EvaluationResult raw = EvaluateCalibration(targets, images, read, eo);
+  WARN(c.name << ": calibrate " << r.rms_px << " px (raw corners " << r.rms_raw_px << " px) over "
+              << r.views.size() << " boards; evaluate " << refined.rms_px << " px (--no-refine " << raw.rms_px
+              << " px) over " << refined.boards_fitted);
+  return {r.rms_px, refined.rms_px, r.rms_raw_px, raw.rms_px, static_cast<int>(r.views.size()),
+          refined.boards_fitted};
+}
+
+// refined_tolerance: the relative tolerance on the refined-corner figure.
+void CheckAgreement(const Agreement& a, double refined_tolerance = 0.10) {
+  CHECK(a.boards_evaluated == a.boards_used);
+  CHECK(a.evaluate_refined == Approx(a.calibrate_refined).epsilon(refined_tolerance));
+  CHECK(a.evaluate_raw == Approx(a.calibrate_raw).epsilon(0.10));
+}
+
+TEST_CASE("calibrate and evaluate agree on rendered boards: aligned and faulty rigs, every model",
+          "[calibrate_evaluate]") {
+  for (const char* preset : {"paper-real", "faulty-rig"}) {
+    const Calibration truth = MakePreset(preset).calib;
+    const std::string dir = test::RenderTargets(std::string("calibrate_agreement_") + preset, truth, 10, 7);
+    const TargetSet targets = ReadTargets(dir + "/targets_unknown.yaml");
+    const std::vector<cv::Mat> images = LoadTargetImages(targets);
+    for (const Case& c : kCases) {
+      INFO(preset << ", " << c.name);
+      const Agreement a = CalibrateThenEvaluate(targets, images, c, dir);
+      // The exceptions left, on the faulty rig (k1 -0.03): the sphere without
+      // lens distortion (plain or with its decentre free) cannot map the
+      // board nearest the limb (cal_007.png), and that board's corners
+      // refined through the model move with every small change of the model
+      // (0.32 to 0.56 px from one fit to the next): calibrate 0.192 / 0.195 px
+      // against evaluate 0.127 / 0.125 px (measured). The conic with its
+      // faults free: calibrate 0.1375 px against evaluate 0.1204 px (14 %).
+      // The raw figures agree in every case (0.2597 against 0.2584 px).
+      const bool faulty = std::string(preset) == "faulty-rig";
+      const bool unmappable = faulty && c.model == MirrorModel::kSphere;
+      const bool faults_free_conic = faulty && c.model == MirrorModel::kConic && c.free_auto;
+      CheckAgreement(a, unmappable ? 0.6 : faults_free_conic ? 0.2 : 0.10);
+      // Measured: 0.055-0.080 px refined (those exceptions: 0.19, 0.14 px),
+      // 0.20-0.27 px raw (corner noise of 2 grey levels).
+      CHECK(a.calibrate_refined < (unmappable ? 0.25 : faults_free_conic ? 0.16 : 0.1));
+      CHECK(a.calibrate_raw < 0.3);
+    }
+  }
+}
+
+TEST_CASE("calibrate and evaluate agree on the real miniomni images, every model", "[calibrate_evaluate]") {
+  const std::string path = test::SourcePath("../shared/data/real/miniomni/targets.yaml");
+  if (!std::filesystem::exists(path)) {
+    test::Skip(path + " not found (the shared data lies beside the checkout)");
+    return;
+  }
+  const TargetSet targets = ReadTargets(path);
+  const std::vector<cv::Mat> images = LoadTargetImages(targets);
+  const std::string scratch = test::ScratchDir("calibrate_agreement_miniomni");
+  for (const Case& c : kCases) {
+    INFO(c.name);
+    const Agreement a = CalibrateThenEvaluate(targets, images, c, scratch);
+    CheckAgreement(a);
+    CHECK(a.boards_used == 15);
+    // Measured: 0.414-0.431 px refined, 0.621-0.629 px raw. Before the pose
+    // fit went through the rig faults, evaluate gave 14.9 px (refined) and
+    // 8.4 px (raw) for conic --free auto.
+    CHECK(a.calibrate_refined < 0.45);
+    CHECK(a.calibrate_raw < 0.65);
+  }
+}
+
+}  // namespace
+}  // namespace pano
