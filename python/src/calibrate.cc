@@ -15,11 +15,14 @@ namespace pano::python {
 
 namespace {
 
-MirrorModel ModelOf(const std::string& name) {
-  if (name == "sphere") return MirrorModel::kSphere;
-  if (name == "conic") return MirrorModel::kConic;
-  if (name == "asphere") return MirrorModel::kAsphere;
-  throw Error("model: expected sphere, conic or asphere, got '" + name + "'");
+// "auto" (panocalib's default): the profile, lens and rig faults chosen by
+// error on boards left out (SelectModel), the sphere when too few.
+void SetModel(const std::string& name, CalibrateOptions* o) {
+  if (name == "sphere") o->model = MirrorModel::kSphere;
+  else if (name == "conic") o->model = MirrorModel::kConic;
+  else if (name == "asphere") o->model = MirrorModel::kAsphere;
+  else if (name == "auto") o->select_model = o->selection_fallback = true;
+  else throw Error("model: expected sphere, conic, asphere or auto, got '" + name + "'");
 }
 
 CalibrationResult RunCalibrate(const std::filesystem::path& targets_path, const std::string& model,
@@ -28,7 +31,7 @@ CalibrationResult RunCalibrate(const std::filesystem::path& targets_path, const 
                                double full_weight_px, int max_iterations, double max_rms_px, int num_threads,
                                bool verbose) {
   CalibrateOptions o;
-  o.model = ModelOf(model);
+  SetModel(model, &o);
   o.distortion_terms = distortion_terms;
   o.fit_aspect = fit_aspect;
   o.fit_azimuth_offset = fit_azimuth_offset;
@@ -113,7 +116,7 @@ void BindCalibrate(py::module_& m) {
           "calibrate does (the report on a grey canvas: the images are not kept)");
 
   const CalibrateOptions d;
-  m.def("calibrate", &RunCalibrate, py::arg("targets_path"), py::kw_only(), py::arg("model") = "sphere",
+  m.def("calibrate", &RunCalibrate, py::arg("targets_path"), py::kw_only(), py::arg("model") = "auto",
         py::arg("distortion_terms") = d.distortion_terms, py::arg("fit_aspect") = d.fit_aspect,
         py::arg("fit_azimuth_offset") = d.fit_azimuth_offset, py::arg("ignore_known_poses") = d.ignore_known_poses,
         py::arg("huber_px") = d.huber_px, py::arg("unwarp_fallback") = d.unwarp_fallback,
