@@ -190,6 +190,16 @@ TEST_CASE("a PNG cut short among the frames: the tool's own line, not libpng's",
                      " bytes)\n");
   ExpectOneLineError(test::RunProgram("panomap check " + torn + files + " --pose 40,35,0"),
                      "panomap: " + torn + ": a PNG cut short");
+  // A board image cut short: panocalib's calibrate and evaluate too.
+  const test::CommandRun t = test::RunProgram("panosim targets --calib " + seq + "/calib.yaml --board 9,6,3 --auto 4 -q -o " + dir + "/t");
+  REQUIRE(t.code == 0);
+  const std::string board = dir + "/t/cal_001.png", board_bytes = Read(board);
+  std::ofstream(board, std::ios::binary | std::ios::trunc) << board_bytes.substr(0, board_bytes.size() / 2);
+  ExpectOneLineError(test::RunProgram("panocalib calibrate " + dir + "/t/targets.yaml -q -o " + dir + "/c.yaml"),
+                     "panocalib: " + board + ": a PNG cut short");
+  ExpectOneLineError(test::RunProgram("panocalib evaluate " + dir + "/t/targets.yaml --calib " + seq + "/calib.yaml"),
+                     "panocalib: " + board + ": a PNG cut short");
+  CHECK_FALSE(fs::exists(dir + "/c.yaml"));
 }
 
 TEST_CASE("--gt of another length than the video is refused; --gt auto without gt.csv says so",

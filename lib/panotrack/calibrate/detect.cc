@@ -140,6 +140,7 @@ std::vector<cv::Mat> LoadTargetImages(const TargetSet& targets) {
       }
       im = video->Frame(ti.frame);
     } else {
+      FrameSource::CheckImageComplete(ti.resolved);  // a PNG cut short: one line, not libpng's
       im = cv::imread(ti.resolved, cv::IMREAD_GRAYSCALE);
       if (im.empty()) throw Error(ti.resolved + ": cannot read the image (missing or not an image file)");
     }
