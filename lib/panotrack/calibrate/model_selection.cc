@@ -22,6 +22,30 @@ void Progress(const CalibrateOptions& o, const std::string& what) {
   if (o.on_progress) o.on_progress(what);
 }
 
+// One fold's held-out boards, each with the pose fitted through the fold's
+// calibration, into the score: per-board errors, the fold's RMS, and the
+// sums of squares and corners over all folds.
+void ScoreHeldOutFold(const std::vector<std::pair<std::string, BoardPoseFit>>& fits, ModelScore* score,
+                      double* held_s2, size_t* held_n) {
+  double fold_s2 = 0.0;
+  size_t fold_n = 0;
+  for (const auto& [file, f] : fits) {
+    if (!f.ok) {
+      if (score->failure.empty()) score->failure = file + ": " + f.failure;
+      ++score->failed_boards;
+      continue;
+    }
+    const double s2 = f.rms_px * f.rms_px * f.corners_used;
+    score->board_errors[file] = {s2, static_cast<size_t>(f.corners_used)};
+    fold_s2 += s2;
+    fold_n += static_cast<size_t>(f.corners_used);
+    ++score->heldout_boards;
+  }
+  *held_s2 += fold_s2;
+  *held_n += fold_n;
+  score->fold_heldout_rms_px.push_back(fold_n ? std::sqrt(fold_s2 / fold_n) : NAN);
+}
+
 }  // namespace
 
 ModelScore CrossValidateModel(const std::vector<BoardView>& views, const TargetBoard& board, int width, int height,
@@ -58,24 +82,9 @@ ModelScore CrossValidateModel(const std::vector<BoardView>& views, const TargetB
     for (const BoardView& v : train) train_corners += v.corners.size();
     train_s2 += fit.rms_px * fit.rms_px * static_cast<double>(train_corners);
     train_n += train_corners;
-    double fold_s2 = 0.0;
-    size_t fold_n = 0;
-    for (const BoardView& v : held) {
-      const BoardPoseFit f = FitBoardPose(v, board, fit.calib.sensor, eo);
-      if (!f.ok) {
-        if (score.failure.empty()) score.failure = v.file + ": " + f.failure;
-        ++score.failed_boards;
-        continue;
-      }
-      const double s2 = f.rms_px * f.rms_px * f.corners_used;
-      score.board_errors[v.file] = {s2, static_cast<size_t>(f.corners_used)};
-      fold_s2 += s2;
-      fold_n += static_cast<size_t>(f.corners_used);
-      ++score.heldout_boards;
-    }
-    held_s2 += fold_s2;
-    held_n += fold_n;
-    score.fold_heldout_rms_px.push_back(fold_n ? std::sqrt(fold_s2 / fold_n) : NAN);
+    std::vector<std::pair<std::string, BoardPoseFit>> fold_fits;
+    for (const BoardView& v : held) fold_fits.push_back({v.file, FitBoardPose(v, board, fit.calib.sensor, eo)});
+    ScoreHeldOutFold(fold_fits, &score, &held_s2, &held_n);
   }
   if (train_n) score.training_rms_px = std::sqrt(train_s2 / train_n);
   if (held_n) score.heldout_rms_px = std::sqrt(held_s2 / held_n);
@@ -350,23 +359,7 @@ ModelSelection SelectModel(const std::vector<BoardView>& views, const TargetBoar
       train_s2 += fold_train_s2[fold];
       train_n += fold_train_n[fold];
       if (!fold_failure[fold].empty() && score.failure.empty()) score.failure = fold_failure[fold];
-      double fs2 = 0.0;
-      size_t fn = 0;
-      for (const auto& [file, f] : held_fits[fold]) {
-        if (!f.ok) {
-          if (score.failure.empty()) score.failure = file + ": " + f.failure;
-          ++score.failed_boards;
-          continue;
-        }
-        const double s2 = f.rms_px * f.rms_px * f.corners_used;
-        score.board_errors[file] = {s2, static_cast<size_t>(f.corners_used)};
-        fs2 += s2;
-        fn += static_cast<size_t>(f.corners_used);
-        ++score.heldout_boards;
-      }
-      held_s2 += fs2;
-      held_n += fn;
-      score.fold_heldout_rms_px.push_back(fn ? std::sqrt(fs2 / fn) : NAN);
+      ScoreHeldOutFold(held_fits[fold], &score, &held_s2, &held_n);
     }
     if (held_n) score.heldout_rms_px = std::sqrt(held_s2 / held_n);
     sel.scores.push_back(score);
