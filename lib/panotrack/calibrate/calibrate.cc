@@ -389,22 +389,33 @@ void DropFoundImages(const std::vector<BoardView>& views, DetectionResult* det) 
 // Step 4: images without a board retried in unwarped views; when any is
 // found, the fit is repeated with them and kept when the new boards fit
 // like the others.
+// The fit again with the boards of unwarped views `extra` beside `base`;
+// nothing when it fails or when those boards fit far worse than the others
+// (then `boards`, what they are, goes into the run's warnings with
+// `outcome`).
+std::optional<CalibrationResult> RefitWithUnwarpedBoards(Pipeline* p, const std::vector<BoardView>& base,
+                                                         const std::vector<BoardView>& extra,
+                                                         const std::string& what, const std::string& boards,
+                                                         const std::string& outcome) {
+  std::vector<BoardView> views;
+  InitialEstimate start;
+  StartWithUnwarpedBoards(*p, base, extra, &views, &start);
+  std::optional<CalibrationResult> again =
+      TryRefit(what, views, p->targets.board, start, p->poses_known, p->targets.units, p->options, &p->carried);
+  if (!again) return std::nullopt;
+  const std::string outliers = OutlyingUnwarpedBoards(*again);
+  if (outliers.empty()) return again;
+  p->carried.push_back(boards + " (" + outliers + ") fit far worse than the others: " + outcome);
+  return std::nullopt;
+}
+
 void RetryUnwarped(Pipeline* p) {
   const std::vector<BoardView> extra = FindUnwarpedBoards(p);
   if (extra.empty()) return;
-  std::vector<BoardView> views;
-  InitialEstimate start;
-  StartWithUnwarpedBoards(*p, p->res.views, extra, &views, &start);
   std::optional<CalibrationResult> again =
-      TryRefit("the refit with the boards found in unwarped views", views, p->targets.board, start,
-               p->poses_known, p->targets.units, p->options, &p->carried);
+      RefitWithUnwarpedBoards(p, p->res.views, extra, "the refit with the boards found in unwarped views",
+                              "boards found in unwarped views", "left out, the previous fit stands");
   if (!again) return;
-  const std::string outliers = OutlyingUnwarpedBoards(*again);
-  if (!outliers.empty()) {
-    p->carried.push_back("boards found in unwarped views (" + outliers +
-                         ") fit far worse than the others: left out, the previous fit stands");
-    return;
-  }
   p->res = std::move(*again);
   for (const BoardView& v : p->res.views)
     if (v.method == "unwarped") p->found_views.push_back(v);
@@ -459,19 +470,10 @@ void RedetectUnwarped(Pipeline* p) {
       same = (before[k].corners[j] - extra[k].corners[j]).norm() < 1e-3;
   }
   if (same) return;
-  std::vector<BoardView> views;
-  InitialEstimate start;
-  StartWithUnwarpedBoards(*p, raw, extra, &views, &start);
   std::optional<CalibrationResult> again =
-      TryRefit("the refit with the boards found again through the final model", views, p->targets.board, start,
-               p->poses_known, p->targets.units, p->options, &p->carried);
+      RefitWithUnwarpedBoards(p, raw, extra, "the refit with the boards found again through the final model",
+                              "boards found in views unwarped through the final model", "the previous fit stands");
   if (!again) return;
-  const std::string outliers = OutlyingUnwarpedBoards(*again);
-  if (!outliers.empty()) {
-    p->carried.push_back("boards found in views unwarped through the final model (" + outliers +
-                         ") fit far worse than the others: the previous fit stands");
-    return;
-  }
   p->carried.insert(p->carried.end(), warnings.begin(), warnings.end());
   p->res = std::move(*again);
   std::vector<BoardView> found;

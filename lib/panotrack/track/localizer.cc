@@ -126,6 +126,12 @@ Localizer::Localizer(const Calibration& calib, const Map& map,
   const double typical = TypicalLandmarkDistance(map_);
   typical_distance_ = typical > 0 ? typical : 1.0;
   survey_ = SurveyErrorEstimate(opt_.survey, typical_distance_);
+  {
+    Eigen::Vector2d lo, hi;
+    double top;
+    map_.Extent(&lo, &hi, &top);
+    room_size_ = (hi - lo).maxCoeff();
+  }
   UpdateLandmarkBudget();
   motion_options_ = opt_.motion.Scaled(map_.UnitsPerMetre());
   motion_ = MotionModel(motion_options_);
@@ -570,10 +576,7 @@ bool Localizer::Relocalize(const cv::Mat& grey, bool near_last, FrameResult* fr,
 
 bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool either, bool near_last, FrameResult* fr,
                                TriangulationResult* tri) const {
-  Eigen::Vector2d lo, hi;
-  double top;
-  map_.Extent(&lo, &hi, &top);
-  const double distinct = opt_.relocalize_distinct * (hi - lo).maxCoeff();
+  const double distinct = opt_.relocalize_distinct * room_size_;
   struct Verified {
     FrameResult fr;
     TriangulationResult tri;
@@ -621,11 +624,8 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
 bool Localizer::ChooseAmongTwins(bool either, bool near_last, FrameResult* fr, TriangulationResult* tri) const {
   std::vector<int> seen;
   for (int i : InlierPredictions(*fr, *tri)) seen.push_back(fr->predicted[static_cast<size_t>(i)].index);
-  Eigen::Vector2d lo, hi;
-  double top;
-  map_.Extent(&lo, &hi, &top);
   const std::vector<FloorMotion> motions =
-      LandmarkSymmetries(landmarks_, seen, opt_.relocalize_symmetry_tolerance * (hi - lo).maxCoeff());
+      LandmarkSymmetries(landmarks_, seen, opt_.relocalize_symmetry_tolerance * room_size_);
   std::vector<Pose2> poses{tri->pose};
   for (const FloorMotion& m : motions) {
     const Pose2 twin = m.Apply(tri->pose);
@@ -1296,11 +1296,8 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
     std::optional<std::pair<FrameResult, TriangulationResult>> near;
     if (near_consistent) near.emplace(fr, tri);
     if (RelocalizeIfLost(grey, frame, ever_tracked_ && ViewUnlikePrediction(fr, tri), &fr, &tri)) {
-      Eigen::Vector2d lo, hi;
-      double top;
-      map_.Extent(&lo, &hi, &top);
       if (near && std::hypot(tri.pose.x - near->second.pose.x, tri.pose.y - near->second.pose.y) >
-                      opt_.relocalize_distinct * (hi - lo).maxCoeff()) {
+                      opt_.relocalize_distinct * room_size_) {
         fr = std::move(near->first);
         tri = near->second;
       } else {

@@ -505,6 +505,9 @@ class Localizer {
   // The map's survey error as the residuals show it, and the landmarks'
   // typical distance it is scaled by.
   double typical_distance_ = 1.0;
+  // The map's larger floor extent (map units): the scale of the
+  // relocalisation's distinct-pose and symmetry tolerances.
+  double room_size_ = 1.0;
   SurveyErrorEstimate survey_;
   int max_landmarks_ = 0;  // MaxLandmarks
   // Per landmark: its bearing residual on the last accepted frame that had
