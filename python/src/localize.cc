@@ -141,7 +141,7 @@ class PyLocalizer {
     d["std_y"] = Extra(row, 1);
     d["std_theta"] = Extra(row, 2);
     d["quality"] = Extra(row, 3);
-    d["covariance"] = ok ? Matrix3(fr.triangulation.covariance) : Matrix3(Eigen::Matrix3d::Constant(kNaN));
+    d["covariance"] = ok ? Matrix3(fr.covariance) : Matrix3(Eigen::Matrix3d::Constant(kNaN));
     d["n_landmarks"] = row.n_landmarks;
     d["residual"] = has_pose ? row.residual : kNaN;
     d["relocalized"] = fr.relocalized;

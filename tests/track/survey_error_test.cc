@@ -2,6 +2,7 @@
 // it, checked against bearing residuals at various distances.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -18,19 +19,23 @@ constexpr double kUnstated = std::numeric_limits<double>::quiet_NaN();
 
 // `frames` frames of `n` bearings at distances uniform in [50, 250]: each
 // residual drawn from N(0, image^2 + (survey / d)^2).
-void Feed(SurveyErrorEstimate* e, std::mt19937_64& rng, double survey, double image, int frames, int n = 15) {
+// With `pairs`, each edge's two corners too: their residuals' difference
+// (image noise alone).
+void Feed(SurveyErrorEstimate* e, std::mt19937_64& rng, double survey, double image, int frames, int n = 15,
+          bool pairs = false) {
   std::uniform_real_distribution<double> distance(50.0, 250.0);
   std::normal_distribution<double> unit(0.0, 1.0);
   for (int f = 0; f < frames; ++f) {
-    std::vector<double> residuals, distances;
+    std::vector<double> residuals, distances, differences;
     for (int i = 0; i < n; ++i) {
       const double d = distance(rng);
       distances.push_back(d);
       residuals.push_back(unit(rng) * std::hypot(image, survey / d));
+      if (pairs) differences.push_back(unit(rng) * std::sqrt(2.0) * image);
     }
     // Residuals of a 3-parameter fit are smaller than the errors: feed them
     // without the pose's share (fitted = 0) so the scale is the error's.
-    e->Update(residuals, distances, {}, 0);
+    e->Update(residuals, distances, differences, 0);
   }
 }
 
@@ -83,14 +88,61 @@ TEST_CASE("survey error: the sigma used for a stated, an unstated and an exact m
   CHECK(e.Sigma(0.5) == Approx(e.estimated()));
   CHECK(e.Sigma(3.0) == 3.0);
   CHECK(e.Sigma(kUnstated) == Approx(e.estimated()));
+  // Where the estimate is all there is, the covariances reported hold it
+  // with its margin (never beyond the cap, 3 % of the typical distance); a
+  // stated sigma is only raised to it.
+  const double with_margin = std::min(o.estimate_margin * e.estimated(), o.max_fraction * 120.0);
+  CHECK(with_margin > e.estimated());
+  CHECK(e.ReportedSigma(0.0) == Approx(with_margin));
+  CHECK(e.ReportedSigma(kUnstated) == Approx(with_margin));
+  CHECK(e.ReportedSigma(0.5) == Approx(e.estimated()));
+  CHECK(e.ReportedSigma(3.0) == 3.0);
   CHECK(e.estimated() == Approx(2.0).epsilon(0.25));
   // The cap: beyond 3 % of the typical distance a corner is wrong, not
   // imprecise.
   Feed(&e, rng, 20.0, 0.0005, 100);
   CHECK(e.estimated() == Approx(o.max_fraction * 120.0));
+  CHECK(e.ReportedSigma(kUnstated) == Approx(o.max_fraction * 120.0));
   e.Reset();
   CHECK(!e.confident());
   CHECK(e.provisional() == 0.0);
+}
+
+TEST_CASE("survey error: a few frames' clear error is told before the estimate is confident", "[survey_error]") {
+  PANO_SEEDED_RNG(41);
+  SurveyErrorOptions o;
+  // A 1.5 cm survey stated exact (or not stated): three frames of ten
+  // edges, both corners of each found.
+  SurveyErrorEstimate e(o, 120.0);
+  Feed(&e, rng, 1.5, 0.0005, 3, 10, true);
+  REQUIRE(!e.confident());
+  INFO("early " << e.Early() << " estimated " << e.estimated());
+  CHECK(e.Early() == e.estimated());
+  // Thirty squared residuals: a rough estimate (0.71-2.19 over 80 seeds),
+  // beyond a careful tape survey's 0.48.
+  CHECK(e.Early() > 0.6);
+  CHECK(e.Early() < 2.4);
+  // It counts once made provisional (by the localiser, for a frame it
+  // reports), not before.
+  CHECK(e.Sigma(0.0) == 0.0);
+  // The covariances reported hold it (with its margin) at once.
+  CHECK(e.ReportedSigma(0.0) == Approx(o.estimate_margin * e.Early()));
+  CHECK(e.ReportedSigma(0.5) == 0.5);
+  e.Provisional(e.Early());
+  CHECK(e.Sigma(0.0) == e.Early());
+  CHECK(e.Sigma(kUnstated) == std::max(e.Early(), o.unstated_fraction * 120.0));
+  CHECK(e.Sigma(3.0) == 3.0);
+  // An exact map's first frames show nothing like it.
+  SurveyErrorEstimate exact(o, 120.0);
+  Feed(&exact, rng, 0.0, 0.0005, 3, 10, true);
+  REQUIRE(!exact.confident());
+  CHECK(exact.Early() == 0.0);
+  CHECK(exact.Sigma(0.0) == 0.0);
+  CHECK(exact.ReportedSigma(0.0) == 0.0);
+  // Four bearings are not a frame's evidence.
+  SurveyErrorEstimate thin(o, 120.0);
+  Feed(&thin, rng, 1.0, 0.0005, 1, 4, true);
+  CHECK(thin.Early() == 0.0);
 }
 
 TEST_CASE("survey error: options out of range are named", "[survey_error]") {
@@ -100,6 +152,9 @@ TEST_CASE("survey error: options out of range are named", "[survey_error]") {
   o = SurveyErrorOptions();
   o.forgetting = 0.0;
   CHECK_THAT(test::ErrorOf([&] { o.Check(); }), Catch::Contains("forgetting"));
+  o = SurveyErrorOptions();
+  o.estimate_margin = 0.5;
+  CHECK_THAT(test::ErrorOf([&] { o.Check(); }), Catch::Contains("estimate_margin"));
   CHECK_THAT(test::ErrorOf([] { SurveyErrorEstimate(SurveyErrorOptions(), 0.0); }),
              Catch::Contains("typical landmark distance"));
 }

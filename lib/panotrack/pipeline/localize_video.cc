@@ -277,8 +277,10 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
     if (!std::isnan(stated)) std::snprintf(statement, sizeof statement, "the map states %.2g", stated);
     std::fprintf(stderr,
                  "panoloc: note: %s: the map's corners look measured to about %.2g %s per coordinate (%s): poses "
-                 "are weighed by that; state survey_sigma in the map (docs/maps.md)\n",
-                 job.input.c_str(), loc.ShownSurveySigma(), res.map.units.c_str(), statement);
+                 "are weighed by that and reported with covariances of %.2g (an estimate from the residuals can "
+                 "fall short); state survey_sigma in the map (docs/maps.md)\n",
+                 job.input.c_str(), loc.ShownSurveySigma(), res.map.units.c_str(), statement,
+                 loc.ReportedSurveySigma());
   }
   if (!opt.quiet)
     for (const std::string& id : loc.ContradictedShades())

@@ -5,6 +5,9 @@
 #include <exception>
 #include <utility>
 
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+
 #include "panotrack/core/error.h"
 #include "panotrack/core/parallel.h"
 #include "panotrack/track/map_symmetry.h"
@@ -53,6 +56,8 @@ void LocalizerOptions::Check() const {
   if (!(min_quality >= 0.0 && min_quality < 1.0)) throw Error("localiser: min_quality: expected 0..1");
   if (!(protection_sigmas > 0.0) || !(alert_fraction >= 0.0))
     throw Error("localiser: protection_sigmas: expected > 0, alert_fraction: expected >= 0");
+  if (!(alert_survey_factor >= 0.0) || !std::isfinite(alert_survey_factor))
+    throw Error("localiser: alert_survey_factor: expected >= 0");
   if (!(integrity_confidence > 0.5 && integrity_confidence < 1.0))
     throw Error("localiser: integrity_confidence: expected 0.5..1");
   if (!(min_bearing_sigma > 0) || !(initial_bearing_sigma > 0) || !(max_bearing_sigma >= min_bearing_sigma))
@@ -74,6 +79,10 @@ void LocalizerOptions::Check() const {
 
 
 namespace {
+
+// The image noise a reported covariance holds, in units of the recent
+// noise (ReportedCovariance).
+constexpr double kReportedNoiseMargin = 1.5;
 
 // The landmarks of coarse-to-fine's first pass (0: all in view), of
 // `max_landmarks` tracked in full.
@@ -721,7 +730,11 @@ bool Localizer::Consistent(FrameResult* fr, const TriangulationResult& tri) cons
   }
   const size_t n = tri.inliers.size();
   const double shown = n > 3 && opt_.survey.check ? std::sqrt(sum_squares / static_cast<double>(n - 3)) : 0.0;
-  io.alert_margin = opt_.protection_sigmas * std::max(survey, shown);
+  // The factor on a survey error the map states, or that the residuals
+  // have shown for long enough: not on a probe's provisional level (a
+  // wrong guess of the start agrees with the map under some error).
+  const bool survey_known = survey_.confident() || StatedSurveySigma() > 0.0;
+  io.alert_margin = opt_.protection_sigmas * std::max((survey_known ? opt_.alert_survey_factor : 1.0) * survey, shown);
   io.reference_position_std += survey;
   fr->integrity = IntegrityCheck(tri, obs, io);
   // Three bearings always fit a pose: without a spare one nothing is checked.
@@ -753,8 +766,8 @@ double Localizer::StatedSurveySigma() const {
 double Localizer::ShownSurveySigma() const {
   const double stated = StatedSurveySigma();
   const double used = survey_.Sigma(stated);
-  if (std::isnan(stated)) return survey_.confident() ? used : std::nan("");
-  return used > 1.5 * stated ? used : std::nan("");
+  if (std::isnan(stated)) return survey_.confident() ? survey_.estimated() : std::nan("");
+  return used > 1.5 * stated ? survey_.estimated() : std::nan("");
 }
 
 bool Localizer::ProbeSurveyError(const Pose2& pred) {
@@ -785,6 +798,69 @@ bool Localizer::ProbeSurveyError(const Pose2& pred) {
     }
   }
   return false;
+}
+
+Eigen::Matrix3d Localizer::ReportedCovariance(const FrameResult& fr, const TriangulationResult& tri) const {
+  // The image's share: the recent noise with a margin (a tracker's bias
+  // on an edge lasts for frames, which the frame's residuals do not show;
+  // the consensus's reference before there is any noise seen).
+  const double reference = bearing_sigma_ > 0 ? kReportedNoiseMargin * bearing_sigma_ : ReferenceSigma();
+  const double stated = StatedSurveySigma();
+  const std::vector<BearingObservation> obs = Observations(fr);
+  Eigen::Matrix3d info = Eigen::Matrix3d::Zero();
+  for (int i : tri.inliers) {
+    const BearingObservation& o = obs[static_cast<size_t>(i)];
+    const Landmark& l = *fr.predicted[static_cast<size_t>(o.id)].landmark;
+    const double d = std::max((o.landmark - Eigen::Vector2d(tri.pose.x, tri.pose.y)).norm(), 1e-9);
+    // The corner's reported survey sigma (a per-corner statement, or the
+    // map's with the estimate's margin), never below the one weighed by.
+    const double survey =
+        std::max(SurveySigma(l), std::isnan(opt_.survey_sigma) && !std::isnan(l.survey_sigma)
+                                     ? survey_.ReportedSigma(l.survey_sigma)
+                                     : survey_.ReportedSigma(stated));
+    // The weight without its spread (Observations), over the full variance.
+    const double weight = o.weight * o.spread * o.spread;
+    Eigen::Vector3d j;
+    BearingResidual(o, tri.pose, &j);
+    info += weight / (reference * reference + (survey / d) * (survey / d)) * j * j.transpose();
+  }
+  const Eigen::FullPivLU<Eigen::Matrix3d> lu(info);
+  if (!lu.isInvertible()) return tri.covariance;
+  const Eigen::Matrix3d predicted = lu.inverse();
+  // The larger of the two, by the position's largest variance.
+  const auto largest = [](const Eigen::Matrix3d& c) {
+    return Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(c.topLeftCorner<2, 2>()).eigenvalues().maxCoeff();
+  };
+  return largest(predicted) > largest(tri.covariance) ? predicted : tri.covariance;
+}
+
+bool Localizer::RetrackUnderShownSurvey(FrameResult* fr, TriangulationResult* tri) {
+  // What this frame would teach, learned once only, from the solution reported.
+  const double assumed = MeanSurveySigma();
+  const SurveyErrorEstimate survey_before = survey_;
+  const double bearing_sigma_before = bearing_sigma_;
+  UpdateBearingNoise(*fr, *tri);
+  UpdateSurveyEstimate(*fr, *tri);
+  const double level = survey_.Early();
+  survey_ = survey_before;
+  bearing_sigma_ = bearing_sigma_before;
+  UpdateLandmarkBudget();
+  if (!(level > 1.5 * assumed)) return false;
+  survey_.Provisional(level);
+  UpdateLandmarkBudget();
+  FrameResult again;
+  again.row = fr->row;
+  again.predicted_pose = fr->predicted_pose;
+  again.relocalized = fr->relocalized;
+  TriangulationResult solved;
+  TrackPredictions(tri->pose, &again, &solved);
+  RefineAroundSolution(&again, &solved);
+  const bool accepted = Acceptable(again, solved) && Consistent(&again, solved) &&
+                        (AgreesWithMotion(&again, solved) || Corroborated(again, solved));
+  if (!accepted) return false;
+  *fr = std::move(again);
+  *tri = solved;
+  return true;
 }
 
 void Localizer::CheckFrame(const cv::Mat& grey, int frame) const {
@@ -1103,6 +1179,17 @@ void Localizer::UpdateBlurEstimate(const FrameResult& fr) {
 }
 
 void Localizer::UpdateNoiseEstimates(const FrameResult& fr, const TriangulationResult& tri) {
+  UpdateBearingNoise(fr, tri);
+  UpdateSurveyEstimate(fr, tri);
+  const std::vector<BearingObservation> obs = Observations(fr);
+  for (int i : tri.inliers) {
+    const size_t index = static_cast<size_t>(fr.predicted[static_cast<size_t>(obs[static_cast<size_t>(i)].id)].index);
+    residual_memory_[index] = tri.bearing_residuals[static_cast<size_t>(i)];
+    residual_frame_[index] = frame_;
+  }
+}
+
+void Localizer::UpdateBearingNoise(const FrameResult& fr, const TriangulationResult& tri) {
   const std::vector<BearingObservation> obs = Observations(fr);
   // The noise from all the bearings (a robust scale, the median absolute
   // residual in units of each one's spread): the inliers' own RMS is
@@ -1122,12 +1209,6 @@ void Localizer::UpdateNoiseEstimates(const FrameResult& fr, const TriangulationR
     std::nth_element(abs_residuals.begin(), abs_residuals.begin() + abs_residuals.size() / 2, abs_residuals.end());
     const double scale = 1.4826 * abs_residuals[abs_residuals.size() / 2];
     bearing_sigma_ = bearing_sigma_ > 0 ? 0.9 * bearing_sigma_ + 0.1 * scale : scale;
-  }
-  UpdateSurveyEstimate(fr, tri);
-  for (int i : tri.inliers) {
-    const size_t index = static_cast<size_t>(fr.predicted[static_cast<size_t>(obs[static_cast<size_t>(i)].id)].index);
-    residual_memory_[index] = tri.bearing_residuals[static_cast<size_t>(i)];
-    residual_frame_[index] = frame_;
   }
 }
 
@@ -1175,7 +1256,8 @@ void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, b
     row->n_landmarks = static_cast<int>(tri.inliers.size());
     row->residual = tri.residual;
     row->extra.clear();
-    for (int k = 0; k < 3; ++k) row->extra.push_back(std::sqrt(std::max(0.0, tri.covariance(k, k))));
+    fr->covariance = ReportedCovariance(*fr, tri);
+    for (int k = 0; k < 3; ++k) row->extra.push_back(std::sqrt(std::max(0.0, fr->covariance(k, k))));
     row->extra.push_back(fr->integrity.quality);
     const PoseMeasurement m =
         MeasurementOf(tri, Observations(*fr), opt_.gate_position_fraction, opt_.gate_heading_sigma);
@@ -1210,9 +1292,28 @@ void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, b
   }
   row->n_landmarks = n_found;
   row->extra.assign(4, std::nan(""));
+  if (BeyondAlertLimitOnly(fr, tri)) {
+    // Not reported, but the robot is there: the motion follows it (a turn
+    // through a few such frames would otherwise leave the windows behind).
+    motion_.Update(MeasurementOf(tri, Observations(*fr), opt_.gate_position_fraction, opt_.gate_heading_sigma));
+    ++motion_updates_;
+    motion_stepped_ = true;
+    frame_pose_ = last_ = tri.pose;
+    n_lost_ = 0;
+    return;
+  }
   frame_pose_ = fr->predicted_pose;
   n_good_ = 0;
   ++n_lost_;
+}
+
+bool Localizer::BeyondAlertLimitOnly(FrameResult* fr, const TriangulationResult& tri) const {
+  if (!tri.ok || fr->relocalized || fr->unconfirmed || !motion_.initialized()) return false;
+  Consistent(fr, tri);  // the report of this solution (the last test may have been another's)
+  const IntegrityReport& in = fr->integrity;
+  return in.testable && in.consistent &&
+         in.quality >= opt_.min_quality && !in.within_alert_limit && Acceptable(*fr, tri) &&
+         AgreesWithMotion(fr, tri);
 }
 
 FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double time_s,
@@ -1306,6 +1407,10 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
       }
     }
   }
+  // Before the survey error is known, a frame tracked and accepted under
+  // too small a one is tracked again under the error its residuals show (a
+  // relocalised pose has its own evidence: its verification).
+  if (accepted && !fr.relocalized && opt_.survey.check && !survey_.confident()) RetrackUnderShownSurvey(&fr, &tri);
   fr.triangulation = tri;
   if (opt_.compass) last_signature_ = std::move(signature);
   if (accepted) UpdatePredictionErrors(model_pred, fr, tri);

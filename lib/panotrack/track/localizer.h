@@ -71,12 +71,15 @@ struct LocalizerOptions {
   double alert_fraction = 0.01;
   // ... or, above 0, this many map units: the accuracy the user needs. At
   // 0 the limit is alert_fraction of the landmarks' distance plus
-  // protection_sigmas times the map's error (its survey sigma, or the
-  // error the frame's residuals show across the landmarks' distances,
-  // whichever is larger): a map measured to a centimetre cannot place the
-  // robot to a millimetre, and its poses are still right; a geometry too
-  // weak to average the map error down is still refused.
+  // protection_sigmas times the map's error (alert_survey_factor times its
+  // survey sigma, or the error the frame's residuals show across the
+  // landmarks' distances, whichever is larger): a map measured to a
+  // centimetre cannot place the robot to a millimetre, and its poses are
+  // still right. A pose may be up to alert_survey_factor times less
+  // certain than a corner of the map (landmarks on one side, few in view);
+  // a geometry that magnifies the map's error more is refused.
   double alert_limit = 0.0;
+  double alert_survey_factor = 2.0;
   // The map's survey error (map units, each corner coordinate). NaN: what
   // the map states (Map::survey_sigma), checked against the residuals of
   // the tracked frames (track/survey_error.h); a bearing's expected error
@@ -225,6 +228,9 @@ struct FrameResult {
   bool unconfirmed = false;     // ... found, but held back for the next frame to confirm
   double innovation = -1.0;     // squared Mahalanobis distance from the prediction (-1: none)
   IntegrityReport integrity;    // of the reported pose
+  // The covariance the pose is reported with (x, y, theta; the row's std
+  // columns): Localizer::ReportedCovariance. Zero when not reported.
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
   // The motion model's step at this frame, for a smoother (FixedLagSmoother);
   // absent before the first pose.
   bool has_motion_step = false;
@@ -306,6 +312,10 @@ class Localizer {
   // stated one, any for a map stated exact, or the estimate for a map that
   // states none; NaN otherwise (and before the residuals have said enough).
   double ShownSurveySigma() const;
+  // The survey sigma the reported covariances hold now (map units): the
+  // statement, or what the residuals show with its margin
+  // (SurveyErrorOptions::estimate_margin).
+  double ReportedSurveySigma() const { return survey_.ReportedSigma(StatedSurveySigma()); }
   // The map's statement as the localiser takes it (--survey-sigma, else the
   // map's survey_sigma; NaN: none).
   double StatedSurveySigma() const;
@@ -374,6 +384,8 @@ class Localizer {
   void UpdateLandmarkBudget();
   // The recent bearing noise and the survey estimate, from an accepted frame.
   void UpdateNoiseEstimates(const FrameResult& fr, const TriangulationResult& tri);
+  // Its first part: the recent bearing noise (bearing_sigma_).
+  void UpdateBearingNoise(const FrameResult& fr, const TriangulationResult& tri);
   // The survey estimate from the inlier bearings of a solution.
   void UpdateSurveyEstimate(const FrameResult& fr, const TriangulationResult& tri);
   // Whether a solution that was not reported still shows the survey error:
@@ -384,6 +396,11 @@ class Localizer {
   // its bearings agree (a consensus of most found, consistent, agreeing
   // with the motion) becomes the provisional survey sigma. True if one did.
   bool ProbeSurveyError(const Pose2& pred);
+  // An accepted frame before the survey error is known whose own residuals
+  // show a clearly larger one than assumed (1.5x): that error becomes the
+  // provisional sigma and the frame is tracked again under it around its
+  // pose, the new solution taken where it is accepted. True if it was.
+  bool RetrackUnderShownSurvey(FrameResult* fr, TriangulationResult* tri);
   // The indices into fr.predicted of the solution's inlier observations.
   std::vector<int> InlierPredictions(const FrameResult& fr, const TriangulationResult& tri) const;
   // The integrity test of an acceptable solution (fills fr->integrity).
@@ -402,6 +419,17 @@ class Localizer {
   bool ChooseAmongTwins(bool either, bool near_last, FrameResult* fr, TriangulationResult* tri) const;
   bool RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool either, bool near_last, FrameResult* fr,
                       TriangulationResult* tri) const;
+  // The covariance a pose is reported with: the solution's, or where
+  // larger the one its geometry predicts from what the weights assume (the
+  // image noise of the consensus, each corner's reported survey sigma
+  // across its line of sight). A map error that the pose absorbs leaves
+  // small residuals exactly where the pose is off by it, and an estimate
+  // of the survey error from the residuals can fall short of it.
+  Eigen::Matrix3d ReportedCovariance(const FrameResult& fr, const TriangulationResult& tri) const;
+  // Whether a frame not reported failed only its alert limit: consistent,
+  // of enough quality, agreeing with the motion, its error bound wider
+  // than the accuracy asked for (a weak geometry on a measured map).
+  bool BeyondAlertLimitOnly(FrameResult* fr, const TriangulationResult& tri) const;
   // The steps of Process:
   void CheckFrame(const cv::Mat& grey, int frame) const;
   // the motion model's prediction for time t (started at the first frame);

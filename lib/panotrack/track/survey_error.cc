@@ -9,6 +9,11 @@ namespace pano {
 namespace {
 // Pairs needed before they cap the image noise.
 constexpr double kMinPairs = 5.0;
+// An estimate not yet confident is told from this many bearings (about a
+// frame's).
+constexpr double kMinEarlyBearings = 5.0;
+// ... and reported where it exceeds this many times the exact map's doubt.
+constexpr double kEarlyDoubt = 2.0;
 }  // namespace
 
 void SurveyErrorOptions::Check() const {
@@ -18,6 +23,8 @@ void SurveyErrorOptions::Check() const {
   if (!(exact_doubt_fraction >= 0.0) || !std::isfinite(exact_doubt_fraction))
     throw Error("survey error: exact_doubt_fraction: expected >= 0");
   if (!(forgetting > 0.0 && forgetting <= 1.0)) throw Error("survey error: forgetting: expected in (0, 1]");
+  if (!(estimate_margin >= 1.0) || !std::isfinite(estimate_margin))
+    throw Error("survey error: estimate_margin: expected >= 1");
 }
 
 SurveyErrorEstimate::SurveyErrorEstimate(const SurveyErrorOptions& options, double typical_distance)
@@ -34,14 +41,38 @@ void SurveyErrorEstimate::Reset() {
 }
 
 double SurveyErrorEstimate::Sigma(double stated) const {
-  if (!opt_.check) return std::isnan(stated) ? opt_.unstated_fraction * typical_distance_ : stated;
-  if (!confident()) return std::max(std::isnan(stated) ? opt_.unstated_fraction * typical_distance_ : stated, provisional_);
+  const double base = std::isnan(stated) ? opt_.unstated_fraction * typical_distance_ : stated;
+  if (!opt_.check) return base;
+  if (!confident()) return std::max(base, provisional_);
   if (std::isnan(stated)) return survey_;
   // An exact map (a rendered room, a CAD model) stays exact unless the
   // residuals clearly say otherwise: below that the image's noise and the
   // fit's leave a small survey term in any estimate.
   if (stated == 0.0) return survey_ > opt_.exact_doubt_fraction * typical_distance_ ? survey_ : 0.0;
   return std::max(stated, survey_);
+}
+
+double SurveyErrorEstimate::ReportedSigma(double stated) const {
+  const double used = Sigma(stated);
+  if (!opt_.check || !(std::isnan(stated) || stated == 0.0)) return used;
+  // The estimate alone decides: a map that states nothing, or an exact
+  // statement the residuals overrule; before it is confident, what the
+  // first frames show where it is clearly more than an exact map's (the
+  // tolerances wait for more, the covariances need not).
+  const bool shown = confident() ? used > 0.0
+                                 : n_ >= kMinEarlyBearings &&
+                                       survey_ > kEarlyDoubt * opt_.exact_doubt_fraction * typical_distance_;
+  return shown ? std::max(used, std::min(opt_.estimate_margin * survey_, opt_.max_fraction * typical_distance_))
+               : used;
+}
+
+double SurveyErrorEstimate::Early() const {
+  // A frame or two of residuals is a rough estimate, but an error beyond a
+  // careful tape survey's is clear from the first frames. (Below it, the
+  // residuals of a few frames with people, blur or exposure changes in
+  // them look like a few millimetres of survey error on an exact map.)
+  const bool clear = n_ >= kMinEarlyBearings && survey_ > opt_.unstated_fraction * typical_distance_;
+  return clear ? survey_ : 0.0;
 }
 
 void SurveyErrorEstimate::Update(const std::vector<double>& residuals, const std::vector<double>& distances,
