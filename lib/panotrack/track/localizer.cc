@@ -805,19 +805,17 @@ Eigen::Matrix3d Localizer::ReportedCovariance(const FrameResult& fr, const Trian
   // on an edge lasts for frames, which the frame's residuals do not show;
   // the consensus's reference before there is any noise seen).
   const double reference = bearing_sigma_ > 0 ? kReportedNoiseMargin * bearing_sigma_ : ReferenceSigma();
-  const double stated = StatedSurveySigma();
   const std::vector<BearingObservation> obs = Observations(fr);
   Eigen::Matrix3d info = Eigen::Matrix3d::Zero();
   for (int i : tri.inliers) {
     const BearingObservation& o = obs[static_cast<size_t>(i)];
     const Landmark& l = *fr.predicted[static_cast<size_t>(o.id)].landmark;
     const double d = std::max((o.landmark - Eigen::Vector2d(tri.pose.x, tri.pose.y)).norm(), 1e-9);
-    // The corner's reported survey sigma (a per-corner statement, or the
-    // map's with the estimate's margin), never below the one weighed by.
-    const double survey =
-        std::max(SurveySigma(l), std::isnan(opt_.survey_sigma) && !std::isnan(l.survey_sigma)
-                                     ? survey_.ReportedSigma(l.survey_sigma)
-                                     : survey_.ReportedSigma(stated));
+    // The corner's reported survey sigma (its statement as SurveySigma
+    // takes it, with the estimate's margin where only the estimate
+    // decides), never below the one weighed by.
+    const double statement = std::isnan(opt_.survey_sigma) ? l.survey_sigma : opt_.survey_sigma;
+    const double survey = std::max(SurveySigma(l), survey_.ReportedSigma(statement));
     // The weight without its spread (Observations), over the full variance.
     const double weight = o.weight * o.spread * o.spread;
     Eigen::Vector3d j;
