@@ -84,6 +84,14 @@ namespace {
 // noise (ReportedCovariance).
 constexpr double kReportedNoiseMargin = 1.5;
 
+// A frame to be measured again from scratch: its row and prediction kept.
+FrameResult FrameToMeasure(const PoseRow& row, const Pose2& predicted) {
+  FrameResult fr;
+  fr.row = row;
+  fr.predicted_pose = predicted;
+  return fr;
+}
+
 // The landmarks of coarse-to-fine's first pass (0: all in view), of
 // `max_landmarks` tracked in full.
 int CoarseLandmarks(const LocalizerOptions& options, int max_landmarks) {
@@ -800,12 +808,12 @@ bool Localizer::ProbeSurveyError(const Pose2& pred) {
   return false;
 }
 
-Eigen::Matrix3d Localizer::ReportedCovariance(const FrameResult& fr, const TriangulationResult& tri) const {
+Eigen::Matrix3d Localizer::ReportedCovariance(const FrameResult& fr, const std::vector<BearingObservation>& obs,
+                                              const TriangulationResult& tri) const {
   // The image's share: the recent noise with a margin (a tracker's bias
   // on an edge lasts for frames, which the frame's residuals do not show;
   // the consensus's reference before there is any noise seen).
   const double reference = bearing_sigma_ > 0 ? kReportedNoiseMargin * bearing_sigma_ : ReferenceSigma();
-  const std::vector<BearingObservation> obs = Observations(fr);
   Eigen::Matrix3d info = Eigen::Matrix3d::Zero();
   for (int i : tri.inliers) {
     const BearingObservation& o = obs[static_cast<size_t>(i)];
@@ -837,7 +845,7 @@ bool Localizer::RetrackUnderShownSurvey(FrameResult* fr, TriangulationResult* tr
   const double assumed = MeanSurveySigma();
   const SurveyErrorEstimate survey_before = survey_;
   const double bearing_sigma_before = bearing_sigma_;
-  UpdateBearingNoise(*fr, *tri);
+  UpdateBearingNoise(Observations(*fr), *tri);
   UpdateSurveyEstimate(*fr, *tri);
   const double level = survey_.Early();
   survey_ = survey_before;
@@ -846,10 +854,8 @@ bool Localizer::RetrackUnderShownSurvey(FrameResult* fr, TriangulationResult* tr
   if (!(level > 1.5 * assumed)) return false;
   survey_.Provisional(level);
   UpdateLandmarkBudget();
-  FrameResult again;
-  again.row = fr->row;
-  again.predicted_pose = fr->predicted_pose;
-  again.relocalized = fr->relocalized;
+  // (Never a relocalised frame: Process does not call this for one.)
+  FrameResult again = FrameToMeasure(fr->row, fr->predicted_pose);
   TriangulationResult solved;
   TrackPredictions(tri->pose, &again, &solved);
   RefineAroundSolution(&again, &solved);
@@ -1177,9 +1183,9 @@ void Localizer::UpdateBlurEstimate(const FrameResult& fr) {
 }
 
 void Localizer::UpdateNoiseEstimates(const FrameResult& fr, const TriangulationResult& tri) {
-  UpdateBearingNoise(fr, tri);
-  UpdateSurveyEstimate(fr, tri);
   const std::vector<BearingObservation> obs = Observations(fr);
+  UpdateBearingNoise(obs, tri);
+  UpdateSurveyEstimate(fr, tri);
   for (int i : tri.inliers) {
     const size_t index = static_cast<size_t>(fr.predicted[static_cast<size_t>(obs[static_cast<size_t>(i)].id)].index);
     residual_memory_[index] = tri.bearing_residuals[static_cast<size_t>(i)];
@@ -1187,8 +1193,7 @@ void Localizer::UpdateNoiseEstimates(const FrameResult& fr, const TriangulationR
   }
 }
 
-void Localizer::UpdateBearingNoise(const FrameResult& fr, const TriangulationResult& tri) {
-  const std::vector<BearingObservation> obs = Observations(fr);
+void Localizer::UpdateBearingNoise(const std::vector<BearingObservation>& obs, const TriangulationResult& tri) {
   // The noise from all the bearings (a robust scale, the median absolute
   // residual in units of each one's spread): the inliers' own RMS is
   // trimmed by the threshold it sets. The first frame's from its inliers
@@ -1254,11 +1259,11 @@ void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, b
     row->n_landmarks = static_cast<int>(tri.inliers.size());
     row->residual = tri.residual;
     row->extra.clear();
-    fr->covariance = ReportedCovariance(*fr, tri);
+    const std::vector<BearingObservation> obs = Observations(*fr);
+    fr->covariance = ReportedCovariance(*fr, obs, tri);
     for (int k = 0; k < 3; ++k) row->extra.push_back(std::sqrt(std::max(0.0, fr->covariance(k, k))));
     row->extra.push_back(fr->integrity.quality);
-    const PoseMeasurement m =
-        MeasurementOf(tri, Observations(*fr), opt_.gate_position_fraction, opt_.gate_heading_sigma);
+    const PoseMeasurement m = MeasurementOf(tri, obs, opt_.gate_position_fraction, opt_.gate_heading_sigma);
     if (!motion_.initialized()) {
       motion_.Reset(row->time_s, tri.pose, m.covariance, motion_options_.max_speed, motion_options_.max_turn_rate);
       motion_updates_ = 1;
@@ -1350,10 +1355,7 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
       accepted = acceptable();
     }
     if (!accepted) {
-      const PoseRow row = fr.row;
-      fr = FrameResult();
-      fr.row = row;
-      fr.predicted_pose = pred;
+      fr = FrameToMeasure(fr.row, pred);
       TrackPredictions(pred, &fr, &tri);
       recentred = RefineAroundSolution(&fr, &tri);
       accepted = acceptable();
@@ -1373,11 +1375,8 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
     if (SurveyEvidence(fr, tri)) UpdateSurveyEstimate(fr, tri);
     if (ProbeSurveyError(fr.predicted_pose)) {
       // Tracked again under the survey error the probe found.
-      const PoseRow row = fr.row;
       const Pose2 pred = fr.predicted_pose;
-      fr = FrameResult();
-      fr.row = row;
-      fr.predicted_pose = pred;
+      fr = FrameToMeasure(fr.row, pred);
       TrackPredictions(pred, &fr, &tri);
       RefineAroundSolution(&fr, &tri);
       accepted = Acceptable(fr, tri) && Consistent(&fr, tri) && AgreesWithMotion(&fr, tri);

@@ -385,7 +385,7 @@ class Localizer {
   // The recent bearing noise and the survey estimate, from an accepted frame.
   void UpdateNoiseEstimates(const FrameResult& fr, const TriangulationResult& tri);
   // Its first part: the recent bearing noise (bearing_sigma_).
-  void UpdateBearingNoise(const FrameResult& fr, const TriangulationResult& tri);
+  void UpdateBearingNoise(const std::vector<BearingObservation>& obs, const TriangulationResult& tri);
   // The survey estimate from the inlier bearings of a solution.
   void UpdateSurveyEstimate(const FrameResult& fr, const TriangulationResult& tri);
   // Whether a solution that was not reported still shows the survey error:
@@ -425,7 +425,9 @@ class Localizer {
   // across its line of sight). A map error that the pose absorbs leaves
   // small residuals exactly where the pose is off by it, and an estimate
   // of the survey error from the residuals can fall short of it.
-  Eigen::Matrix3d ReportedCovariance(const FrameResult& fr, const TriangulationResult& tri) const;
+  // `obs`: the frame's observations (Observations).
+  Eigen::Matrix3d ReportedCovariance(const FrameResult& fr, const std::vector<BearingObservation>& obs,
+                                     const TriangulationResult& tri) const;
   // Whether a frame not reported failed only its alert limit: consistent,
   // of enough quality, agreeing with the motion, its error bound wider
   // than the accuracy asked for (a weak geometry on a measured map).
