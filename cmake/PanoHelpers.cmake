@@ -141,6 +141,17 @@ function(_pano_visit_library lib)
   set(order ${order} PARENT_SCOPE)
 endfunction()
 
+# pano_test_timeout(out seconds): a test's time limit (300 s unless given),
+# times PANO_TEST_TIMEOUT_SCALE: a sanitized build runs the same work 3 - 10x
+# slower, and its limit must bound a hang, not the instrumentation.
+function(pano_test_timeout out seconds)
+  if(NOT seconds)
+    set(seconds 300)
+  endif()
+  math(EXPR seconds "${seconds} * ${PANO_TEST_TIMEOUT_SCALE}")
+  set(${out} ${seconds} PARENT_SCOPE)
+endfunction()
+
 # pano_add_test(FOLDER sensor NAME round_trip SRCS round_trip_test.cc DEPS ...)
 # registers the ctest "sensor/round_trip". LABELS default to "unit".
 function(pano_add_test)
@@ -153,9 +164,7 @@ function(pano_add_test)
   if(NOT ARG_LABELS)
     set(ARG_LABELS unit)
   endif()
-  if(NOT ARG_TIMEOUT)
-    set(ARG_TIMEOUT 300)
-  endif()
+  pano_test_timeout(ARG_TIMEOUT "${ARG_TIMEOUT}")
   set_tests_properties(${ARG_FOLDER}/${ARG_NAME} PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT}
     SKIP_RETURN_CODE 77
     # panoloc's table cache inside the build tree, not in the user's home
@@ -174,9 +183,7 @@ function(pano_add_test_suite)
   if(NOT ARG_LABELS)
     set(ARG_LABELS unit)
   endif()
-  if(NOT ARG_TIMEOUT)
-    set(ARG_TIMEOUT 300)
-  endif()
+  pano_test_timeout(ARG_TIMEOUT "${ARG_TIMEOUT}")
   foreach(tag ${ARG_TAGS})
     add_test(NAME ${ARG_FOLDER}/${tag} COMMAND ${target} "[${tag}]" --warn NoTests)
     set_tests_properties(${ARG_FOLDER}/${tag} PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT}

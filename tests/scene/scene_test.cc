@@ -130,5 +130,27 @@ TEST_CASE("segment occlusion ignores the surfaces a corner lies on", "[occluded]
   CHECK_FALSE(Scene::FromMap(TestMap(), false).Occluded({20, 50, 20}, {20, 99.5, 20}));
 }
 
+TEST_CASE("a corner measured a little behind its wall is hidden only without a plane tolerance",
+          "[occluded_measured]") {
+  const Scene s = Scene::FromMap(TestMap());
+  const Eigen::Vector3d eye(100, 50, 40);
+  // The poster's corner surveyed 1.5 units behind the wall x = 200.
+  const Eigen::Vector3d behind(201.5, 40, 20);
+  CHECK(s.Occluded(eye, behind, 1e-3 * (behind - eye).norm()));
+  CHECK_FALSE(s.Occluded(eye, behind, 1e-3 * (behind - eye).norm(), 4.5));
+  // Further behind than the plane tolerance: hidden.
+  CHECK(s.Occluded(eye, {206, 40, 20}, 1e-3, 4.5));
+  // A surface between, not the one the corner is on, still hides it: the
+  // screen's plane x = 150 is far from a corner behind the wall x = 200.
+  CHECK(s.Occluded({100, 80, 10}, {201, 80, 10}, 1e-3, 4.5));
+  // A ray at a grazing angle to the corner's wall meets it far from the
+  // corner (more than ten plane tolerances along the ray): hidden.
+  const Eigen::Vector3d grazing_eye(100, 99, 40);
+  const Eigen::Vector3d near_wall(190, 100.5, 40);  // 0.5 behind the wall y = 100
+  CHECK(s.Occluded(grazing_eye, near_wall, 1e-3, 0.6));
+  // ... and near it, within the tolerance: seen.
+  CHECK_FALSE(s.Occluded({185, 99, 40}, near_wall, 1e-3, 0.6));
+}
+
 }  // namespace
 }  // namespace pano

@@ -87,6 +87,31 @@ TEST_CASE("landmarks: ids, prediction geometry, polarity, box silhouettes, occlu
   CHECK(thirds_chosen.size() == std::min<size_t>(3, thirds_with_landmarks.size()));
 }
 
+TEST_CASE("landmarks: a door measured a little behind its wall is seen within the survey's tolerance",
+          "[landmarks]") {
+  Map m = OneRoom();
+  m.rectangles[0].from.x() = m.rectangles[0].to.x() = -1.0;  // 1 unit behind the wall x = 0
+  const std::vector<Landmark> lms = LandmarksFromMap(m);
+  const Sensor s = make_sphere_sensor(500, 500, 590, 249.5, 249.5, 1.0, 4.9, 15.1);
+  const Scene scene = Scene::FromMap(m, false);
+  const RadiusTable table = RadiusTable::Build(s, RangesForMap(m, s));
+  const Pose2 pose{60, 110, 0.3};
+  auto doors = [&](const PredictionOptions& o) {
+    int n = 0;
+    for (const PredictedLandmark& p : PredictLandmarks(lms, m, scene, s, table, pose, o))
+      n += p.landmark->id.rfind("door/", 0) == 0;
+    return n;
+  };
+  PredictionOptions measured;
+  CHECK(doors(measured) == 0);  // an exact map's prediction: hidden by the wall
+  measured.surface_tolerance = 1.5;
+  CHECK(doors(measured) == 4);
+  measured.surface_tolerance = 0.9;  // further behind than the tolerance
+  CHECK(doors(measured) == 0);
+  measured.surface_tolerance = -1.0;
+  CHECK_THROWS_AS(measured.Check(), Error);
+}
+
 TEST_CASE("landmarks: SpreadPrediction is SelectSpread(PredictLandmarks) in two parts", "[landmarks]") {
   PANO_SEEDED_RNG(11);
   const Map m = OneRoom();

@@ -43,6 +43,12 @@ const char* map_finding_name(MapFinding f) {
 
 namespace {
 
+// A corner within three of the map's survey sigmas of a wall (behind it,
+// as measured) is not hidden by that wall.
+double OnSurfaceTolerance(const Map& map) {
+  return std::isfinite(map.survey_sigma) ? 3.0 * map.survey_sigma : 0.0;
+}
+
 constexpr double kDeg = 180.0 / M_PI;
 constexpr double kSampleStep = 0.5;  // px between the points of a linear sample
 
@@ -222,7 +228,8 @@ FrameCheck FrameChecker::Measure(const cv::Mat& grey, int frame, const Pose2& po
         if ((r - p.v_radius) * (p.corner_radius - p.v_radius) <= 0 || std::abs(r - p.v_radius) < opt_.corner_gap_px)
           break;  // past the usable end of the edge
         last_r = r;
-        if (scene_.Occluded(eye, l.corner + f * (l.v_end - l.corner), 1e-3 * (l.corner - eye).norm() + 1e-6))
+        if (scene_.Occluded(eye, l.corner + f * (l.v_end - l.corner), 1e-3 * (l.corner - eye).norm() + 1e-6,
+                            OnSurfaceTolerance(map_)))
           continue;
         ++attempted;
         Step st;
@@ -286,7 +293,7 @@ FrameCheck FrameChecker::Measure(const cv::Mat& grey, int frame, const Pose2& po
       double r;
       if (!table_->radius(q.head<2>().norm(), q.z(), &r)) continue;
       const Eigen::Vector3d world = l.corner + t * (l.h_end - l.corner);
-      if (scene_.Occluded(eye, world, 1e-3 * (world - eye).norm() + 1e-6)) continue;
+      if (scene_.Occluded(eye, world, 1e-3 * (world - eye).norm() + 1e-6, OnSurfaceTolerance(map_))) continue;
       ++attempted;
       const double ca = std::cos(az), sa = std::sin(az);
       Step st;

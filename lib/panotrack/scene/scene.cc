@@ -157,7 +157,7 @@ RayHit Scene::Intersect(const Eigen::Vector3d& origin, const Eigen::Vector3d& di
 }
 
 bool Scene::Occluded(const Eigen::Vector3d& from, const Eigen::Vector3d& to,
-                     double tolerance) const {
+                     double tolerance, double plane_tolerance) const {
   const Eigen::Vector3d d = to - from;
   const double len = d.norm();
   if (!(len > tolerance)) return false;
@@ -165,7 +165,11 @@ bool Scene::Occluded(const Eigen::Vector3d& from, const Eigen::Vector3d& to,
   const double max_t = len - tolerance - 1e-9 * len;
   for (int i = 0; i < static_cast<int>(surfaces_.size()); ++i) {
     double t;
-    if (HitSurface(i, from, u, max_t, &t)) return true;
+    if (!HitSurface(i, from, u, max_t, &t)) continue;
+    const Plane& p = planes_[static_cast<size_t>(i)];
+    const bool on_it = std::abs(p.normal.dot(to) - p.offset) <= plane_tolerance * p.normal.norm() &&
+                       len - t <= 10.0 * plane_tolerance;
+    if (!on_it) return true;
   }
   return false;
 }

@@ -55,9 +55,12 @@ class Scene {
 
   // True when a surface cuts the segment from `from` to `to`, ignoring hits
   // within `tolerance` (map units) of `to`, so that a landmark corner is not
-  // hidden by the surfaces it lies on.
+  // hidden by the surfaces it lies on. `plane_tolerance`: nor by a surface
+  // whose plane lies within this of `to`, hit within ten times it of `to`
+  // along the segment (a corner measured a little behind the wall it is
+  // on; a ray at a grazing angle to a nearby surface still stops).
   bool Occluded(const Eigen::Vector3d& from, const Eigen::Vector3d& to,
-                double tolerance = 1e-6) const;
+                double tolerance = 1e-6, double plane_tolerance = 0.0) const;
 
   const std::vector<Surface>& surfaces() const { return surfaces_; }
   // Axis-aligned bounds of all surfaces (zero when empty).

@@ -14,6 +14,8 @@ void PredictionOptions::Check() const {
   if (!(max_radius_margin >= 0.0) || !(image_margin >= 0.0) || !(min_edge_px > 0.0))
     throw Error("prediction: margins: expected non-negative values");
   if (!(min_contrast >= 0.0)) throw Error("prediction: min_contrast: expected >= 0");
+  if (!(surface_tolerance >= 0.0) || !std::isfinite(surface_tolerance))
+    throw Error("prediction: surface_tolerance: expected a length >= 0");
 }
 
 std::vector<Landmark> LandmarksFromMap(const Map& map) {
@@ -168,7 +170,7 @@ bool PredictVisibility(const Scene& scene, const PredictionOptions& opt, const E
                        PredictedLandmark* p) {
   const Landmark& l = *p->landmark;
   const double dist3 = (l.corner - eye).norm();
-  if (scene.Occluded(eye, l.corner, 1e-3 * dist3 + 1e-6)) return false;
+  if (scene.Occluded(eye, l.corner, 1e-3 * dist3 + 1e-6, opt.surface_tolerance)) return false;
   // Expected polarities from the map: the landmark's shade against what
   // lies just beyond each edge.
   const double eps = std::max(0.01 * dist3, 0.5);

@@ -90,6 +90,10 @@ struct PredictionOptions {
   double image_margin = 4.0;          // px inside the image
   double min_contrast = 0.04;         // reflectance difference for a usable edge
   double min_edge_px = 6.0;           // shortest usable edge projection (px)
+  // How far a corner may lie from the surface it is on (map units): a map
+  // measured by hand places some corners a little behind their wall, and
+  // that wall does not hide them (Scene::Occluded's plane tolerance).
+  double surface_tolerance = 0.0;
   void Check() const;
 };
 

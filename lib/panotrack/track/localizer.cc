@@ -150,6 +150,7 @@ Localizer::Localizer(const Calibration& calib, const Map& map,
     room_size_ = (hi - lo).maxCoeff();
   }
   UpdateLandmarkBudget();
+  index_prediction_ = prediction_;
   motion_options_ = opt_.motion.Scaled(map_.UnitsPerMetre());
   motion_ = MotionModel(motion_options_);
   tracker_ = MakeTracker(opt_.method, calib_.sensor, table_, opt_, std::move(ph_tables));
@@ -287,7 +288,7 @@ void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, c
                                 : opt_.exposure_fraction;
   // The landmarks to track, spread in azimuth (SelectSpread): the chosen
   // ones first, the others only when they are needed.
-  SpreadPrediction prediction(landmarks_, map_, scene_, calib_.sensor, *table_, pose, opt_.prediction,
+  SpreadPrediction prediction(landmarks_, map_, scene_, calib_.sensor, *table_, pose, prediction_,
                               azimuth_only ? CoarseLandmarks(opt_, MaxLandmarks()) : MaxLandmarks());
   // The polarities to search for (the map's, or what the images showed),
   // and the expected motion blur.
@@ -392,6 +393,12 @@ void Localizer::UpdateLandmarkBudget() {
   // It changes only with the noise and survey estimates: computed when they
   // change, not on every call in a frame (the mean runs over the whole map).
   max_landmarks_ = opt_.max_landmarks;
+  // A corner within three survey sigmas of a wall (behind it, as measured)
+  // is not hidden by it.
+  double largest = 0.0;
+  for (const Landmark& l : landmarks_) largest = std::max(largest, SurveySigma(l));
+  prediction_ = opt_.prediction;
+  prediction_.surface_tolerance = std::max(opt_.prediction.surface_tolerance, 3.0 * largest);
   if (opt_.max_landmarks != 0 && MeanSurveySigma() / typical_distance_ > ReferenceSigma())
     max_landmarks_ =
         opt_.max_landmarks_uncertain_map == 0 ? 0 : std::max(opt_.max_landmarks, opt_.max_landmarks_uncertain_map);
@@ -579,7 +586,7 @@ bool Localizer::Relocalize(const cv::Mat& grey, bool near_last, FrameResult* fr,
   if (!relocalization_index_) {
     const auto build = [this] {
       return std::make_unique<const RelocalizationIndex>(calib_.sensor, *table_, map_, scene_, landmarks_,
-                                                         opt_.prediction, opt_.relocalize,
+                                                         index_prediction_, opt_.relocalize,
                                                          SearchThreadCount(opt_));
     };
     relocalization_index_ = shared_index_ ? shared_index_->Get(build) : build();
@@ -790,6 +797,12 @@ bool Localizer::ProbeSurveyError(const Pose2& pred) {
     const double level = fraction * typical_distance_;
     if (level <= 1.5 * current) continue;
     probe_sigma_ = level;
+    // The walls of that error (corners behind them in view), but the
+    // landmarks of the error assumed: a longer list under a wide tolerance
+    // lets a wrong pose gather the evidence of a right one.
+    const int budget = max_landmarks_;
+    UpdateLandmarkBudget();
+    max_landmarks_ = budget;
     FrameResult fr;
     fr.predicted_pose = pred;
     TriangulationResult tri;
@@ -799,11 +812,9 @@ bool Localizer::ProbeSurveyError(const Pose2& pred) {
     for (const auto& m : fr.measurements) n_found += m.found;
     const bool agree = SurveyEvidence(fr, tri) && Consistent(&fr, tri) && 3 * tri.inliers.size() >= 2 * n_found;
     probe_sigma_ = 0.0;
-    if (agree) {
-      survey_.Provisional(level);
-      UpdateLandmarkBudget();
-      return true;
-    }
+    if (agree) survey_.Provisional(level);
+    UpdateLandmarkBudget();
+    if (agree) return true;
   }
   return false;
 }

@@ -380,7 +380,7 @@ class Localizer {
   // Whether the map's survey error limits the bearings (more landmarks
   // are tracked for it).
   bool SurveyLimits() const { return max_landmarks_ != opt_.max_landmarks; }
-  // Sets max_landmarks_ from the noise and survey estimates.
+  // Sets max_landmarks_ and prediction_ from the noise and survey estimates.
   void UpdateLandmarkBudget();
   // The recent bearing noise and the survey estimate, from an accepted frame.
   void UpdateNoiseEstimates(const FrameResult& fr, const TriangulationResult& tri);
@@ -540,6 +540,10 @@ class Localizer {
   double room_size_ = 1.0;
   SurveyErrorEstimate survey_;
   int max_landmarks_ = 0;  // MaxLandmarks
+  // opt_.prediction, with the surface tolerance of the survey error now
+  // assumed (tracking) and of the map's statement (the relocalisation
+  // index, built once and shared between inputs).
+  PredictionOptions prediction_, index_prediction_;
   // Per landmark: its bearing residual on the last accepted frame that had
   // it as an inlier, and that frame (SuddenResiduals).
   std::vector<double> residual_memory_;
