@@ -421,7 +421,9 @@ def localize_bag(path, topic=None, calibration=None, map=None, method="junction"
     is converted to grey as panoloc converts image files and tracked by the
     same localiser (panotrack.Localizer) at its header stamp; the rows are
     the ones panoloc would write to its pose CSV for those frames (same
-    rounding), time_s the stamp in seconds. Returns a numpy structured array
+    rounding), time_s the stamp in seconds (the localiser's motion model is
+    given the time since the first frame, so that the rows do not depend on
+    where the stamps' clock starts). Returns a numpy structured array
     of POSE_DTYPE; with return_summary, also a dict: input, topic, end (done,
     incomplete, not tracked, interrupted), error, frames, n_ok, n_lost,
     seconds, stamp_ns (int64 per row), covariance (per row, 3 x 3 over x, y,
@@ -450,11 +452,13 @@ def localize_bag(path, topic=None, calibration=None, map=None, method="junction"
     end, error = "done", None
     prefetch = None
     try:
+        # The first frame is decoded before the localiser's set-up: a frame
+        # that cannot be read fails at once.
+        frames = iter(source)
+        first = next(frames, None)
         loc = Localizer(calibration, map, method=method, init=init, num_threads=num_threads, **localizer_options)
         sensor = loc.calibration.sensor
         size = (sensor.image_width, sensor.image_height)
-        frames = iter(source)
-        first = next(frames, None)
         if first is not None:
             h, w = first[0].shape
             if (w, h) != size:
@@ -469,7 +473,13 @@ def localize_bag(path, topic=None, calibration=None, map=None, method="junction"
                     error = (f"frame {index} is {grey.shape[1]}x{grey.shape[0]}, the frames before it "
                              f"{size[0]}x{size[1]}")
                     break
-                r = loc.track(grey, stamp / 1_000_000_000)
+                # The localiser is given the time since the first frame (its
+                # motion model needs only differences, which 1.7e9 s epoch
+                # times would round); the row keeps the stamp.
+                if not stamps:
+                    stamp0 = stamp
+                r = loc.track(grey, (stamp - stamp0) / 1_000_000_000)
+                r["time_s"] = stamp / 1_000_000_000
                 results.append(r)
                 stamps.append(stamp)
                 if on_frame is not None:
@@ -587,7 +597,8 @@ def write_pose_mcap(path, rows, covariance, stamp_ns=None, metres_per_unit=1.0, 
                 x, y = float(row["x"]) * s, float(row["y"]) * s
                 q = Quaternion(*_yaw_quaternion(float(row["theta_rad"])))
                 cov6 = np.zeros((6, 6))
-                cov6[np.ix_(index6, index6)] = covariance[i] * np.outer(scale6, scale6)
+                c = 0.5 * (covariance[i] + covariance[i].T)  # symmetric to the last bit
+                cov6[np.ix_(index6, index6)] = c * np.outer(scale6, scale6)
                 pose = PoseCovStamped(header=Header(stamp=stamp, frame_id=map_frame),
                                       pose=PoseCov(pose=Pose(position=Point(x, y, 0.0), orientation=q),
                                                    covariance=cov6.reshape(36)))
