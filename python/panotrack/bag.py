@@ -19,6 +19,7 @@ import math
 import os
 import pathlib
 import queue
+import re
 import threading
 import time
 
@@ -87,10 +88,18 @@ def _kind(path):
 
 
 def _reason(err):
-    """One line from a reader's exception."""
-    text = " ".join(str(a) for a in err.args) if err.args else ""
-    text = " ".join(text.split()) or type(err).__name__
-    return text
+    """One line from a reader's exception (its arguments, nested tuples
+    flattened: rosbags passes on the messages of the errors it caught)."""
+    def flat(args):
+        for a in args:
+            if isinstance(a, (tuple, list)):
+                yield from flat(a)
+            else:
+                yield str(a)
+    text = " ".join(" ".join(flat(err.args)).split())
+    # A message quoted as a one-element tuple's repr: the message.
+    text = re.sub(r"""\(['"](.*?)['"],\)""", r"\1", text)
+    return text or type(err).__name__
 
 
 class _Recording:
@@ -105,7 +114,7 @@ class _Recording:
             self.reader = AnyReader([pathlib.Path(path)], default_typestore=get_typestore(store))
             self.reader.open()
         except Exception as e:  # the readers' own, sqlite3's, struct's, zstd's...
-            _fail(path, f"truncated or damaged ({_reason(e)})" if not isinstance(e, MemoryError) else "out of memory")
+            _fail(path, f"truncated or damaged ({_reason(e)})")
 
     def close(self):
         try:
