@@ -282,6 +282,10 @@ def test_bad_recordings_give_one_line(sequence, grey, tmp_path):
     assert bad(sequence, p, "/camera/missing") == f"{p}: no topic '/camera/missing' (image topics: {TOPIC})"
     assert bad(sequence, p, "/odom") == \
         f"{p}: topic '/odom' holds std_msgs/msg/String, not sensor_msgs/Image or sensor_msgs/CompressedImage"
+    # The only image topic is taken when none is named.
+    frames = bag.BagFrames(p)
+    assert (frames.topic, frames.msgtype, frames.count) == (TOPIC, bag.IMAGE_TYPE, 1)
+    frames.close()
     # A topic named without its leading slash is found.
     rows = pt.localize_bag(p, TOPIC[1:], sequence / "calib.yaml", sequence / "map.yaml", init=case_init(sequence))
     assert len(rows) == 1 and rows["time_s"][0] == 1.0
@@ -341,3 +345,15 @@ def test_pose_mcap_refuses_inputs_and_existing(tmp_path):
     assert (p.pose.pose.position.x, p.pose.pose.position.y) == (0.01, 0.02)
     cov6 = np.array(p.pose.covariance).reshape(6, 6)
     np.testing.assert_allclose(cov6[np.ix_([0, 1, 5], [0, 1, 5])], np.diag([1e-6, 4e-6, 1e-4]), rtol=1e-12)
+
+
+def test_frame_of_another_size_ends_the_run(sequence, grey, tmp_path):
+    # As panoloc for a video: the rows before it are kept, the run is
+    # incomplete (a warning without return_summary).
+    frames = [grey[0], grey[1], np.zeros((240, 320), np.uint8), grey[2]]
+    path = tmp_path / "sizes.mcap"
+    bag.write_image_bag(path, frames, [i * STEP_NS for i in range(4)], topic=TOPIC)
+    with pytest.warns(RuntimeWarning, match="localize_bag: incomplete: frame 2 is 320x240, the frames before it "
+                                            "500x500"):
+        rows = pt.localize_bag(path, TOPIC, sequence / "calib.yaml", sequence / "map.yaml", init=case_init(sequence))
+    assert rows["frame"].tolist() == [0, 1] and (rows["status"] == "ok").all()
