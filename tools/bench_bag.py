@@ -18,7 +18,6 @@ Needs rosbags, mcap and cv2 (scripts/install-deps.sh) and about 2.5 GB of
 disk in WORK.
 """
 import argparse
-import os
 import pathlib
 import statistics
 import subprocess

@@ -25,7 +25,6 @@ import time
 
 import numpy as np
 
-from . import _panotrack
 from ._panotrack import Error, Localizer
 
 __all__ = ["localize_bag", "read_bag_frames", "BagFrames", "bag_topics", "write_pose_mcap", "write_image_bag",
