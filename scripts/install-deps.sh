@@ -21,9 +21,10 @@ if [ "${#missing[@]}" -gt 0 ]; then
 fi
 # The Python packages that read and write robot recordings (panotrack.bag:
 # ROS 1 and ROS 2 bags, MCAP files), which Debian does not package: from PyPI
-# into the system's interpreter, as the tests run with it.
+# into the system's interpreter, as the tests run with it. numpy stays
+# Debian's 1.x: the module built with Debian's pybind11 2.10 refuses numpy 2.
 if ! /usr/bin/python3 -c "import rosbags.highlevel, mcap.writer, mcap_ros2.decoder" 2>/dev/null; then
   echo "install-deps: installing rosbags, mcap and mcap-ros2-support from PyPI" >&2
   $SUDO /usr/bin/python3 -m pip install -q --break-system-packages --disable-pip-version-check \
-    "rosbags>=0.11" "mcap>=1.1" "mcap-ros2-support>=0.5"
+    "rosbags>=0.11" "mcap>=1.1" "mcap-ros2-support>=0.5" "numpy<2"
 fi
