@@ -2,7 +2,8 @@
 
 The sensor model (project, backproject, E(D, Z)), calibration and map files,
 calibration from chessboard images, and localisation (per frame or through a
-whole video, as panoloc) from the C++ library, with numpy arrays in and out.
+whole video, as panoloc, or through a robot's recording: localize_bag) from
+the C++ library, with numpy arrays in and out.
 """
 
 import copy
@@ -41,7 +42,7 @@ from . import _panotrack
 __all__ = [
     "Calibration", "CalibrationResult", "Error", "FrameReader", "Localizer", "Map", "ParameterEstimate",
     "Sensor", "calibrate", "read_calibration", "read_map", "sphere_sensor", "write_calibration",
-    "write_map", "localize_video", "POSE_DTYPE",
+    "write_map", "localize_video", "POSE_DTYPE", "localize_bag", "write_pose_mcap",
 ]
 
 __version__ = "0.1.0"
@@ -103,3 +104,8 @@ def localize_video(path, calibration, map, method="junction", init=None, fps=0.0
     if summary["end"] != "done" and not return_summary:
         warnings.warn(f"localize_video: {summary['end']}: {summary['error']}", RuntimeWarning, stacklevel=2)
     return (rows, summary) if return_summary else rows
+
+
+# Recordings (ROS 1 and ROS 2 bags, MCAP files): their readers (rosbags,
+# mcap, cv2) are imported when first used.
+from .bag import localize_bag, write_pose_mcap  # noqa: E402
