@@ -5,7 +5,7 @@ messages in a new MCAP file.
 The frames of one camera topic (sensor_msgs/Image or
 sensor_msgs/CompressedImage) are converted to 8-bit grey as panoloc
 converts the frames of an image folder (OpenCV's BGR to grey weights,
-16-bit values saturated to 8 bits as OpenCV's convertTo does) and tracked
+16-bit values by their high byte, as cv_bridge does) and tracked
 one by one by panotrack.Localizer, the localiser panoloc runs: a recording
 and an image folder of the same frames give the same rows.
 
@@ -172,8 +172,9 @@ def _to_grey(image, path, index):
     elif image.ndim != 2:
         _fail(path, f"message {index}: an image of {image.shape[2]} channels")
     if image.dtype != np.uint8:
-        # OpenCV's convertTo to 8 bits: rounded and saturated.
-        image = np.clip(np.rint(image), 0, 255).astype(np.uint8)
+        # 16 bits to 8 by the high byte (the camera's full range, as
+        # cv_bridge does), rounded and saturated as OpenCV's convertTo.
+        image = np.clip(np.rint(image.astype(np.float64) / 256.0), 0, 255).astype(np.uint8)
     return image
 
 
@@ -635,7 +636,7 @@ def write_image_bag(path, frames, stamp_ns, topic="/camera/image", encoding="mon
     frames: uint8 grey (H x W) or BGR (H x W x 3) arrays; stamp_ns: each
     frame's header stamp in nanoseconds (also its recording time).
     encoding: a sensor_msgs/Image encoding (mono8, bgr8, rgb8, mono16: the
-    grey values unchanged in 16 bits) or jpeg / png for
+    grey values in the high byte, a 16-bit camera's range) or jpeg / png for
     sensor_msgs/CompressedImage (OpenCV's encoders, `jpeg_quality`).
     Returns the number of messages written.
     """
@@ -668,7 +669,7 @@ def write_image_bag(path, frames, stamp_ns, topic="/camera/image", encoding="mon
         if encoding == "mono8":
             img = frame if not colour else cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
         elif encoding == "mono16":
-            img = (frame if not colour else cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)).astype("<u2")
+            img = (frame if not colour else cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)).astype("<u2") << 8
         else:
             img = frame if colour else cv2.cvtColor(frame, cv2.COLOR_GRAY2BGR)
             if encoding == "rgb8":

@@ -3,6 +3,8 @@
 #include <catch2/catch.hpp>
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <utility>
 
 #include "test_paths.h"
 #include "test_skip.h"
@@ -197,6 +199,31 @@ TEST_CASE("an unreadable image in a folder or a pattern is an error after the go
   CHECK(r.error ==
         dir + "/from1/g_%s.pgm: unsupported pattern (one %d conversion expected, e.g. frame_%04d.png)");
   for (double t : r.times) CHECK(std::isnan(t));
+}
+
+TEST_CASE("16-bit and floating point images are read as a camera's full range in 8 bits", "[image_depth]") {
+  const std::string dir = test::ScratchDir("video_image_depth");
+  cv::Mat grey(48, 64, CV_8U);
+  for (int y = 0; y < grey.rows; ++y)
+    for (int x = 0; x < grey.cols; ++x) grey.at<uint8_t>(y, x) = static_cast<uint8_t>((x * 4 + y) % 256);
+  cv::Mat wide, colour, real;
+  grey.convertTo(wide, CV_16U, 256.0);  // the 8-bit image in the high byte
+  cv::cvtColor(wide, colour, cv::COLOR_GRAY2BGR);
+  grey.convertTo(real, CV_32F, 1.0 / 255);
+  for (const auto& [name, image] : {std::pair<std::string, cv::Mat>{"grey16.png", wide}, {"colour16.png", colour},
+                                    {"float.tiff", real}}) {
+    std::filesystem::create_directories(dir + "/" + name);
+    const std::string file = dir + "/" + name + "/" + name;
+    REQUIRE(cv::imwrite(file, image));
+    REQUIRE(cv::imread(file, cv::IMREAD_UNCHANGED).depth() == image.depth());
+    FrameSource source(dir + "/" + name, FrameSourceOptions());
+    cv::Mat read;
+    double t;
+    REQUIRE(source.Read(&read, &t));
+    INFO(name);
+    REQUIRE(read.type() == CV_8U);
+    CHECK(cv::norm(read, grey, cv::NORM_INF) == 0);
+  }
 }
 
 }  // namespace

@@ -72,7 +72,12 @@ void ToGrey(const cv::Mat& in, cv::Mat* out) {
   if (in.channels() == 3) cv::cvtColor(in, *out, cv::COLOR_BGR2GRAY);
   else if (in.channels() == 4) cv::cvtColor(in, *out, cv::COLOR_BGRA2GRAY);
   else in.copyTo(*out);  // into *out's buffer when it has the size already
-  if (out->depth() != CV_8U) out->convertTo(*out, CV_8U);
+  // A camera's full range to 8 bits: 16-bit values by their high byte (as
+  // cv_bridge does), floating point ones as 0 - 1.
+  const int depth = out->depth();
+  if (depth == CV_16U || depth == CV_16S) out->convertTo(*out, CV_8U, 1.0 / 256);
+  else if (depth == CV_32F || depth == CV_64F) out->convertTo(*out, CV_8U, 255.0);
+  else if (depth != CV_8U) out->convertTo(*out, CV_8U);
 }
 
 // A frame handed out as decoded has waited in the prefetch queue and left
