@@ -25,6 +25,7 @@ import time
 
 import numpy as np
 
+from . import POSE_DTYPE, _panotrack
 from ._panotrack import Error, Localizer
 
 __all__ = ["localize_bag", "read_bag_frames", "BagFrames", "bag_topics", "write_pose_mcap", "write_image_bag",
@@ -355,68 +356,33 @@ def _wrap(theta):
     return math.atan2(math.sin(theta), math.cos(theta))
 
 
-def _fixed(v, digits):
-    return "%.*f" % (digits, v)
-
-
 def format_pose_row(row):
     """A POSE_DTYPE row (or a dict of track()'s keys) as the line panoloc
-    writes to its pose CSV (no newline): %.6f times and angles, %.4f
-    positions and residuals, %.6g standard deviations and quality, empty
-    fields for what a row does not have."""
+    writes to its pose CSV (no newline; the library's own formatting)."""
     get = row.__getitem__
     theta = get("theta_rad") if "theta_rad" in _names(row) else get("theta")
-    parts = [str(int(get("frame"))), _fixed(float(get("time_s")), 6)]
-    if str(get("status")) == "lost":
-        parts += ["", "", "", "lost", str(int(get("n_landmarks"))), ""]
-    else:
-        parts += [_fixed(float(get("x")), 4), _fixed(float(get("y")), 4), _fixed(float(theta), 6),
-                  str(get("status")), str(int(get("n_landmarks"))), _fixed(float(get("residual")), 4)]
-    for k in ("std_x", "std_y", "std_theta", "quality"):
-        v = float(get(k))
-        parts.append("%.6g" % v if math.isfinite(v) else "")
-    return ",".join(parts)
+    return _panotrack._format_pose_row(
+        int(get("frame")), float(get("time_s")), str(get("status")), float(get("x")), float(get("y")),
+        float(theta), int(get("n_landmarks")), float(get("residual")),
+        [float(get(k)) for k in ("std_x", "std_y", "std_theta", "quality")])
 
 
 def _names(row):
     return row.dtype.names if hasattr(row, "dtype") else row.keys()
 
 
-POSE_CSV_HEADER = "frame,time_s,x,y,theta_rad,status,n_landmarks,residual,std_x,std_y,std_theta,quality"
+POSE_CSV_HEADER = ",".join(POSE_DTYPE.names)  # panoloc's columns
 
 
 def round_pose_rows(results):
     """track() results as a POSE_DTYPE array holding what panoloc's CSV
     holds: each value rounded as the CSV writes it and read back."""
-    from . import POSE_DTYPE
     rows = np.empty(len(results), dtype=POSE_DTYPE)
     for i, r in enumerate(results):
         f = format_pose_row(r).split(",")
         rows[i] = (int(f[0]), float(f[1]), *(float(v) if v else math.nan for v in f[2:5]), f[5], int(f[6]),
                    *(float(v) if v else math.nan for v in f[7:]))
     return rows
-
-
-def _initial_pose_beside(path):
-    """initial_pose of the case.yaml beside the recording (a bag folder's
-    own, then one folder up), as panoloc takes it; None without one."""
-    p = pathlib.Path(path).resolve()
-    folder = p if p.is_dir() else p.parent
-    for d in (folder, folder.parent):
-        case = d / "case.yaml"
-        if case.exists():
-            try:
-                from ruamel.yaml import YAML
-                doc = YAML(typ="safe", pure=True).load(case.read_text())
-            except Exception as e:
-                _fail(case, f"cannot read the case file ({_reason(e)})")
-            pose = (doc or {}).get("initial_pose") if isinstance(doc, dict) else None
-            if pose is not None:
-                try:
-                    return float(pose["x"]), float(pose["y"]), float(pose["theta"])
-                except (KeyError, TypeError, ValueError):
-                    _fail(case, "initial_pose: expected x, y and theta")
-    return None
 
 
 def localize_bag(path, topic=None, calibration=None, map=None, method="junction", init=None, num_threads=0,
@@ -453,7 +419,7 @@ def localize_bag(path, topic=None, calibration=None, map=None, method="junction"
         raise TypeError("localize_bag: calibration and map are required")
     path = os.fspath(path)
     if init is None:
-        init = _initial_pose_beside(path)
+        init = _panotrack._initial_pose_beside(path)
     start = time.monotonic()
     # The recording and its topic are checked before the localiser's set-up.
     source = BagFrames(path, topic)

@@ -352,6 +352,34 @@ void BindLocalize(py::module_& m) {
         py::arg("gt"), py::arg("search_px") = defaults.search_px, py::arg("min_step") = defaults.junction.min_step,
         py::arg("alert_fraction") = defaults.alert_fraction);
 
+  m.def(
+      "_format_pose_row",
+      [](int frame, double time_s, const std::string& status, double x, double y, double theta, int n_landmarks,
+         double residual, const std::vector<double>& extra) {
+        PoseRow row;
+        row.frame = frame;
+        row.time_s = time_s;
+        if (status == "ok") row.status = PoseStatus::kOk;
+        else if (status == "lost") row.status = PoseStatus::kLost;
+        else if (status == "init") row.status = PoseStatus::kInit;
+        else throw Error("pose row: status: expected ok, lost or init, got '" + status + "'");
+        row.pose = {x, y, theta};
+        row.n_landmarks = n_landmarks;
+        row.residual = residual;
+        row.extra = extra;
+        return FormatPoseRow(row);
+      },
+      py::arg("frame"), py::arg("time_s"), py::arg("status"), py::arg("x"), py::arg("y"), py::arg("theta"),
+      py::arg("n_landmarks"), py::arg("residual"), py::arg("extra"),
+      "The line panoloc writes to its pose CSV for one row (no newline)");
+  m.def(
+      "_initial_pose_beside",
+      [](const py::object& input) -> py::object {
+        const std::optional<Pose2> p = InitialPoseBeside(PathOf(input));
+        return p ? py::object(py::make_tuple(p->x, p->y, p->theta)) : py::object(py::none());
+      },
+      py::arg("input"), "initial_pose of the case.yaml beside an input (or one folder up), as panoloc takes it");
+
   py::class_<PyFrameReader>(m, "FrameReader",
                             "Iterates over the grey frames (uint8 H x W, time_s) of a video, image folder or "
                             "printf pattern, decoded as panoloc decodes them")

@@ -389,19 +389,27 @@ double Localizer::MeanSurveySigma() const {
   return landmarks_.empty() ? 0.0 : sum / static_cast<double>(landmarks_.size());
 }
 
+double Localizer::LargestSurveySigma() const {
+  double largest = 0.0;
+  for (const Landmark& l : landmarks_) largest = std::max(largest, SurveySigma(l));
+  return largest;
+}
+
 void Localizer::UpdateLandmarkBudget() {
   // It changes only with the noise and survey estimates: computed when they
   // change, not on every call in a frame (the mean runs over the whole map).
   max_landmarks_ = opt_.max_landmarks;
-  // A corner within three survey sigmas of a wall (behind it, as measured)
-  // is not hidden by it.
-  double largest = 0.0;
-  for (const Landmark& l : landmarks_) largest = std::max(largest, SurveySigma(l));
-  prediction_ = opt_.prediction;
-  prediction_.surface_tolerance = std::max(opt_.prediction.surface_tolerance, 3.0 * largest);
+  UpdatePrediction();
   if (opt_.max_landmarks != 0 && MeanSurveySigma() / typical_distance_ > ReferenceSigma())
     max_landmarks_ =
         opt_.max_landmarks_uncertain_map == 0 ? 0 : std::max(opt_.max_landmarks, opt_.max_landmarks_uncertain_map);
+}
+
+void Localizer::UpdatePrediction() {
+  // A corner within three survey sigmas of a wall (behind it, as measured)
+  // is not hidden by it.
+  prediction_ = opt_.prediction;
+  prediction_.surface_tolerance = std::max(opt_.prediction.surface_tolerance, 3.0 * LargestSurveySigma());
 }
 
 double Localizer::SearchWidth(const PredictedLandmark& p, double search_px) const {
@@ -791,8 +799,7 @@ bool Localizer::ProbeSurveyError(const Pose2& pred) {
   // tolerance (or its search windows) by a few of its sigmas, which the
   // right level explains. Most of what is found must agree: a wrong pose
   // fits a few bearings within a wide tolerance, not most of them.
-  double current = 0.0;
-  for (const Landmark& l : landmarks_) current = std::max(current, SurveySigma(l));
+  const double current = LargestSurveySigma();
   for (double fraction : {0.0025, 0.005, 0.01, 0.02, opt_.survey.max_fraction}) {
     const double level = fraction * typical_distance_;
     if (level <= 1.5 * current) continue;
@@ -800,9 +807,7 @@ bool Localizer::ProbeSurveyError(const Pose2& pred) {
     // The walls of that error (corners behind them in view), but the
     // landmarks of the error assumed: a longer list under a wide tolerance
     // lets a wrong pose gather the evidence of a right one.
-    const int budget = max_landmarks_;
-    UpdateLandmarkBudget();
-    max_landmarks_ = budget;
+    UpdatePrediction();
     FrameResult fr;
     fr.predicted_pose = pred;
     TriangulationResult tri;

@@ -374,6 +374,7 @@ class Localizer {
   // over the map's landmarks.
   double SurveySigma(const Landmark& l) const;
   double MeanSurveySigma() const;
+  double LargestSurveySigma() const;
   // Landmarks to track per frame (0: all): max_landmarks, or more where
   // the survey error dominates (max_landmarks_uncertain_map).
   int MaxLandmarks() const { return max_landmarks_; }
@@ -382,6 +383,8 @@ class Localizer {
   bool SurveyLimits() const { return max_landmarks_ != opt_.max_landmarks; }
   // Sets max_landmarks_ and prediction_ from the noise and survey estimates.
   void UpdateLandmarkBudget();
+  // Sets prediction_'s surface tolerance from the survey error assumed.
+  void UpdatePrediction();
   // The recent bearing noise and the survey estimate, from an accepted frame.
   void UpdateNoiseEstimates(const FrameResult& fr, const TriangulationResult& tri);
   // Its first part: the recent bearing noise (bearing_sigma_).
