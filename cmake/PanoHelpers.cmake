@@ -152,6 +152,18 @@ function(pano_test_timeout out seconds)
   set(${out} ${seconds} PARENT_SCOPE)
 endfunction()
 
+# pano_long_test(NAME COMMAND...): registers a long test (label "long"). With
+# PANO_LONG_TESTS off it is registered as one that reports itself skipped.
+function(pano_long_test name)
+  if(PANO_LONG_TESTS)
+    add_test(NAME ${name} COMMAND ${ARGN})
+  else()
+    add_test(NAME ${name} COMMAND sh -c
+      "echo '${name}: a long test, skipped (PANO_LONG_TESTS is OFF; configure with -DPANO_LONG_TESTS=ON)'; exit 77")
+  endif()
+  set_tests_properties(${name} PROPERTIES SKIP_RETURN_CODE 77)
+endfunction()
+
 # pano_add_test(FOLDER sensor NAME round_trip SRCS round_trip_test.cc DEPS ...)
 # registers the ctest "sensor/round_trip". LABELS default to "unit".
 function(pano_add_test)
@@ -173,9 +185,10 @@ endfunction()
 
 # pano_add_test_suite(FOLDER sensor SRCS a_test.cc b_test.cc DEPS ... TAGS round_trip jet)
 # builds one executable and registers one ctest per Catch tag: "sensor/round_trip"
-# runs the cases tagged [round_trip]. A tag that matches no case fails.
+# runs the cases tagged [round_trip]. A tag that matches no case fails. Tags
+# also in LONG_TAGS are long tests (pano_long_test), labelled "long" as well.
 function(pano_add_test_suite)
-  cmake_parse_arguments(ARG "" "FOLDER;TIMEOUT" "SRCS;DEPS;TAGS;LABELS" ${ARGN})
+  cmake_parse_arguments(ARG "" "FOLDER;TIMEOUT" "SRCS;DEPS;TAGS;LABELS;LONG_TAGS" ${ARGN})
   set(target test_${ARG_FOLDER})
   add_executable(${target} ${ARG_SRCS})
   target_link_libraries(${target} PRIVATE ${ARG_DEPS} pano_test_main)
@@ -184,9 +197,15 @@ function(pano_add_test_suite)
     set(ARG_LABELS unit)
   endif()
   pano_test_timeout(ARG_TIMEOUT "${ARG_TIMEOUT}")
-  foreach(tag ${ARG_TAGS})
-    add_test(NAME ${ARG_FOLDER}/${tag} COMMAND ${target} "[${tag}]" --warn NoTests)
-    set_tests_properties(${ARG_FOLDER}/${tag} PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT}
+  foreach(tag ${ARG_TAGS} ${ARG_LONG_TAGS})
+    set(labels ${ARG_LABELS})
+    if(tag IN_LIST ARG_LONG_TAGS)
+      pano_long_test(${ARG_FOLDER}/${tag} ${target} "[${tag}]" --warn NoTests)
+      list(APPEND labels long)
+    else()
+      add_test(NAME ${ARG_FOLDER}/${tag} COMMAND ${target} "[${tag}]" --warn NoTests)
+    endif()
+    set_tests_properties(${ARG_FOLDER}/${tag} PROPERTIES LABELS "${labels}" TIMEOUT ${ARG_TIMEOUT}
       SKIP_RETURN_CODE 77
       # panoloc's table cache inside the build tree, not in the user's home
       ENVIRONMENT "PANO_BIN_DIR=${PROJECT_BINARY_DIR}/bin;XDG_CACHE_HOME=${PROJECT_BINARY_DIR}/test-cache")

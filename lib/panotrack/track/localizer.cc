@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <numeric>
 #include <utility>
 
 #include <Eigen/Eigenvalues>
@@ -44,6 +45,8 @@ void LocalizerOptions::Check() const {
     throw Error("localiser: unknown_turn_per_frame: expected 0..pi radians");
   if (!(compass_first_turn >= 0.0)) throw Error("localiser: compass_first_turn: expected >= 0 radians");
   if (!(lost_search_growth >= 1.0)) throw Error("localiser: lost_search_growth: expected >= 1");
+  if (min_spare_bearings_with_outliers < 0)
+    throw Error("localiser: min_spare_bearings_with_outliers >= 0 expected");
   if (relocalize_after < 0 || relocalize_min_landmarks < 3)
     throw Error("localiser: relocalize_after >= 0 and relocalize_min_landmarks >= 3 expected");
   if (num_threads < 0) throw Error("localiser: num_threads: expected 0 (all cores) or more");
@@ -697,8 +700,11 @@ bool Localizer::Acceptable(const FrameResult& fr, const TriangulationResult& tri
   const size_t n_first = std::max(n_chosen, static_cast<size_t>(SurveyChosenLandmarks(fr)));
   double n_counted = static_cast<double>(n_chosen);
   for (size_t i = n_first; i < fr.measurements.size(); ++i) n_counted += fr.measurements[i].found;
-  return tri.rms_bearing <= opt_.max_rms_bearing &&
-         (n_counted < 8 || tri.inliers.size() >= opt_.min_inlier_fraction * n_counted);
+  if (tri.rms_bearing > opt_.max_rms_bearing ||
+      (n_counted >= 8 && tri.inliers.size() < opt_.min_inlier_fraction * n_counted))
+    return false;
+  return LeftOutBearings(fr, tri) == 0 ||
+         DistinctBearings(Observations(fr), tri.inliers) - 3 >= opt_.min_spare_bearings_with_outliers;
 }
 
 namespace {
@@ -822,6 +828,13 @@ bool Localizer::ProbeSurveyError(const Pose2& pred) {
     if (agree) return true;
   }
   return false;
+}
+
+int Localizer::LeftOutBearings(const FrameResult& fr, const TriangulationResult& tri) const {
+  const std::vector<BearingObservation> obs = Observations(fr);
+  std::vector<int> all(obs.size());
+  std::iota(all.begin(), all.end(), 0);
+  return DistinctBearings(obs, all) - DistinctBearings(obs, tri.inliers);
 }
 
 Eigen::Matrix3d Localizer::ReportedCovariance(const FrameResult& fr, const std::vector<BearingObservation>& obs,

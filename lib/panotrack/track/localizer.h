@@ -133,6 +133,11 @@ struct LocalizerOptions {
   // least 8 were predicted): a few wrong junctions can triangulate exactly.
   double max_rms_bearing = 0.5 * M_PI / 180;
   double min_inlier_fraction = 0.5;
+  // ... and, where the consensus left found bearings out, at least this
+  // many spare distinct bearings among its inliers (beyond the three a pose
+  // takes): with one, a single consistency test cannot tell that the rest
+  // is off too (a map wrong everywhere lets four bearings agree by chance).
+  int min_spare_bearings_with_outliers = 2;
   // After this many consecutive lost frames, search the whole room for the
   // pose (0: never). Relocalisation accepts a pose only with at least
   // relocalize_min_landmarks inliers.
@@ -399,6 +404,8 @@ class Localizer {
   // its bearings agree (a consensus of most found, consistent, agreeing
   // with the motion) becomes the provisional survey sigma. True if one did.
   bool ProbeSurveyError(const Pose2& pred);
+  // The found bearings (distinct) that a solution left out.
+  int LeftOutBearings(const FrameResult& fr, const TriangulationResult& tri) const;
   // An accepted frame before the survey error is known whose own residuals
   // show a clearly larger one than assumed (1.5x): that error becomes the
   // provisional sigma and the frame is tracked again under it around its
