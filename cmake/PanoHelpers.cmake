@@ -152,8 +152,9 @@ function(pano_test_timeout out seconds)
   set(${out} ${seconds} PARENT_SCOPE)
 endfunction()
 
-# pano_long_test(NAME COMMAND...): registers a long test (label "long"). With
-# PANO_LONG_TESTS off it is registered as one that reports itself skipped.
+# pano_long_test(NAME COMMAND...): registers a long test (its caller adds the
+# label "long"). With PANO_LONG_TESTS off it is registered as one that
+# reports itself skipped.
 function(pano_long_test name)
   if(PANO_LONG_TESTS)
     add_test(NAME ${name} COMMAND ${ARGN})

@@ -7,6 +7,7 @@
 #include <catch2/catch.hpp>
 
 #include <filesystem>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -67,14 +68,13 @@ void CheckAgreement(const Agreement& a, double refined_tolerance = 0.10) {
   CHECK(a.evaluate_raw == Approx(a.calibrate_raw).epsilon(0.10));
 }
 
-// The rendered boards of `preset` under `cases` (a null name ends the list).
-void CheckRenderedAgreement(const char* preset, const Case* cases) {
+// The rendered boards of `preset` under `cases`.
+void CheckRenderedAgreement(const char* preset, const std::vector<Case>& cases) {
   const Calibration truth = MakePreset(preset).calib;
   const std::string dir = test::RenderTargets(std::string("calibrate_agreement_") + preset, truth, 10, 7);
   const TargetSet targets = ReadTargets(dir + "/targets_unknown.yaml");
   const std::vector<cv::Mat> images = LoadTargetImages(targets);
-  for (const Case* p = cases; p->name != nullptr; ++p) {
-    const Case& c = *p;
+  for (const Case& c : cases) {
     INFO(preset << ", " << c.name);
     const Agreement a = CalibrateThenEvaluate(targets, images, c, dir);
     // The exceptions left, on the faulty rig (k1 -0.03): the sphere without
@@ -96,29 +96,24 @@ void CheckRenderedAgreement(const char* preset, const Case* cases) {
   }
 }
 
-const Case kEnd = {nullptr, MirrorModel::kSphere, false};
-
 TEST_CASE("calibrate and evaluate agree on rendered boards: an aligned rig, every model", "[calibrate_evaluate]") {
-  const Case cases[] = {kCases[0], kCases[1], kCases[2], kCases[3], kEnd};
-  CheckRenderedAgreement("paper-real", cases);
+  CheckRenderedAgreement("paper-real", {std::begin(kCases), std::end(kCases)});
 }
 
 // The default and the faults-free conic (the two exceptions' kinds) ...
 TEST_CASE("calibrate and evaluate agree on rendered boards: a faulty rig, sphere and conic --free auto",
           "[calibrate_evaluate_faulty]") {
-  const Case cases[] = {kCases[0], kCases[3], kEnd};
-  CheckRenderedAgreement("faulty-rig", cases);
+  CheckRenderedAgreement("faulty-rig", {kCases[0], kCases[3]});
 }
 
 // ... and the other two (a long test).
 TEST_CASE("calibrate and evaluate agree on rendered boards: a faulty rig, conic and sphere --free auto",
           "[calibrate_evaluate_faulty_other]") {
-  const Case cases[] = {kCases[1], kCases[2], kEnd};
-  CheckRenderedAgreement("faulty-rig", cases);
+  CheckRenderedAgreement("faulty-rig", {kCases[1], kCases[2]});
 }
 
-// The real miniomni images under `cases` (a null name ends the list).
-void CheckRealAgreement(const Case* cases) {
+// The real miniomni images under `cases`.
+void CheckRealAgreement(const std::vector<Case>& cases) {
   const std::string path = test::SourcePath("../shared/data/real/miniomni/targets.yaml");
   if (!std::filesystem::exists(path)) {
     test::Skip(path + " not found (the shared data lies beside the checkout)");
@@ -127,9 +122,9 @@ void CheckRealAgreement(const Case* cases) {
   const TargetSet targets = ReadTargets(path);
   const std::vector<cv::Mat> images = LoadTargetImages(targets);
   const std::string scratch = test::ScratchDir("calibrate_agreement_miniomni");
-  for (const Case* c = cases; c->name != nullptr; ++c) {
-    INFO(c->name);
-    const Agreement a = CalibrateThenEvaluate(targets, images, *c, scratch);
+  for (const Case& c : cases) {
+    INFO(c.name);
+    const Agreement a = CalibrateThenEvaluate(targets, images, c, scratch);
     CheckAgreement(a);
     CHECK(a.boards_used == 15);
     // Measured: 0.411-0.425 px refined, 0.622-0.629 px raw. Before the pose
@@ -143,15 +138,13 @@ void CheckRealAgreement(const Case* cases) {
 // The default and the model whose evaluation once disagreed 35-fold ...
 TEST_CASE("calibrate and evaluate agree on the real miniomni images: sphere, conic --free auto",
           "[calibrate_evaluate_real]") {
-  const Case cases[] = {kCases[0], kCases[3], kEnd};
-  CheckRealAgreement(cases);
+  CheckRealAgreement({kCases[0], kCases[3]});
 }
 
 // ... and the other two (a long test).
 TEST_CASE("calibrate and evaluate agree on the real miniomni images: conic, sphere --free auto",
           "[calibrate_evaluate_real_other]") {
-  const Case cases[] = {kCases[1], kCases[2], kEnd};
-  CheckRealAgreement(cases);
+  CheckRealAgreement({kCases[1], kCases[2]});
 }
 
 }  // namespace

@@ -703,8 +703,11 @@ bool Localizer::Acceptable(const FrameResult& fr, const TriangulationResult& tri
   if (tri.rms_bearing > opt_.max_rms_bearing ||
       (n_counted >= 8 && tri.inliers.size() < opt_.min_inlier_fraction * n_counted))
     return false;
-  return LeftOutBearings(fr, tri) == 0 ||
-         DistinctBearings(Observations(fr), tri.inliers) - 3 >= opt_.min_spare_bearings_with_outliers;
+  const std::vector<BearingObservation> obs = Observations(fr);
+  std::vector<int> all(obs.size());
+  std::iota(all.begin(), all.end(), 0);
+  const int used = DistinctBearings(obs, tri.inliers);
+  return used == DistinctBearings(obs, all) || used - 3 >= opt_.min_spare_bearings_with_outliers;
 }
 
 namespace {
@@ -828,13 +831,6 @@ bool Localizer::ProbeSurveyError(const Pose2& pred) {
     if (agree) return true;
   }
   return false;
-}
-
-int Localizer::LeftOutBearings(const FrameResult& fr, const TriangulationResult& tri) const {
-  const std::vector<BearingObservation> obs = Observations(fr);
-  std::vector<int> all(obs.size());
-  std::iota(all.begin(), all.end(), 0);
-  return DistinctBearings(obs, all) - DistinctBearings(obs, tri.inliers);
 }
 
 Eigen::Matrix3d Localizer::ReportedCovariance(const FrameResult& fr, const std::vector<BearingObservation>& obs,

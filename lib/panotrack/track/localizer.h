@@ -404,8 +404,6 @@ class Localizer {
   // its bearings agree (a consensus of most found, consistent, agreeing
   // with the motion) becomes the provisional survey sigma. True if one did.
   bool ProbeSurveyError(const Pose2& pred);
-  // The found bearings (distinct) that a solution left out.
-  int LeftOutBearings(const FrameResult& fr, const TriangulationResult& tri) const;
   // An accepted frame before the survey error is known whose own residuals
   // show a clearly larger one than assumed (1.5x): that error becomes the
   // provisional sigma and the frame is tracked again under it around its
