@@ -64,24 +64,25 @@ void AddCalibrateCommand(CLI::App& app) {
   cmd->add_option("--model", o->model,
                   "Mirror profile: auto (the default: the mirror profile, the lens distortion and the rig faults "
                   "chosen by 5-fold cross-validation over the boards among sphere, sphere + decentre, sphere + "
-                  "k1 k2, conic + k1 k2, asphere (a4) + k1 k2, asphere (a4, a6) + k1 k2 and conic + k1 k2 + "
-                  "decentre, camera tilt: the simplest whose error on boards left out of the fit is within 1 % of "
+                  "k1 k2, conic + k1 k2, asphere (a4) + k1 k2, asphere (a4, a6) + k1 k2, conic + k1 k2 + "
+                  "decentre, camera tilt, unified + k1 k2 and unified + k1 k2 + p1 p2: the simplest whose error on boards left out of the fit is within 1 % of "
                   "the best, refusing a model whose parameters the boards do not determine; --distortion or --free "
                   "given hold for every candidate; fewer than 4 boards: the sphere), sphere (spec section 2), conic "
-                  "(quadric of revolution) or asphere (the conic plus even-asphere terms a4, a6, for a mirror "
-                  "whose maker does not publish its shape)")
+                  "(quadric of revolution), asphere (the conic plus even-asphere terms a4, a6, for a mirror "
+                  "whose maker does not publish its shape) or unified (Mei's central model, xi: for a "
+                  "single-viewpoint camera such as a parabolic mirror behind a telecentric lens)")
       ->capture_default_str();
   cmd->add_option("--asphere-terms", o->asphere_terms, "Even-asphere terms fitted with --model asphere: 1 (a4) or 2 (a4, a6)")
       ->capture_default_str();
   cmd->add_option("--distortion", o->distortion,
                   "Lens radial distortion terms fitted: auto (chosen with --model auto; else none for sphere, k1 k2 for "
-                  "conic and asphere), 0, 1 or 2")
+                  "conic, asphere and unified), 0, 1 or 2")
       ->capture_default_str();
   CLI::Option* free_opt = cmd->add_option("--free", o->free,
                   "Rig faults fitted (general model; with --model auto and no --free they are chosen): none (the "
                   "aligned model), auto (decentre and camera-tilt "
                   "for conic; decentre for sphere, whose centre off the axis and a camera tilt are one and the "
-                  "same; with estimated poses they trade against cx, cy), or a "
+                  "same; with estimated poses they trade against cx, cy; tangential for unified), or a "
                   "comma list of decentre, camera-tilt, k1, k2 (as --distortion), tangential (p1 p2), k3, "
                   "sensor-tilt (known board poses only)")
       ->capture_default_str();
@@ -124,8 +125,9 @@ void AddCalibrateCommand(CLI::App& app) {
     if (o->model == "sphere") opt.model = MirrorModel::kSphere;
     else if (o->model == "conic") opt.model = MirrorModel::kConic;
     else if (o->model == "asphere") opt.model = MirrorModel::kAsphere;
+    else if (o->model == "unified") opt.model = MirrorModel::kUnified;
     else if (o->model == "auto") opt.select_model = opt.selection_fallback = true;
-    else throw Error("--model: expected sphere, conic, asphere or auto, got '" + o->model + "'");
+    else throw Error("--model: expected sphere, conic, asphere, unified or auto, got '" + o->model + "'");
     opt.asphere_terms = o->asphere_terms;
     if (o->distortion == "auto") opt.distortion_terms = -1;
     else if (o->distortion == "0" || o->distortion == "1" || o->distortion == "2") opt.distortion_terms = std::stoi(o->distortion);

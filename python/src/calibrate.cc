@@ -21,8 +21,9 @@ void SetModel(const std::string& name, CalibrateOptions* o) {
   if (name == "sphere") o->model = MirrorModel::kSphere;
   else if (name == "conic") o->model = MirrorModel::kConic;
   else if (name == "asphere") o->model = MirrorModel::kAsphere;
+  else if (name == "unified") o->model = MirrorModel::kUnified;
   else if (name == "auto") o->select_model = o->selection_fallback = true;
-  else throw Error("model: expected sphere, conic, asphere or auto, got '" + name + "'");
+  else throw Error("model: expected sphere, conic, asphere, unified or auto, got '" + name + "'");
 }
 
 CalibrationResult RunCalibrate(const std::filesystem::path& targets_path, const std::string& model,

@@ -27,7 +27,8 @@ MirrorModel ModelFromName(const std::string& name) {
   if (name == "sphere") return MirrorModel::kSphere;
   if (name == "conic") return MirrorModel::kConic;
   if (name == "asphere") return MirrorModel::kAsphere;
-  throw Error("model: expected sphere, conic or asphere, got '" + name + "'");
+  if (name == "unified") return MirrorModel::kUnified;
+  throw Error("model: expected sphere, conic, asphere or unified, got '" + name + "'");
 }
 
 py::object Project(const Sensor& s, const DoubleArray& points, int num_threads) {
@@ -109,6 +110,7 @@ py::dict ParamsDict(const SensorParams<double>& p) {
   d["rim_radius"] = p.rim_radius;
   d["asphere_a4"] = p.asphere_a4;
   d["asphere_a6"] = p.asphere_a6;
+  d["xi"] = p.xi;
   return d;
 }
 
@@ -124,13 +126,18 @@ void BindSensor(py::module_& m) {
       .def(py::init<>())
       .def_property(
           "model", [](const Sensor& s) { return std::string(mirror_model_name(s.model)); },
-          [](Sensor& s, const std::string& name) { s.model = ModelFromName(name); }, "'sphere', 'conic' or 'asphere' (a conic with even-asphere terms)")
+          [](Sensor& s, const std::string& name) {
+            s.model = ModelFromName(name);
+            s.params.unified = s.model == MirrorModel::kUnified;
+          },
+          "'sphere', 'conic', 'asphere' (a conic with even-asphere terms) or 'unified' (Mei's central model, xi)")
       .def_readwrite("image_width", &Sensor::image_width)
       .def_readwrite("image_height", &Sensor::image_height)
       // clang-format off
       PANO_PARAM(focal_px) PANO_PARAM(cx) PANO_PARAM(cy) PANO_PARAM(aspect) PANO_PARAM(azimuth_offset)
       PANO_PARAM(k1) PANO_PARAM(k2) PANO_PARAM(curvature_radius) PANO_PARAM(conic_constant)
       PANO_PARAM(vertex_distance) PANO_PARAM(rim_radius) PANO_PARAM(asphere_a4) PANO_PARAM(asphere_a6)
+      PANO_PARAM(xi)
       // clang-format on
       .def_property_readonly("params", [](const Sensor& s) { return ParamsDict(s.params); },
                              "All model parameters as a dict (a copy)")
@@ -148,6 +155,7 @@ void BindSensor(py::module_& m) {
             if (t.size() != 4) throw py::value_error("Sensor: bad pickled state");
             Sensor s;
             s.model = ModelFromName(t[0].cast<std::string>());
+            s.params.unified = s.model == MirrorModel::kUnified;
             s.image_width = t[1].cast<int>();
             s.image_height = t[2].cast<int>();
             const py::dict p = t[3].cast<py::dict>();
@@ -166,6 +174,7 @@ void BindSensor(py::module_& m) {
             // States pickled before the even-asphere terms existed have none.
             if (p.contains("asphere_a4")) s.params.asphere_a4 = get("asphere_a4");
             if (p.contains("asphere_a6")) s.params.asphere_a6 = get("asphere_a6");
+            if (p.contains("xi")) s.params.xi = get("xi");
             return s;
           }))
       .def("__copy__", [](const Sensor& s) { return s; })

@@ -51,7 +51,7 @@ def test_calibrate_matches_panocalib(targets, tmp_path):
 def test_calibrate_errors(targets, tmp_path):
     with pytest.raises(pt.Error) as e:
         pt.calibrate(targets / "targets.yaml", model="cylinder")
-    assert str(e.value) == "model: expected sphere, conic, asphere or auto, got 'cylinder'"
+    assert str(e.value) == "model: expected sphere, conic, asphere, unified or auto, got 'cylinder'"
     with pytest.raises(pt.Error) as e:
         pt.calibrate(tmp_path / "missing.yaml")
     assert str(e.value) == f"{tmp_path / 'missing.yaml'}: cannot open: No such file or directory"

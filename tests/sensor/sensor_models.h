@@ -14,6 +14,27 @@ struct NamedSensor {
   Sensor sensor;
 };
 
+// Mei's unified model as fitted to a real parabolic mirror behind a
+// near-telecentric lens (1280 x 1024; measured xi 1.28, f 340 px, k1 0.07,
+// k2 0.04), at the given xi.
+inline Sensor MeiParabolic(double xi = 1.28) {
+  Sensor s;
+  s.model = MirrorModel::kUnified;
+  s.image_width = 1280;
+  s.image_height = 1024;
+  SensorParams<double>& p = s.params;
+  p.unified = true;
+  p.xi = xi;
+  p.focal_px = 340.0;
+  p.cx = 643.0;
+  p.cy = 522.8;
+  p.aspect = 1.0;
+  p.k1 = 0.07;
+  p.k2 = 0.04;
+  p.rim_radius = 1.55;  // the image disc's edge, as a normalised radius
+  return s;
+}
+
 inline std::vector<NamedSensor> AllSensorModels() {
   std::vector<NamedSensor> out;
   // The paper's real sensor (f 590 px, r 4.9 cm, d 15.1 cm), 640 x 480.

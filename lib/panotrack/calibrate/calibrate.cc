@@ -35,6 +35,11 @@ int CalibrateOptions::Threads() const {
 
 FreeFaults DefaultFreeFaults(MirrorModel model) {
   FreeFaults f;
+  if (model == MirrorModel::kUnified) {
+    // Its viewpoint's offset is a shift of every board; omnidir's lens.
+    f.tangential = true;
+    return f;
+  }
   f.decentre = true;
   f.camera_tilt = model != MirrorModel::kSphere;
   return f;
@@ -67,8 +72,9 @@ FreeFaults ParseFreeFaults(const std::string& list, MirrorModel model, int* dist
 }
 
 void CalibrateOptions::Check() const {
-  if (model != MirrorModel::kSphere && model != MirrorModel::kConic && model != MirrorModel::kAsphere)
-    throw Error("--model: expected sphere, conic or asphere");
+  if (model != MirrorModel::kSphere && model != MirrorModel::kConic && model != MirrorModel::kAsphere &&
+      model != MirrorModel::kUnified)
+    throw Error("--model: expected sphere, conic, asphere or unified");
   if (asphere_terms < 1 || asphere_terms > 2)
     throw Error("--asphere-terms: expected 1 (a4) or 2 (a4, a6), got " + std::to_string(asphere_terms));
   if (select_model && (selection_folds < 2 || selection_folds > 100))

@@ -61,7 +61,8 @@ struct FreeFaults {
 // only for the sphere, whose centre off the axis and a camera tilt are the
 // same thing (a sphere has no axis of its own: a tilted camera sees the
 // centre off its axis), so only the centre in the camera's frame is
-// determined and it is reported as decentre with camera_tilt zero.
+// determined and it is reported as decentre with camera_tilt zero. The
+// unified model: tangential distortion (p1 p2), as OpenCV's omnidir.
 FreeFaults DefaultFreeFaults(MirrorModel model);
 // Parses "auto", "none" or a comma list of decentre, camera-tilt, tangential,
 // k3, sensor-tilt (k1 and k2 are accepted and set *distortion_terms to the
@@ -70,7 +71,8 @@ FreeFaults ParseFreeFaults(const std::string& list, MirrorModel model, int* dist
 
 struct CalibrateOptions {
   // kAsphere: the conic with even-asphere terms fitted (started from the
-  // conic's initialisation with the terms at zero).
+  // conic's initialisation with the terms at zero). kUnified: Mei's central
+  // model (its own initialisation; its viewpoint is the sensor frame's origin).
   MirrorModel model = MirrorModel::kSphere;
   // Even-asphere terms fitted with model asphere: 1 (a4) or 2 (a4, a6).
   int asphere_terms = 2;

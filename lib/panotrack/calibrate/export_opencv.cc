@@ -168,6 +168,7 @@ void WriteOpenCvCalibration(const std::string& path, const Calibration& calib, c
   fs << "curvature_radius" << p.curvature_radius << "conic_constant" << p.conic_constant
      << "vertex_distance" << p.vertex_distance << "azimuth_offset" << p.azimuth_offset;
   if (s.model == MirrorModel::kAsphere) fs << "asphere_a4" << p.asphere_a4 << "asphere_a6" << p.asphere_a6;
+  if (s.model == MirrorModel::kUnified) fs << "xi" << p.xi;
   fs << "omnidir_K" << (cv::Mat_<double>(3, 3) << om.fx, 0, om.cx, 0, om.fy, om.cy, 0, 0, 1);
   fs << "omnidir_xi" << om.xi;
   fs << "omnidir_D" << (cv::Mat_<double>(1, 4) << om.k1, om.k2, om.p1, om.p2);

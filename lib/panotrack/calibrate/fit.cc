@@ -34,6 +34,12 @@ std::vector<int> FixedSensorIndices(bool poses_known, const CalibrateOptions& o)
   if (nd < 1) fixed.push_back(kK1);
   if (nd < 2) fixed.push_back(kK2);
   if (o.model == MirrorModel::kSphere) fixed.push_back(kConic);
+  if (o.model == MirrorModel::kUnified) {
+    for (int k : {kRadius, kConic, kVertex}) fixed.push_back(k);
+  } else {
+    fixed.push_back(kXi);
+  }
+  fixed.push_back(kUnified);
   std::sort(fixed.begin(), fixed.end());
   return fixed;
 }
@@ -326,6 +332,8 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
                          2.0 * sensor_cov(kRadius, kVertex);
     add("mirror_distance", p.vertex_distance + p.curvature_radius, var_d, false,
         determined[kRadius] && determined[kVertex]);
+  } else if (options.model == MirrorModel::kUnified) {
+    add("xi", p.xi, sensor_cov(kXi, kXi), false, determined[kXi]);
   } else {
     add("curvature_radius", p.curvature_radius, sensor_cov(kRadius, kRadius), false, determined[kRadius]);
     add("conic_constant", p.conic_constant, sensor_cov(kConic, kConic), false, determined[kConic]);

@@ -14,7 +14,9 @@
 // least-squares solve. Then the mirror model is fitted to the polynomial's
 // elevation-versus-radius curve (multi-start over shapes), and the mirror's
 // scale comes from the boards' heights (known poses) or the best of a few
-// scale guesses after a short joint refinement (unknown poses).
+// scale guesses after a short joint refinement (unknown poses). The unified
+// profile, central itself, takes the central model's poses and fits its
+// (f, xi) to the same curve.
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
 
@@ -631,7 +633,7 @@ void ElevationCurve(const CentralModel& cm, std::vector<double>* rho, std::vecto
 // One start of the short joint refinement: a mirror shape group (R/zv) at
 // one scale guess.
 struct Start {
-  double R0 = 0.0;
+  double R0 = 0.0;  // the shape group's R/zv (the unified profile: its starting xi)
   ShapeFit shape;
   InitialEstimate est;
   std::array<double, kNumSensor> s{};
@@ -680,6 +682,99 @@ Start MakeStart(const InitInput& in, const CentralFit& fit, double R0, const Sha
   return st;
 }
 
+// The unified profile's elevation at image radius rho: x = (f, xi).
+struct UnifiedElevationCost {
+  UnifiedElevationCost(double rho, double elev) : rho_(rho), elev_(elev) {}
+  template <typename T>
+  bool operator()(const T* x, T* r) const {
+    if (!(x[0] > T(0)) || !(x[1] >= T(0))) return false;
+    SensorParams<T> p;
+    p.unified = true;
+    p.focal_px = x[0];
+    p.xi = x[1];
+    T ds, dz;
+    if (!unified_direction(p, T(rho_) / x[0], &ds, &dz)) return false;
+    using std::atan2;
+    r[0] = atan2(dz, ds) - T(elev_);
+    return true;
+  }
+  double rho_, elev_;
+};
+
+// The unified profile's (f, xi) fitted to the central model's elevation
+// curve from xi = xi0 (f started where the highest elevation falls on the
+// farthest radius). False when it does not fit.
+bool FitUnifiedShape(const std::vector<double>& rho, const std::vector<double>& elev, double xi0, double* f,
+                     double* xi) {
+  const size_t last = rho.size() - 1;
+  const double m0 = std::cos(elev[last]) / (xi0 - std::sin(elev[last]));
+  if (!(m0 > 0.0) || !std::isfinite(m0)) return false;
+  double x[2] = {rho[last] / m0, xi0};
+  ceres::Problem problem;
+  for (size_t i = 0; i < rho.size(); ++i)
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<UnifiedElevationCost, 1, 2>(
+                                 new UnifiedElevationCost(rho[i], elev[i])),
+                             nullptr, x);
+  double c0;
+  if (!problem.Evaluate(ceres::Problem::EvaluateOptions(), &c0, nullptr, nullptr, nullptr)) return false;
+  ceres::Solver::Options so;
+  so.max_num_iterations = 100;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.logging_type = ceres::SILENT;
+  ceres::Solver::Summary sum;
+  ceres::Solve(so, &problem, &sum);
+  if (sum.termination_type == ceres::FAILURE || !std::isfinite(x[0] + x[1]) || !(x[0] > 0.0) ||
+      !(x[1] >= 0.0 && x[1] <= 10.0))
+    return false;
+  *f = x[0];
+  *xi = x[1];
+  return true;
+}
+
+// The unified profile's starts at this centre: (f, xi) fitted to the
+// central model's elevation curve from a few xi; the boards' poses are the
+// central model's own (its viewpoint is the profile's), known poses moved to
+// the central model's viewpoint height.
+std::vector<Start> MakeUnifiedStarts(const InitInput& in, const CentralFit& fit, std::ostringstream* log) {
+  std::vector<double> rho, elev;
+  ElevationCurve(fit.cm, &rho, &elev, log);
+  std::vector<Start> starts;
+  for (double xi0 : {0.6, 1.0, 1.6}) {
+    double f = 0.0, xi = 0.0;
+    if (!FitUnifiedShape(rho, elev, xi0, &f, &xi)) {
+      *log << CentreName(fit.cm) << " xi " << xi0 << ": the unified profile does not fit the central model; ";
+      continue;
+    }
+    Start st;
+    st.R0 = xi0;
+    st.shape.f = f;
+    InitialEstimate& est = st.est;
+    est.sensor.model = MirrorModel::kUnified;
+    est.sensor.image_width = in.width;
+    est.sensor.image_height = in.height;
+    SensorParams<double>& p = est.sensor.params;
+    p.unified = true;
+    p.focal_px = f;
+    p.xi = xi;
+    p.cx = fit.cm.cx;
+    p.cy = fit.cm.cy;
+    p.aspect = 1.0;
+    p.azimuth_offset = fit.azimuth_offset;
+    est.poses.resize(in.views.size());
+    for (size_t i = 0; i < in.views.size(); ++i) {
+      if (in.poses_known) {
+        est.poses[i] = PackPose(in.views[i]);
+        est.poses[i][5] -= fit.h_view;
+      } else {
+        est.poses[i] = PoseFromRt(fit.Rs[i], fit.ts[i]);
+      }
+    }
+    st.s = BlockFromParams(p);
+    starts.push_back(st);
+  }
+  return starts;
+}
+
 // Every start at this centre: the mirror shape of each R/zv group fitted to
 // the central model's elevation curve, at each of its scale guesses.
 std::vector<Start> MakeStarts(const InitInput& in, const CentralFit& fit, std::ostringstream* log) {
@@ -726,8 +821,11 @@ void RankStarts(const InitInput& in, const CentralModel& cm, std::vector<Start>*
     const double R0 = (*starts)[k].R0;
     for (; k < starts->size() && (*starts)[k].R0 == R0; ++k) {
       Start& st = (*starts)[k];
-      *log << CentreName(cm) << " shape f " << st.shape.f << " R/zv " << st.shape.R << " k " << st.shape.k
-           << " scale " << st.est.sensor.params.vertex_distance << ": RMS " << st.rms << " px; ";
+      if (st.est.sensor.model == MirrorModel::kUnified)
+        *log << CentreName(cm) << " unified from xi " << R0 << ": RMS " << st.rms << " px; ";
+      else
+        *log << CentreName(cm) << " shape f " << st.shape.f << " R/zv " << st.shape.R << " k " << st.shape.k
+             << " scale " << st.est.sensor.params.vertex_distance << ": RMS " << st.rms << " px; ";
       st.est.sensor.params = ParamsFromBlock(st.s.data());
       if (in.conic && st.rms < group_rms) {
         // The conic's landscape has several basins along the valley where
@@ -757,13 +855,14 @@ InitialEstimate Initialize(const std::vector<BoardView>& views, const TargetBoar
   if (views.empty()) throw Error("initialisation: no boards");
   const InitInput in{views, BoardPoints(board), board.square * std::max(board.cols, board.rows),
                      width, height, poses_known,
-                     options.model != MirrorModel::kSphere, options};
+                     options.model == MirrorModel::kConic || options.model == MirrorModel::kAsphere, options};
   std::ostringstream log;
   StartRanking rank;
   for (const auto& [cx, cy] : CentreCandidates(width, height)) {
     CentralFit fit;
     if (!CentralAt(in, cx, cy, &fit, &log)) continue;
-    std::vector<Start> starts = MakeStarts(in, fit, &log);
+    std::vector<Start> starts =
+        options.model == MirrorModel::kUnified ? MakeUnifiedStarts(in, fit, &log) : MakeStarts(in, fit, &log);
     RefineStarts(in, &starts);
     RankStarts(in, fit.cm, &starts, &rank, &log);
     if (rank.best_rms < 3.0) break;  // good enough: no other centre needed

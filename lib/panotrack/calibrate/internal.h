@@ -31,6 +31,8 @@ enum SensorIndex {
   kRadius,   // curvature radius at the vertex
   kConic,    // conic constant (0 for the sphere)
   kVertex,   // vertex distance above the pinhole
+  kXi,       // the unified profile's xi (0 for the mirror profiles)
+  kUnified,  // 1 for the unified profile, 0 for a mirror; always held fixed
   kNumSensor
 };
 
@@ -47,6 +49,8 @@ SensorParams<T> ParamsFromBlock(const T* s) {
   p.curvature_radius = s[kRadius];
   p.conic_constant = s[kConic];
   p.vertex_distance = s[kVertex];
+  p.xi = s[kXi];
+  p.unified = scalar_value(s[kUnified]) != 0.0;
   p.rim_radius = T(0);
   return p;
 }
@@ -63,6 +67,8 @@ inline std::array<double, kNumSensor> BlockFromParams(const SensorParams<double>
   s[kRadius] = p.curvature_radius;
   s[kConic] = p.conic_constant;
   s[kVertex] = p.vertex_distance;
+  s[kXi] = p.xi;
+  s[kUnified] = p.unified ? 1.0 : 0.0;
   return s;
 }
 
@@ -106,8 +112,9 @@ std::vector<int> FixedFaultIndices(bool poses_known, const CalibrateOptions& o);
 // Physically meaningful parameter values (the fit rejects steps outside).
 template <typename T>
 bool PlausibleParams(const SensorParams<T>& p) {
-  return p.focal_px > T(0) && p.aspect > T(0.2) && p.aspect < T(5.0) &&
-         p.curvature_radius > T(0) && p.vertex_distance > T(0);
+  if (!(p.focal_px > T(0) && p.aspect > T(0.2) && p.aspect < T(5.0))) return false;
+  if (p.unified) return p.xi >= T(0) && p.xi <= T(10);
+  return p.curvature_radius > T(0) && p.vertex_distance > T(0);
 }
 
 // Faults of a plausible rig (the fit rejects steps outside: a free decentre
@@ -117,7 +124,9 @@ template <typename T>
 bool PlausibleFaults(const GeneralSensorParams<T>& g) {
   const T& dx = g.faults.mirror_offset[0];
   const T& dy = g.faults.mirror_offset[1];
-  if (!(dx * dx + dy * dy < T(0.25) * g.aligned.curvature_radius * g.aligned.curvature_radius)) return false;
+  if (!g.aligned.unified &&
+      !(dx * dx + dy * dy < T(0.25) * g.aligned.curvature_radius * g.aligned.curvature_radius))
+    return false;
   for (const T* a : {g.faults.camera_tilt, g.faults.sensor_tilt})
     if (!(a[0] * a[0] + a[1] * a[1] < T(0.12))) return false;
   return true;
@@ -154,6 +163,7 @@ inline double RimForRadius(SensorParams<double> p, double m_cap) {
   p.rim_radius = 0.0;
   const double m_limb = max_normalized_radius(p);
   if (!(m_cap > 0.0) || (std::isfinite(m_limb) && m_limb <= m_cap)) return 0.0;
+  if (p.unified) return m_cap;  // its rim is a normalised radius
   // Rays steeper than a hyperboloid's asymptote never meet it.
   if (p.conic_constant < -1.0) m_cap = std::min(m_cap, 0.999 * std::sqrt(-(1.0 + p.conic_constant)));
   double s, z;

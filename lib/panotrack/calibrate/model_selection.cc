@@ -201,13 +201,16 @@ std::vector<SelectionCandidate> SelectionCandidates(const CalibrateOptions& opti
   add(MirrorModel::kAsphere, 1, 2, false);
   add(MirrorModel::kAsphere, 2, 2, false);
   add(MirrorModel::kConic, 0, 2, true);
+  add(MirrorModel::kUnified, 0, 2, false);
+  add(MirrorModel::kUnified, 0, 2, true);
   std::stable_sort(out.begin(), out.end(), [](const SelectionCandidate& a, const SelectionCandidate& b) {
     return a.parameters < b.parameters;
   });
   // Starts (each before its candidate, having fewer parameters): a sphere
   // from the simplest sphere; a conic, and the asphere (a4), from the conic
   // with the same lens terms (else the simplest conic); the asphere (a4, a6)
-  // from the asphere (a4).
+  // from the asphere (a4); the unified model from its own initialisation,
+  // then with p1 p2 from it (a mirror fit is no start for a central model).
   auto first = [&](MirrorModel m, int terms, int lens) {
     for (size_t i = 0; i < out.size(); ++i)
       if (out[i].options.model == m && (m != MirrorModel::kAsphere || out[i].options.asphere_terms == terms) &&
@@ -220,6 +223,8 @@ std::vector<SelectionCandidate> SelectionCandidates(const CalibrateOptions& opti
     int s = -1;
     if (o.model == MirrorModel::kSphere) {
       s = first(MirrorModel::kSphere, 0, -1);
+    } else if (o.model == MirrorModel::kUnified) {
+      s = first(MirrorModel::kUnified, 0, -1);  // the unified model from its own start
     } else if (o.model == MirrorModel::kConic || o.asphere_terms == 1) {
       s = first(MirrorModel::kConic, 0, o.DistortionTerms());
       if (s < 0 || s >= static_cast<int>(i)) s = first(MirrorModel::kConic, 0, -1);
@@ -234,7 +239,7 @@ std::vector<SelectionCandidate> SelectionCandidates(const CalibrateOptions& opti
 std::string UndeterminedParameters(const CalibrationResult& fit, const CalibrateOptions& options) {
   std::string out;
   auto add = [&](const std::string& what) { out += (out.empty() ? "" : "; ") + what; };
-  static const char* kJudged[] = {"focal_px", "conic_constant", "k1", "k2", "decentre_x", "decentre_y",
+  static const char* kJudged[] = {"focal_px", "conic_constant", "xi", "k1", "k2", "decentre_x", "decentre_y",
                                   "camera_tilt_x_deg", "camera_tilt_y_deg", "p1", "p2", "k3",
                                   "sensor_tilt_x_deg", "sensor_tilt_y_deg", "asphere_a4", "asphere_a6"};
   for (const ParameterEstimate& p : fit.parameters) {

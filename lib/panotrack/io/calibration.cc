@@ -15,7 +15,7 @@ namespace {
 const char* const kKnownKeys[] = {"model", "units", "image_width", "image_height", "focal_px", "cx",
                                   "cy", "aspect", "azimuth_offset", "k1", "k2", "rim_radius",
                                   "mirror_radius", "mirror_distance", "curvature_radius",
-                                  "conic_constant", "vertex_distance", "asphere_a4", "asphere_a6", "lut",
+                                  "conic_constant", "vertex_distance", "asphere_a4", "asphere_a6", "xi", "lut",
                                   "mirror_offset", "camera_tilt", "sensor_tilt", "p1", "p2", "k3",
                                   "images", "images_not_found", "images_used", "images_total",
                                   "software", "command_line"};
@@ -98,8 +98,10 @@ Calibration ParseCalibration(const std::string& path, const YAML::Node& n) {
     s.model = MirrorModel::kConic;
   } else if (model == "asphere") {
     s.model = MirrorModel::kAsphere;
+  } else if (model == "unified") {
+    s.model = MirrorModel::kUnified;
   } else {
-    r.Fail("model", "unknown model '" + model + "' (expected sphere, conic or asphere)");
+    r.Fail("model", "unknown model '" + model + "' (expected sphere, conic, asphere or unified)");
   }
   c.units = r.String(n, "units", "units", "cm");
   s.image_width = r.Int(n, "image_width", "image_width", 1, kMaxImageSide);
@@ -125,6 +127,11 @@ Calibration ParseCalibration(const std::string& path, const YAML::Node& n) {
       r.Fail("mirror_distance", "expected mirror_distance > mirror_radius (got " +
                                     YamlDouble(distance) + " <= " + YamlDouble(radius) + ")");
     set_sphere_mirror(&p, radius, distance);
+  } else if (s.model == MirrorModel::kUnified) {
+    for (const char* key : {"curvature_radius", "conic_constant", "vertex_distance", "mirror_radius", "mirror_distance"})
+      if (r.Has(n, key)) r.Fail(key, "not a parameter of the unified model (it has xi instead)");
+    p.unified = true;
+    p.xi = r.Double(n, "xi", "xi");
   } else {
     p.curvature_radius = r.Double(n, "curvature_radius", "curvature_radius");
     p.conic_constant = r.Double(n, "conic_constant", "conic_constant");
@@ -219,6 +226,8 @@ std::string CalibrationToYaml(const Calibration& c) {
   if (s.model == MirrorModel::kSphere) {
     w.Key("mirror_radius").Double(s.mirror_radius());
     w.Key("mirror_distance").Double(SphereDistanceToWrite(p));
+  } else if (s.model == MirrorModel::kUnified) {
+    w.Key("xi").Double(p.xi);
   } else {
     w.Key("curvature_radius").Double(p.curvature_radius);
     w.Key("conic_constant").Double(p.conic_constant);

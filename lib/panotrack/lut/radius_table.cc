@@ -48,10 +48,12 @@ struct Header {
   int32_t n_distance, n_elevation, n_radius, n_height;
 };
 
+// The unified profile has no mirror terms: its xi takes the conic
+// constant's place (the header's model says which).
 void PackParams(const Sensor& s, double* out) {
   const SensorParams<double>& p = s.params;
   const double v[11] = {p.focal_px, p.cx, p.cy, p.aspect, p.azimuth_offset, p.k1, p.k2,
-                        p.curvature_radius, p.conic_constant, p.vertex_distance, p.rim_radius};
+                        p.curvature_radius, p.unified ? p.xi : p.conic_constant, p.vertex_distance, p.rim_radius};
   std::memcpy(out, v, sizeof v);
 }
 
@@ -281,7 +283,7 @@ void CheckHeader(const std::string& path, const Header& h) {
     throw Error(path + ": corrupt lookup table header (table sizes " + std::to_string(h.n_distance) + " x " +
                 std::to_string(h.n_elevation) + " and " + std::to_string(h.n_radius) + " x " +
                 std::to_string(h.n_height) + ")");
-  if (h.model > static_cast<uint32_t>(MirrorModel::kAsphere))
+  if (h.model > static_cast<uint32_t>(MirrorModel::kUnified))
     throw Error(path + ": corrupt lookup table header (model)");
   if (h.image_width < 1 || h.image_width > kMaxImageSide || h.image_height < 1 ||
       h.image_height > kMaxImageSide ||
@@ -348,6 +350,11 @@ RadiusTable RadiusTable::Load(const std::string& path, const Sensor* expected) {
   double* fields[11] = {&p.focal_px, &p.cx, &p.cy, &p.aspect, &p.azimuth_offset, &p.k1, &p.k2,
                         &p.curvature_radius, &p.conic_constant, &p.vertex_distance, &p.rim_radius};
   for (int i = 0; i < 11; ++i) *fields[i] = h.params[i];
+  if (t.sensor_.model == MirrorModel::kUnified) {
+    p.unified = true;
+    p.xi = p.conic_constant;
+    p.conic_constant = 0.0;
+  }
   p.asphere_a4 = tail[0];
   p.asphere_a6 = tail[1];
   t.sensor_.Check(path);

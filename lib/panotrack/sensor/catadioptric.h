@@ -48,6 +48,18 @@ auto scalar_value(const T& x) -> decltype(scalar_value(x.a)) {
 // in lengths is a4 = A4 R^3, a6 = A6 R^5). Relative to R they describe the
 // shape alone, so they stay determined when the mirror's scale is not.
 // Both zero: the conic, computed in closed form as before.
+//
+// Unified profile (unified = true): Mei's unified central model instead of a
+// mirror, for cameras the pinhole-plus-mirror profiles reach only in a limit
+// (a parabolic mirror behind a telecentric lens is xi = 1 with the focal
+// length at infinity). A single viewpoint at the sensor frame's origin; a
+// direction (x, y, z) with rho = |(x, y, z)| is seen at normalised radius
+//   m = D / (xi rho - z),  D = |(x, y)|,
+// visible while xi rho > z (xi = 1: the upper half space's horizon at m = 1).
+// xi = 0 is a pinhole looking down, 0 < xi < 1 a hyperboloid seen from its
+// far focus. The mirror terms (curvature_radius, conic_constant,
+// vertex_distance, asphere_a4/a6) are unused and zero; rim_radius, when
+// positive, is the rim as a normalised radius m (the edge of the image disc).
 template <typename T>
 struct SensorParams {
   T focal_px = T(0);
@@ -63,6 +75,8 @@ struct SensorParams {
   T rim_radius = T(0);       // mirror's physical radius (s at its rim); 0: up to the limb
   T asphere_a4 = T(0);       // even-asphere terms (see above); 0: a conic
   T asphere_a6 = T(0);
+  T xi = T(0);           // unified profile: the viewing sphere's offset (see above)
+  bool unified = false;  // the unified (central) profile instead of a mirror
 
   template <typename U>
   SensorParams<U> cast() const {
@@ -80,6 +94,8 @@ struct SensorParams {
     p.rim_radius = U(scalar_value(rim_radius));
     p.asphere_a4 = U(scalar_value(asphere_a4));
     p.asphere_a6 = U(scalar_value(asphere_a6));
+    p.xi = U(scalar_value(xi));
+    p.unified = unified;
     return p;
   }
 };
@@ -259,6 +275,13 @@ bool is_conic_profile(const SensorParams<T>& p) {
 template <typename T>
 T max_normalized_radius(const SensorParams<T>& p) {
   using std::sqrt;
+  if (p.unified) {
+    // Beyond xi > 1 the viewing sphere's silhouette: m^2 (xi^2 - 1) < 1.
+    T m_max = T(std::numeric_limits<double>::infinity());
+    if (p.xi > T(1)) m_max = T(1) / sqrt(p.xi * p.xi - T(1));
+    if (p.rim_radius > T(0) && p.rim_radius < m_max) m_max = p.rim_radius;
+    return m_max;
+  }
   if (!is_conic_profile(p)) return T(detail::asphere_max_normalized_radius(p.template cast<double>()));
   const T& R = p.curvature_radius;
   const T& zv = p.vertex_distance;
@@ -316,11 +339,61 @@ bool asphere_mirror_hit(const SensorParams<T>& p, const T& m, T* s, T* z) {
 }
 }  // namespace detail
 
+// Unified profile: the lift of a point at squared normalised radius m2 onto
+// the viewing sphere: the point (lambda m, xi - lambda) in the meridian plane
+// is the unit direction it sees.
+template <typename T>
+bool unified_lift(const SensorParams<T>& p, const T& m2, T* lambda) {
+  using std::sqrt;
+  const T under = T(1) + (T(1) - p.xi * p.xi) * m2;
+  if (!(under >= T(0))) return false;
+  *lambda = (p.xi + sqrt(under)) / (T(1) + m2);
+  return true;
+}
+
+// Unified profile: the unit direction (ds, dz) seen at normalised radius m
+// (meridian plane).
+template <typename T>
+bool unified_direction(const SensorParams<T>& p, const T& m, T* ds, T* dz) {
+  T lambda;
+  if (!unified_lift(p, m * m, &lambda)) return false;
+  *ds = lambda * m;
+  *dz = p.xi - lambda;
+  return true;
+}
+
+// Unified profile: whether the point at horizontal distance D and height Z
+// is seen, decided in double so that a Jet and a double agree at the edge of
+// the view (a Jet divides through the reciprocal, an ulp away): in front of
+// the lift (xi rho > Z), on the viewing sphere's near side beyond xi = 1
+// (xi Z < rho; its silhouette is where m reaches 1 / sqrt(xi^2 - 1)) and
+// within the rim.
+inline bool unified_sees(const SensorParams<double>& p, double D, double Z) {
+  const double rho = std::sqrt(D * D + Z * Z);
+  const double den = p.xi * rho - Z;
+  return den > 0.0 && p.xi * Z < rho && D / den < max_normalized_radius(p);
+}
+
+// Unified profile: the normalised radius that sees the point at horizontal
+// distance D and height Z; false where it is not visible.
+template <typename T>
+bool unified_radius(const SensorParams<T>& p, const T& D, const T& Z, T* m) {
+  using std::sqrt;
+  if (!unified_sees(p.template cast<double>(), scalar_value(D), scalar_value(Z))) return false;
+  *m = D / (p.xi * sqrt(D * D + Z * Z) - Z);
+  return true;
+}
+
 // Camera ray t (m, 1) against the mirror: the first hit, from below.
 // Returns false when the ray misses (beyond the limb).
 template <typename T>
 bool mirror_hit(const SensorParams<T>& p, const T& m, T* s, T* z) {
   using std::sqrt;
+  if (p.unified) {  // the single viewpoint
+    *s = T(0);
+    *z = T(0);
+    return m < max_normalized_radius(p);
+  }
   if (!is_conic_profile(p)) return detail::asphere_mirror_hit(p, m, s, z);
   const T& R = p.curvature_radius;
   const T& zv = p.vertex_distance;
@@ -345,6 +418,12 @@ bool mirror_hit(const SensorParams<T>& p, const T& m, T* s, T* z) {
 template <typename T>
 bool reflect_meridian(const SensorParams<T>& p, const T& m, T* ps, T* pz, T* ds, T* dz) {
   using std::sqrt;
+  if (p.unified) {
+    // Every ray leaves the single viewpoint.
+    *ps = T(0);
+    *pz = T(0);
+    return unified_direction(p, m, ds, dz);
+  }
   if (!mirror_hit(p, m, ps, pz)) return false;
   T ns, nz;
   if (is_conic_profile(p)) {
@@ -429,6 +508,8 @@ inline Dual operator*(const Dual& x, const Dual& y) { return {x.a * y.a, x.v * y
 inline Dual operator/(const Dual& x, const Dual& y) { return {x.a / y.a, (x.v * y.a - x.a * y.v) / (y.a * y.a)}; }
 inline bool operator<(const Dual& x, const Dual& y) { return x.a < y.a; }
 inline bool operator>(const Dual& x, const Dual& y) { return x.a > y.a; }
+inline bool operator>=(const Dual& x, const Dual& y) { return x.a >= y.a; }
+inline bool operator<=(const Dual& x, const Dual& y) { return x.a <= y.a; }
 inline Dual sqrt(const Dual& x) {
   const double r = std::sqrt(x.a);
   return {r, x.v / (2.0 * r)};
@@ -449,6 +530,7 @@ inline bool meridian_residual_slope(const SensorParams<Dual>& pd, double m, doub
 // Returns false when the point is not visible.
 inline bool solve_meridian_double(const SensorParams<double>& p, double D, double Z, double* m_out) {
   if (!(D > 0.0) || !std::isfinite(D) || !std::isfinite(Z)) return false;
+  if (p.unified) return unified_radius(p, D, Z, m_out);
   const double m_max = max_normalized_radius(p);
   double lo = 0.0;
   double hi = std::isfinite(m_max) ? m_max * (1.0 - 1e-12) : 1e3;
@@ -495,6 +577,7 @@ inline bool solve_meridian_double(const SensorParams<double>& p, double D, doubl
 // theorem exactly.
 template <typename T>
 bool solve_meridian(const SensorParams<T>& p, const T& D, const T& Z, T* m) {
+  if (p.unified) return unified_radius(p, D, Z, m);
   const SensorParams<double> pd = p.template cast<double>();
   double m0;
   if (!detail::solve_meridian_double(pd, scalar_value(D), scalar_value(Z), &m0)) return false;

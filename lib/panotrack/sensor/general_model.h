@@ -338,6 +338,67 @@ bool brown_undistort(const SensorParams<T>& p, const RigFaults<T>& f, const T& x
   return false;
 }
 
+// The camera ray (a, b, 1), M frame, that sees the M-frame point X through the
+// mirror (the 3-D reflection solve in double, then one Gauss-Newton step in
+// T: the value stays, Jet derivatives follow the implicit function theorem).
+template <typename T>
+bool mirror_camera_ray(const SensorParams<T>& p, const RigFaults<T>& f, const T* X, T* ray) {
+  const SensorParams<double> pd = p.template cast<double>();
+  const double dx = scalar_value(f.mirror_offset[0]), dy = scalar_value(f.mirror_offset[1]);
+  const double Xd[3] = {scalar_value(X[0]), scalar_value(X[1]), scalar_value(X[2])};
+  double a0, b0;
+  if (!detail::solve_reflection_double(pd, dx, dy, Xd, &a0, &b0)) return false;
+  ray[0] = T(a0);
+  ray[1] = T(b0);
+  ray[2] = T(1);
+  if constexpr (!std::is_same<T, double>::value) {
+    double res[3], J[6], P[6];
+    if (!detail::reflection_residual_jacobian(pd.template cast<detail::Dual>(), dx, dy, a0, b0, Xd, res, J))
+      return false;
+    if (!detail::pseudo_inverse_3x2(J, P)) return false;
+    T rt[3];
+    if (!detail::reflection_residual(p, f.mirror_offset[0], f.mirror_offset[1], T(a0), T(b0), X, rt,
+                                     static_cast<T*>(nullptr)))
+      return false;
+    ray[0] = T(a0) - (T(P[0]) * rt[0] + T(P[1]) * rt[1] + T(P[2]) * rt[2]);
+    ray[1] = T(b0) - (T(P[3]) * rt[0] + T(P[4]) * rt[1] + T(P[5]) * rt[2]);
+  }
+  return true;
+}
+
+// The same for the unified profile, closed form: the viewpoint sits at
+// mirror_offset (in the mirror frame's z = 0 plane).
+template <typename T>
+bool unified_camera_ray(const SensorParams<T>& p, const RigFaults<T>& f, const T* X, T* ray) {
+  using std::sqrt;
+  const T x = X[0] - f.mirror_offset[0], y = X[1] - f.mirror_offset[1], z = X[2];
+  const double xd = scalar_value(x), yd = scalar_value(y);
+  if (!unified_sees(p.template cast<double>(), std::sqrt(xd * xd + yd * yd), scalar_value(z))) return false;
+  const T den = p.xi * sqrt(x * x + y * y + z * z) - z;
+  ray[0] = x / den;
+  ray[1] = y / den;
+  ray[2] = T(1);
+  return true;
+}
+
+// Unified profile: the ray of the camera ray (a, b, 1), M frame: its origin
+// (the viewpoint, at mirror_offset) and unit direction.
+template <typename T>
+bool unified_backproject(const SensorParams<T>& p, const RigFaults<T>& f, const T& a, const T& b, T* Q, T* r) {
+  const T m2 = a * a + b * b;
+  const double m_max = max_normalized_radius(p.template cast<double>());  // in double, as unified_sees
+  if (!(scalar_value(m2) < m_max * m_max)) return false;
+  T lambda;
+  if (!unified_lift(p, m2, &lambda)) return false;
+  Q[0] = f.mirror_offset[0];
+  Q[1] = f.mirror_offset[1];
+  Q[2] = T(0);
+  r[0] = lambda * a;
+  r[1] = lambda * b;
+  r[2] = p.xi - lambda;
+  return true;
+}
+
 }  // namespace detail
 
 // Projects a robot-frame point to pixel (u, v) with the 3-D reflection solve,
@@ -352,25 +413,11 @@ bool project_general(const GeneralSensorParams<T>& g, const T* point_robot, T* u
   T Rs[9], Rc[9], X[3];
   detail::tilt_rotation(f.sensor_tilt, Rs);
   detail::rotate_transposed(Rs, point_robot, X);
-  const SensorParams<double> pd = p.template cast<double>();
-  const double dx = scalar_value(f.mirror_offset[0]), dy = scalar_value(f.mirror_offset[1]);
-  const double Xd[3] = {scalar_value(X[0]), scalar_value(X[1]), scalar_value(X[2])};
-  double a0, b0;
-  if (!detail::solve_reflection_double(pd, dx, dy, Xd, &a0, &b0)) return false;
-  T ray[3] = {T(a0), T(b0), T(1)};
-  if constexpr (!std::is_same<T, double>::value) {
-    // One Gauss-Newton step in T: the value stays, the derivatives follow the
-    // implicit function theorem.
-    double res[3], J[6], P[6];
-    if (!detail::reflection_residual_jacobian(pd.template cast<detail::Dual>(), dx, dy, a0, b0, Xd, res, J))
-      return false;
-    if (!detail::pseudo_inverse_3x2(J, P)) return false;
-    T rt[3];
-    if (!detail::reflection_residual(p, f.mirror_offset[0], f.mirror_offset[1], T(a0), T(b0), X, rt,
-                                     static_cast<T*>(nullptr)))
-      return false;
-    ray[0] = T(a0) - (T(P[0]) * rt[0] + T(P[1]) * rt[1] + T(P[2]) * rt[2]);
-    ray[1] = T(b0) - (T(P[3]) * rt[0] + T(P[4]) * rt[1] + T(P[5]) * rt[2]);
+  T ray[3];
+  if (p.unified) {
+    if (!detail::unified_camera_ray(p, f, X, ray)) return false;
+  } else if (!detail::mirror_camera_ray(p, f, X, ray)) {
+    return false;
   }
   detail::tilt_rotation(f.camera_tilt, Rc);
   T c[3];
@@ -405,8 +452,12 @@ bool backproject_general(const GeneralSensorParams<T>& g, const T& u, const T& v
   detail::rotate(Rc, c, m);
   if (!(m[2] > T(0))) return false;
   T Q[3], r[3];
-  if (!detail::general_reflect(p, f.mirror_offset[0], f.mirror_offset[1], m[0] / m[2], m[1] / m[2], Q, r))
+  if (p.unified) {
+    if (!detail::unified_backproject(p, f, m[0] / m[2], m[1] / m[2], Q, r)) return false;
+  } else if (!detail::general_reflect(p, f.mirror_offset[0], f.mirror_offset[1], m[0] / m[2], m[1] / m[2], Q,
+                                      r)) {
     return false;
+  }
   T Rs[9];
   detail::tilt_rotation(f.sensor_tilt, Rs);
   detail::rotate(Rs, Q, origin);

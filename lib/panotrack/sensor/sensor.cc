@@ -38,6 +38,7 @@ const char* mirror_model_name(MirrorModel m) {
     case MirrorModel::kSphere: return "sphere";
     case MirrorModel::kConic: return "conic";
     case MirrorModel::kAsphere: return "asphere";
+    case MirrorModel::kUnified: return "unified";
   }
   return "unknown";
 }
@@ -60,6 +61,17 @@ bool ConvexProfile(const SensorParams<double>& p, double m_max) {
   return true;
 }
 
+// The unified profile's own parameters: xi within what a real camera has
+// (0 a pinhole, 1 a parabolic mirror; beyond a few the image disc shrinks
+// to nothing), no mirror terms.
+template <typename Fail>
+void CheckUnified(const SensorParams<double>& p, const Fail& fail) {
+  if (!(p.xi >= 0.0 && p.xi <= 10.0)) fail("xi", "expected 0 <= xi <= 10");
+  if (p.curvature_radius != 0.0 || p.conic_constant != 0.0 || p.vertex_distance != 0.0 || p.asphere_a4 != 0.0 ||
+      p.asphere_a6 != 0.0)
+    fail("curvature_radius/conic_constant/vertex_distance", "the unified profile has no mirror terms");
+}
+
 }  // namespace
 
 void Sensor::Check(const std::string& what) const {
@@ -69,7 +81,7 @@ void Sensor::Check(const std::string& what) const {
   const SensorParams<double>& p = params;
   const double vals[] = {p.focal_px, p.cx, p.cy, p.aspect, p.azimuth_offset, p.k1, p.k2,
                          p.curvature_radius, p.conic_constant, p.vertex_distance, p.rim_radius,
-                         p.asphere_a4, p.asphere_a6};
+                         p.asphere_a4, p.asphere_a6, p.xi};
   for (double v : vals)
     if (!std::isfinite(v)) fail("parameters", "not a finite number (NaN or infinity)");
   if (image_width <= 0 || image_height <= 0)
@@ -89,14 +101,19 @@ void Sensor::Check(const std::string& what) const {
   check_centre(p.cy, image_height, "cy");
   if (!(p.focal_px > 0.0)) fail("focal_px", "expected a positive focal length in pixels");
   if (!(p.aspect > 0.0)) fail("aspect", "expected a positive aspect ratio");
-  if (!(p.curvature_radius > 0.0))
+  if (p.unified != (model == MirrorModel::kUnified))
+    fail("model", "internal: the parameters' profile does not match the model");
+  if (p.unified) {
+    CheckUnified(p, fail);
+  } else if (!(p.curvature_radius > 0.0)) {
     fail(model == MirrorModel::kSphere ? "mirror_radius" : "curvature_radius",
          "expected a positive mirror radius");
-  if (!(p.vertex_distance > 0.0))
+  } else if (!(p.vertex_distance > 0.0)) {
     fail(model == MirrorModel::kSphere ? "mirror_distance" : "vertex_distance",
          model == MirrorModel::kSphere
              ? "expected mirror_distance > mirror_radius (the mirror must not reach the pinhole)"
              : "expected the mirror's vertex above the pinhole");
+  }
   const RigFaults<double>& f = faults;
   const double fault_vals[] = {f.mirror_offset[0], f.mirror_offset[1], f.camera_tilt[0], f.camera_tilt[1],
                                f.p1, f.p2, f.k3, f.sensor_tilt[0], f.sensor_tilt[1]};
@@ -107,14 +124,15 @@ void Sensor::Check(const std::string& what) const {
     if (!(std::abs(f.camera_tilt[i]) <= kMaxTilt)) fail("camera_tilt", "expected angles within +-0.5 rad (28.6 degrees)");
     if (!(std::abs(f.sensor_tilt[i]) <= kMaxTilt)) fail("sensor_tilt", "expected angles within +-0.5 rad (28.6 degrees)");
   }
-  if (!(std::hypot(f.mirror_offset[0], f.mirror_offset[1]) < p.curvature_radius))
+  if (!p.unified && !(std::hypot(f.mirror_offset[0], f.mirror_offset[1]) < p.curvature_radius))
     fail("mirror_offset", "expected an offset smaller than the mirror's radius");
   if (p.rim_radius < 0.0) fail("rim_radius", "expected a non-negative rim radius");
   if (model != MirrorModel::kAsphere && (p.asphere_a4 != 0.0 || p.asphere_a6 != 0.0))
     fail("asphere_a4/asphere_a6", "even-asphere terms need model asphere");
   const double m_max = max_normalized_radius(p);
   if (!std::isfinite(m_max) || !(m_max > 0.0))
-    fail("rim_radius", "the mirror has no limb; give its rim_radius");
+    fail("rim_radius", p.unified ? "the unified profile sees to infinity; give its rim_radius (a normalised radius)"
+                                 : "the mirror has no limb; give its rim_radius");
   if (!is_conic_profile(p) && !ConvexProfile(p, m_max))
     fail("asphere_a4/asphere_a6", "the mirror's profile is not convex where the camera sees it");
 }

@@ -32,8 +32,10 @@ Eigen::Vector3d world_from_sensor(const Pose2& pose, double sensor_height,
 Eigen::Vector3d world_direction(const Pose2& pose, const Eigen::Vector3d& dir_sensor);
 
 // kAsphere: the conic with its even-asphere terms (SensorParams::asphere_a4,
-// asphere_a6), which only it may have non-zero.
-enum class MirrorModel { kSphere, kConic, kAsphere };
+// asphere_a6), which only it may have non-zero. kUnified: Mei's unified
+// central model (SensorParams::unified and xi; catadioptric.h), no mirror
+// geometry.
+enum class MirrorModel { kSphere, kConic, kAsphere, kUnified };
 const char* mirror_model_name(MirrorModel m);
 
 struct Sensor {
