@@ -401,7 +401,8 @@ bool unified_backproject(const SensorParams<T>& p, const RigFaults<T>& f, const 
 
 }  // namespace detail
 
-// Projects a robot-frame point to pixel (u, v) with the 3-D reflection solve,
+// Projects a robot-frame point to pixel (u, v) with the 3-D reflection solve
+// (the unified profile: its closed form about the offset viewpoint),
 // whatever the faults (use it when faults are free parameters of a fit: the
 // derivatives with respect to them exist at zero too).
 template <typename T>
