@@ -40,11 +40,11 @@ ENTITIES = {
     "trajectory": "world/trajectory",
     "covariance": "world/covariance",
     "status": "log/status",
-    "std_x": "plots/std/x",
-    "std_y": "plots/std/y",
-    "std_theta": "plots/std/theta_deg",
-    "n_landmarks": "plots/landmarks",
-    "residual": "plots/residual",
+    "std_x": "plots/position/std_x",
+    "std_y": "plots/position/std_y",
+    "residual": "plots/position/residual",
+    "std_theta": "plots/heading/std_theta_deg",
+    "n_landmarks": "plots/landmarks/n_landmarks",
 }
 
 # The debug video's colours (pipeline/debug_draw.cc), as RGB.
@@ -76,8 +76,10 @@ def _blueprint(rrb):
             rrb.Vertical(
                 rrb.Spatial3DView(name="room", origin="world",
                                   overrides={ENTITIES["trajectory"]: [rrb.components.VisibleTimeRangeBatch([history])]}),
-                rrb.TimeSeriesView(name="uncertainty", origin="plots"),
-                row_shares=[3, 2]),
+                rrb.TimeSeriesView(name="position std and residual (map units)", origin="plots/position"),
+                rrb.Horizontal(rrb.TimeSeriesView(name="heading std (deg)", origin="plots/heading"),
+                               rrb.TimeSeriesView(name="landmarks", origin="plots/landmarks")),
+                row_shares=[4, 2, 2]),
             column_shares=[1, 1]),
         collapse_panels=True)
 
@@ -147,7 +149,7 @@ class RunViewer:
         rec.log(ENTITIES["corners"], rr.Points3D(corners, labels=list(m.landmark_ids), colors=(255, 220, 0),
                                                   radii=rr.Radius.ui_points(4.0)), static=True)
         extent = np.ptp(corners[:, :2], axis=0).max() if len(corners) else 1.0
-        self._arrow = 0.06 * float(extent) if extent > 0 else 1.0
+        self._arrow = 0.1 * float(extent) if extent > 0 else 1.0
         for key, colour in (("std_x", (230, 80, 80)), ("std_y", (80, 160, 230)), ("std_theta", (120, 200, 120)),
                             ("n_landmarks", (200, 200, 200)), ("residual", (230, 160, 60))):
             rec.log(ENTITIES[key], rr.SeriesLine(color=colour, name=key), static=True)
@@ -186,14 +188,14 @@ class RunViewer:
             rec.log(ENTITIES["robot"], rr.Transform3D(translation=[x, y, 0.0],
                                                       rotation=rr.RotationAxisAngle(axis=[0, 0, 1], radians=theta)))
             rec.log(ENTITIES["heading"], rr.Arrows3D(vectors=[[self._arrow, 0.0, 0.0]], origins=[[0.0, 0.0, z]],
-                                                     colors=(255, 60, 60)))
+                                                     colors=(255, 60, 60), radii=rr.Radius.ui_points(3.0)))
             cov = np.asarray(result["covariance"], dtype=np.float64)
             rec.log(ENTITIES["covariance"],
                     rr.LineStrips3D([np.column_stack([_ellipse(np.array([x, y]), cov[:2, :2]),
                                                       np.full(49, z)])], colors=(60, 160, 255)))
             if self._previous is not None:
                 rec.log(ENTITIES["trajectory"], rr.LineStrips3D([[[*self._previous, z], [x, y, z]]],
-                                                                colors=(255, 60, 60)))
+                                                                colors=(255, 60, 60), radii=rr.Radius.ui_points(2.0)))
             self._previous = (x, y)
             rec.log(ENTITIES["std_x"], rr.Scalar(float(result["std_x"])))
             rec.log(ENTITIES["std_y"], rr.Scalar(float(result["std_y"])))

@@ -100,7 +100,7 @@ def test_run_recorded_to_rrd(sequence, recording, tmp_path):
     translations = table(rec, "world/robot", "Translation3D")
     ellipses = table(rec, "world/covariance", "LineStrip3D")
     segments = table(rec, "world/trajectory", "LineStrip3D")
-    std_x = table(rec, "plots/std/x", "Scalar")
+    std_x = table(rec, "plots/position/std_x", "Scalar")
     for i, d in enumerate(details):
         lm = d["landmarks"]
         found = lm["found"]
