@@ -9,9 +9,12 @@ converts the frames of an image folder (OpenCV's BGR to grey weights,
 one by one by panotrack.Localizer, the localiser panoloc runs: a recording
 and an image folder of the same frames give the same rows.
 
-Reading needs the Python packages rosbags (ROS 1 and ROS 2 bags, MCAP files
-of ROS 2 messages) and, for CompressedImage topics, OpenCV's Python module
-(cv2); writing needs mcap. No ROS installation is needed. Errors are
+Reading needs the Python packages rosbags (ROS 1 and ROS 2 bags; the
+messages' deserialisers) and mcap (MCAP files of ROS 2 or ROS 1 messages)
+and, for colour, 16-bit and CompressedImage topics, OpenCV's Python module
+(cv2); writing needs mcap. A ROS 1 bag or an MCAP file cut short is read
+up to the damage (the run then ends incomplete, as panoloc's for a
+truncated video). No ROS installation is needed. Errors are
 panotrack.Error with one line naming the recording and the reason.
 """
 
@@ -121,7 +124,10 @@ class _McapFile:
     up to the damage, which then ends the messages (_Damaged)."""
 
     def __init__(self, path):
-        from mcap.reader import make_reader
+        try:
+            from mcap.reader import make_reader
+        except ImportError:
+            _fail(path, "reading MCAP files needs the Python package mcap (pip install mcap)")
         self.path = path
         self.damage = None
         self.schemas, self.channels, self.counts = {}, {}, {}
@@ -332,6 +338,7 @@ class _Recording:
         self.kind = _kind(path)
         self.reader = self.file = None
         if self.kind == "mcap":
+            _import_rosbags(path)  # the messages' deserialisers
             self._open_file(_McapFile, self.path)
             return
         AnyReader, Stores, get_typestore = _import_rosbags(path)
