@@ -28,3 +28,11 @@ if ! /usr/bin/python3 -c "import rosbags.highlevel, mcap.writer, mcap_ros2.decod
   $SUDO /usr/bin/python3 -m pip install -q --break-system-packages --disable-pip-version-check \
     "rosbags>=0.11" "mcap>=1.1" "mcap-ros2-support>=0.5" "numpy<2"
 fi
+# The run viewer (panotrack.viewer): Rerun's SDK 0.22.1, its last release
+# that runs with numpy 1.x (0.23 on require numpy 2), and a pyarrow that
+# still does (the newest refuses numpy 1.x at import; 19.0.1 runs with it).
+if ! /usr/bin/python3 -c "import rerun, pyarrow; assert rerun.__version__ == '0.22.1'" 2>/dev/null; then
+  echo "install-deps: installing rerun-sdk 0.22.1 from PyPI" >&2
+  $SUDO /usr/bin/python3 -m pip install -q --break-system-packages --disable-pip-version-check \
+    "rerun-sdk==0.22.1" "pyarrow<20" "numpy<2"
+fi

@@ -9,9 +9,12 @@ converts the frames of an image folder (OpenCV's BGR to grey weights,
 one by one by panotrack.Localizer, the localiser panoloc runs: a recording
 and an image folder of the same frames give the same rows.
 
-Reading needs the Python packages rosbags (ROS 1 and ROS 2 bags, MCAP files
-of ROS 2 messages) and, for CompressedImage topics, OpenCV's Python module
-(cv2); writing needs mcap. No ROS installation is needed. Errors are
+Reading needs the Python packages rosbags (ROS 1 and ROS 2 bags; the
+messages' deserialisers) and mcap (MCAP files of ROS 2 or ROS 1 messages)
+and, for colour, 16-bit and CompressedImage topics, OpenCV's Python module
+(cv2); writing needs mcap. A ROS 1 bag or an MCAP file cut short is read
+up to the damage (the run then ends incomplete, as panoloc's for a
+truncated video). No ROS installation is needed. Errors are
 panotrack.Error with one line naming the recording and the reason.
 """
 
@@ -102,33 +105,290 @@ def _reason(err):
     return text or type(err).__name__
 
 
+class _Damaged(Error):
+    """The recording breaks off (cut short, or damaged) after the messages
+    read so far; the message is the reason, without the file."""
+
+
+def _ros_type(name):
+    """A schema's type name as rosbags names it (sensor_msgs/Image ->
+    sensor_msgs/msg/Image)."""
+    parts = name.split("/")
+    return f"{parts[0]}/msg/{parts[1]}" if len(parts) == 2 else name
+
+
+class _McapFile:
+    """An MCAP file read with the mcap library, ROS 2 (cdr) or ROS 1 (ros1)
+    messages. A whole file is read through its summary; one without a
+    readable footer or summary (cut short while recording) record by record
+    up to the damage, which then ends the messages (_Damaged)."""
+
+    def __init__(self, path):
+        try:
+            from mcap.reader import make_reader
+        except ImportError:
+            _fail(path, "reading MCAP files needs the Python package mcap (pip install mcap)")
+        self.path = path
+        self.damage = None
+        self.schemas, self.channels, self.counts = {}, {}, {}
+        self._summary = None
+        try:
+            with open(path, "rb") as f:
+                summary = make_reader(f).get_summary()
+            if summary is not None and summary.statistics is not None:
+                self._summary = summary
+                self.schemas, self.channels = dict(summary.schemas), dict(summary.channels)
+                self.counts = dict(summary.statistics.channel_message_counts)
+        except Exception:  # the footer or summary is missing or damaged
+            self._summary = None
+        if self._summary is None:
+            for record in self._records(count_only=True):
+                pass
+
+    def _records(self, count_only=False):
+        """(channel, message) in the file's order; the schemas and channels
+        found on the way; sets self.damage where it breaks off."""
+        from mcap import records
+        from mcap.stream_reader import StreamReader
+        ended = False
+        with open(self.path, "rb") as f:
+            try:
+                for r in StreamReader(f, validate_crcs=True).records:
+                    if isinstance(r, records.Schema):
+                        self.schemas[r.id] = r
+                    elif isinstance(r, records.Channel):
+                        self.channels[r.id] = r
+                    elif isinstance(r, records.Message):
+                        if count_only:
+                            self.counts[r.channel_id] = self.counts.get(r.channel_id, 0) + 1
+                        else:
+                            yield self.channels[r.channel_id], r
+                    elif isinstance(r, records.Footer):
+                        ended = True
+            except Exception as e:
+                from mcap.exceptions import EndOfFile
+                what = "the file ends inside a record" if isinstance(e, EndOfFile) else _reason(e)
+                self.damage = f"{what} at byte {f.tell()}"
+                return
+        if not ended:
+            self.damage = "the file ends without its footer"
+
+    def topics(self):
+        out = {}
+        for cid, ch in self.channels.items():
+            schema = self.schemas.get(ch.schema_id)
+            msgtype = _ros_type(schema.name) if schema is not None else ""
+            n = out.get(ch.topic, (msgtype, 0))[1] + self.counts.get(cid, 0)
+            out[ch.topic] = (msgtype, n)
+        return out
+
+    def messages(self, topic, msgtype):
+        """(log_time, message) of the topic, deserialised with rosbags."""
+        from rosbags.typesys import Stores, get_typestore
+        stores = {}
+
+        def decode(channel, data):
+            encoding = channel.message_encoding
+            if encoding not in stores:
+                if encoding not in ("cdr", "ros1"):
+                    _fail(self.path, f"topic '{topic}': message encoding '{encoding}' is not read "
+                                     "(expected cdr or ros1)")
+                store = get_typestore(Stores.ROS1_NOETIC if encoding == "ros1" else Stores.ROS2_HUMBLE)
+                stores[encoding] = store
+            store = stores[encoding]
+            if encoding == "ros1":
+                return store.deserialize_ros1(data, msgtype)
+            return store.deserialize_cdr(data, msgtype)
+
+        if self._summary is not None:
+            from mcap.reader import make_reader
+            with open(self.path, "rb") as f:
+                try:
+                    for _, channel, message in make_reader(f).iter_messages(topics=[topic], log_time_order=True):
+                        yield message.log_time, decode(channel, message.data)
+                except Error:
+                    raise
+                except Exception as e:
+                    raise _Damaged(f"{_reason(e)}") from None
+            return
+        for channel, message in self._records():
+            if channel.topic == topic:
+                yield message.log_time, decode(channel, message.data)
+        if self.damage is not None:
+            raise _Damaged(self.damage)
+
+
+class _Ros1File:
+    """A ROS 1 bag without a readable index (cut short while recording),
+    read record by record up to the damage."""
+
+    _HEADER = b"#ROSBAG V2.0\n"
+
+    def __init__(self, path):
+        self.path = path
+        self.damage = None
+        self.connections, self.counts = {}, {}
+        for _ in self._messages(count_only=True):
+            pass
+
+    @staticmethod
+    def _fields(header):
+        out, i = {}, 0
+        while i + 4 <= len(header):
+            n = int.from_bytes(header[i:i + 4], "little")
+            name, _, value = header[i + 4:i + 4 + n].partition(b"=")
+            out[name.decode()] = value
+            i += 4 + n
+        return out
+
+    def _read_records(self, data, offset, where):
+        """(fields, data, whole, data's offset) of the records in `data`
+        from offset (`where`: data's offset in the file); a record whose
+        data is cut short comes with what there is of it (whole False), one
+        whose header is cut raises ValueError."""
+        while offset < len(data):
+            cut = ValueError(f"a record cut short at byte {where + offset}")
+            if offset + 4 > len(data):
+                raise cut
+            hlen = int.from_bytes(data[offset:offset + 4], "little")
+            end_header = offset + 4 + hlen
+            if end_header + 4 > len(data):
+                raise cut
+            fields = self._fields(data[offset + 4:end_header])
+            dlen = int.from_bytes(data[end_header:end_header + 4], "little")
+            end = end_header + 4 + dlen
+            yield fields, data[end_header + 4:end], end <= len(data), where + end_header + 4
+            if end > len(data):
+                raise cut
+            offset = end
+
+    def _messages(self, count_only=False):
+        import bz2
+        with open(self.path, "rb") as f:
+            data = f.read()
+        indexed = False
+        try:
+            for fields, body, whole, at in self._read_records(data, len(self._HEADER), 0):
+                op = fields.get("op", b"\0")[0]
+                if op == 0x03:  # bag header
+                    index_pos = int.from_bytes(fields.get("index_pos", b"\0" * 8), "little")
+                    indexed = 0 < index_pos < len(data)
+                elif op == 0x05:  # chunk; an uncompressed one cut short gives its whole records
+                    compression = fields.get("compression", b"none").decode()
+                    if not whole and compression != "none":
+                        continue
+                    if compression == "bz2":
+                        body = bz2.decompress(body)
+                    elif compression == "lz4":
+                        from lz4.frame import decompress
+                        body = decompress(body)
+                    elif compression != "none":
+                        raise ValueError(f"chunk compression '{compression}' is not read")
+                    for inner, payload, inner_whole, _ in self._read_records(body, 0, at if compression == "none" else 0):
+                        if inner_whole:
+                            yield from self._record(inner, payload, count_only)
+                elif whole:
+                    yield from self._record(fields, body, count_only)
+        except Exception as e:
+            self.damage = _reason(e)
+            return
+        if not indexed:
+            self.damage = "the bag ends without its index"
+
+    def _record(self, fields, body, count_only):
+        op = fields.get("op", b"\0")[0]
+        if op == 0x07:  # connection
+            conn = int.from_bytes(fields["conn"], "little")
+            if conn not in self.connections:
+                info = self._fields(body)
+                self.connections[conn] = (fields["topic"].decode(), _ros_type(info["type"].decode()))
+        elif op == 0x02:  # message data
+            conn = int.from_bytes(fields["conn"], "little")
+            t = fields["time"]
+            ns = int.from_bytes(t[:4], "little") * 1_000_000_000 + int.from_bytes(t[4:8], "little")
+            if count_only:
+                self.counts[conn] = self.counts.get(conn, 0) + 1
+            else:
+                yield conn, ns, body
+
+    def topics(self):
+        out = {}
+        for conn, (topic, msgtype) in self.connections.items():
+            out[topic] = (msgtype, out.get(topic, (msgtype, 0))[1] + self.counts.get(conn, 0))
+        return out
+
+    def messages(self, topic, msgtype):
+        from rosbags.typesys import Stores, get_typestore
+        store = get_typestore(Stores.ROS1_NOETIC)
+        for conn, ns, body in self._messages():
+            if self.connections[conn][0] == topic:
+                yield ns, store.deserialize_ros1(body, msgtype)
+        if self.damage is not None:
+            raise _Damaged(self.damage)
+
+
 class _Recording:
-    """An open recording: its image topics and the messages of one."""
+    """An open recording: its image topics and the messages of one. ROS 1
+    and ROS 2 bags are read with rosbags, MCAP files with the mcap library;
+    a ROS 1 bag or an MCAP file (alone or in a ROS 2 bag) cut short is read
+    record by record up to the damage."""
 
     def __init__(self, path):
         self.path = os.fspath(path)
         self.kind = _kind(path)
+        self.reader = self.file = None
+        if self.kind == "mcap":
+            _import_rosbags(path)  # the messages' deserialisers
+            self._open_file(_McapFile, self.path)
+            return
         AnyReader, Stores, get_typestore = _import_rosbags(path)
         store = Stores.ROS1_NOETIC if self.kind == "ros1" else Stores.ROS2_HUMBLE
         try:
             self.reader = AnyReader([pathlib.Path(path)], default_typestore=get_typestore(store))
             self.reader.open()
         except Exception as e:  # the readers' own, sqlite3's, struct's, zstd's...
-            _fail(path, f"truncated or damaged ({_reason(e)})")
+            self.reader = None
+            salvage = self._salvage()
+            if salvage is None:
+                _fail(path, f"truncated or damaged ({_reason(e)})")
+            self._open_file(*salvage)
+
+    def _salvage(self):
+        """The reader of a file cut short, read up to the damage: a ROS 1 bag,
+        or the MCAP file of a ROS 2 bag; None for others (SQLite cannot
+        read a database cut short)."""
+        p = pathlib.Path(self.path)
+        if self.kind == "ros1":
+            return _Ros1File, self.path
+        files = sorted(p.glob("*.mcap")) if p.is_dir() else []
+        return (_McapFile, str(files[0])) if len(files) == 1 else None
+
+    def _open_file(self, cls, file):
+        try:
+            self.file = cls(file)
+        except Error:
+            raise
+        except Exception as e:
+            _fail(self.path, f"truncated or damaged ({_reason(e)})")
 
     def close(self):
         try:
-            self.reader.close()
+            if self.reader is not None:
+                self.reader.close()
         except Exception:  # closing after a read error
             pass
 
     def topics(self):
-        """{topic: (message type, message count)} of every topic."""
+        """{topic: (message type, message count)} of every topic (of the
+        messages before the damage in a file cut short)."""
+        if self.file is not None:
+            return self.file.topics()
         return {name: (info.msgtype, info.msgcount) for name, info in self.reader.topics.items()}
 
     def connections(self, topic):
-        """The connections of `topic` (accepted with or without its leading
-        slash); raises Error when it is missing or holds no images."""
+        """(topic as the recording names it, message type, message count) of
+        `topic` (accepted with or without its leading slash); raises Error
+        when it is missing or holds no images."""
         topics = self.topics()
         name = topic
         if name not in topics:
@@ -136,14 +396,39 @@ class _Recording:
             name = alt if alt in topics else None
         if name is None:
             images = [t for t, (mt, _) in sorted(topics.items()) if mt in (IMAGE_TYPE, COMPRESSED_TYPE)]
+            damage = self.file.damage if self.file is not None else None
+            if damage is not None:
+                _fail(self.path, f"truncated or damaged before any message of '{topic}' ({damage})")
             _fail(self.path, f"no topic '{topic}' (image topics: {', '.join(images) if images else 'none'})")
-        msgtype = topics[name][0]
+        msgtype, count = topics[name]
         if msgtype not in (IMAGE_TYPE, COMPRESSED_TYPE):
             _fail(self.path, f"topic '{name}' holds {msgtype}, not sensor_msgs/Image or sensor_msgs/CompressedImage")
-        return name, msgtype, [c for c in self.reader.connections if c.topic == name]
+        return name, msgtype, count
+
+    def messages(self, topic, msgtype):
+        """(log_time, message) of the topic in the recording's order; raises
+        _Damaged where the recording breaks off."""
+        if self.file is not None:
+            yield from self.file.messages(topic, msgtype)
+            return
+        reader = self.reader
+        connections = [c for c in reader.connections if c.topic == topic]
+        messages = reader.messages(connections=connections)
+        while True:
+            try:
+                item = next(messages, None)
+                if item is None:
+                    return
+                connection, log_time, raw = item
+                msg = reader.deserialize(raw, connection.msgtype)
+            except Exception as e:
+                raise _Damaged(_reason(e)) from None
+            yield log_time, msg
 
     def only_image_topic(self):
         images = [t for t, (mt, _) in sorted(self.topics().items()) if mt in (IMAGE_TYPE, COMPRESSED_TYPE)]
+        if not images and self.file is not None and self.file.damage is not None:
+            _fail(self.path, f"truncated or damaged before any image message ({self.file.damage})")
         if len(images) != 1:
             _fail(self.path, "no image topic" if not images else
                   f"{len(images)} image topics ({', '.join(images)}): choose one")
@@ -246,8 +531,7 @@ class BagFrames:
         self._rec = _Recording(path)
         try:
             name = topic if topic is not None else self._rec.only_image_topic()
-            self.topic, self.msgtype, self._connections = self._rec.connections(name)
-            self.count = sum(c.msgcount for c in self._connections)
+            self.topic, self.msgtype, self.count = self._rec.connections(name)
             self._cv2 = _import_cv2(path) if self.msgtype == COMPRESSED_TYPE else None
         except BaseException:
             self._rec.close()
@@ -260,20 +544,19 @@ class BagFrames:
         return self._iter
 
     def _frames(self):
-        path, reader = self.path, self._rec.reader
+        path = self.path
         compressed = self.msgtype == COMPRESSED_TYPE
-        messages = reader.messages(connections=self._connections)
         index = 0
         try:
+            messages = self._rec.messages(self.topic, self.msgtype)
             while True:
                 try:
                     item = next(messages, None)
-                    if item is None:
-                        break
-                    connection, log_time, raw = item
-                    msg = reader.deserialize(raw, connection.msgtype)
-                except Exception as e:
-                    _fail(path, f"truncated or damaged at message {index} of {self.topic} ({_reason(e)})")
+                except _Damaged as e:
+                    raise _Damaged(f"{path}: truncated or damaged at message {index} of {self.topic} ({e})") from None
+                if item is None:
+                    break
+                log_time, msg = item
                 grey = _compressed_grey(msg, path, index, self._cv2) if compressed else _raw_grey(msg, path, index)
                 yield grey, _stamp_ns(msg, log_time)
                 index += 1
@@ -385,8 +668,14 @@ def round_pose_rows(results):
     return rows
 
 
+def _without_path(err, path):
+    """An error's message without the "PATH: " it starts with."""
+    text = str(err)
+    return text[len(path) + 2:] if text.startswith(path + ": ") else text
+
+
 def localize_bag(path, topic=None, calibration=None, map=None, method="junction", init=None, num_threads=0,
-                 return_summary=False, on_frame=None, **localizer_options):
+                 return_summary=False, on_frame=None, view=None, **localizer_options):
     """Localises through the frames of one image topic of a ROS 1 bag, a
     ROS 2 bag (folder or .db3) or an MCAP file, as panoloc does through a
     video.
@@ -408,11 +697,20 @@ def localize_bag(path, topic=None, calibration=None, map=None, method="junction"
     map: file paths or Calibration / Map objects. init: (x, y, theta) guess
     of the first pose; None: the case.yaml beside the recording, else a
     room-wide search (as panoloc). on_frame(index, grey, result): called
-    after each frame (result: Localizer.track's dict). localizer_options:
-    search_px, min_step, alert_fraction. Raises panotrack.Error naming the
-    recording for a missing topic, an unreadable encoding, a truncated or
-    damaged file or a frame size other than the calibration's; warns when
-    the run ended early or too few frames were tracked.
+    after each frame (result: Localizer.track's dict). view: the run shown
+    in Rerun as it goes (panotrack.viewer): True or "spawn" starts a viewer,
+    a path ending in .rrd records the run there, "HOST:PORT" sends it to a
+    viewer already running, a viewer.RunViewer is used as it is (and left
+    open); None (the default): no viewer, nothing of it imported.
+    localizer_options: search_px, min_step, alert_fraction.
+
+    Raises panotrack.Error naming the recording for a missing topic, an
+    unreadable encoding, a recording that cannot be opened or a first frame
+    of a size other than the calibration's. A recording that breaks off (a
+    ROS 1 bag or MCAP file cut short, a damaged message) or a frame of
+    another size than the ones before it ends the run as incomplete with the
+    rows before it, as panoloc ends a truncated video; error names the
+    message. Warns when the run ended early or too few frames were tracked.
     """
     import warnings
     if calibration is None or map is None:
@@ -425,13 +723,20 @@ def localize_bag(path, topic=None, calibration=None, map=None, method="junction"
     source = BagFrames(path, topic)
     results, stamps = [], []
     end, error = "done", None
-    prefetch = None
+    prefetch = viewer = None
     try:
         # The first frame is decoded before the localiser's set-up: a frame
         # that cannot be read fails at once.
         frames = iter(source)
-        first = next(frames, None)
+        try:
+            first = next(frames, None)
+        except _Damaged as e:
+            first, end, error = None, "incomplete", _without_path(e, path)
         loc = Localizer(calibration, map, method=method, init=init, num_threads=num_threads, **localizer_options)
+        if view is not None:
+            from . import viewer as viewer_module
+            viewer = viewer_module.open_viewer(view, loc.map)
+        details = viewer is not None
         sensor = loc.calibration.sensor
         size = (sensor.image_width, sensor.image_height)
         if first is not None:
@@ -453,13 +758,19 @@ def localize_bag(path, topic=None, calibration=None, map=None, method="junction"
                 # times would round); the row keeps the stamp.
                 if not stamps:
                     stamp0 = stamp
-                r = loc.track(grey, (stamp - stamp0) / 1_000_000_000)
+                r = loc.track(grey, (stamp - stamp0) / 1_000_000_000, details)
                 r["time_s"] = stamp / 1_000_000_000
                 results.append(r)
                 stamps.append(stamp)
+                if viewer is not None:
+                    viewer.log_frame(index, grey, r)
                 if on_frame is not None:
                     on_frame(index, grey, r)
-                pending = next(prefetch, None)
+                try:
+                    pending = next(prefetch, None)
+                except _Damaged as e:
+                    end, error = "incomplete", _without_path(e, path)
+                    break
     except KeyboardInterrupt:
         if not return_summary:
             raise
@@ -468,6 +779,8 @@ def localize_bag(path, topic=None, calibration=None, map=None, method="junction"
         if prefetch is not None:
             prefetch.close()
         source.__exit__(None, None, None)
+        if viewer is not None and viewer is not view:
+            viewer.close()
     rows = round_pose_rows(results)
     n_ok = int((rows["status"] == "ok").sum())
     n_lost = int((rows["status"] == "lost").sum())
@@ -594,10 +907,12 @@ def write_pose_mcap(path, rows, covariance, stamp_ns=None, metres_per_unit=1.0, 
 
 
 def write_image_bag(path, frames, stamp_ns, topic="/camera/image", encoding="mono8", storage="sqlite3",
-                    jpeg_quality=95, frame_id="camera"):
+                    jpeg_quality=95, frame_id="camera", mcap_profile="ros2"):
     """Writes frames as one image topic of a new recording, for trials and
-    tests: a ROS 1 bag (path ending .bag), an MCAP file of ROS 2 messages
-    (.mcap) or a ROS 2 bag folder (any other path; storage sqlite3 or mcap).
+    tests: a ROS 1 bag (path ending .bag), an MCAP file (.mcap) of ROS 2
+    messages (mcap_profile "ros2": cdr, ros2msg schemas) or ROS 1 messages
+    ("ros1": ros1 encoding, ros1msg schemas), or a ROS 2 bag folder (any
+    other path; storage sqlite3 or mcap).
 
     frames: uint8 grey (H x W) or BGR (H x W x 3) arrays; stamp_ns: each
     frame's header stamp in nanoseconds (also its recording time).
@@ -611,7 +926,10 @@ def write_image_bag(path, frames, stamp_ns, topic="/camera/image", encoding="mon
     if p.exists():
         raise Error(f"{path}: exists")
     kind = "ros1" if p.suffix == ".bag" else "mcap" if p.suffix == ".mcap" else "ros2"
-    ts = get_typestore(Stores.ROS1_NOETIC if kind == "ros1" else Stores.ROS2_HUMBLE)
+    if mcap_profile not in ("ros1", "ros2"):
+        raise ValueError(f"write_image_bag: mcap_profile: expected ros1 or ros2, got '{mcap_profile}'")
+    ros1 = kind == "ros1" or (kind == "mcap" and mcap_profile == "ros1")
+    ts = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
     T = ts.types
     compressed = encoding in ("jpeg", "png")
     msgtype = COMPRESSED_TYPE if compressed else IMAGE_TYPE
@@ -622,7 +940,7 @@ def write_image_bag(path, frames, stamp_ns, topic="/camera/image", encoding="mon
 
     def message(frame, ns):
         stamp = T["builtin_interfaces/msg/Time"](sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
-        header = (T["std_msgs/msg/Header"](seq=0, stamp=stamp, frame_id=frame_id) if kind == "ros1"
+        header = (T["std_msgs/msg/Header"](seq=0, stamp=stamp, frame_id=frame_id) if ros1
                   else T["std_msgs/msg/Header"](stamp=stamp, frame_id=frame_id))
         colour = frame.ndim == 3
         if compressed:
@@ -645,16 +963,20 @@ def write_image_bag(path, frames, stamp_ns, topic="/camera/image", encoding="mon
         return T[IMAGE_TYPE](header=header, height=h, width=w, encoding=encoding, is_bigendian=0,
                              step=img.strides[0], data=img.view(np.uint8).reshape(-1))
 
-    serialize = ts.serialize_ros1 if kind == "ros1" else ts.serialize_cdr
+    serialize = ts.serialize_ros1 if ros1 else ts.serialize_cdr
     n = 0
     if kind == "mcap":
         from mcap.writer import CompressionType, Writer
         with open(p, "wb") as f:
             w = Writer(f, compression=CompressionType.NONE)
-            w.start(profile="ros2", library="panotrack")
-            schema = w.register_schema(name=msgtype, encoding="ros2msg",
-                                       data=ts.generate_msgdef(msgtype, ros_version=2)[0].encode())
-            channel = w.register_channel(topic=topic, message_encoding="cdr", schema_id=schema)
+            w.start(profile=mcap_profile, library="panotrack")
+            if ros1:  # as ROS 1 names its types: sensor_msgs/Image
+                schema = w.register_schema(name=msgtype.replace("/msg/", "/"), encoding="ros1msg",
+                                           data=ts.generate_msgdef(msgtype, ros_version=1)[0].encode())
+            else:
+                schema = w.register_schema(name=msgtype, encoding="ros2msg",
+                                           data=ts.generate_msgdef(msgtype, ros_version=2)[0].encode())
+            channel = w.register_channel(topic=topic, message_encoding="ros1" if ros1 else "cdr", schema_id=schema)
             for frame, ns in zip(frames, stamp_ns):
                 ns = int(ns)
                 w.add_message(channel_id=channel, log_time=ns, publish_time=ns, sequence=n,

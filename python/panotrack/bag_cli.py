@@ -60,6 +60,11 @@ def _parser():
                     help="Topic of the poses in the MCAP (default: /panotrack/pose)")
     io.add_argument("--summary-json", help="Also write the summary (outputs, frames, ok, lost, frames/s, end, "
                                            "error) as JSON; - writes it to standard output")
+    io.add_argument("--view", nargs="?", const="spawn", metavar="FILE.rrd|HOST:PORT",
+                    help="Show the run in Rerun as it goes (the camera image with the tracked edges and junctions, "
+                         "the landmarks, the trajectory and the covariance): without a value a viewer is "
+                         "started; FILE.rrd records the run there for `rerun FILE.rrd`; HOST:PORT sends it to a "
+                         "viewer already running. Needs rerun-sdk")
     io.add_argument("--force", action="store_true", help="Replace existing output files")
     tr = loc.add_argument_group("Tracking")
     tr.add_argument("--init", help="X,Y,THETA: a guess of the initial pose (map units, radians); default: "
@@ -120,7 +125,10 @@ def _localize(args, pt, bag):
         p = pathlib.Path(args.bag)
         stem = p.name[:-len(p.suffix)] if p.suffix in (".bag", ".mcap", ".db3") else p.name
         mcap_out = str(p.parent / (stem + ".poses.mcap"))
-    outputs = {"poses": args.output, "tum": args.tum, "mcap": mcap_out}
+    if args.view is not None and args.view != "spawn" and not args.view.endswith(".rrd") and ":" not in args.view:
+        raise pt.Error(f"--view: expected nothing, FILE.rrd or HOST:PORT, got '{args.view}'")
+    rrd = args.view if args.view is not None and args.view.endswith(".rrd") else None
+    outputs = {"poses": args.output, "tum": args.tum, "mcap": mcap_out, "view": rrd}
     if args.summary_json and args.summary_json != "-":
         outputs["summary_json"] = args.summary_json
     named = {k: v for k, v in outputs.items() if v}
@@ -146,7 +154,7 @@ def _localize(args, pt, bag):
 
         rows, summary = bag.localize_bag(args.bag, args.topic, args.calib, m, method=args.method, init=init,
                                          num_threads=args.threads, return_summary=True, on_frame=on_frame,
-                                         **options)
+                                         view=args.view, **options)
         csv.commit()
         if tum is not None:
             tum.commit()
@@ -182,6 +190,8 @@ def _localize(args, pt, bag):
             print(f"  TUM -> {args.tum}", file=out)
         if mcap_out:
             print(f"  MCAP -> {mcap_out}", file=out)
+        if rrd:
+            print(f"  view -> {rrd}", file=out)
     if s["end"] == "interrupted":
         return 130
     if s["end"] != "done":

@@ -115,7 +115,7 @@ class PyLocalizer {
 
   void Reset(const PoseArg& init) { ResetTo(PoseOf(init)); }
 
-  py::dict Track(const py::array& frame, std::optional<double> time_s) {
+  py::dict Track(const py::array& frame, std::optional<double> time_s, bool details) {
     const cv::Mat grey = GreyView(frame);
     FrameResult fr;
     {
@@ -147,6 +147,7 @@ class PyLocalizer {
     d["relocalized"] = fr.relocalized;
     d["innovation"] = fr.innovation >= 0 ? fr.innovation : kNaN;
     d["predicted"] = py::make_tuple(fr.predicted_pose.x, fr.predicted_pose.y, fr.predicted_pose.theta);
+    if (details) d["landmarks"] = Landmarks(fr);
     return d;
   }
 
@@ -167,6 +168,60 @@ class PyLocalizer {
     else
       localizer_->ResetUnknown();
     next_frame_ = 0;
+  }
+
+  // What the frame's measurement saw, as panoloc's debug video draws it
+  // (pipeline/debug_draw.cc): per predicted landmark its id, the predicted
+  // corner and vertical edge, whether it was found, the junction and why
+  // not; the edges' image points with the landmark they belong to.
+  py::dict Landmarks(const FrameResult& fr) const {
+    const Sensor& s = calib_.sensor;
+    const size_t n = std::min(fr.predicted.size(), fr.measurements.size());
+    const py::ssize_t k = static_cast<py::ssize_t>(n);
+    py::list ids, why;
+    py::array_t<bool> found(k);
+    py::array_t<double> corner({k, py::ssize_t{2}}), edge({k, py::ssize_t{2}, py::ssize_t{2}}),
+        junction({k, py::ssize_t{2}}), world({k, py::ssize_t{3}});
+    size_t n_points = 0;
+    for (size_t i = 0; i < n; ++i) n_points += fr.measurements[i].edge_points.size();
+    py::array_t<double> points({static_cast<py::ssize_t>(n_points), py::ssize_t{2}});
+    py::array_t<int32_t> owner(static_cast<py::ssize_t>(n_points));
+    py::ssize_t q = 0;
+    for (size_t i = 0; i < n; ++i) {
+      const PredictedLandmark& p = fr.predicted[i];
+      const LandmarkMeasurement& m = fr.measurements[i];
+      const py::ssize_t r = static_cast<py::ssize_t>(i);
+      ids.append(p.landmark ? p.landmark->id : std::string());
+      why.append(m.found ? std::string() : std::string(m.why ? m.why : ""));
+      found.mutable_at(r) = m.found;
+      const Eigen::Vector2d a = s.from_polar(p.corner_radius, p.azimuth), b = s.from_polar(p.v_radius, p.azimuth);
+      const Eigen::Vector2d j = m.found ? s.from_polar(m.radius, m.azimuth) : Eigen::Vector2d(kNaN, kNaN);
+      const Eigen::Vector3d w = p.landmark ? p.landmark->corner : Eigen::Vector3d::Constant(kNaN);
+      for (int c = 0; c < 2; ++c) {
+        corner.mutable_at(r, c) = p.corner_px[c];
+        edge.mutable_at(r, 0, c) = a[c];
+        edge.mutable_at(r, 1, c) = b[c];
+        junction.mutable_at(r, c) = j[c];
+      }
+      for (int c = 0; c < 3; ++c) world.mutable_at(r, c) = w[c];
+      for (const Eigen::Vector2d& e : m.edge_points) {
+        points.mutable_at(q, 0) = e.x();
+        points.mutable_at(q, 1) = e.y();
+        owner.mutable_at(q) = static_cast<int32_t>(i);
+        ++q;
+      }
+    }
+    py::dict d;
+    d["ids"] = ids;
+    d["found"] = found;
+    d["why"] = why;
+    d["corner_world"] = world;
+    d["predicted_corner_px"] = corner;
+    d["predicted_edge_px"] = edge;
+    d["junction_px"] = junction;
+    d["edge_points_px"] = points;
+    d["edge_point_landmark"] = owner;
+    return d;
   }
 
   Calibration calib_;
@@ -338,9 +393,14 @@ void BindLocalize(py::module_& m) {
            "of the first pose (None: search the room); fps: for time_s when track() is given none; "
            "search_px, min_step, alert_fraction: as panoloc's --search-px, --min-step, --alert-fraction")
       .def("track", &PyLocalizer::Track, py::arg("frame"), py::arg("time_s") = py::none(),
+           py::arg("details") = false,
            "Localises the next frame (uint8 H x W). Returns a dict: frame, time_s, status (ok, lost, init), "
            "x, y, theta, std_x, std_y, std_theta, quality, covariance (3 x 3, x y theta), n_landmarks, "
-           "residual, relocalized, innovation, predicted (x, y, theta); NaN where not defined")
+           "residual, relocalized, innovation, predicted (x, y, theta); NaN where not defined. With "
+           "details, also landmarks: what the frame's measurement saw, as panoloc's debug video draws it "
+           "(per predicted landmark: ids, found, why, corner_world (K, 3), predicted_corner_px (K, 2), "
+           "predicted_edge_px (K, 2, 2: the vertical edge's ends), junction_px (K, 2, NaN when not found); "
+           "edge_points_px (M, 2) and edge_point_landmark (M,): the edges' points found and their landmark)")
       .def("reset", &PyLocalizer::Reset, py::arg("init") = py::none(), "Starts a new sequence (frame 0)")
       .def_property_readonly("next_frame", &PyLocalizer::next_frame)
       .def_property_readonly("calibration", &PyLocalizer::calibration)

@@ -316,18 +316,115 @@ def test_bad_recordings_give_one_line(sequence, grey, tmp_path):
     assert bad(sequence, tmp_path / "clip.mp4").startswith(f"{tmp_path / 'clip.mp4'}: not a recording panotrack reads")
 
 
-@pytest.mark.parametrize("name,storage", [("t.bag", None), ("t_sqlite3", "sqlite3"), ("t_mcap", "mcap"),
-                                          ("t.mcap", None)])
-def test_truncated_recordings(sequence, grey, tmp_path, name, storage):
-    # Cut at half its length (a recording interrupted by a crash): refused
-    # with one line naming the recording.
-    path = tmp_path / name
-    bag.write_image_bag(path, grey[:10], [i * STEP_NS for i in range(10)], topic=TOPIC,
-                        storage=storage or "sqlite3")
+def cut(path, fraction=0.5):
+    """Cuts the recording's data file to `fraction` of its length (a
+    recording interrupted by a crash)."""
     data_file = path if path.is_file() else next(f for f in path.iterdir() if f.suffix in (".db3", ".mcap"))
     data = data_file.read_bytes()
-    data_file.write_bytes(data[:len(data) // 2])
-    assert bad(sequence, path).startswith(f"{path}: truncated or damaged (")
+    data_file.write_bytes(data[:int(len(data) * fraction)])
+
+
+# (recording, ROS 2 storage, messages whole before the cut at half its length)
+TRUNCATED = [("t.bag", None, 4), ("t_mcap", "mcap", 5), ("t.mcap", None, 5)]
+
+
+@pytest.mark.parametrize("name,storage,whole", TRUNCATED, ids=[c[0] for c in TRUNCATED])
+def test_truncated_recording_ends_incomplete(sequence, references, tmp_path, name, storage, whole):
+    # As panoloc for a truncated video: the frames before the damage are
+    # tracked and their rows kept, the run ends incomplete with one line
+    # naming the recording and the message where it breaks off; the command
+    # writes the rows and exits 1.
+    grey = [f for f, _ in pt.FrameReader(sequence / "frames")][:10]
+    path = tmp_path / name
+    bag.write_image_bag(path, grey, [i * STEP_NS for i in range(10)], topic=TOPIC, storage=storage or "sqlite3")
+    cut(path)
+    rows, summary = pt.localize_bag(path, TOPIC, sequence / "calib.yaml", sequence / "map.yaml",
+                                    init=case_init(sequence), return_summary=True)
+    assert summary["end"] == "incomplete" and summary["frames"] == whole
+    assert summary["error"].startswith(f"truncated or damaged at message {whole} of {TOPIC} (")
+    assert csv_text(rows) == "\n".join(references["grey"].splitlines()[:whole + 1]) + "\n"
+    with pytest.warns(RuntimeWarning, match=f"localize_bag: incomplete: truncated or damaged at message {whole} "):
+        pt.localize_bag(path, TOPIC, sequence / "calib.yaml", sequence / "map.yaml", init=case_init(sequence))
+
+    out = tmp_path / "poses.csv"
+    r = run([sys.executable, "-m", "panotrack.bag_cli", "localize", str(path), "--topic", TOPIC, "--calib",
+             str(sequence / "calib.yaml"), "--map", str(sequence / "map.yaml"), "-o", str(out), "-q",
+             "--summary-json", str(tmp_path / "summary.json"), "--init", init_arg(sequence)])
+    assert r.returncode == 1
+    (line,) = r.stderr.splitlines()
+    assert line == f"panotrack-bag: {path}: incomplete: {summary['error']}"
+    assert out.read_text() == csv_text(rows)
+    s = json.loads((tmp_path / "summary.json").read_text())["inputs"][0]
+    assert (s["end"], s["done"], s["frames"], s["error"]) == ("incomplete", False, whole, summary["error"])
+    assert not list(tmp_path.glob("*.partial"))
+
+
+def test_truncated_recording_before_its_images(sequence, grey, tmp_path):
+    # Cut inside the MCAP file's first chunk, before the topic is known:
+    # refused, naming the damage.
+    path = tmp_path / "early.mcap"
+    bag.write_image_bag(path, grey[:10], [i * STEP_NS for i in range(10)], topic=TOPIC)
+    cut(path, 0.1)
+    assert bad(sequence, path) == (f"{path}: truncated or damaged before any message of '{TOPIC}' (the file "
+                                   f"ends inside a record at byte {path.stat().st_size})")
+    # The ROS 1 bag's connection record comes whole before the first message:
+    # the topic is known, and the run ends incomplete before its first frame.
+    path = tmp_path / "early.bag"
+    bag.write_image_bag(path, grey[:10], [i * STEP_NS for i in range(10)], topic=TOPIC)
+    cut(path, 0.1)
+    rows, summary = pt.localize_bag(path, TOPIC, sequence / "calib.yaml", sequence / "map.yaml",
+                                    init=case_init(sequence), return_summary=True)
+    assert len(rows) == 0 and (summary["end"], summary["frames"]) == ("incomplete", 0)
+    assert summary["error"].startswith(f"truncated or damaged at message 0 of {TOPIC} (a record cut short at byte ")
+
+
+def test_truncated_sqlite3_bag_is_refused(sequence, grey, tmp_path):
+    # SQLite cannot open a database cut short: refused whole, one line.
+    path = tmp_path / "t_sqlite3"
+    bag.write_image_bag(path, grey[:10], [i * STEP_NS for i in range(10)], topic=TOPIC, storage="sqlite3")
+    cut(path)
+    assert bad(sequence, path) == (f"{path}: truncated or damaged (Cannot open database {path}/t_sqlite3.db3: "
+                                   "database disk image is malformed)")
+
+
+def test_unindexed_ros1_bag_ends_incomplete(sequence, grey, references, tmp_path):
+    # A ROS 1 bag whose recorder died after its last chunk, before writing
+    # the index: every message is read, and the run still ends incomplete
+    # (what came after the last chunk is lost).
+    path = tmp_path / "noindex.bag"
+    bag.write_image_bag(path, grey[:6], [i * STEP_NS for i in range(6)], topic=TOPIC)
+    data = bytearray(path.read_bytes())
+    # The bag header's index_pos field, zeroed as rosbag leaves it until it closes the bag.
+    at = data.index(b"index_pos=") + len(b"index_pos=")
+    index_pos = int.from_bytes(data[at:at + 8], "little")
+    data[at:at + 8] = bytes(8)
+    path.write_bytes(bytes(data[:index_pos]))
+    rows, summary = pt.localize_bag(path, TOPIC, sequence / "calib.yaml", sequence / "map.yaml",
+                                    init=case_init(sequence), return_summary=True)
+    assert summary["end"] == "incomplete" and summary["frames"] == 6
+    assert summary["error"] == f"truncated or damaged at message 6 of {TOPIC} (the bag ends without its index)"
+    assert csv_text(rows) == "\n".join(references["grey"].splitlines()[:7]) + "\n"
+
+
+def test_ros1_mcap_equals_ros2_mcap(sequence, grey, references, tmp_path):
+    # An MCAP file of ROS 1 messages (ros1 encoding, ros1msg schemas, as
+    # Foxglove converts ROS 1 bags) gives the ROS 2 MCAP file's rows.
+    stamps = [i * STEP_NS for i in range(len(grey))]
+    results = {}
+    for profile in ("ros1", "ros2"):
+        path = tmp_path / f"{profile}.mcap"
+        bag.write_image_bag(path, grey, stamps, topic=TOPIC, encoding="mono8", mcap_profile=profile)
+        results[profile] = pt.localize_bag(path, TOPIC, sequence / "calib.yaml", sequence / "map.yaml",
+                                           init=case_init(sequence), return_summary=True)
+    from mcap.reader import make_reader
+    with open(tmp_path / "ros1.mcap", "rb") as f:
+        ((_, channel),) = make_reader(f).get_summary().channels.items()
+    assert channel.message_encoding == "ros1"
+    assert bag.bag_topics(tmp_path / "ros1.mcap") == {TOPIC: (bag.IMAGE_TYPE, 66)}
+    (rows1, s1), (rows2, s2) = results["ros1"], results["ros2"]
+    assert csv_text(rows1) == csv_text(rows2) == references["grey"]
+    assert s1["stamp_ns"].tolist() == s2["stamp_ns"].tolist() == stamps
+    np.testing.assert_array_equal(s1["covariance"], s2["covariance"])
 
 
 def test_pose_mcap_refuses_inputs_and_existing(tmp_path):
