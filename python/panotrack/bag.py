@@ -117,6 +117,16 @@ def _ros_type(name):
     return f"{parts[0]}/msg/{parts[1]}" if len(parts) == 2 else name
 
 
+def _topic_table(connections, counts):
+    """{topic: (message type, message count)} from (connection id, topic,
+    message type) and the messages counted per connection id (a topic may
+    have several connections)."""
+    out = {}
+    for cid, topic, msgtype in connections:
+        out[topic] = (msgtype, out.get(topic, (msgtype, 0))[1] + counts.get(cid, 0))
+    return out
+
+
 class _McapFile:
     """An MCAP file read with the mcap library, ROS 2 (cdr) or ROS 1 (ros1)
     messages. A whole file is read through its summary; one without a
@@ -174,13 +184,10 @@ class _McapFile:
             self.damage = "the file ends without its footer"
 
     def topics(self):
-        out = {}
-        for cid, ch in self.channels.items():
+        def msgtype(ch):
             schema = self.schemas.get(ch.schema_id)
-            msgtype = _ros_type(schema.name) if schema is not None else ""
-            n = out.get(ch.topic, (msgtype, 0))[1] + self.counts.get(cid, 0)
-            out[ch.topic] = (msgtype, n)
-        return out
+            return _ros_type(schema.name) if schema is not None else ""
+        return _topic_table(((cid, ch.topic, msgtype(ch)) for cid, ch in self.channels.items()), self.counts)
 
     def messages(self, topic, msgtype):
         """(log_time, message) of the topic, deserialised with rosbags."""
@@ -312,10 +319,8 @@ class _Ros1File:
                 yield conn, ns, body
 
     def topics(self):
-        out = {}
-        for conn, (topic, msgtype) in self.connections.items():
-            out[topic] = (msgtype, out.get(topic, (msgtype, 0))[1] + self.counts.get(conn, 0))
-        return out
+        return _topic_table(((conn, topic, msgtype) for conn, (topic, msgtype) in self.connections.items()),
+                            self.counts)
 
     def messages(self, topic, msgtype):
         from rosbags.typesys import Stores, get_typestore

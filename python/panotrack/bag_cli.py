@@ -125,9 +125,14 @@ def _localize(args, pt, bag):
         p = pathlib.Path(args.bag)
         stem = p.name[:-len(p.suffix)] if p.suffix in (".bag", ".mcap", ".db3") else p.name
         mcap_out = str(p.parent / (stem + ".poses.mcap"))
-    if args.view is not None and args.view != "spawn" and not args.view.endswith(".rrd") and ":" not in args.view:
-        raise pt.Error(f"--view: expected nothing, FILE.rrd or HOST:PORT, got '{args.view}'")
-    rrd = args.view if args.view is not None and args.view.endswith(".rrd") else None
+    rrd = None
+    if args.view is not None:
+        from panotrack.viewer import view_target
+        try:
+            kind, where = view_target(args.view)
+        except ValueError:
+            raise pt.Error(f"--view: expected nothing, FILE.rrd or HOST:PORT, got '{args.view}'") from None
+        rrd = where if kind == "save" else None
     outputs = {"poses": args.output, "tum": args.tum, "mcap": mcap_out, "view": rrd}
     if args.summary_json and args.summary_json != "-":
         outputs["summary_json"] = args.summary_json

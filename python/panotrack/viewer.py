@@ -24,7 +24,7 @@ import numpy as np
 
 from ._panotrack import Error
 
-__all__ = ["RunViewer", "open_viewer", "ENTITIES"]
+__all__ = ["RunViewer", "open_viewer", "view_target", "ENTITIES"]
 
 #: Entity paths of the recording, by what they hold.
 ENTITIES = {
@@ -190,9 +190,9 @@ class RunViewer:
             rec.log(ENTITIES["heading"], rr.Arrows3D(vectors=[[self._arrow, 0.0, 0.0]], origins=[[0.0, 0.0, z]],
                                                      colors=(255, 60, 60), radii=rr.Radius.ui_points(3.0)))
             cov = np.asarray(result["covariance"], dtype=np.float64)
+            ring = _ellipse(np.array([x, y]), cov[:2, :2])
             rec.log(ENTITIES["covariance"],
-                    rr.LineStrips3D([np.column_stack([_ellipse(np.array([x, y]), cov[:2, :2]),
-                                                      np.full(49, z)])], colors=(60, 160, 255)))
+                    rr.LineStrips3D([np.column_stack([ring, np.full(len(ring), z)])], colors=(60, 160, 255)))
             if self._previous is not None:
                 rec.log(ENTITIES["trajectory"], rr.LineStrips3D([[[*self._previous, z], [x, y, z]]],
                                                                 colors=(255, 60, 60), radii=rr.Radius.ui_points(2.0)))
@@ -222,18 +222,28 @@ class RunViewer:
         return False
 
 
-def open_viewer(view, map):
-    """A RunViewer for localize_bag's `view` argument: a RunViewer as it is;
-    True or "spawn": a viewer started for the run; a path ending in .rrd: a
-    recording written there; "HOST:PORT": a viewer already running there."""
-    if isinstance(view, RunViewer):
-        return view
+def view_target(view):
+    """What localize_bag's `view` argument asks for, without starting
+    anything: ("spawn", None) for True or "spawn", ("save", path) for a path
+    ending in .rrd, ("connect", address) for "HOST:PORT"; ValueError for
+    anything else (a RunViewer is not a target: it is used as it is)."""
     if view is True or view == "spawn":
-        return RunViewer(map, spawn=True)
+        return "spawn", None
     if isinstance(view, (str, os.PathLike)):
         text = os.fspath(view)
         if text.endswith(".rrd"):
-            return RunViewer(map, save=text)
+            return "save", text
         if ":" in text:
-            return RunViewer(map, connect=text)
+            return "connect", text
     raise ValueError(f"view: expected True, 'spawn', a path ending in .rrd, 'HOST:PORT' or a RunViewer, got {view!r}")
+
+
+def open_viewer(view, map):
+    """A RunViewer for localize_bag's `view` argument: a RunViewer as it is,
+    else one for view_target(view)."""
+    if isinstance(view, RunViewer):
+        return view
+    kind, where = view_target(view)
+    if kind == "spawn":
+        return RunViewer(map, spawn=True)
+    return RunViewer(map, save=where) if kind == "save" else RunViewer(map, connect=where)
