@@ -66,7 +66,10 @@ std::vector<TrackingVote> LinePoints(const Sensor& s, const HLine& l, double dt0
     const double dt = dt0 + (dt1 - dt0) * (n == 1 ? 0.5 : k / double(n - 1));
     Eigen::Vector2d px;
     if (!s.project(l.Point(dt), &px)) continue;
-    if (noise_px > 0) px += noise_px * Eigen::Vector2d(noise(rng), noise(rng));
+    if (noise_px > 0) {
+      const double ny = noise(rng), nx = noise(rng);  // (drawn in a set order: a call's argument order is the compiler's)
+      px += noise_px * Eigen::Vector2d(nx, ny);
+    }
     TrackingVote v;
     s.to_polar(px.x(), px.y(), &v.radius, &v.azimuth);
     out.push_back(v);

@@ -209,7 +209,10 @@ TEST_CASE("pose CSV: a row's text is printf's (%.6f, %.4f, %.6g), whatever the v
   std::mt19937 rng(20261130);
   std::uniform_real_distribution<double> mantissa(-1.0, 1.0);
   std::uniform_int_distribution<int> exponent(-12, 12);
-  auto value = [&] { return mantissa(rng) * std::pow(10.0, exponent(rng)); };
+  auto value = [&] {
+    const double m = mantissa(rng);  // (one draw per statement: operand order is the compiler's choice)
+    return m * std::pow(10.0, exponent(rng));
+  };
   const std::vector<double> special = {0.0,    -0.0,    0.00005, -0.00005, 0.000049999, 1e-300, -1e300,
                                        1e308,  123.45675, 2.5e-7, 999999.5, 0.12345650, std::nan(""),
                                        HUGE_VAL, -HUGE_VAL};

@@ -31,7 +31,8 @@ std::vector<Eigen::Vector2d> RandomLandmarks(std::mt19937_64& rng, const Pose2& 
   std::uniform_real_distribution<double> room(0.0, 200.0);
   std::vector<Eigen::Vector2d> lms;
   while (static_cast<int>(lms.size()) < n) {
-    const Eigen::Vector2d l(room(rng), room(rng));
+    const double ly = room(rng), lx = room(rng);  // (drawn in a set order: a call's argument order is the compiler's)
+    const Eigen::Vector2d l(lx, ly);
     if (std::hypot(l.x() - pose.x, l.y() - pose.y) > 10.0) lms.push_back(l);
   }
   return lms;

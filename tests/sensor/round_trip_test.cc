@@ -53,7 +53,8 @@ void CheckPointRoundTrip(const test::NamedSensor& ns, std::mt19937_64& rng) {
   int visible = 0;
   double worst = 0.0;
   for (int i = 0; i < 20000; ++i) {
-    const Eigen::Vector3d X(uni(rng), uni(rng), uni(rng));
+    const double z = uni(rng), y = uni(rng), x = uni(rng);  // (drawn in a set order: a call's argument order is the compiler's)
+    const Eigen::Vector3d X(x, y, z);
     Eigen::Vector2d px;
     if (!s.project(X, &px)) continue;
     ++visible;

@@ -68,7 +68,8 @@ TEST_CASE("unified: point -> pixel -> ray through the point, aligned and general
       }
       int seen = 0;
       for (int k = 0; k < 400; ++k) {
-        const Eigen::Vector3d X(300.0 * U(rng), 300.0 * U(rng), 200.0 * U(rng));
+        const double z = 200.0 * U(rng), y = 300.0 * U(rng), x = 300.0 * U(rng);  // (drawn in a set order: a call's argument order is the compiler's)
+        const Eigen::Vector3d X(x, y, z);
         Eigen::Vector2d px;
         if (!s.project(X, &px)) continue;
         ++seen;

@@ -160,7 +160,8 @@ TEST_CASE("linear samples: the vector path gives the scalar blend's bits", "[edg
   std::uniform_int_distribution<int> count(1, 70);
   for (int trial = 0; trial < 400; ++trial) {
     // Lines anywhere, the last rows included (read without gathers).
-    const Eigen::Vector2d a(x(rng), y(rng)), b(x(rng), y(rng));
+    const double ay = y(rng), ax = x(rng), by = y(rng), bx = x(rng);  // (drawn in a set order: a call's argument order is the compiler's)
+    const Eigen::Vector2d a(ax, ay), b(bx, by);
     const int n = count(rng);
     const Eigen::Vector2d step = n > 1 ? Eigen::Vector2d((b - a) / (n - 1)) : Eigen::Vector2d(0.3, 0.1);
     float got[80], got_padded[80];

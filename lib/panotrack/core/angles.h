@@ -41,7 +41,8 @@ inline double fast_atan2(double y, double x) {
   const double ax = std::abs(x), ay = std::abs(y);
   const bool steep = ay > ax;
   const double num = steep ? ax : ay, den = steep ? ay : ax;
-  if (!(den > 0.0 && den <= std::numeric_limits<double>::max())) return std::atan2(y, x);  // zero, inf or NaN
+  // Zero, inf or NaN (a NaN fails num <= den; its int conversion below is undefined).
+  if (!(den > 0.0 && den <= std::numeric_limits<double>::max() && num <= den)) return std::atan2(y, x);
   const double t = num / den;  // in [0, 1]
   const int i = static_cast<int>(t * 16.0 + 0.5);
   const double c = i * (1.0 / 16.0);

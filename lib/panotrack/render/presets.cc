@@ -368,7 +368,11 @@ SequenceCase LongRun() {
         q = {c.map.room.min.x() + uniform(rng) * (c.map.room.max.x() - c.map.room.min.x()),
              c.map.room.min.y() + uniform(rng) * (c.map.room.max.y() - c.map.room.min.y())};
       p = q;
-      theta = wrap_angle(theta + (uniform(rng) < 0.5 ? -1.0 : 1.0) * (90.0 + 20.0 * uniform(rng)) * M_PI / 180.0);
+      // One draw per statement: the order of an expression's operands is
+      // the compiler's choice.
+      const double side = uniform(rng) < 0.5 ? -1.0 : 1.0;
+      const double turn_deg = 90.0 + 20.0 * uniform(rng);
+      theta = wrap_angle(theta + side * turn_deg * M_PI / 180.0);
       turn = 0.0;
     } else if (i > 0) {
       // A smoothly varying turn rate, clamped to the maximum.

@@ -243,13 +243,17 @@ Map OffsetMap(const Map& map, double sigma, uint64_t seed) {
   Map out = map;
   if (sigma == 0.0) return out;
   Mix rng = MixFor(seed, kMapOffsetSalt);
+  // One draw per statement (y first, as the maps were first written): the
+  // order of a call's arguments is the compiler's choice.
   for (MapRectangle& r : out.rectangles) {
-    const Eigen::Vector2d d(Gauss(&rng, sigma), Gauss(&rng, sigma));
+    const double dy = Gauss(&rng, sigma), dx = Gauss(&rng, sigma);
+    const Eigen::Vector2d d(dx, dy);
     r.from += d;
     r.to += d;
   }
   for (MapBox& b : out.boxes) {
-    const Eigen::Vector3d d(Gauss(&rng, sigma), Gauss(&rng, sigma), 0.0);
+    const double dy = Gauss(&rng, sigma), dx = Gauss(&rng, sigma);
+    const Eigen::Vector3d d(dx, dy, 0.0);
     b.min += d;
     b.max += d;
   }

@@ -146,11 +146,16 @@ std::vector<BoardPose> AutoBoardPoses(const Sensor& sensor, const TargetBoard& b
       R0.col(1) = y;
       R0.col(2) = z;
       const double deg = M_PI / 180.0;
-      const Eigen::Matrix3d Rp =
-          (Eigen::AngleAxisd((uni(rng) - 0.5) * 50 * deg, Eigen::Vector3d::UnitX()) *
-           Eigen::AngleAxisd((uni(rng) - 0.5) * 50 * deg, Eigen::Vector3d::UnitY()) *
-           Eigen::AngleAxisd((uni(rng) - 0.5) * 40 * deg, Eigen::Vector3d::UnitZ()))
-              .toRotationMatrix();
+      // One draw per statement: the order of a call's arguments is the
+      // compiler's choice, and the boards must not depend on it (this is
+      // the order the images were first rendered in).
+      const double about_z = (uni(rng) - 0.5) * 40 * deg;
+      const double about_y = (uni(rng) - 0.5) * 50 * deg;
+      const double about_x = (uni(rng) - 0.5) * 50 * deg;
+      const Eigen::Matrix3d Rp = (Eigen::AngleAxisd(about_x, Eigen::Vector3d::UnitX()) *
+                                  Eigen::AngleAxisd(about_y, Eigen::Vector3d::UnitY()) *
+                                  Eigen::AngleAxisd(about_z, Eigen::Vector3d::UnitZ()))
+                                     .toRotationMatrix();
       const Eigen::Matrix3d R = R0 * Rp;
       const Eigen::Vector3d cb(0.5 * (board.cols - 1) * board.square, 0.5 * (board.rows - 1) * board.square, 0);
       const Eigen::Vector3d t = C - R * cb;
