@@ -8,6 +8,7 @@
 set -euo pipefail
 build=${1:-build}
 work=${2:-$(mktemp -d)}
+mkdir -p "$work"
 bin="$build/bin"
 clips=${CLIPS:-"paper-synthetic-1320 long-run long-run-blur motion-blur real-conditions"}
 for c in $clips; do

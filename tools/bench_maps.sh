@@ -15,6 +15,7 @@
 set -euo pipefail
 build=${1:-build}
 work=${2:-$(mktemp -d)}
+mkdir -p "$work"
 bin="$build/bin"
 for tool in panosim panoloc; do
   [ -x "$bin/$tool" ] || { echo "bench_maps.sh: $bin/$tool not found (build first)" >&2; exit 1; }

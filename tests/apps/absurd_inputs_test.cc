@@ -231,6 +231,31 @@ TEST_CASE("--gt of another length than the video is refused; --gt auto without g
         std::string::npos);
 }
 
+TEST_CASE("an image folder without --fps: a note says the frame rate taken; with --fps none", "[absurd_inputs]") {
+  const std::string dir = test::ScratchDir("apps_absurd_rate");
+  SequenceCase sc = MakePreset("paper-real");
+  sc.poses.resize(3);
+  SequenceWriteOptions w;
+  w.quiet = w.overwrite = w.frames = true;
+  w.video = false;
+  WriteSequence(sc, dir + "/seq", w);
+  const std::string run = "panoloc " + dir + "/seq/frames --calib " + dir + "/seq/calib.yaml --map " + dir +
+                          "/seq/map.yaml --force -o " + dir + "/a.csv";
+  const std::string note = "panoloc: note: " + dir +
+                           "/seq/frames: the frames carry no times: taken as 10 frames/s (the motion model's speed "
+                           "limits depend on it; --fps RATE gives the camera's)\n";
+  test::CommandRun r = test::RunProgram(run);
+  INFO(r.out);
+  CHECK(r.code == 0);
+  CHECK(r.out.find(note) != std::string::npos);
+  r = test::RunProgram(run + " --fps 5");
+  CHECK(r.code == 0);
+  CHECK(r.out.find("carry no times") == std::string::npos);
+  // -q silences it, as every note.
+  r = test::RunProgram(run + " -q");
+  CHECK(r.out.empty());
+}
+
 TEST_CASE("panocalib backproject --pixels - fed binary data: one line, exit 1", "[absurd_inputs]") {
   const std::string& seq = Sequence();
   const std::string bin = test::ScratchDir("apps_absurd_binary") + "/a.out";

@@ -210,6 +210,7 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
     priority.emplace(kIdleWhileWaiting, std::min(kNormalFromWaiting, source->prefetch_frames() / 2));
   }
   sum->end = VideoEnd::kDone;
+  bool rate_assumed = false;  // a frame without a time: FrameTime's default rate
   for (int frame = 0;; ++frame) {
     if (opt.cancel && opt.cancel->load()) {
       sum->end = VideoEnd::kInterrupted;
@@ -235,6 +236,7 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
     if (opt.scale != 1.0) cv::resize(decoded, resized, tracked, 0, 0, cv::INTER_AREA);
     const cv::Mat& grey = opt.scale != 1.0 ? resized : decoded;
     const double time_s = FrameTime(frame, timestamp, opt.fps, source->fps());
+    rate_assumed = rate_assumed || (!(opt.fps > 0) && !std::isfinite(timestamp) && !(source->fps() > 0));
     std::optional<OdometryIncrement> odometry;
     if (job.odometry && frame > 0) {
       odometry = OdometryBetween(*job.odometry, previous_time, time_s, opt.odometry);
@@ -270,6 +272,14 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
                  "predicted without it\n",
                  job.input.c_str(), sum->frames_without_odometry, std::max(0, sum->frames - 1),
                  job.odometry->front().time_s, job.odometry->back().time_s);
+  // The motion model's limits (speed, turn rate, how far a relocalised
+  // pose may lie from the last) are per second: a rate that is not the
+  // camera's makes the robot look faster or slower than it was.
+  if (rate_assumed && !opt.quiet)
+    std::fprintf(stderr,
+                 "panoloc: note: %s: the frames carry no times: taken as 10 frames/s (the motion model's speed "
+                 "limits depend on it; --fps RATE gives the camera's)\n",
+                 job.input.c_str());
   if (!opt.quiet && !std::isnan(loc.ShownSurveySigma())) {
     // The residuals overruled the map's survey_sigma, or estimated it.
     const double stated = loc.StatedSurveySigma();

@@ -67,6 +67,8 @@ void LocalizerOptions::Check() const {
     throw Error("localiser: min_bearing_sigma and initial_bearing_sigma: expected > 0");
   if (!(relocalize_confirmed_fraction >= 0))
     throw Error("localiser: relocalize_confirmed_fraction: expected >= 0 (above 1: every pose confirmed first)");
+  if (!(relocalize_jump_fraction >= 0 && relocalize_jump_fraction <= 1))
+    throw Error("localiser: relocalize_jump_fraction: expected in [0, 1]");
   if (!(relocalize_min_fraction >= 0 && relocalize_min_fraction <= 1) || relocalize_margin < 0 ||
       !(relocalize_distinct > 0) || !(relocalize_symmetry_tolerance >= 0) ||
       !(relocalize_ambiguity > 0 && relocalize_ambiguity <= 1))
@@ -86,6 +88,9 @@ namespace {
 // The image noise a reported covariance holds, in units of the recent
 // noise (ReportedCovariance).
 constexpr double kReportedNoiseMargin = 1.5;
+// The survey-error probe's choice: the smallest level whose bearings agree
+// with at least this fraction of the inliers of the level most agree under.
+constexpr double kProbeSaturation = 0.9;
 
 // A frame to be measured again from scratch: its row and prediction kept.
 FrameResult FrameToMeasure(const PoseRow& row, const Pose2& predicted) {
@@ -176,7 +181,8 @@ void Localizer::Reset(const Pose2& robot_initial, bool hint) {
   last_dt_ = 0.0;
   next_relocalize_frame_ = 0;
   relocalize_failures_ = 0;
-  held_ = false;
+  held_ = held_jump_ = false;
+  last_known_.reset();
   bearing_sigma_ = 0.0;
   survey_.Reset();
   residual_memory_.assign(landmarks_.size(), 0.0);
@@ -803,12 +809,16 @@ double Localizer::ShownSurveySigma() const {
 }
 
 bool Localizer::ProbeSurveyError(const Pose2& pred) {
-  // The smallest of a ladder of survey errors under which the frame's
-  // bearings agree: a map error makes them miss an exact map's narrow
-  // tolerance (or its search windows) by a few of its sigmas, which the
-  // right level explains. Most of what is found must agree: a wrong pose
-  // fits a few bearings within a wide tolerance, not most of them.
+  // A ladder of survey errors: the levels under which the frame's bearings
+  // agree (a map error makes them miss an exact map's narrow tolerance, or
+  // its search windows, by a few of its sigmas). Most of what is found must
+  // agree: a wrong pose fits a few bearings within a wide tolerance, not
+  // most of them. Of those levels, the smallest that lets nearly as many
+  // bearings agree as any: below the map's error a subset of the bearings
+  // agrees on a pose off by it (a start centimetres off that later frames
+  // keep), above it no more agree, only wrong ones fit more easily.
   const double current = LargestSurveySigma();
+  std::vector<std::pair<double, size_t>> agreeing;  // level, inliers
   for (double fraction : {0.0025, 0.005, 0.01, 0.02, opt_.survey.max_fraction}) {
     const double level = fraction * typical_distance_;
     if (level <= 1.5 * current) continue;
@@ -825,12 +835,18 @@ bool Localizer::ProbeSurveyError(const Pose2& pred) {
     size_t n_found = 0;
     for (const auto& m : fr.measurements) n_found += m.found;
     const bool agree = SurveyEvidence(fr, tri) && Consistent(&fr, tri) && 3 * tri.inliers.size() >= 2 * n_found;
-    probe_sigma_ = 0.0;
-    if (agree) survey_.Provisional(level);
-    UpdateLandmarkBudget();
-    if (agree) return true;
+    if (agree) agreeing.emplace_back(level, tri.inliers.size());
   }
-  return false;
+  probe_sigma_ = 0.0;
+  size_t most = 0;
+  for (const auto& [level, inliers] : agreeing) most = std::max(most, inliers);
+  for (const auto& [level, inliers] : agreeing)
+    if (static_cast<double>(inliers) >= kProbeSaturation * static_cast<double>(most)) {
+      survey_.Provisional(level);
+      break;
+    }
+  UpdateLandmarkBudget();
+  return !agreeing.empty();
 }
 
 Eigen::Matrix3d Localizer::ReportedCovariance(const FrameResult& fr, const std::vector<BearingObservation>& obs,
@@ -1161,14 +1177,26 @@ double Localizer::SurveyChosenLandmarks(const FrameResult& fr) const {
   return WithinBudget(fr.predicted.size(), MaxLandmarks());
 }
 
-bool Localizer::Corroborated(const FrameResult& fr, const TriangulationResult& tri) const {
+bool Localizer::Corroborated(const FrameResult& fr, const TriangulationResult& tri, double fraction) const {
   // The motion model cannot vouch for it: after a loss its prediction is
   // too wide to tell a right pose from a wrong one nearby.
   return static_cast<double>(tri.inliers.size()) >=
-         opt_.relocalize_confirmed_fraction * std::max(ChosenLandmarks(fr), SurveyChosenLandmarks(fr));
+         fraction * std::max(ChosenLandmarks(fr), SurveyChosenLandmarks(fr));
 }
 
-void Localizer::HoldForConfirmation(const Pose2& pose, int frame) {
+bool Localizer::BeyondReach(const Pose2& pose, double time_s) const {
+  if (!last_known_) return false;
+  const auto& [known, known_time] = *last_known_;
+  const double reach = motion_options_.max_speed * std::max(0.0, time_s - known_time) +
+                       opt_.relocalize_distinct * room_size_;
+  return std::hypot(pose.x - known.x, pose.y - known.y) > reach;
+}
+
+bool Localizer::ConfirmsJump(const FrameResult& fr, const TriangulationResult& tri) const {
+  return !held_jump_ || !SurveyLimits() || Corroborated(fr, tri, opt_.relocalize_jump_fraction);
+}
+
+void Localizer::HoldForConfirmation(const Pose2& pose, int frame, bool jump) {
   // As from a start pose given as a hint: no velocity, any turn, and a new
   // room-wide search at once if the next frame does not track.
   last_ = frame_pose_ = pose;
@@ -1181,6 +1209,7 @@ void Localizer::HoldForConfirmation(const Pose2& pose, int frame) {
   n_lost_ = 0;  // the confirming frame searches as narrowly as a tracked one
   ForgetCompassHistory();
   held_ = true;
+  held_jump_ = jump;
   // Held poses that keep failing to confirm back off like failed searches.
   next_relocalize_frame_ = relocalize_failures_ >= 3 ? BackedOffRelocalizeFrame(frame) : 0;
 }
@@ -1304,6 +1333,8 @@ void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, b
     motion_stepped_ = true;
     UpdateNoiseEstimates(*fr, tri);
     last_ = tri.pose;
+    last_known_.emplace(tri.pose, row->time_s);
+    held_jump_ = false;
     UpdateBlurEstimate(*fr);
     ever_tracked_ = true;
     ++n_good_;
@@ -1327,6 +1358,7 @@ void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, b
     ++motion_updates_;
     motion_stepped_ = true;
     frame_pose_ = last_ = tri.pose;
+    last_known_.emplace(tri.pose, row->time_s);
     n_lost_ = 0;
     return;
   }
@@ -1387,10 +1419,13 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
     }
     // A held relocalised pose is confirmed only on as much evidence as a
     // relocalised pose needs (the frame is nearly the same image).
-    if (held_) {
-      accepted = accepted && EnoughForRelocalized(fr, tri);
-      if (!accepted) ++relocalize_failures_;
-    }
+    if (held_) accepted = accepted && EnoughForRelocalized(fr, tri);
+    // One beyond the robot's reach, where the map's survey error widens
+    // every tolerance, stands on its own evidence, on this frame and on
+    // every frame tracked from it until one does: a partial twin of the
+    // room then tracks as well as the true pose from one frame to the next.
+    accepted = accepted && ConfirmsJump(fr, tri);
+    if (held_ && !accepted) ++relocalize_failures_;
   }
   held_ = false;
   // Until the residuals have shown how well the map was measured, a frame
@@ -1404,7 +1439,7 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
       fr = FrameToMeasure(fr.row, pred);
       TrackPredictions(pred, &fr, &tri);
       RefineAroundSolution(&fr, &tri);
-      accepted = Acceptable(fr, tri) && Consistent(&fr, tri) && AgreesWithMotion(&fr, tri);
+      accepted = Acceptable(fr, tri) && Consistent(&fr, tri) && AgreesWithMotion(&fr, tri) && ConfirmsJump(fr, tri);
     }
   }
   int n_found = 0;  // before any relocalisation: what tracking from the prediction found
@@ -1446,7 +1481,7 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
   // The step of the model that tracked up to this frame (a hold starts a new one).
   fr.has_motion_step = motion_stepped_;
   if (fr.has_motion_step) fr.motion_step = motion_.step();
-  if (fr.unconfirmed) HoldForConfirmation(tri.pose, frame);
+  if (fr.unconfirmed) HoldForConfirmation(tri.pose, frame, BeyondReach(tri.pose, time_s));
   if (view_ && fr.row.status != PoseStatus::kLost) fr.row.pose = view_->RobotPose(fr.row.pose);
   return fr;
 }

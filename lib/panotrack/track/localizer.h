@@ -174,6 +174,15 @@ struct LocalizerOptions {
   // inliers; with fewer (a wrong pose fits a few bearings easily) the next
   // frame must track from it first (above 1: every one).
   double relocalize_confirmed_fraction = 2.0 / 3.0;
+  // A relocalised pose further from the last known pose than the robot
+  // could have gone since (the motion model's max_speed over the time
+  // between; a kidnap, or a partial twin of the room found after a loss)
+  // is confirmed, where the map's survey error limits the bearings, only
+  // by a frame tracked from it with this fraction of its chosen landmarks
+  // as inliers (at most 1): within a survey error's tolerances, a twin
+  // that half the bearings fit tracks from frame to frame as well as the
+  // true pose.
+  double relocalize_jump_fraction = 2.0 / 3.0;
   RelocalizeOptions relocalize;
   // The longest exposure expected, as a fraction of the frame interval:
   // motion blur spans at most this fraction of a landmark's image motion
@@ -475,8 +484,12 @@ class Localizer {
   bool RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, FrameResult* fr, TriangulationResult* tri);
   // whether a frame's tracking says the robot is not near the prediction;
   bool ViewUnlikePrediction(const FrameResult& fr, const TriangulationResult& tri) const;
-  // whether a relocalised pose stands on its own evidence;
-  bool Corroborated(const FrameResult& fr, const TriangulationResult& tri) const;
+  // whether a relocalised pose stands on its own evidence (`fraction` of
+  // the chosen landmarks as inliers);
+  bool Corroborated(const FrameResult& fr, const TriangulationResult& tri) const {
+    return Corroborated(fr, tri, opt_.relocalize_confirmed_fraction);
+  }
+  bool Corroborated(const FrameResult& fr, const TriangulationResult& tri, double fraction) const;
   // the landmarks chosen to track at this frame (max_landmarks of those predicted);
   double ChosenLandmarks(const FrameResult& fr) const;
   // ... and with those the map's survey error adds (MaxLandmarks).
@@ -485,8 +498,17 @@ class Localizer {
   int BackedOffRelocalizeFrame(int frame) const;
   // whether a relocalised pose has the inliers a room-wide search requires;
   bool EnoughForRelocalized(const FrameResult& fr, const TriangulationResult& tri) const;
-  // tracking restarts from a relocalised pose that the next frame must confirm;
-  void HoldForConfirmation(const Pose2& pose, int frame);
+  // whether a relocalised pose lies beyond where the robot could have gone
+  // since its last accepted pose (the motion model's largest speed over the
+  // time since, plus the search's distinct-pose tolerance): a jump;
+  bool BeyondReach(const Pose2& pose, double time_s) const;
+  // whether a frame tracked from a relocalised pose BeyondReach (held_jump_)
+  // carries it: where the survey error limits the bearings, with
+  // relocalize_jump_fraction of its chosen landmarks as inliers;
+  bool ConfirmsJump(const FrameResult& fr, const TriangulationResult& tri) const;
+  // tracking restarts from a relocalised pose that the next frame must
+  // confirm (`jump`: one BeyondReach, which its own evidence must carry);
+  void HoldForConfirmation(const Pose2& pose, int frame, bool jump);
   // the output row and the motion model's state.
   void RecordOutcome(FrameResult* fr, const TriangulationResult& tri, bool accepted, int n_found);
 
@@ -525,6 +547,12 @@ class Localizer {
   bool start_is_hint_ = false;  // ... but only a guess
   bool ever_tracked_ = false;
   bool held_ = false;  // this frame must confirm a relocalised pose (HoldForConfirmation)
+  // The pose tracked from is a relocalised one beyond the robot's reach
+  // (BeyondReach) that no frame has corroborated yet.
+  bool held_jump_ = false;
+  // The last accepted pose and its time (never a held one): where the
+  // robot was last known to be, for BeyondReach.
+  std::optional<std::pair<Pose2, double>> last_known_;
   MotionModel motion_;
   MotionModelOptions motion_options_;  // in map units
   double last_dt_ = 0.0;               // seconds between the last two frames
