@@ -327,8 +327,6 @@ ModelSelection SelectModel(const std::vector<BoardView>& views, const TargetBoar
     // The folds, in parallel, each from the fit to all boards.
     std::vector<std::string> fold_failure(folds);
     std::vector<std::vector<std::pair<std::string, BoardPoseFit>>> held_fits(folds);
-    std::vector<double> fold_train_s2(folds, 0.0);
-    std::vector<size_t> fold_train_n(folds, 0);
     ParallelFor(
         folds,
         [&](int fold) {
@@ -349,8 +347,6 @@ ModelSelection SelectModel(const std::vector<BoardView>& views, const TargetBoar
             for (const BoardView& v : held) held_fits[fold].push_back({v.file, BoardPoseFit()});
             return;
           }
-          for (const BoardView& v : train) fold_train_n[fold] += v.corners.size();
-          fold_train_s2[fold] = fit.rms_px * fit.rms_px * static_cast<double>(fold_train_n[fold]);
           for (const BoardView& v : held) {
             BoardPoseFit f = FitBoardPose(v, board, fit.calib.sensor, eo);
             if (!f.ok && f.failure.empty()) f.failure = "pose not fitted";
@@ -358,11 +354,9 @@ ModelSelection SelectModel(const std::vector<BoardView>& views, const TargetBoar
           }
         },
         true, threads);
-    double train_s2 = 0.0, held_s2 = 0.0;
-    size_t train_n = 0, held_n = 0;
+    double held_s2 = 0.0;
+    size_t held_n = 0;
     for (int fold = 0; fold < folds; ++fold) {
-      train_s2 += fold_train_s2[fold];
-      train_n += fold_train_n[fold];
       if (!fold_failure[fold].empty() && score.failure.empty()) score.failure = fold_failure[fold];
       ScoreHeldOutFold(held_fits[fold], &score, &held_s2, &held_n);
     }

@@ -30,7 +30,7 @@ class TiltObjective {
  public:
   TiltObjective(const Calibration& calib, const Map& map, const std::vector<cv::Mat>& frames,
                 const SensorTiltOptions& o)
-      : calib_(calib), map_(map), frames_(frames), o_(o), table_(TableForMap(calib, map, /*quiet=*/true)) {
+      : map_(map), frames_(frames), o_(o), table_(TableForMap(calib, map, /*quiet=*/true)) {
     // The map as it states itself: a wrong trial's residuals are what is
     // measured, not a survey error to be learned.
     localizer_ = o.localizer;
@@ -60,7 +60,6 @@ class TiltObjective {
   int trials() const { return trials_; }
 
  private:
-  const Calibration& calib_;
   const Map& map_;
   const std::vector<cv::Mat>& frames_;
   const SensorTiltOptions& o_;

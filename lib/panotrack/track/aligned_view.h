@@ -80,6 +80,6 @@ class AlignedView {
 
 // The distance the view is best made exact at for a map: the RMS distance
 // of its rectangles' end points from their centroid.
-double TypicalLandmarkDistance(const class Map& map);
+double TypicalLandmarkDistance(const struct Map& map);
 
 }  // namespace pano

@@ -140,8 +140,10 @@ constexpr long kMinSegmentPackets = 16;
 constexpr size_t kReadAheadBytes = size_t(16) << 20;
 // Decoders of GOP mode, each on a segment of its own.
 constexpr int kGopDecoders = 2;
+#if PANO_WITH_CUDA
 // Page-locked buffers NVDEC's frames keep: a FrameSource's queue holds 8 or more.
 constexpr size_t kNvdecBuffers = 12;
+#endif
 
 // What a packet of an H.264 or HEVC stream holds, from its NAL units'
 // headers. `length_size`: the bytes of each unit's length prefix (avcC and
@@ -700,15 +702,15 @@ struct LumaDecoder::Impl {
       if (!lock.owns_lock()) lock.lock();
       return error;
     };
-    for (bool flushing = false;;) {
+    for (bool draining = false;;) {
       AVPacket* p = nullptr;
-      if (!flushing) {
+      if (!draining) {
         Segment* seg = DemuxFor(s);
         if (!seg->packets.empty()) {
           p = seg->packets.front();
           seg->packets.pop_front();
         }
-        flushing = p == nullptr;  // its packets are all out: drain the decoder
+        draining = p == nullptr;  // its packets are all out: drain the decoder
       }
       lock.unlock();
       const int sent = avcodec_send_packet(c, p);
