@@ -75,12 +75,17 @@ std::string NotTrackedHint(const std::string& input, int frames, int n_ok) {
          "case.yaml), wrong map units, landmarks mis-measured or missing (check the map with panomap check)";
 }
 
+// The rate taken for frames that carry no time (image folders).
+constexpr double kAssumedFps = 10.0;
+
 // The frame's time: the override rate, else the input's timestamp, else its
-// frame rate (10 when it has none).
-double FrameTime(int frame, double timestamp, double override_fps, double input_fps) {
+// frame rate, else kAssumedFps (then `rate_assumed` is set).
+double FrameTime(int frame, double timestamp, double override_fps, double input_fps, bool* rate_assumed) {
   if (override_fps > 0) return frame / override_fps;
   if (std::isfinite(timestamp)) return timestamp;
-  return frame / (input_fps > 0 ? input_fps : 10.0);
+  if (input_fps > 0) return frame / input_fps;
+  *rate_assumed = true;
+  return frame / kAssumedFps;
 }
 
 // The smoothed pose CSV: the main rows held back until the smoother has
@@ -191,7 +196,7 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
     loc.ResetUnknown();
   std::optional<DebugVideo> dbg;
   if (!job.debug_video.empty())
-    dbg.emplace(job.debug_video, cv::Size(s.image_width, s.image_height), source->fps() > 0 ? source->fps() : 10.0);
+    dbg.emplace(job.debug_video, cv::Size(s.image_width, s.image_height), source->fps() > 0 ? source->fps() : kAssumedFps);
   PoseCsvWriter csv(job.output, {"std_x", "std_y", "std_theta", "quality"}, PoseCsvStaging::kPartial);
   std::optional<SmoothedCsv> smoothed;
   if (!job.smoothed_output.empty()) smoothed.emplace(job.smoothed_output, opt.smoother, !job.gt.empty(), loc);
@@ -210,7 +215,7 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
     priority.emplace(kIdleWhileWaiting, std::min(kNormalFromWaiting, source->prefetch_frames() / 2));
   }
   sum->end = VideoEnd::kDone;
-  bool rate_assumed = false;  // a frame without a time: FrameTime's default rate
+  bool rate_assumed = false;  // some frame had no time: FrameTime took kAssumedFps
   for (int frame = 0;; ++frame) {
     if (opt.cancel && opt.cancel->load()) {
       sum->end = VideoEnd::kInterrupted;
@@ -235,8 +240,7 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
     // Area averaging: each tracked pixel the mean of the pixels it covers.
     if (opt.scale != 1.0) cv::resize(decoded, resized, tracked, 0, 0, cv::INTER_AREA);
     const cv::Mat& grey = opt.scale != 1.0 ? resized : decoded;
-    const double time_s = FrameTime(frame, timestamp, opt.fps, source->fps());
-    rate_assumed = rate_assumed || (!(opt.fps > 0) && !std::isfinite(timestamp) && !(source->fps() > 0));
+    const double time_s = FrameTime(frame, timestamp, opt.fps, source->fps(), &rate_assumed);
     std::optional<OdometryIncrement> odometry;
     if (job.odometry && frame > 0) {
       odometry = OdometryBetween(*job.odometry, previous_time, time_s, opt.odometry);
