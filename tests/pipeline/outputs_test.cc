@@ -7,6 +7,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <thread>
 
 #include "expect_error.h"
@@ -175,6 +176,29 @@ TEST_CASE("pose CSV staging: <out>.partial while written, <out> once closed; spe
   CHECK(PoseCsvWriter::WritesDirectly("/dev/null"));
   CHECK(PoseCsvWriter::WritesDirectly("-"));
   CHECK_FALSE(PoseCsvWriter::WritesDirectly(p));
+}
+
+TEST_CASE("the case.yaml beside an input: in its folder, then one up, also for a relative folder name",
+          "[output_names]") {
+  const std::string dir = Scratch("case_beside");
+  fs::create_directories(fs::path(dir) / "frames");
+  std::ofstream(fs::path(dir) / "case.yaml") << "initial_pose:\n  x: 40.0\n  \"y\": 35.0\n  theta: 0.25\n";
+  // A folder named relative to the current one, whose parent path is empty:
+  // the case.yaml one up is the current folder's.
+  const fs::path before = fs::current_path();
+  fs::current_path(dir);
+  const std::vector<std::string> relative = CaseFilesBeside("frames");
+  const std::optional<Pose2> pose = InitialPoseBeside("frames");
+  const std::vector<std::string> here = CaseFilesBeside(".");
+  fs::current_path(before);
+  REQUIRE(relative.size() == 1);
+  CHECK(fs::equivalent(fs::path(dir) / relative[0], fs::path(dir) / "case.yaml"));
+  REQUIRE(pose.has_value());
+  CHECK(pose->x == 40.0);
+  CHECK(pose->theta == 0.25);
+  CHECK(here.size() == 1);  // "." and its parent: the one beside it only
+  CHECK(CaseFilesBeside((fs::path(dir) / "frames").string()).size() == 1);
+  CHECK(CaseFilesBeside((fs::path(dir) / "case.yaml").string()).size() == 1);
 }
 
 }  // namespace

@@ -122,9 +122,15 @@ std::vector<std::string> CaseFilesBeside(const std::string& input) {
   fs::path dir = fs::is_directory(input) ? fs::path(input) : fs::path(input).parent_path();
   if (dir.empty()) dir = ".";  // a file in the current folder
   std::vector<std::string> files;
-  for (int up = 0; up < 2 && !dir.empty(); ++up, dir = dir.parent_path()) {
+  for (int up = 0; up < 2; ++up) {
     const fs::path p = dir / "case.yaml";
     if (fs::exists(p)) files.push_back(p.string());
+    // One folder up: a relative folder's parent is the current folder
+    // ("frames" of a sequence run from inside it), the root has none.
+    fs::path parent = dir.parent_path();
+    if (parent.empty() && dir != ".") parent = ".";
+    if (parent.empty() || parent == dir) break;
+    dir = parent;
   }
   return files;
 }
