@@ -12,7 +12,7 @@ for tool in panosim panoloc; do
   [ -x "$bin/$tool" ] || { echo "results.sh: $bin/$tool not found (build first)" >&2; exit 1; }
 done
 methods="junction"
-if "$bin/panoloc" --help 2>/dev/null | grep -q vertex; then methods="junction vertex"; fi
+if grep -q vertex <("$bin/panoloc" --help 2>/dev/null); then methods="junction vertex"; fi
 # The paper's experiments, then real conditions (fast turns, motion blur, all
 # factors together) and 3000-frame runs with kidnaps, without and with
 # motion blur (about 5 minutes each to render on 2 cores; PRESETS=...
