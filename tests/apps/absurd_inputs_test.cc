@@ -256,6 +256,37 @@ TEST_CASE("an image folder without --fps: a note says the frame rate taken; with
   CHECK(r.out.empty());
 }
 
+TEST_CASE("no start pose on a measured map: a note asks for one; with --init, or on an exact map, none",
+          "[absurd_inputs]") {
+  const std::string dir = test::ScratchDir("apps_absurd_start");
+  SequenceCase sc = MakePreset("paper-real");
+  sc.poses.resize(3);
+  SequenceWriteOptions w;
+  w.quiet = w.overwrite = w.frames = true;
+  w.video = false;
+  const double exact = sc.map.survey_sigma;
+  sc.map.survey_sigma = std::nan("");  // a map measured by hand, stating nothing
+  WriteSequence(sc, dir + "/measured", w);
+  sc.map.survey_sigma = exact;
+  WriteSequence(sc, dir + "/exact", w);
+  for (const char* seq : {"/measured", "/exact"}) fs::remove(dir + seq + "/case.yaml");  // no start beside
+  auto run = [&](const std::string& seq, const std::string& extra) {
+    return test::RunProgram("panoloc " + dir + seq + "/frames --calib " + dir + seq + "/calib.yaml --map " + dir +
+                            seq + "/map.yaml --fps 5 --force -o " + dir + "/a.csv" + extra);
+  };
+  const std::string note = "panoloc: note: " + dir + "/measured/frames: no start pose was given";
+  test::CommandRun r = run("/measured", "");
+  INFO(r.out);
+  CHECK(r.code == 0);
+  CHECK(r.out.find(note) != std::string::npos);
+  r = run("/measured", " --init 40,35,0");
+  CHECK(r.code == 0);
+  CHECK(r.out.find("no start pose") == std::string::npos);
+  r = run("/exact", "");
+  CHECK(r.code == 0);
+  CHECK(r.out.find("no start pose") == std::string::npos);
+}
+
 TEST_CASE("panocalib backproject --pixels - fed binary data: one line, exit 1", "[absurd_inputs]") {
   const std::string& seq = Sequence();
   const std::string bin = test::ScratchDir("apps_absurd_binary") + "/a.out";

@@ -284,6 +284,17 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
                  "panoloc: note: %s: the frames carry no times: taken as 10 frames/s (the motion model's speed "
                  "limits depend on it; --fps RATE gives the camera's)\n",
                  job.input.c_str());
+  // A measured map (one that does not claim to be exact, or whose
+  // residuals overruled the claim) and no start pose: the room-wide search
+  // chose the first pose, and in a room laid out nearly symmetrically it
+  // can take a twin (docs/maps.md).
+  const bool measured_map = !(loc.StatedSurveySigma() == 0.0) || !std::isnan(loc.ShownSurveySigma());
+  if (!opt.quiet && !job.init && measured_map && sum->n_ok > 0)
+    std::fprintf(stderr,
+                 "panoloc: note: %s: no start pose was given (--init, or initial_pose in a case.yaml beside the "
+                 "input): the first pose was found by searching the room, which on a measured map can take a "
+                 "twin of a room laid out nearly symmetrically; give a start pose (docs/maps.md)\n",
+                 job.input.c_str());
   if (!opt.quiet && !std::isnan(loc.ShownSurveySigma())) {
     // The residuals overruled the map's survey_sigma, or estimated it.
     const double stated = loc.StatedSurveySigma();
