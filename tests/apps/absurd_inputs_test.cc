@@ -231,14 +231,20 @@ TEST_CASE("--gt of another length than the video is refused; --gt auto without g
         std::string::npos);
 }
 
-TEST_CASE("an image folder without --fps: a note says the frame rate taken; with --fps none", "[absurd_inputs]") {
-  const std::string dir = test::ScratchDir("apps_absurd_rate");
-  SequenceCase sc = MakePreset("paper-real");
-  sc.poses.resize(3);
+// The first three frames of paper-real as an image folder (no video)
+// under `dir`, with `sc`'s map.
+void WriteShortFolder(const SequenceCase& sc, const std::string& dir) {
+  SequenceCase shortened = sc;
+  shortened.poses.resize(3);
   SequenceWriteOptions w;
   w.quiet = w.overwrite = w.frames = true;
   w.video = false;
-  WriteSequence(sc, dir + "/seq", w);
+  WriteSequence(shortened, dir, w);
+}
+
+TEST_CASE("an image folder without --fps: a note says the frame rate taken; with --fps none", "[absurd_inputs]") {
+  const std::string dir = test::ScratchDir("apps_absurd_rate");
+  WriteShortFolder(MakePreset("paper-real"), dir + "/seq");
   const std::string run = "panoloc " + dir + "/seq/frames --calib " + dir + "/seq/calib.yaml --map " + dir +
                           "/seq/map.yaml --force -o " + dir + "/a.csv";
   const std::string note = "panoloc: note: " + dir +
@@ -260,15 +266,9 @@ TEST_CASE("no start pose on a measured map: a note asks for one; with --init, or
           "[absurd_inputs]") {
   const std::string dir = test::ScratchDir("apps_absurd_start");
   SequenceCase sc = MakePreset("paper-real");
-  sc.poses.resize(3);
-  SequenceWriteOptions w;
-  w.quiet = w.overwrite = w.frames = true;
-  w.video = false;
-  const double exact = sc.map.survey_sigma;
+  WriteShortFolder(sc, dir + "/exact");
   sc.map.survey_sigma = std::nan("");  // a map measured by hand, stating nothing
-  WriteSequence(sc, dir + "/measured", w);
-  sc.map.survey_sigma = exact;
-  WriteSequence(sc, dir + "/exact", w);
+  WriteShortFolder(sc, dir + "/measured");
   for (const char* seq : {"/measured", "/exact"}) fs::remove(dir + seq + "/case.yaml");  // no start beside
   auto run = [&](const std::string& seq, const std::string& extra) {
     return test::RunProgram("panoloc " + dir + seq + "/frames --calib " + dir + seq + "/calib.yaml --map " + dir +
