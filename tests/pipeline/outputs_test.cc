@@ -184,13 +184,20 @@ TEST_CASE("the case.yaml beside an input: in its folder, then one up, also for a
   fs::create_directories(fs::path(dir) / "frames");
   std::ofstream(fs::path(dir) / "case.yaml") << "initial_pose:\n  x: 40.0\n  \"y\": 35.0\n  theta: 0.25\n";
   // A folder named relative to the current one, whose parent path is empty:
-  // the case.yaml one up is the current folder's.
-  const fs::path before = fs::current_path();
-  fs::current_path(dir);
-  const std::vector<std::string> relative = CaseFilesBeside("frames");
-  const std::optional<Pose2> pose = InitialPoseBeside("frames");
-  const std::vector<std::string> here = CaseFilesBeside(".");
-  fs::current_path(before);
+  // the case.yaml one up is the current folder's. The current folder is
+  // restored however the calls end (the process's other tests share it).
+  std::vector<std::string> relative, here;
+  std::optional<Pose2> pose;
+  {
+    struct InFolder {
+      fs::path before = fs::current_path();
+      explicit InFolder(const fs::path& dir) { fs::current_path(dir); }
+      ~InFolder() { fs::current_path(before); }
+    } in_scratch(dir);
+    relative = CaseFilesBeside("frames");
+    pose = InitialPoseBeside("frames");
+    here = CaseFilesBeside(".");
+  }
   REQUIRE(relative.size() == 1);
   CHECK(fs::equivalent(fs::path(dir) / relative[0], fs::path(dir) / "case.yaml"));
   REQUIRE(pose.has_value());
