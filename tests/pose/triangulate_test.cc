@@ -93,6 +93,35 @@ TEST_CASE("noisy bearings: the error spread matches the first-order prediction",
                                                << std::sqrt(predicted(0, 0) + predicted(1, 1)) << ")");
 }
 
+TEST_CASE("leverages: a bearing's share of its own error that the fit absorbs", "[leverage]") {
+  const Pose2 truth{95, 110, 0.8};
+  std::vector<BearingObservation> obs = Observe(truth, kLandmarks);
+  for (size_t i = 0; i < obs.size(); ++i) obs[i].weight = 1.0 + 0.25 * static_cast<double>(i % 3);
+  TriangulationOptions exact;
+  exact.huber = 1.0;  // no down-weighting: the plain weighted least squares
+  const TriangulationResult fit = Triangulate(obs, truth, exact);
+  REQUIRE(fit.ok);
+  const std::vector<double> leverage = BearingLeverages(obs, fit);
+  REQUIRE(leverage.size() == obs.size());
+  // The hat matrix's trace is the number of parameters fitted.
+  double sum = 0.0;
+  for (double h : leverage) sum += h;
+  CHECK(sum == Approx(3.0).epsilon(1e3 * kEps));
+  // Against the solver: a bearing nudged by e leaves (1 - h) e in its own
+  // residual (to first order; the nudge is small).
+  const double nudge = 1e-6;
+  for (size_t i = 0; i < obs.size(); ++i) {
+    std::vector<BearingObservation> moved = obs;
+    moved[i].bearing -= nudge;  // the residual is predicted minus measured
+    const TriangulationResult refit = Triangulate(moved, truth, exact);
+    REQUIRE(refit.ok);
+    INFO("bearing " << i << " leverage " << leverage[i]);
+    CHECK(refit.bearing_residuals[i] / nudge == Approx(1.0 - leverage[i]).margin(1e-4));
+    CHECK(leverage[i] > 0.0);
+    CHECK(leverage[i] < 1.0);
+  }
+}
+
 TEST_CASE("degenerate geometry: landmarks on one line through the camera", "[degenerate]") {
   const Pose2 truth{100, 100, 0.0};
   // All on the line y = x through the camera, on both sides.
