@@ -116,7 +116,10 @@ TEST_CASE("a map measured to 2 cm that claims to be exact: no start on four bear
   // on these maps a start of four distinct bearings (one spare) agreed on
   // a pose centimetres off, reported with the image noise's covariance.
   // Measured (junction on map seed 4, vertex on seed 12): inside 3 sigma
-  // 0.91 -> 1.0 and 0.84 -> 0.95, RMS 2.38 -> 2.15 and 1.84 -> 1.27 cm.
+  // 0.91 -> 1.0 and 0.84 -> 0.95, RMS 2.38 -> 2.15 and 1.84 -> 1.27 cm;
+  // with the survey estimate fitted by its likelihood (the estimate near
+  // the true 2 cm, not half of it) RMS 2.48 cm on seed 4, whose map error
+  // moves even a pose from every edge in view 0.8 - 1 sigma.
   const std::pair<TrackingMethod, uint64_t> cases[] = {{TrackingMethod::kJunction, 4}, {TrackingMethod::kVertex, 12}};
   for (const auto& [method, seed] : cases) {
     const MeasuredMapRun run = LocalizeOnMeasuredMap(method, 0.0, 2.0, seed);
@@ -124,7 +127,7 @@ TEST_CASE("a map measured to 2 cm that claims to be exact: no start on four bear
                                       << ", inside 3 sigma " << run.inside_three_sigma);
     CHECK(run.accuracy.tracked >= 56);
     CHECK(run.accuracy.outliers == 0);
-    CHECK(run.accuracy.rms <= 2.4);
+    CHECK(run.accuracy.rms <= 2.6);
     CHECK(run.inside_three_sigma >= 0.94);
   }
 }
@@ -166,12 +169,14 @@ TEST_CASE("a map measured to 2 cm that claims to be exact: the start takes the s
   // two thirds of the bearings found agreed: 0.6 cm, where 22 of 30
   // agreed on a pose 4 cm off, which the next 7 frames kept (reported ok
   // 5.5 - 5.7 cm off). Now the smallest level under which nearly as many
-  // agree as under any (1.2 cm: 30 of 32).
+  // agree as under any (1.2 cm: 30 of 32). With the survey estimate fitted
+  // by its likelihood: RMS 1.18 cm, max 2.88 cm (a frame 1.4 sigma off),
+  // every frame inside its 3-sigma ellipse.
   const MeasuredMapRun run = LocalizeOnMeasuredMap(TrackingMethod::kVertex, 0.0, 2.0, 7);
   INFO(FormatAccuracy(run.accuracy, "cm") << ", inside 3 sigma " << run.inside_three_sigma);
   CHECK(run.accuracy.tracked == 57);
   CHECK(run.accuracy.outliers == 0);
-  CHECK(run.accuracy.max <= 2.5);
+  CHECK(run.accuracy.max <= 3.0);
   CHECK(run.accuracy.rms <= 1.3);
 }
 

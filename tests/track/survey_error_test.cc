@@ -56,6 +56,56 @@ TEST_CASE("survey error: the fit tells a map's error from the image noise by the
   CHECK(e.image_sigma() < 0.006);
 }
 
+TEST_CASE("survey error: the near landmarks the pose fit leans on do not hide the map's error", "[survey_error]") {
+  PANO_SEEDED_RNG(41);
+  SurveyErrorEstimate e(SurveyErrorOptions(), 120.0);
+  // Each frame: two landmarks at 40 whose errors the fit absorbs four
+  // fifths of (leverage 0.8), and far ones at 160 - 220 it absorbs a tenth
+  // of; a 2-unit survey error and little image noise.
+  const double survey = 2.0, image = 0.0005;
+  std::uniform_real_distribution<double> far(160.0, 220.0);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  for (int f = 0; f < 30; ++f) {
+    std::vector<double> residuals, distances, leverages;
+    for (int i = 0; i < 12; ++i) {
+      const double d = i < 2 ? 40.0 : far(rng);
+      const double h = i < 2 ? 0.8 : 0.1;
+      distances.push_back(d);
+      leverages.push_back(h);
+      residuals.push_back(unit(rng) * std::sqrt(1.0 - h) * std::hypot(image, survey / d));
+    }
+    e.Update(residuals, distances, {}, 3, leverages);
+  }
+  REQUIRE(e.confident());
+  INFO("survey " << e.estimated() << " image " << e.image_sigma());
+  CHECK(e.estimated() == Approx(survey).epsilon(0.15));
+}
+
+TEST_CASE("survey error: without edge pairs or spread distances the excess beyond a tracker's noise is the map's",
+          "[survey_error]") {
+  PANO_SEEDED_RNG(43);
+  SurveyErrorOptions o;
+  SurveyErrorEstimate e(o, 120.0);
+  // Landmarks at 110 - 130 only: a 2-unit survey error (about 0.95 degree
+  // there) cannot be told from image noise by the distances, and no pairs.
+  std::uniform_real_distribution<double> distance(110.0, 130.0);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  for (int f = 0; f < 30; ++f) {
+    std::vector<double> residuals, distances;
+    for (int i = 0; i < 12; ++i) {
+      distances.push_back(distance(rng));
+      residuals.push_back(unit(rng) * 2.0 / distances.back());
+    }
+    e.Update(residuals, distances, {}, 0);
+  }
+  REQUIRE(e.confident());
+  INFO("survey " << e.estimated() << " image " << e.image_sigma());
+  // The image holds at most the noisiest tracker's 0.3 degree; the rest
+  // (sqrt(0.95^2 - 0.3^2) of 0.95: 0.95 of it) is the map's.
+  CHECK(e.image_sigma() <= o.max_image_sigma * (1 + 1e-12));
+  CHECK(e.estimated() == Approx(1.9).epsilon(0.15));
+}
+
 TEST_CASE("survey error: an exact map's residuals show no survey error", "[survey_error]") {
   PANO_SEEDED_RNG(38);
   SurveyErrorEstimate e(SurveyErrorOptions(), 120.0);
@@ -152,6 +202,9 @@ TEST_CASE("survey error: options out of range are named", "[survey_error]") {
   o = SurveyErrorOptions();
   o.forgetting = 0.0;
   CHECK_THAT(test::ErrorOf([&] { o.Check(); }), Catch::Contains("forgetting"));
+  o = SurveyErrorOptions();
+  o.max_image_sigma = 0.0;
+  CHECK_THAT(test::ErrorOf([&] { o.Check(); }), Catch::Contains("max_image_sigma"));
   o = SurveyErrorOptions();
   o.estimate_margin = 0.5;
   CHECK_THAT(test::ErrorOf([&] { o.Check(); }), Catch::Contains("estimate_margin"));

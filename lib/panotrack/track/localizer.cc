@@ -1287,21 +1287,32 @@ void Localizer::UpdateSurveyEstimate(const FrameResult& fr, const TriangulationR
   const TriangulationResult* used = shadowed.ok ? &shadowed : &tri;
   // The survey error the inliers show, one bearing per vertical edge; the
   // image noise alone, from the edges whose two corners were both found.
-  std::vector<double> residuals, distances, pairs;
-  std::vector<std::pair<int, double>> groups;  // an edge's group and its first inlier's residual
-  for (int i : used->inliers) {
-    const BearingObservation& o = obs[static_cast<size_t>(i)];
+  // The pose fit absorbs part of each edge's error, the more the more it
+  // leans on the edge (a near one most): its leverage, the share of the
+  // hat matrix's diagonal of the edge's corners.
+  const std::vector<double> leverage = BearingLeverages(obs, *used);
+  std::vector<double> residuals, distances, leverages, pairs;
+  struct Edge {
+    int group;
+    double residual;  // its first inlier's
+    size_t index;     // in residuals
+  };
+  std::vector<Edge> groups;
+  for (size_t k = 0; k < used->inliers.size(); ++k) {
+    const BearingObservation& o = obs[static_cast<size_t>(used->inliers[k])];
     const double r = BearingResidual(o, used->pose);
-    const auto seen = std::find_if(groups.begin(), groups.end(), [&](const auto& g) { return g.first == o.group; });
+    const auto seen = std::find_if(groups.begin(), groups.end(), [&](const Edge& g) { return g.group == o.group; });
     if (o.group >= 0 && seen != groups.end()) {
-      pairs.push_back(r - seen->second);
+      pairs.push_back(r - seen->residual);
+      leverages[seen->index] += leverage[k];
       continue;
     }
-    if (o.group >= 0) groups.emplace_back(o.group, r);
+    if (o.group >= 0) groups.push_back({o.group, r, residuals.size()});
     residuals.push_back(r);
     distances.push_back((o.landmark - Eigen::Vector2d(used->pose.x, used->pose.y)).norm());
+    leverages.push_back(leverage[k]);
   }
-  survey_.Update(residuals, distances, pairs);
+  survey_.Update(residuals, distances, pairs, 3, leverages);
   UpdateLandmarkBudget();
 }
 

@@ -1,6 +1,7 @@
 #include "panotrack/track/survey_error.h"
 
 #include <algorithm>
+#include <limits>
 
 #include "panotrack/core/error.h"
 
@@ -14,6 +15,13 @@ constexpr double kMinPairs = 5.0;
 constexpr double kMinEarlyBearings = 5.0;
 // ... and reported where it exceeds this many times the exact map's doubt.
 constexpr double kEarlyDoubt = 2.0;
+// ... and made provisional (Early) where it exceeds this many times a
+// careful tape survey's error.
+constexpr double kEarlyClear = 1.5;
+// The largest share of a bearing's error the pose fit is taken to absorb.
+constexpr double kMaxLeverage = 0.8;
+// Reweighting steps of the fit.
+constexpr int kFitIterations = 6;
 }  // namespace
 
 void SurveyErrorOptions::Check() const {
@@ -22,6 +30,8 @@ void SurveyErrorOptions::Check() const {
   if (!(min_bearings >= 0.0)) throw Error("survey error: min_bearings: expected >= 0");
   if (!(exact_doubt_fraction >= 0.0) || !std::isfinite(exact_doubt_fraction))
     throw Error("survey error: exact_doubt_fraction: expected >= 0");
+  if (!(max_image_sigma > 0.0) || !std::isfinite(max_image_sigma))
+    throw Error("survey error: max_image_sigma: expected a positive angle");
   if (!(forgetting > 0.0 && forgetting <= 1.0)) throw Error("survey error: forgetting: expected in (0, 1]");
   if (!(estimate_margin >= 1.0) || !std::isfinite(estimate_margin))
     throw Error("survey error: estimate_margin: expected >= 1");
@@ -35,7 +45,8 @@ SurveyErrorEstimate::SurveyErrorEstimate(const SurveyErrorOptions& options, doub
 }
 
 void SurveyErrorEstimate::Reset() {
-  n_ = su_ = suu_ = sy_ = suy_ = 0.0;
+  samples_.clear();
+  n_ = 0.0;
   n_pairs_ = s_pairs_ = 0.0;
   survey_ = image_variance_ = provisional_ = 0.0;
 }
@@ -48,8 +59,15 @@ double SurveyErrorEstimate::Sigma(double stated) const {
   // An exact map (a rendered room, a CAD model) stays exact unless the
   // residuals clearly say otherwise: below that the image's noise and the
   // fit's leave a small survey term in any estimate.
-  if (stated == 0.0) return survey_ > opt_.exact_doubt_fraction * typical_distance_ ? survey_ : 0.0;
+  // The survey's share must also stand out of the image noise's at the
+  // typical distance: a few frames with someone in front of an edge leave
+  // such a share in an unbiased fit.
+  if (stated == 0.0) return survey_ > ExactDoubt() ? survey_ : 0.0;
   return std::max(stated, survey_);
+}
+
+double SurveyErrorEstimate::ExactDoubt() const {
+  return std::max(opt_.exact_doubt_fraction, image_sigma()) * typical_distance_;
 }
 
 double SurveyErrorEstimate::ReportedSigma(double stated) const {
@@ -67,27 +85,28 @@ double SurveyErrorEstimate::ReportedSigma(double stated) const {
 }
 
 double SurveyErrorEstimate::Early() const {
-  // A frame or two of residuals is a rough estimate, but an error beyond a
-  // careful tape survey's is clear from the first frames. (Below it, the
-  // residuals of a few frames with people, blur or exposure changes in
-  // them look like a few millimetres of survey error on an exact map.)
-  const bool clear = n_ >= kMinEarlyBearings && survey_ > opt_.unstated_fraction * typical_distance_;
+  // A frame or two of residuals is a rough estimate, but an error well
+  // beyond a careful tape survey's is clear from the first frames. (Below
+  // it, the residuals of a few frames with people, blur or exposure changes
+  // in them look like up to a tape survey's error on an exact map.)
+  const bool clear = n_ >= kMinEarlyBearings && survey_ > kEarlyClear * opt_.unstated_fraction * typical_distance_;
   return clear ? survey_ : 0.0;
 }
 
 void SurveyErrorEstimate::Update(const std::vector<double>& residuals, const std::vector<double>& distances,
-                                 const std::vector<double>& pairs, int fitted) {
+                                 const std::vector<double>& pairs, int fitted, const std::vector<double>& leverages) {
   const size_t n = std::min(residuals.size(), distances.size());
   if (static_cast<int>(n) <= fitted) return;
   // Residuals of a least-squares fit are smaller than the errors by about
   // (n - fitted) / n in variance.
   const double inflate = static_cast<double>(n) / static_cast<double>(static_cast<int>(n) - fitted);
   const double keep = opt_.forgetting;
-  n_ *= keep;
-  su_ *= keep;
-  suu_ *= keep;
-  sy_ *= keep;
-  suy_ *= keep;
+  for (Sample& sample : samples_) sample.weight *= keep;
+  // Evidence forgotten below a hundredth no longer counts.
+  samples_.erase(std::remove_if(samples_.begin(), samples_.end(), [](const Sample& x) { return x.weight < 1e-2; }),
+                 samples_.end());
+  n_ = 0.0;
+  for (const Sample& sample : samples_) n_ += sample.weight;
   n_pairs_ *= keep;
   s_pairs_ *= keep;
   for (double q : pairs) {
@@ -97,40 +116,64 @@ void SurveyErrorEstimate::Update(const std::vector<double>& residuals, const std
   }
   for (size_t i = 0; i < n; ++i) {
     if (!(distances[i] > 0.0) || !std::isfinite(residuals[i])) continue;
-    const double u = 1.0 / (distances[i] * distances[i]);
-    const double y = inflate * residuals[i] * residuals[i];
+    // A bearing the fit rests on almost alone tells little: its share is
+    // capped at kMaxLeverage.
+    const double kept = i < leverages.size() ? 1.0 - std::clamp(leverages[i], 0.0, kMaxLeverage) : 1.0 / inflate;
+    samples_.push_back({1.0 / (distances[i] * distances[i]), residuals[i] * residuals[i] / kept, 1.0});
     n_ += 1.0;
-    su_ += u;
-    suu_ += u * u;
-    sy_ += y;
-    suy_ += u * y;
   }
   Fit();
 }
 
 void SurveyErrorEstimate::Fit() {
-  if (!(n_ > 0.0)) return;
-  const double mu = su_ / n_, my = sy_ / n_;
-  const double var_u = suu_ / n_ - mu * mu, cov = suy_ / n_ - mu * my;
-  double a = my, b = 0.0;
-  // The distances must spread enough to tell the terms apart (relative
-  // variance of u above 1 %); else the excess is the image noise's.
-  if (var_u > 1e-2 * mu * mu) {
-    b = std::max(0.0, cov / var_u);
-    a = my - b * mu;
-    if (a < 0.0) {  // all of it the survey's
-      a = 0.0;
-      b = my / mu;
-    }
-  }
+  if (samples_.empty()) return;
   // The pairs' image noise, with a margin (four times its variance: a few
-  // pairs vary), caps the image's share; the rest is the survey's.
-  if (n_pairs_ >= kMinPairs && suu_ > 0.0) {
-    const double image_bound = 4.0 * s_pairs_ / n_pairs_;
-    if (a > image_bound) {
-      a = image_bound;
-      b = std::max(0.0, (suy_ - a * su_) / suu_);
+  // pairs vary), caps the image's share, as does the noisiest tracker's;
+  // the rest is the survey's.
+  const double image_bound = std::min(opt_.max_image_sigma * opt_.max_image_sigma,
+                                      n_pairs_ >= kMinPairs ? 4.0 * s_pairs_ / n_pairs_
+                                                            : std::numeric_limits<double>::infinity());
+  // Start from all of it the survey's (the residuals' mean square in map
+  // units), then reweigh by the variance fitted.
+  double a = 0.0, b = 0.0, sw = 0.0;
+  for (const Sample& x : samples_) {
+    b += x.weight * x.y / x.u;
+    sw += x.weight;
+  }
+  b /= sw;
+  for (int iteration = 0; iteration < kFitIterations; ++iteration) {
+    // Weighted normal equations of y = a + b u, weights 1 / (a + b u)^2.
+    double s1 = 0.0, su = 0.0, suu = 0.0, sy = 0.0, suy = 0.0;
+    for (const Sample& x : samples_) {
+      const double v = std::max(a + b * x.u, 1e-30);
+      const double w = x.weight / (v * v);
+      const double y = x.y;
+      s1 += w;
+      su += w * x.u;
+      suu += w * x.u * x.u;
+      sy += w * y;
+      suy += w * x.u * y;
     }
+    const double det = s1 * suu - su * su;
+    // The distances must spread enough to tell the terms apart (relative
+    // weighted variance of u above 1 %); else the excess is the image
+    // noise's, up to its bound.
+    double next_a = sy / s1, next_b = 0.0;  // all of it the image's
+    if (det > 1e-2 * su * su) {
+      const double slope = (s1 * suy - su * sy) / det;
+      if (slope > 0.0) {
+        next_b = slope;
+        next_a = (sy - slope * su) / s1;
+      }
+    }
+    // All of it the survey's; or as much as the image may hold, the rest
+    // the survey's.
+    if (next_a < 0.0 || next_a > image_bound) {
+      next_a = std::clamp(next_a, 0.0, image_bound);
+      next_b = std::max(0.0, (suy - next_a * su) / suu);
+    }
+    a = next_a;
+    b = next_b;
   }
   image_variance_ = a;
   survey_ = std::min(std::sqrt(b), opt_.max_fraction * typical_distance_);

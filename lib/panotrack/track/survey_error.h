@@ -5,9 +5,13 @@
 // A landmark's bearing error has variance s_img^2 + (s_map / d)^2: the
 // image noise, and its corner's survey error across the line of sight at
 // horizontal distance d. Over recent frames the inlier residuals' squares
-// are fitted by a + b / d^2 (least squares, a >= 0, b >= 0), which tells the
-// two apart where the landmarks lie at various distances: sqrt(b) is the
-// survey error the images show.
+// are fitted by a + b / d^2 (a >= 0, b >= 0), which tells the two apart
+// where the landmarks lie at various distances: sqrt(b) is the survey error
+// the images show. A squared residual's spread grows with its variance, so
+// the fit weighs each by the inverse square of the variance fitted
+// (iteratively reweighted least squares, the Gaussian likelihood's): an
+// even least-squares fit would rest on the nearest landmarks, whose errors
+// the pose fit absorbs most.
 #pragma once
 
 #include <algorithm>
@@ -38,6 +42,11 @@ struct SurveyErrorOptions {
   // calibration search, whose wrong trials' residuals must not be taken for
   // survey error).
   bool check = true;
+  // The image's share of the residuals is at most this (radians; the
+  // localiser's max_bearing_sigma, the noise of a poor tracker): where the
+  // distances cannot tell the two apart and no edge's two corners bound the
+  // image noise, the excess beyond it is the map's.
+  double max_image_sigma = 0.3 * M_PI / 180;
   // Each frame's evidence weighs this much less on the next (about 100
   // frames of memory).
   double forgetting = 0.99;
@@ -74,8 +83,8 @@ class SurveyErrorEstimate {
   // exact_doubt_fraction of the typical distance.
   double ReportedSigma(double stated) const;
   // The estimate, not yet confident, where a few frames' residuals already
-  // show an error beyond a careful tape survey's (unstated_fraction of the
-  // typical distance); else 0. The localiser makes it provisional
+  // show an error clearly beyond a careful tape survey's (1.5 times
+  // unstated_fraction of the typical distance); else 0. The localiser makes it provisional
   // where the frame it came from is reported (Localizer::
   // RetrackUnderShownSurvey): the residuals of a pose not reported may be
   // a wrong pose's.
@@ -89,8 +98,13 @@ class SurveyErrorEstimate {
   // variance). They bound the image's share where the distances cannot
   // tell it from the survey's (the pose fit absorbs the near landmarks'
   // errors more than the far ones', which flattens the 1/d^2 pattern).
+  // `leverages` (optional, one per residual): the share of each bearing's
+  // error the pose fit absorbed (BearingLeverages; an edge's corners
+  // summed); in place of the even share fitted / n. The fit leans on the
+  // near landmarks most, so without it their residuals understate the
+  // survey's share.
   void Update(const std::vector<double>& residuals, const std::vector<double>& distances,
-              const std::vector<double>& pairs = {}, int fitted = 3);
+              const std::vector<double>& pairs = {}, int fitted = 3, const std::vector<double>& leverages = {});
   // A frame whose bearings agree with the motion only once the map is
   // assumed this far off: the sigma is at least this much until the
   // residuals have said more.
@@ -104,11 +118,17 @@ class SurveyErrorEstimate {
 
  private:
   void Fit();
+  // The estimate above which a map stated exact is taken to be measured.
+  double ExactDoubt() const;
   SurveyErrorOptions opt_;
   double typical_distance_ = 0.0;
-  // Exponentially forgotten sums over inlier bearings of 1, u = 1/d^2, u^2,
-  // y = r^2 (corrected for the fit) and u y.
-  double n_ = 0.0, su_ = 0.0, suu_ = 0.0, sy_ = 0.0, suy_ = 0.0;
+  // The inlier bearings remembered: u = 1/d^2, y = r^2 (corrected for the
+  // fit) and the weight left after forgetting; n_ their sum of weights.
+  struct Sample {
+    double u, y, weight;
+  };
+  std::vector<Sample> samples_;
+  double n_ = 0.0;
   // The same for the squared pair differences.
   double n_pairs_ = 0.0, s_pairs_ = 0.0;
   double survey_ = 0.0;
