@@ -881,6 +881,13 @@ Eigen::Matrix3d Localizer::ReportedCovariance(const FrameResult& fr, const std::
   return largest(predicted) > largest(tri.covariance) ? predicted : tri.covariance;
 }
 
+bool Localizer::PartialFirstFrame(const FrameResult& fr, const TriangulationResult& tri) const {
+  if (ever_tracked_ || !start_is_hint_ || !opt_.survey.check || survey_.confident()) return false;
+  int n_found = 0;
+  for (const auto& m : fr.measurements) n_found += m.found;
+  return 2 * static_cast<int>(tri.inliers.size()) < n_found;
+}
+
 bool Localizer::RetrackUnderShownSurvey(FrameResult* fr, TriangulationResult* tri) {
   // What this frame would teach, learned once only, from the solution reported.
   const double assumed = MeanSurveySigma();
@@ -1436,6 +1443,7 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
     // every frame tracked from it until one does: a partial twin of the
     // room then tracks as well as the true pose from one frame to the next.
     accepted = accepted && ConfirmsJump(fr, tri);
+    accepted = accepted && !PartialFirstFrame(fr, tri);
     if (held_ && !accepted) ++relocalize_failures_;
   }
   held_ = false;

@@ -418,6 +418,12 @@ class Localizer {
   // provisional sigma and the frame is tracked again under it around its
   // pose, the new solution taken where it is accepted. True if it was.
   bool RetrackUnderShownSurvey(FrameResult* fr, TriangulationResult* tri);
+  // The first frame from a start given as a guess, before the survey error
+  // is known, whose pose leaves most of the bearings it found out: under
+  // too small a survey error a subset of well-measured corners agrees on a
+  // pose off by the error of the rest. Not accepted as it is: the survey
+  // probe then tries it under larger errors.
+  bool PartialFirstFrame(const FrameResult& fr, const TriangulationResult& tri) const;
   // The indices into fr.predicted of the solution's inlier observations.
   std::vector<int> InlierPredictions(const FrameResult& fr, const TriangulationResult& tri) const;
   // The integrity test of an acceptable solution (fills fr->integrity).
