@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 
+#include "panotrack/pose/robust_pose.h"
 #include "panotrack/pose/triangulate.h"
 #include "observe.h"
 #include "test_rng.h"

@@ -41,6 +41,23 @@ double BearingResidual(const BearingObservation& o, const Pose2& pose, Eigen::Ve
   return wrap_angle(fast_atan2(dy, dx) - pose.theta - o.bearing);
 }
 
+std::vector<double> BearingLeverages(const std::vector<BearingObservation>& obs, const TriangulationResult& tri) {
+  std::vector<Eigen::Vector3d> jacobians(tri.inliers.size());
+  Eigen::Matrix3d info = Eigen::Matrix3d::Zero();
+  for (size_t k = 0; k < tri.inliers.size(); ++k) {
+    const BearingObservation& o = obs[static_cast<size_t>(tri.inliers[k])];
+    BearingResidual(o, tri.pose, &jacobians[k]);
+    info += o.weight * jacobians[k] * jacobians[k].transpose();
+  }
+  std::vector<double> leverages(tri.inliers.size(), 0.0);
+  const Eigen::FullPivLU<Eigen::Matrix3d> lu(info);
+  if (!lu.isInvertible()) return leverages;
+  const Eigen::Matrix3d inverse = lu.inverse();
+  for (size_t k = 0; k < tri.inliers.size(); ++k)
+    leverages[k] = obs[static_cast<size_t>(tri.inliers[k])].weight * jacobians[k].dot(inverse * jacobians[k]);
+  return leverages;
+}
+
 // ---------------------------------------------------------------------------
 // Robust consensus loop.
 

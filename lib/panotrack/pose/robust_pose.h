@@ -69,6 +69,12 @@ bool SolvePoseFrom2Bearings(const BearingObservation obs[2], double heading, Pos
 double BearingResidual(const BearingObservation& o, const Pose2& pose,
                        Eigen::Vector3d* jacobian = nullptr);
 
+// The leverage of each of tri.inliers (in that order) on the weighted
+// least-squares pose at tri.pose: the diagonal of the hat matrix, the share
+// of its own error a bearing's residual loses to the fit (they sum to 3; 0
+// each where the pose is not determined). Huber's down-weighting is not in it.
+std::vector<double> BearingLeverages(const std::vector<BearingObservation>& obs, const TriangulationResult& tri);
+
 // ---------------------------------------------------------------------------
 // Robust consensus loop.
 

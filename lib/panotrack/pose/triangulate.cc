@@ -153,25 +153,6 @@ int DistinctBearings(const std::vector<BearingObservation>& obs, const std::vect
   return single + static_cast<int>(std::unique(groups.begin(), groups.end()) - groups.begin());
 }
 
-std::vector<double> BearingLeverages(const std::vector<BearingObservation>& obs, const TriangulationResult& tri) {
-  std::vector<Eigen::Vector3d> jacobians;
-  Eigen::Matrix3d info = Eigen::Matrix3d::Zero();
-  for (int i : tri.inliers) {
-    const double dx = obs[static_cast<size_t>(i)].landmark.x() - tri.pose.x;
-    const double dy = obs[static_cast<size_t>(i)].landmark.y() - tri.pose.y;
-    const double r2 = std::max(dx * dx + dy * dy, 1e-18);
-    jacobians.emplace_back(dy / r2, -dx / r2, -1.0);
-    info += obs[static_cast<size_t>(i)].weight * jacobians.back() * jacobians.back().transpose();
-  }
-  std::vector<double> leverages(tri.inliers.size(), 0.0);
-  const Eigen::FullPivLU<Eigen::Matrix3d> lu(info);
-  if (!lu.isInvertible()) return leverages;
-  const Eigen::Matrix3d inverse = lu.inverse();
-  for (size_t k = 0; k < tri.inliers.size(); ++k)
-    leverages[k] = obs[static_cast<size_t>(tri.inliers[k])].weight * jacobians[k].dot(inverse * jacobians[k]);
-  return leverages;
-}
-
 TriangulationResult Triangulate(const std::vector<BearingObservation>& obs, const Pose2& prior,
                                 const TriangulationOptions& opt) {
   opt.Check();

@@ -72,12 +72,6 @@ struct TriangulationResult {
   std::vector<double> bearing_residuals;  // per observation (rad)
 };
 
-// The leverage of each of tri.inliers (in that order) on the weighted
-// least-squares pose at tri.pose: the diagonal of the hat matrix, the share
-// of its own error a bearing's residual loses to the fit (they sum to 3; 0
-// each where the pose is not determined). Huber's down-weighting is not in it.
-std::vector<double> BearingLeverages(const std::vector<BearingObservation>& obs, const TriangulationResult& tri);
-
 // Eqn 1: least-squares position for a given heading. Returns false when the
 // lines are (nearly) parallel. `sum_dist2` receives Eqn 2's value.
 bool PositionFromBearings(const std::vector<BearingObservation>& obs, double heading,

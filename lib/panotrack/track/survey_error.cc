@@ -147,12 +147,11 @@ void SurveyErrorEstimate::Fit() {
     for (const Sample& x : samples_) {
       const double v = std::max(a + b * x.u, 1e-30);
       const double w = x.weight / (v * v);
-      const double y = x.y;
       s1 += w;
       su += w * x.u;
       suu += w * x.u * x.u;
-      sy += w * y;
-      suy += w * x.u * y;
+      sy += w * x.y;
+      suy += w * x.u * x.y;
     }
     const double det = s1 * suu - su * su;
     // The distances must spread enough to tell the terms apart (relative

@@ -84,10 +84,10 @@ class SurveyErrorEstimate {
   double ReportedSigma(double stated) const;
   // The estimate, not yet confident, where a few frames' residuals already
   // show an error clearly beyond a careful tape survey's (1.5 times
-  // unstated_fraction of the typical distance); else 0. The localiser makes it provisional
-  // where the frame it came from is reported (Localizer::
-  // RetrackUnderShownSurvey): the residuals of a pose not reported may be
-  // a wrong pose's.
+  // unstated_fraction of the typical distance); else 0. The localiser
+  // makes it provisional where the frame it came from is reported
+  // (Localizer::RetrackUnderShownSurvey): the residuals of a pose not
+  // reported may be a wrong pose's.
   double Early() const;
   // One accepted frame: its inlier bearings' residuals (radians) and
   // horizontal distances, and the number of pose parameters fitted to them
