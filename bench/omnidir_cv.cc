@@ -1,4 +1,5 @@
 // omnidir_cv INPUT [--board COLSxROWS --square S [--units U]] [--folds K] [--json FILE]
+//            [--fix-skew] [--fix-tangential]
 //
 // The peer's half of tools/compare_omnidir.sh: system-level K-fold
 // cross-validation of OpenCV's cv::omnidir (Mei's unified model) as a user
@@ -32,7 +33,7 @@ namespace {
 [[noreturn]] void Usage(const std::string& why) {
   std::fprintf(stderr,
                "omnidir_cv: %s\nusage: omnidir_cv INPUT [--board COLSxROWS --square S [--units U]] [--folds K] "
-               "[--json FILE]\n",
+               "[--json FILE] [--fix-skew] [--fix-tangential]\n",
                why.c_str());
   std::exit(1);
 }
@@ -42,7 +43,7 @@ namespace {
 int main(int argc, char** argv) {
   std::string input_path, board_spec, units = "cm", json_path;
   double square = 0.0;
-  int folds = 5;
+  int folds = 5, flags = 0;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&]() -> std::string {
@@ -54,6 +55,8 @@ int main(int argc, char** argv) {
     else if (a == "--units") units = value();
     else if (a == "--folds") folds = std::atoi(value().c_str());
     else if (a == "--json") json_path = value();
+    else if (a == "--fix-skew") flags |= cv::omnidir::CALIB_FIX_SKEW;
+    else if (a == "--fix-tangential") flags |= cv::omnidir::CALIB_FIX_P1 | cv::omnidir::CALIB_FIX_P2;
     else if (!a.empty() && a[0] == '-') Usage("unknown option " + a);
     else if (input_path.empty()) input_path = a;
     else Usage("one input expected");
@@ -89,7 +92,7 @@ int main(int argc, char** argv) {
       std::string failure;
       try {
         if (train.size() < 3) throw pano::Error("fewer than 3 training boards");
-        fit = pano::FitOmnidir(train, targets.board, size);
+        fit = pano::FitOmnidir(train, targets.board, size, flags);
         if (fit.images_used < 3 || !std::isfinite(fit.rms_px))
           throw pano::Error("omnidir kept " + std::to_string(fit.images_used) + " boards");
       } catch (const std::exception& e) {
@@ -128,6 +131,13 @@ int main(int argc, char** argv) {
                     fold, train.size(), fit.rms_px, fit.images_used, rms, held.size() - not_fitted,
                     not_fitted ? (" (" + std::to_string(not_fitted) + " not fitted)").c_str() : "");
         f["training_rms_px"] = fit.rms_px;
+        f["training_boards_kept"] = fit.images_used;
+        nlohmann::ordered_json kept = nlohmann::ordered_json::array();
+        for (int i : fit.kept) kept.push_back(train[static_cast<size_t>(i)].file);
+        f["kept_files"] = kept;
+        const pano::OmnidirIntrinsics k(fit);
+        f["intrinsics"] = {{"fx", k.fx}, {"fy", k.fy}, {"skew", k.s}, {"cx", k.cx}, {"cy", k.cy}, {"xi", k.xi},
+                           {"k1", k.k1},  {"k2", k.k2}, {"p1", k.p1},  {"p2", k.p2}};
         f["heldout_rms_px"] = std::isfinite(rms) ? nlohmann::ordered_json(rms) : nlohmann::ordered_json(nullptr);
       }
       per_fold.push_back(f);

@@ -20,7 +20,7 @@ void AddCalibrateCommand(CLI::App& app) {
     std::string targets, out, lut, report, model = "auto", distortion = "auto", free = "none";
     double huber = 1.0, max_rms = 5.0, full_weight = CalibrateOptions().full_weight_px;
     int max_iterations = 200, threads = 0, asphere_terms = 2;
-    bool no_aspect = false, ignore_poses = false, no_unwarp = false, limb = false, verbose = false;
+    bool no_aspect = false, ignore_poses = false, no_unwarp = false, no_refine = false, limb = false, verbose = false;
   };
   auto o = std::make_shared<Opts>();
   // Input without a target file: the board on the command line.
@@ -65,7 +65,7 @@ void AddCalibrateCommand(CLI::App& app) {
                   "Mirror profile: auto (the default: the mirror profile, the lens distortion and the rig faults "
                   "chosen by 5-fold cross-validation over the boards among sphere, sphere + decentre, sphere + "
                   "k1 k2, conic + k1 k2, asphere (a4) + k1 k2, asphere (a4, a6) + k1 k2, conic + k1 k2 + "
-                  "decentre, camera tilt, unified + k1 k2 and unified + k1 k2 + p1 p2: the simplest whose error "
+                  "decentre, camera tilt, unified + k1 k2 and unified + k1 k2 + p1 p2, skew: the simplest whose error "
                   "on boards left out of the fit is within 1 % of the best, refusing a model whose parameters the boards do not determine; --distortion or --free "
                   "given hold for every candidate; fewer than 4 boards: the sphere), sphere (spec section 2), conic "
                   "(quadric of revolution), asphere (the conic plus even-asphere terms a4, a6, for a mirror "
@@ -82,9 +82,9 @@ void AddCalibrateCommand(CLI::App& app) {
                   "Rig faults fitted (general model; with --model auto and no --free they are chosen): none (the "
                   "aligned model), auto (decentre and camera-tilt "
                   "for conic; decentre for sphere, whose centre off the axis and a camera tilt are one and the "
-                  "same; with estimated poses they trade against cx, cy; tangential for unified), or a "
-                  "comma list of decentre, camera-tilt, k1, k2 (as --distortion), tangential (p1 p2), k3, "
-                  "sensor-tilt (known board poses only)")
+                  "same; with estimated poses they trade against cx, cy; tangential and skew for unified, as "
+                  "OpenCV's omnidir), or a comma list of decentre, camera-tilt, k1, k2 (as --distortion), "
+                  "tangential (p1 p2), k3, skew (the pixel grid's shear), sensor-tilt (known board poses only)")
       ->capture_default_str();
   cmd->add_option("--huber", o->huber, "Huber loss threshold in pixels (0: plain least squares)")
       ->capture_default_str();
@@ -98,6 +98,9 @@ void AddCalibrateCommand(CLI::App& app) {
   cmd->add_flag("--fix-aspect", o->no_aspect, "Hold the pixel aspect ratio at 1");
   cmd->add_flag("--ignore-poses", o->ignore_poses, "Estimate the board poses even when the target file gives them");
   cmd->add_flag("--no-unwarp", o->no_unwarp, "Do not retry images without a board in unwarped views");
+  cmd->add_flag("--no-refine", o->no_refine,
+                "Fit the detector's corners as found (default: located again through the fitted model and the "
+                "model fitted again; `panocalib evaluate --no-refine` reproduces the figure)");
   cmd->add_flag("--limb", o->limb,
                 "Sphere: measure the mirror's limb (its silhouette) in the images and fit it with the corners");
   cmd->add_option("-j,--jobs,--threads", o->threads, "Threads for the fit and the image searches (0: every core)")
@@ -150,6 +153,7 @@ void AddCalibrateCommand(CLI::App& app) {
     opt.fit_aspect = !o->no_aspect;
     opt.ignore_known_poses = o->ignore_poses;
     opt.unwarp_fallback = !o->no_unwarp;
+    if (o->no_refine) opt.refine_passes = 0;
     opt.use_limb = o->limb;
     opt.num_threads = o->threads;
     opt.verbose = o->verbose;

@@ -61,7 +61,7 @@ TEST_CASE("panocalib calibrate: -j/--threads, quiet libraries unless --verbose, 
   // The default --model auto: the model chosen by held-out error, and why.
   CHECK(Contains(r.out, "\nchosen: "));
   CHECK(j.at("model_selection").at("chosen").is_string());
-  CHECK(j.at("model_selection").at("candidates").size() == 10);
+  CHECK(j.at("model_selection").at("candidates").size() == 9);
   CHECK(j.at("outputs").at("calibration") == dir + "/two.yaml");
   // Again: the outputs exist, so nothing is done without --force; -q prints nothing else.
   const auto yaml_time = fs::last_write_time(dir + "/two.yaml");

@@ -83,12 +83,13 @@ void CheckRenderedAgreement(const char* preset, const std::vector<Case>& cases) 
     // refined through the model move with every small change of the model
     // (0.32 to 0.56 px from one fit to the next): calibrate 0.192 / 0.195 px
     // against evaluate 0.127 / 0.125 px (measured). The conic with its
-    // faults free: calibrate 0.1375 px against evaluate 0.1204 px (14 %).
-    // The raw figures agree in every case (0.2597 against 0.2584 px).
+    // faults free: calibrate 0.1267 px against evaluate 0.1523 px (20 %;
+    // 14 % the other way before the raw search took CALIB_CB_ACCURACY).
+    // The raw figures agree in every case (0.1638 against 0.1719 px).
     const bool faulty = std::string(preset) == "faulty-rig";
     const bool unmappable = faulty && c.model == MirrorModel::kSphere;
     const bool faults_free_conic = faulty && c.model == MirrorModel::kConic && c.free_auto;
-    CheckAgreement(a, unmappable ? 0.6 : faults_free_conic ? 0.2 : 0.10);
+    CheckAgreement(a, unmappable ? 0.6 : faults_free_conic ? 0.25 : 0.10);
     // Measured: 0.055-0.080 px refined (those exceptions: 0.19, 0.14 px),
     // 0.20-0.27 px raw (corner noise of 2 grey levels).
     CHECK(a.calibrate_refined < (unmappable ? 0.25 : faults_free_conic ? 0.16 : 0.1));

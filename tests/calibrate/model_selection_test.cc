@@ -25,8 +25,8 @@ const ModelScore& Score(const CalibrationResult& r, const std::string& name) {
   return r.model_scores.front();
 }
 
-// lens_given: distortion_terms 0 for every candidate (then 8 candidates),
-// else the lens is chosen too (10).
+// lens_given: distortion_terms 0 for every candidate (then 7 candidates),
+// else the lens is chosen too (9).
 CalibrationResult CalibrateAuto(const std::string& name, const Calibration& truth, bool lens_given = true,
                                 const std::string& target_file = "targets.yaml") {
   const TargetSet targets = ReadTargets(test::RenderTargets(name, truth, 14, 5) + "/" + target_file);
@@ -36,7 +36,7 @@ CalibrationResult CalibrateAuto(const std::string& name, const Calibration& trut
   o.num_threads = 2;
   const CalibrationResult r = Calibrate(targets, o);
   WARN(ModelSelectionTable(r.model_scores, r.model_chosen) << "chosen: " << r.model_reason);
-  REQUIRE(r.model_scores.size() == (lens_given ? 8u : 10u));
+  REQUIRE(r.model_scores.size() == (lens_given ? 7u : 9u));
   REQUIRE(r.model_chosen >= 0);
   return r;
 }

@@ -3,6 +3,7 @@
 // skipped reaches the result's warnings.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <exception>
 #include <string>
@@ -72,6 +73,42 @@ TEST_CASE("two calibrations at once give what one alone gives", "[concurrent]") 
     INFO("calibration " << k << " running at once with the other");
     REQUIRE(errors[k].empty());
     CheckSameResult(results[k], alone);
+  }
+}
+
+TEST_CASE("the exhaustive raw search, deferred past the unwarped views, finds the boards as raw ones",
+          "[exhaustive]") {
+  const Calibration truth = ReadCalibration(test::SourcePath("calib/paper-real.yaml"));
+  const std::string dir = test::RenderTargets("calibrate_exhaustive", truth, 8, 5);
+  const TargetSet targets = ReadTargets(dir + "/targets.yaml");
+  const std::vector<cv::Mat> images = LoadTargetImages(targets);
+  CalibrateOptions o;
+  o.num_threads = 2;
+  const DetectionResult det = DetectBoards(targets, images, o, /*defer_to_unwarped=*/true);
+  REQUIRE(det.views.size() >= 4);
+  // Half the boards (4 at least) found by the quick search: the exhaustive
+  // one waits for the images the unwarped views miss.
+  CHECK(det.exhaustive_deferred);
+  CHECK_FALSE(DetectBoards(targets, images, o, /*defer_to_unwarped=*/false).exhaustive_deferred);
+  std::vector<int> all(targets.images.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+  const std::vector<BoardView> found = FindBoardsExhaustive(targets, images, all, o.Threads());
+  // Every board the quick search found, the same corners within a pixel,
+  // whatever their order (both searches run with CALIB_CB_ACCURACY).
+  for (const BoardView& quick : det.views) {
+    const auto it = std::find_if(found.begin(), found.end(),
+                                 [&](const BoardView& v) { return v.image_index == quick.image_index; });
+    REQUIRE(it != found.end());
+    CHECK(it->method == "raw");
+    REQUIRE(it->corners.size() == quick.corners.size());
+    double worst = 0.0;
+    for (const Eigen::Vector2d& q : quick.corners) {
+      double nearest = HUGE_VAL;
+      for (const Eigen::Vector2d& e : it->corners) nearest = std::min(nearest, (e - q).norm());
+      worst = std::max(worst, nearest);
+    }
+    INFO("image " << quick.image_index);
+    CHECK(worst < 1.0);
   }
 }
 

@@ -66,6 +66,7 @@ std::vector<GeneralSensorParams<double>> FaultGrid(const Rig& rig) {
             g.faults.p1 = 1e-3;
             g.faults.p2 = -5e-4;
             g.faults.k3 = 1e-3;
+            g.faults.skew = -1.2;
           }
           out.push_back(g);
         }
@@ -177,7 +178,7 @@ TEST_CASE("faults move the image: a decentred sphere is not the aligned one", "[
 
 // ---------------------------------------------------------------- Jets
 
-constexpr int kParams = 11 + 9;  // aligned parameters, faults
+constexpr int kParams = 11 + 10;  // aligned parameters, faults
 constexpr int kN = kParams + 3;  // and the point
 using JetT = ceres::Jet<double, kN>;
 
@@ -187,7 +188,8 @@ std::vector<T*> Fields(GeneralSensorParams<T>* g) {
   RigFaults<T>& f = g->faults;
   return {&p.focal_px, &p.cx, &p.cy, &p.aspect, &p.azimuth_offset, &p.k1, &p.k2, &p.curvature_radius,
           &p.conic_constant, &p.vertex_distance, &p.rim_radius, &f.mirror_offset[0], &f.mirror_offset[1],
-          &f.camera_tilt[0], &f.camera_tilt[1], &f.p1, &f.p2, &f.k3, &f.sensor_tilt[0], &f.sensor_tilt[1]};
+          &f.camera_tilt[0], &f.camera_tilt[1], &f.p1, &f.p2, &f.k3, &f.sensor_tilt[0], &f.sensor_tilt[1],
+          &f.skew};
 }
 
 bool ProjectFlat(const double* x, double* uv) {
@@ -249,6 +251,7 @@ TEST_CASE("project_general and backproject_general with ceres::Jet match finite 
     g.faults.k3 = 1e-3;
     g.faults.sensor_tilt[0] = 0.4 * kDeg;
     g.faults.sensor_tilt[1] = 0.2 * kDeg;
+    g.faults.skew = -1.2;
     for (const Eigen::Vector3d& X : {Eigen::Vector3d(80.0, 30.0, 20.0), Eigen::Vector3d(-40.0, 55.0, -25.0),
                                     Eigen::Vector3d(10.0, -12.0, 3.0), Eigen::Vector3d(60.0, -70.0, -30.0),
                                     Eigen::Vector3d(-90.0, -20.0, 5.0)}) {

@@ -36,8 +36,10 @@ int CalibrateOptions::Threads() const {
 FreeFaults DefaultFreeFaults(MirrorModel model) {
   FreeFaults f;
   if (model == MirrorModel::kUnified) {
-    // Its viewpoint's offset is a shift of every board; omnidir's lens.
+    // Its viewpoint's offset is a shift of every board; omnidir's lens and
+    // pixel grid.
     f.tangential = true;
+    f.skew = true;
     return f;
   }
   f.decentre = true;
@@ -57,12 +59,13 @@ FreeFaults ParseFreeFaults(const std::string& list, MirrorModel model, int* dist
     else if (name == "camera-tilt") f.camera_tilt = true;
     else if (name == "tangential") f.tangential = true;
     else if (name == "k3") f.k3 = true;
+    else if (name == "skew") f.skew = true;
     else if (name == "sensor-tilt") f.sensor_tilt = true;
     else if (name == "k1") radial = std::max(radial, 1);
     else if (name == "k2") radial = 2;
     else
       throw Error("--free: unknown parameter '" + name +
-                  "' (expected auto, none or a list of decentre, camera-tilt, k1, k2, tangential, k3, sensor-tilt)");
+                  "' (expected auto, none or a list of decentre, camera-tilt, k1, k2, tangential, k3, skew, sensor-tilt)");
   }
   if (radial > 0) {
     if (!distortion_terms) throw Error("--free: k1 and k2 are set with the lens distortion terms");
@@ -264,6 +267,45 @@ CalibrationResult FitBestStart(const std::vector<BoardView>& views, const Target
   return res;
 }
 
+// The unified model's fit moved along the valley where xi, f and the lens's
+// k1 trade: refitted from other values of xi (f scaled so that the horizon
+// keeps its image radius, k1 k2 reset, the rig faults and the board poses
+// kept), the lowest cost kept. The starts are fitted without the faults, and
+// with them freed the fit can stay in the basin they found: on boards of a
+// camera with xi 1.28 and a sheared pixel grid, xi 1.01 at 0.156 px where
+// the truth fits at 0.136 px.
+CalibrationResult ExploreUnifiedValley(const std::vector<BoardView>& views, const TargetBoard& board,
+                                       CalibrationResult fit, bool poses_known, const CalibrateOptions& options) {
+  const SensorParams<double>& p = fit.calib.sensor.params;
+  if (!p.unified) return fit;
+  const double m = 1.0 / p.xi, horizon_radius = p.focal_px * m * (1.0 + m * m * (p.k1 + m * m * p.k2));
+  InitialEstimate starts;
+  for (double xi : {0.8, 1.0, 1.3, 1.6, 2.0}) {
+    if (std::abs(xi - p.xi) < 0.1) continue;
+    InitialEstimate st = StartFrom(fit, "the unified valley from xi " + std::to_string(xi));
+    SensorParams<double>& q = st.sensor.params;
+    q.xi = xi;
+    q.focal_px = horizon_radius * xi;
+    q.k1 = q.k2 = 0.0;
+    q.rim_radius = 0.0;
+    if (starts.poses.empty()) starts = st;
+    else starts.alternatives.push_back(st);
+  }
+  if (starts.poses.empty()) return fit;
+  try {
+    CalibrationResult moved = FitBestStart(views, board, starts, poses_known, options);
+    // Lower in both: under the Huber loss a fit that gives up a few corners
+    // as outliers can cost less and map the board worse.
+    if (moved.fit_cost < fit.fit_cost && moved.rms_px < fit.rms_px) {
+      moved.init_summary += "; kept over the fit from " + fit.init_summary;
+      return moved;
+    }
+  } catch (const Error&) {
+    // No start along the valley fits: the first fit stands.
+  }
+  return fit;
+}
+
 // Prints each step's wall time on stderr when verbose.
 class StepClock {
  public:
@@ -327,10 +369,18 @@ void CheckImages(const TargetSet& targets, const std::vector<cv::Mat>& images) {
 }
 
 // Step 4a: the images without a board searched in views unwarped through the
-// current fit (FindUnwarpedBoards).
+// current fit (FindUnwarpedBoards), then those still without one by the
+// exhaustive raw search when step 1 deferred it.
 std::vector<BoardView> FindUnwarpedBoards(Pipeline* p) {
-  return calib_internal::FindUnwarpedBoards(p->targets, p->images, p->det.not_found, p->res.views,
-                                            p->res.calib.sensor, p->options.Threads(), &p->carried);
+  std::vector<BoardView> extra = calib_internal::FindUnwarpedBoards(
+      p->targets, p->images, p->det.not_found, p->res.views, p->res.calib.sensor, p->options.Threads(), &p->carried);
+  if (!p->det.exhaustive_deferred) return extra;
+  const std::vector<BoardView> exhaustive =
+      FindBoardsExhaustive(p->targets, p->images, ImagesWithout(p->det.not_found, extra), p->options.Threads());
+  extra.insert(extra.end(), exhaustive.begin(), exhaustive.end());
+  std::sort(extra.begin(), extra.end(),
+            [](const BoardView& a, const BoardView& b) { return a.image_index < b.image_index; });
+  return extra;
 }
 
 // Step 4b: the refit's start: the fitted boards at their fitted poses, the
@@ -424,7 +474,7 @@ void RetryUnwarped(Pipeline* p) {
   if (!again) return;
   p->res = std::move(*again);
   for (const BoardView& v : p->res.views)
-    if (v.method == "unwarped") p->found_views.push_back(v);
+    if (ImagesWithout({v.image_index}, extra).empty()) p->found_views.push_back(v);
   DropFoundImages(p->res.views, &p->det);
 }
 
@@ -681,7 +731,8 @@ CalibrationResult CalibrateViews(const std::vector<BoardView>& views_in, const T
   CheckViewCount(views.size(), views.size(), poses_known, options, {});
   if (poses_known) OrderCornersByKnownPose(board, 0.5 * (width - 1), 0.5 * (height - 1), &views);
   const InitialEstimate init = TimedInitialize(views, board, width, height, poses_known, options);
-  CalibrationResult res = FitBestStart(views, board, init, poses_known, options);
+  CalibrationResult res =
+      ExploreUnifiedValley(views, board, FitBestStart(views, board, init, poses_known, options), poses_known, options);
   Finish(&res, poses_known, units, options, InputWarnings(views, options));
   return res;
 }

@@ -54,7 +54,8 @@ struct FreeFaults {
   bool tangential = false;   // p1, p2
   bool k3 = false;
   bool sensor_tilt = false;  // only with known board poses (else the poses absorb it)
-  bool Any() const { return decentre || camera_tilt || tangential || k3 || sensor_tilt; }
+  bool skew = false;         // the pixel grid's shear
+  bool Any() const { return decentre || camera_tilt || tangential || k3 || sensor_tilt || skew; }
 };
 
 // The default free faults: decentre and camera tilt for the conic; decentre
@@ -65,7 +66,7 @@ struct FreeFaults {
 // unified model: tangential distortion (p1 p2), as OpenCV's omnidir.
 FreeFaults DefaultFreeFaults(MirrorModel model);
 // Parses "auto", "none" or a comma list of decentre, camera-tilt, tangential,
-// k3, sensor-tilt (k1 and k2 are accepted and set *distortion_terms to the
+// k3, skew, sensor-tilt (k1 and k2 are accepted and set *distortion_terms to the
 // highest named, when it is given). Throws pano::Error naming --free.
 FreeFaults ParseFreeFaults(const std::string& list, MirrorModel model, int* distortion_terms = nullptr);
 
@@ -207,6 +208,9 @@ struct DetectionResult {
   // Searches that failed with an error rather than finding no board (file
   // and reason); those images are in not_found too.
   std::vector<std::string> warnings;
+  // The exhaustive search was left to after the unwarped views
+  // (FindBoardsExhaustive then covers the images they miss).
+  bool exhaustive_deferred = false;
   double seconds = 0.0;
 };
 
@@ -307,6 +311,14 @@ int CountVideoFrames(const std::string& path);
 // in size.
 DetectionResult DetectBoards(const TargetSet& targets, const std::vector<cv::Mat>& images,
                              const CalibrateOptions& options, bool defer_to_unwarped = false);
+
+// The exhaustive raw search (step 1's, where DetectBoards deferred it) on the
+// images `missing` (target file indices), in parallel over images: the boards
+// that neither the quick search nor the unwarped views found, such as a board
+// squeezed towards the image centre. Returns them as raw boards; none for a
+// ChArUco board (its detector has one search).
+std::vector<BoardView> FindBoardsExhaustive(const TargetSet& targets, const std::vector<cv::Mat>& images,
+                                            const std::vector<int>& missing, int threads);
 
 // Detection in virtual perspective views unwarped through `sensor`, corners
 // mapped back to the raw image and refined there. `distance` is a typical

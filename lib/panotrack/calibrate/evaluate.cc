@@ -238,8 +238,8 @@ EvaluationResult EvaluateCalibration(const TargetSet& targets, const std::vector
   detect.verbose = options.verbose;
   // The detection calibrate runs: the quick raw search (the exhaustive one
   // only where too few boards are found), then the images without a board
-  // searched in views unwarped through the calibration, so that both score
-  // the same boards.
+  // searched in views unwarped through the calibration and, where those miss,
+  // by the exhaustive search, so that both score the same boards.
   detect.unwarp_fallback = options.unwarp_fallback;
   DetectionResult det = DetectBoards(targets, images, detect, /*defer_to_unwarped=*/true);
   const Sensor& sensor = calib.sensor;
@@ -265,6 +265,11 @@ EvaluationResult EvaluateCalibration(const TargetSet& targets, const std::vector
       }
     std::vector<BoardView> extra = FindUnwarpedBoards(targets, images, det.not_found, fitted, sensor,
                                                       detect.Threads(), &det.warnings);
+    if (det.exhaustive_deferred) {
+      const std::vector<BoardView> exhaustive =
+          FindBoardsExhaustive(targets, images, ImagesWithout(det.not_found, extra), detect.Threads());
+      extra.insert(extra.end(), exhaustive.begin(), exhaustive.end());
+    }
     if (!extra.empty()) {
       views.insert(views.end(), extra.begin(), extra.end());
       std::sort(views.begin(), views.end(),

@@ -18,7 +18,7 @@ namespace pano {
 namespace {
 
 // Mei's unified projection with OpenCV's distortion (cv::omnidir::projectPoints).
-// params: fx, fy, cx, cy, xi, k1, k2, p1, p2.
+// params: fx, fy, cx, cy, xi, k1, k2, p1, p2, s (K's skew).
 template <typename T>
 bool ProjectMei(const T* params, const T* X, T* u, T* v) {
   const T norm = sqrt(X[0] * X[0] + X[1] * X[1] + X[2] * X[2]);
@@ -29,7 +29,7 @@ bool ProjectMei(const T* params, const T* X, T* u, T* v) {
   const T radial = T(1) + params[5] * r2 + params[6] * r4;
   const T xd = x * radial + T(2) * params[7] * x * y + params[8] * (r2 + T(2) * x * x);
   const T yd = y * radial + params[7] * (r2 + T(2) * y * y) + T(2) * params[8] * x * y;
-  *u = params[0] * xd + params[2];
+  *u = params[0] * xd + params[9] * yd + params[2];
   *v = params[1] * yd + params[3];
   return true;
 }
@@ -101,7 +101,7 @@ void OmnidirApproximationOptions::Check() const {
 }
 
 bool ProjectOmnidir(const OmnidirApproximation& a, const Eigen::Vector3d& point_sensor, Eigen::Vector2d* pixel) {
-  const double params[9] = {a.fx, a.fy, a.cx, a.cy, a.xi, a.k1, a.k2, a.p1, a.p2};
+  const double params[10] = {a.fx, a.fy, a.cx, a.cy, a.xi, a.k1, a.k2, a.p1, a.p2, a.s};
   const Eigen::Vector3d X = a.omnidir_from_sensor * point_sensor;
   return ProjectMei(params, X.data(), &pixel->x(), &pixel->y());
 }
@@ -120,10 +120,11 @@ OmnidirApproximation FitOmnidirApproximation(const Sensor& s, const OmnidirAppro
   double horizon_radius = 0.0;
   if (!s.image_radius(a.distance, 0.0, &horizon_radius) || !(horizon_radius > 0))
     horizon_radius = 0.5 * s.limb_radius();
-  double params[9] = {horizon_radius, horizon_radius * s.params.aspect, s.params.cx, s.params.cy, 1.0, 0, 0, 0, 0};
+  double params[10] = {horizon_radius, horizon_radius * s.params.aspect, s.params.cx, s.params.cy, 1.0, 0, 0, 0, 0,
+                       s.faults.skew};
   ceres::Problem problem;
   for (const Sample& smp : samples)
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<MeiResidual, 2, 9>(
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<MeiResidual, 2, 10>(
                                  new MeiResidual{a.omnidir_from_sensor * smp.point_sensor, smp.pixel}),
                              nullptr, params);
   ceres::Solver::Options so;
@@ -134,7 +135,7 @@ OmnidirApproximation FitOmnidirApproximation(const Sensor& s, const OmnidirAppro
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
   a.fx = params[0], a.fy = params[1], a.cx = params[2], a.cy = params[3], a.xi = params[4];
-  a.k1 = params[5], a.k2 = params[6], a.p1 = params[7], a.p2 = params[8];
+  a.k1 = params[5], a.k2 = params[6], a.p1 = params[7], a.p2 = params[8], a.s = params[9];
   double sum2 = 0;
   for (const Sample& smp : samples) {
     Eigen::Vector2d px;
@@ -162,14 +163,15 @@ void WriteOpenCvCalibration(const std::string& path, const Calibration& calib, c
                   "omnidir_from_sensor * X_sensor.");
   fs << "image_width" << s.image_width << "image_height" << s.image_height;
   fs << "units" << calib.units;
-  fs << "camera_matrix" << (cv::Mat_<double>(3, 3) << p.focal_px, 0, p.cx, 0, p.focal_px * p.aspect, p.cy, 0, 0, 1);
+  fs << "camera_matrix"
+     << (cv::Mat_<double>(3, 3) << p.focal_px, s.faults.skew, p.cx, 0, p.focal_px * p.aspect, p.cy, 0, 0, 1);
   fs << "distortion_coefficients" << (cv::Mat_<double>(1, 5) << p.k1, p.k2, 0, 0, 0);
   fs << "mirror_model" << mirror_model_name(s.model);
   fs << "curvature_radius" << p.curvature_radius << "conic_constant" << p.conic_constant
      << "vertex_distance" << p.vertex_distance << "azimuth_offset" << p.azimuth_offset;
   if (s.model == MirrorModel::kAsphere) fs << "asphere_a4" << p.asphere_a4 << "asphere_a6" << p.asphere_a6;
   if (s.model == MirrorModel::kUnified) fs << "xi" << p.xi;
-  fs << "omnidir_K" << (cv::Mat_<double>(3, 3) << om.fx, 0, om.cx, 0, om.fy, om.cy, 0, 0, 1);
+  fs << "omnidir_K" << (cv::Mat_<double>(3, 3) << om.fx, om.s, om.cx, 0, om.fy, om.cy, 0, 0, 1);
   fs << "omnidir_xi" << om.xi;
   fs << "omnidir_D" << (cv::Mat_<double>(1, 4) << om.k1, om.k2, om.p1, om.p2);
   cv::Mat omnidir_from_sensor;

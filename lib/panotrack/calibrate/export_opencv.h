@@ -25,12 +25,13 @@ struct OmnidirApproximationOptions {
   void Check() const;
 };
 
-// Mei's model as cv::omnidir uses it: K (no skew), xi, D = (k1, k2, p1, p2),
+// Mei's model as cv::omnidir uses it: K (with its skew s), xi, D = (k1, k2, p1, p2),
 // for points in the omnidir frame X_omnidir = omnidir_from_sensor * X_sensor
 // (the image centre sees straight down, so that frame's z points down).
 struct OmnidirApproximation {
   double fx = 0, fy = 0, cx = 0, cy = 0, xi = 0;
   double k1 = 0, k2 = 0, p1 = 0, p2 = 0;
+  double s = 0;  // K(0, 1)
   Eigen::Matrix3d omnidir_from_sensor = Eigen::Matrix3d::Identity();
   double distance = 0.0;  // the distance the fit used
   double rms_px = 0.0;    // over the samples

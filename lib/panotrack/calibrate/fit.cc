@@ -49,7 +49,7 @@ std::vector<int> FixedFaultIndices(bool poses_known, const CalibrateOptions& o) 
   // With estimated poses a tilt of the whole rig is a turn of every board.
   const bool free[kNumFaults] = {f.decentre,   f.decentre, f.camera_tilt, f.camera_tilt,
                                  f.tangential, f.tangential, f.k3,
-                                 f.sensor_tilt && poses_known, f.sensor_tilt && poses_known};
+                                 f.sensor_tilt && poses_known, f.sensor_tilt && poses_known, f.skew};
   std::vector<int> fixed;
   fixed.reserve(kNumFaults);
   for (int k = 0; k < kNumFaults; ++k)
@@ -366,7 +366,8 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
                           {"p2", kP2, rf.p2, 1.0, options.fault_warning_std},
                           {"k3", kK3, rf.k3, 1.0, options.fault_warning_std},
                           {"sensor_tilt_x_deg", kSensorTiltX, rf.sensor_tilt[0], kDeg, ang},
-                          {"sensor_tilt_y_deg", kSensorTiltY, rf.sensor_tilt[1], kDeg, ang}};
+                          {"sensor_tilt_y_deg", kSensorTiltY, rf.sensor_tilt[1], kDeg, ang},
+                          {"skew_px", kSkew, rf.skew, 1.0, options.fault_warning_std * p.focal_px}};
     std::string poor;
     for (const Item& it : items) {
       const bool fx = fixed_fault(it.index);

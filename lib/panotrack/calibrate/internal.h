@@ -83,6 +83,7 @@ enum FaultIndex {
   kK3,
   kSensorTiltX,  // sensor_tilt
   kSensorTiltY,
+  kSkew,
   kNumFaults
 };
 
@@ -98,12 +99,13 @@ RigFaults<T> FaultsFromBlock(const T* f) {
   r.k3 = f[kK3];
   r.sensor_tilt[0] = f[kSensorTiltX];
   r.sensor_tilt[1] = f[kSensorTiltY];
+  r.skew = f[kSkew];
   return r;
 }
 
 inline std::array<double, kNumFaults> BlockFromFaults(const RigFaults<double>& r) {
   return {r.mirror_offset[0], r.mirror_offset[1], r.camera_tilt[0], r.camera_tilt[1], r.p1, r.p2, r.k3,
-          r.sensor_tilt[0], r.sensor_tilt[1]};
+          r.sensor_tilt[0], r.sensor_tilt[1], r.skew};
 }
 
 // Indices of the fault block held fixed (the faults not named free).
@@ -155,6 +157,15 @@ inline BoardView ViewOfImage(const TargetSet& targets, int i, const std::vector<
   v.rvec = Eigen::Vector3d(ti.rvec[0], ti.rvec[1], ti.rvec[2]);
   v.tvec = Eigen::Vector3d(ti.tvec[0], ti.tvec[1], ti.tvec[2]);
   return v;
+}
+
+// The images of `images` (target file indices) that none of `views` is of.
+inline std::vector<int> ImagesWithout(const std::vector<int>& images, const std::vector<BoardView>& views) {
+  std::vector<int> left;
+  for (int i : images)
+    if (std::none_of(views.begin(), views.end(), [i](const BoardView& v) { return v.image_index == i; }))
+      left.push_back(i);
+  return left;
 }
 
 // Rim that caps the visible mirror at normalised radius m_cap when the limb

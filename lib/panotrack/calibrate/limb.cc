@@ -40,7 +40,9 @@ bool PixelOfMirrorFrameRay(const Sensor& s, const double* m, Eigen::Vector2d* px
   const double xi = xn * co - yn * so, yi = xn * so + yn * co;
   double xd, yd;
   detail::brown_distort(p, f, xi, yi, &xd, &yd);
-  *px = {p.cx + p.focal_px * xd, p.cy + p.focal_px * p.aspect * yd};
+  double u, v;
+  detail::pixel_of_distorted(p, f, xd, yd, &u, &v);
+  *px = {u, v};
   return std::isfinite(px->x()) && std::isfinite(px->y());
 }
 
@@ -76,9 +78,8 @@ struct LimbCost {
     using std::sqrt;
     const SensorParams<T> p = ParamsFromBlock(s);
     const RigFaults<T> f = FaultsFromBlock(fb);
-    const T xd = (T(px_.x()) - p.cx) / p.focal_px;
-    const T yd = (T(px_.y()) - p.cy) / (p.focal_px * p.aspect);
-    T xi, yi;
+    T xd, yd, xi, yi;
+    detail::distorted_of_pixel(p, f, T(px_.x()), T(px_.y()), &xd, &yd);
     if (!detail::brown_undistort(p, f, xd, yd, &xi, &yi)) return false;
     const T co = cos(p.azimuth_offset), so = sin(p.azimuth_offset);
     const T c[3] = {xi * co + yi * so, -xi * so + yi * co, T(1)};

@@ -26,6 +26,7 @@ namespace pano {
 struct OmnidirFit {
   double rms_px = NAN;  // over the images omnidir kept
   int images_used = 0;  // omnidir drops images whose initialisation fails
+  std::vector<int> kept;  // the views it kept (indices into the views given)
   double seconds = 0.0;
   cv::Mat K, D, xi;  // camera matrix (with skew), k1 k2 p1 p2, xi
 };
@@ -59,6 +60,7 @@ inline OmnidirFit FitOmnidir(const std::vector<BoardView>& views, const TargetBo
   fit.images_used = static_cast<int>(idx.total());
   for (int k = 0; k < fit.images_used; ++k) {
     const int i = idx.at<int>(k);
+    fit.kept.push_back(i);
     cv::Mat proj;
     cv::omnidir::projectPoints(obj[i], proj, rvecs[k], tvecs[k], fit.K, fit.xi.at<double>(0), fit.D);
     for (int j = 0; j < proj.rows; ++j) {

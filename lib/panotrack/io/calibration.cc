@@ -16,7 +16,7 @@ const char* const kKnownKeys[] = {"model", "units", "image_width", "image_height
                                   "cy", "aspect", "azimuth_offset", "k1", "k2", "rim_radius",
                                   "mirror_radius", "mirror_distance", "curvature_radius",
                                   "conic_constant", "vertex_distance", "asphere_a4", "asphere_a6", "xi", "lut",
-                                  "mirror_offset", "camera_tilt", "sensor_tilt", "p1", "p2", "k3",
+                                  "mirror_offset", "camera_tilt", "sensor_tilt", "p1", "p2", "k3", "skew",
                                   "images", "images_not_found", "images_used", "images_total",
                                   "software", "command_line"};
 
@@ -158,6 +158,7 @@ Calibration ParseCalibration(const std::string& path, const YAML::Node& n) {
   f.p1 = r.Double(n, "p1", "p1", 0.0);
   f.p2 = r.Double(n, "p2", "p2", 0.0);
   f.k3 = r.Double(n, "k3", "k3", 0.0);
+  f.skew = r.Double(n, "skew", "skew", 0.0);
   s.Check(path);
   if (r.Has(n, "lut")) {
     c.lut = r.String(n, "lut", "lut");
@@ -258,6 +259,7 @@ std::string CalibrationToYaml(const Calibration& c) {
   }
   if (f.sensor_tilt[0] != 0.0 || f.sensor_tilt[1] != 0.0)
     w.Key("sensor_tilt").Numbers({f.sensor_tilt[0], f.sensor_tilt[1]});
+  if (f.skew != 0.0) w.Key("skew").Double(f.skew);
   if (!c.lut.empty()) w.Key("lut").String(c.lut);
   for (const auto& kv : c.extras) w.Key(kv.first).Double(kv.second);
   WriteImageResults(c, &w);

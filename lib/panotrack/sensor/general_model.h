@@ -4,6 +4,7 @@
 //   - the camera turned relative to the mirror: camera_tilt;
 //   - tangential and third-order radial lens distortion: p1, p2, k3 (k1, k2
 //     are the aligned model's own);
+//   - the pixel grid's shear: skew (cv::omnidir's K(0, 1), pixels);
 //   - the mirror's axis tilted from the robot's vertical: sensor_tilt.
 // Templated on the scalar T so that ceres::Jet passes through.
 //
@@ -22,7 +23,7 @@
 //   r2 = xi^2 + yi^2,  radial = 1 + k1 r2 + k2 r2^2 + k3 r2^3
 //   xd = xi radial + 2 p1 xi yi + p2 (r2 + 2 xi^2)
 //   yd = yi radial + p1 (r2 + 2 yi^2) + 2 p2 xi yi
-//   u = cx + focal_px xd,  v = cy + focal_px aspect yd
+//   u = cx + focal_px xd + skew yd,  v = cy + focal_px aspect yd
 // With every fault zero this is catadioptric.h's model exactly.
 //
 // Projection solves the law of reflection in 3-D: the camera ray direction
@@ -48,11 +49,12 @@ struct RigFaults {
   T p2 = T(0);
   T k3 = T(0);                        // Brown radial, r^6 term
   T sensor_tilt[2] = {T(0), T(0)};    // M relative to the robot frame, radians (about x, then y)
+  T skew = T(0);                      // pixel grid shear: u gains skew * yd (pixels)
 
   // True when every fault is exactly zero (compared on the scalar value).
   bool IsZero() const {
     const T* v[] = {&mirror_offset[0], &mirror_offset[1], &camera_tilt[0], &camera_tilt[1], &p1, &p2, &k3,
-                    &sensor_tilt[0], &sensor_tilt[1]};
+                    &sensor_tilt[0], &sensor_tilt[1], &skew};
     for (const T* x : v)
       if (scalar_value(*x) != 0.0) return false;
     return true;
@@ -69,6 +71,7 @@ struct RigFaults {
     f.p1 = U(scalar_value(p1));
     f.p2 = U(scalar_value(p2));
     f.k3 = U(scalar_value(k3));
+    f.skew = U(scalar_value(skew));
     return f;
   }
 };
@@ -303,6 +306,19 @@ void brown_distort(const SensorParams<T>& p, const RigFaults<T>& f, const T& x, 
   *yd = y * radial + f.p1 * (r2 + T(2) * y * y) + T(2) * f.p2 * x * y;
 }
 
+// Pixel of distorted normalised image coordinates (xd, yd), and back.
+template <typename T>
+void pixel_of_distorted(const SensorParams<T>& p, const RigFaults<T>& f, const T& xd, const T& yd, T* u, T* v) {
+  *u = p.cx + p.focal_px * xd + f.skew * yd;
+  *v = p.cy + p.focal_px * p.aspect * yd;
+}
+
+template <typename T>
+void distorted_of_pixel(const SensorParams<T>& p, const RigFaults<T>& f, const T& u, const T& v, T* xd, T* yd) {
+  *yd = (v - p.cy) / (p.focal_px * p.aspect);
+  *xd = (u - p.cx - f.skew * *yd) / p.focal_px;
+}
+
 // Inverse of brown_distort by Newton's method in T (one extra step after
 // convergence so that Jet derivatives are those of the root).
 template <typename T>
@@ -429,8 +445,7 @@ bool project_general(const GeneralSensorParams<T>& g, const T* point_robot, T* u
   const T xi = xn * co - yn * so, yi = xn * so + yn * co;
   T xd, yd;
   detail::brown_distort(p, f, xi, yi, &xd, &yd);
-  *u = p.cx + p.focal_px * xd;
-  *v = p.cy + p.focal_px * p.aspect * yd;
+  detail::pixel_of_distorted(p, f, xd, yd, u, v);
   return true;
 }
 
@@ -442,9 +457,8 @@ bool backproject_general(const GeneralSensorParams<T>& g, const T& u, const T& v
   using std::sin;
   const SensorParams<T>& p = g.aligned;
   const RigFaults<T>& f = g.faults;
-  const T xd = (u - p.cx) / p.focal_px;
-  const T yd = (v - p.cy) / (p.focal_px * p.aspect);
-  T xi, yi;
+  T xd, yd, xi, yi;
+  detail::distorted_of_pixel(p, f, u, v, &xd, &yd);
   if (!detail::brown_undistort(p, f, xd, yd, &xi, &yi)) return false;
   const T co = cos(p.azimuth_offset), so = sin(p.azimuth_offset);
   const T c[3] = {xi * co + yi * so, -xi * so + yi * co, T(1)};

@@ -116,7 +116,7 @@ void Sensor::Check(const std::string& what) const {
   }
   const RigFaults<double>& f = faults;
   const double fault_vals[] = {f.mirror_offset[0], f.mirror_offset[1], f.camera_tilt[0], f.camera_tilt[1],
-                               f.p1, f.p2, f.k3, f.sensor_tilt[0], f.sensor_tilt[1]};
+                               f.p1, f.p2, f.k3, f.sensor_tilt[0], f.sensor_tilt[1], f.skew};
   for (double v : fault_vals)
     if (!std::isfinite(v)) fail("faults", "not a finite number (NaN or infinity)");
   const double kMaxTilt = 0.5;  // radians: beyond it the model of a small fault no longer describes the rig
@@ -124,6 +124,9 @@ void Sensor::Check(const std::string& what) const {
     if (!(std::abs(f.camera_tilt[i]) <= kMaxTilt)) fail("camera_tilt", "expected angles within +-0.5 rad (28.6 degrees)");
     if (!(std::abs(f.sensor_tilt[i]) <= kMaxTilt)) fail("sensor_tilt", "expected angles within +-0.5 rad (28.6 degrees)");
   }
+  // A shear of a tenth of the focal length is far past any sensor's.
+  if (!(std::abs(f.skew) <= 0.1 * std::abs(p.focal_px)))
+    fail("skew", "expected a shear within a tenth of focal_px");
   if (!p.unified && !(std::hypot(f.mirror_offset[0], f.mirror_offset[1]) < p.curvature_radius))
     fail("mirror_offset", "expected an offset smaller than the mirror's radius");
   if (p.rim_radius < 0.0) fail("rim_radius", "expected a non-negative rim radius");
@@ -206,6 +209,7 @@ Sensor ScaledSensor(const Sensor& sensor, double scale) {
   out.params.aspect = sensor.params.aspect * sy / sx;
   out.params.cx = (sensor.params.cx + 0.5) * sx - 0.5;
   out.params.cy = (sensor.params.cy + 0.5) * sy - 0.5;
+  out.faults.skew = sensor.faults.skew * sx;
   return out;
 }
 
