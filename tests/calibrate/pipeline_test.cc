@@ -45,14 +45,27 @@ void CheckSameResult(const CalibrationResult& a, const CalibrationResult& b) {
   CHECK(a.warnings == b.warnings);
 }
 
-TEST_CASE("two calibrations at once give what one alone gives", "[concurrent]") {
-  // Rendered boards (known poses, 2 grey levels of noise) through the whole
-  // pipeline: detection, the unwarped retry, refinement, each with its own
-  // threads.
+// 8 rendered boards of the paper-real sensor (known poses, 2 grey levels of
+// noise), read back with their images.
+struct RenderedSet {
+  TargetSet targets;
+  std::vector<cv::Mat> images;
+};
+
+RenderedSet RenderPaperReal(const std::string& name) {
   const Calibration truth = ReadCalibration(test::SourcePath("calib/paper-real.yaml"));
-  const std::string dir = test::RenderTargets("calibrate_concurrent", truth, 8, 5);
-  const TargetSet targets = ReadTargets(dir + "/targets.yaml");
-  const std::vector<cv::Mat> images = LoadTargetImages(targets);
+  RenderedSet set;
+  set.targets = ReadTargets(test::RenderTargets(name, truth, 8, 5) + "/targets.yaml");
+  set.images = LoadTargetImages(set.targets);
+  return set;
+}
+
+TEST_CASE("two calibrations at once give what one alone gives", "[concurrent]") {
+  // Rendered boards through the whole pipeline: detection, the unwarped
+  // retry, refinement, each with its own threads.
+  const RenderedSet set = RenderPaperReal("calibrate_concurrent");
+  const TargetSet& targets = set.targets;
+  const std::vector<cv::Mat>& images = set.images;
   CalibrateOptions o;
   o.num_threads = 2;
   const CalibrationResult alone = Calibrate(targets, images, o);
@@ -78,10 +91,9 @@ TEST_CASE("two calibrations at once give what one alone gives", "[concurrent]") 
 
 TEST_CASE("the exhaustive raw search, deferred past the unwarped views, finds the boards as raw ones",
           "[exhaustive]") {
-  const Calibration truth = ReadCalibration(test::SourcePath("calib/paper-real.yaml"));
-  const std::string dir = test::RenderTargets("calibrate_exhaustive", truth, 8, 5);
-  const TargetSet targets = ReadTargets(dir + "/targets.yaml");
-  const std::vector<cv::Mat> images = LoadTargetImages(targets);
+  const RenderedSet set = RenderPaperReal("calibrate_exhaustive");
+  const TargetSet& targets = set.targets;
+  const std::vector<cv::Mat>& images = set.images;
   CalibrateOptions o;
   o.num_threads = 2;
   const DetectionResult det = DetectBoards(targets, images, o, /*defer_to_unwarped=*/true);

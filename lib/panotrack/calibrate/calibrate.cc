@@ -368,21 +368,6 @@ void CheckImages(const TargetSet& targets, const std::vector<cv::Mat>& images) {
       throw Error(targets.images[i].resolved + ": image size differs from the first image's");
 }
 
-// Step 4a: the images without a board searched in views unwarped through the
-// current fit (FindUnwarpedBoards), then those still without one by the
-// exhaustive raw search when step 1 deferred it.
-std::vector<BoardView> FindUnwarpedBoards(Pipeline* p) {
-  std::vector<BoardView> extra = calib_internal::FindUnwarpedBoards(
-      p->targets, p->images, p->det.not_found, p->res.views, p->res.calib.sensor, p->options.Threads(), &p->carried);
-  if (!p->det.exhaustive_deferred) return extra;
-  const std::vector<BoardView> exhaustive =
-      FindBoardsExhaustive(p->targets, p->images, ImagesWithout(p->det.not_found, extra), p->options.Threads());
-  extra.insert(extra.end(), exhaustive.begin(), exhaustive.end());
-  std::sort(extra.begin(), extra.end(),
-            [](const BoardView& a, const BoardView& b) { return a.image_index < b.image_index; });
-  return extra;
-}
-
 // Step 4b: the refit's start: the fitted boards at their fitted poses, the
 // new ones at their known poses or at their poses through the fitted sensor
 // (left out when that fails), in image order.
@@ -465,8 +450,11 @@ std::optional<CalibrationResult> RefitWithUnwarpedBoards(Pipeline* p, const std:
   return std::nullopt;
 }
 
+// Step 4a: the images without a board searched through the first fit
+// (FindMissingBoards); the fit repeated with those found.
 void RetryUnwarped(Pipeline* p) {
-  const std::vector<BoardView> extra = FindUnwarpedBoards(p);
+  const std::vector<BoardView> extra = FindMissingBoards(p->targets, p->images, p->det, p->res.views,
+                                                        p->res.calib.sensor, p->options.Threads(), &p->carried);
   if (extra.empty()) return;
   std::optional<CalibrationResult> again =
       RefitWithUnwarpedBoards(p, p->res.views, extra, "the refit with the boards found in unwarped views",
@@ -474,7 +462,8 @@ void RetryUnwarped(Pipeline* p) {
   if (!again) return;
   p->res = std::move(*again);
   for (const BoardView& v : p->res.views)
-    if (ImagesWithout({v.image_index}, extra).empty()) p->found_views.push_back(v);
+    if (std::any_of(extra.begin(), extra.end(), [&](const BoardView& e) { return e.image_index == v.image_index; }))
+      p->found_views.push_back(v);
   DropFoundImages(p->res.views, &p->det);
 }
 
@@ -701,6 +690,20 @@ std::vector<BoardView> FindUnwarpedBoards(const TargetSet& targets, const std::v
                           ": the search in unwarped views failed (" + failures[k] + ")");
     }
   }
+  return found;
+}
+
+std::vector<BoardView> FindMissingBoards(const TargetSet& targets, const std::vector<cv::Mat>& images,
+                                         const DetectionResult& det, const std::vector<BoardView>& fitted,
+                                         const Sensor& sensor, int threads, std::vector<std::string>* warnings) {
+  std::vector<BoardView> found =
+      FindUnwarpedBoards(targets, images, det.not_found, fitted, sensor, threads, warnings);
+  if (!det.exhaustive_deferred) return found;
+  const std::vector<BoardView> exhaustive =
+      FindBoardsExhaustive(targets, images, ImagesWithout(det.not_found, found), threads);
+  found.insert(found.end(), exhaustive.begin(), exhaustive.end());
+  std::sort(found.begin(), found.end(),
+            [](const BoardView& a, const BoardView& b) { return a.image_index < b.image_index; });
   return found;
 }
 

@@ -224,6 +224,29 @@ bool FindRaw(const cv::Mat& image, const TargetBoard& board, bool exhaustive, st
   return true;
 }
 
+// FindRaw on the images `indices` (target file indices), in parallel; each
+// result at the index's position.
+struct RawSearch {
+  std::vector<std::vector<Eigen::Vector2d>> corners;
+  std::vector<std::vector<int>> ids;
+  std::vector<std::string> failures;
+  std::vector<char> ok;
+};
+
+RawSearch SearchRaw(const std::vector<cv::Mat>& images, const TargetBoard& board, const std::vector<int>& indices,
+                    bool exhaustive, int threads) {
+  const int n = static_cast<int>(indices.size());
+  RawSearch r{std::vector<std::vector<Eigen::Vector2d>>(n), std::vector<std::vector<int>>(n),
+              std::vector<std::string>(n), std::vector<char>(n, 0)};
+  ParallelFor(
+      n,
+      [&](int k) {
+        r.ok[k] = FindRaw(images[indices[k]], board, exhaustive, &r.corners[k], &r.ids[k], &r.failures[k]);
+      },
+      true, threads);
+  return r;
+}
+
 }  // namespace
 
 DetectionResult DetectBoards(const TargetSet& targets, const std::vector<cv::Mat>& images,
@@ -235,43 +258,42 @@ DetectionResult DetectBoards(const TargetSet& targets, const std::vector<cv::Mat
   det.image_width = images.front().cols;
   det.image_height = images.front().rows;
   const int n = static_cast<int>(images.size());
-  std::vector<std::vector<Eigen::Vector2d>> found(n);
-  std::vector<std::vector<int>> found_ids(n);
-  std::vector<std::string> failures(n);
-  std::vector<char> ok(n, 0);
-  ParallelFor(
-      n, [&](int i) { ok[i] = FindRaw(images[i], targets.board, false, &found[i], &found_ids[i], &failures[i]); },
-      true, options.Threads());
+  std::vector<int> all(n);
+  std::iota(all.begin(), all.end(), 0);
+  RawSearch found = SearchRaw(images, targets.board, all, false, options.Threads());
   // The exhaustive search where the quick one failed, unless deferred: the
   // boards found are enough for a fit whose unwarped views find the rest
   // (faster, and surer for boards squeezed near the limb, where both raw
   // searches fail).
-  const int n_found = static_cast<int>(std::count(ok.begin(), ok.end(), 1));
+  const int n_found = static_cast<int>(std::count(found.ok.begin(), found.ok.end(), 1));
   const bool defer = defer_to_unwarped && options.unwarp_fallback && n_found >= std::max(4, n / 2);
   det.exhaustive_deferred = defer && !targets.board.IsCharuco();
   if (!targets.board.IsCharuco() && !defer) {
     std::vector<int> retry;
     for (int i = 0; i < n; ++i)
-      if (!ok[i]) retry.push_back(i);
-    ParallelFor(
-        static_cast<int>(retry.size()),
-        [&](int k) {
-          const int i = retry[k];
-          ok[i] = FindRaw(images[i], targets.board, true, &found[i], &found_ids[i], &failures[i]);
-        },
-        true, options.Threads());
+      if (!found.ok[i]) retry.push_back(i);
+    RawSearch again = SearchRaw(images, targets.board, retry, true, options.Threads());
+    for (size_t k = 0; k < retry.size(); ++k) {
+      const int i = retry[k];
+      found.ok[i] = again.ok[k];
+      found.corners[i] = std::move(again.corners[k]);
+      found.ids[i] = std::move(again.ids[k]);
+      // The first search's error stands when both raised one.
+      if (again.ok[k]) found.failures[i].clear();
+      else if (found.failures[i].empty()) found.failures[i] = std::move(again.failures[k]);
+    }
   }
   for (int i = 0; i < n; ++i) {
-    if (ok[i]) {
-      det.views.push_back(calib_internal::ViewOfImage(targets, i, found[i], "raw"));
-      det.views.back().ids = found_ids[i];
+    if (found.ok[i]) {
+      det.views.push_back(calib_internal::ViewOfImage(targets, i, found.corners[i], "raw"));
+      det.views.back().ids = found.ids[i];
       continue;
     }
     det.not_found.push_back(i);
     det.not_found_files.push_back(targets.images[i].file);
-    if (!failures[i].empty())
+    if (!found.failures[i].empty())
       det.warnings.push_back(targets.images[i].file + ": the " + (targets.board.IsCharuco() ? "ChArUco" : "chessboard") +
-                             " search failed (" + failures[i] + ")");
+                             " search failed (" + found.failures[i] + ")");
   }
   det.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return det;
@@ -280,17 +302,10 @@ DetectionResult DetectBoards(const TargetSet& targets, const std::vector<cv::Mat
 std::vector<BoardView> FindBoardsExhaustive(const TargetSet& targets, const std::vector<cv::Mat>& images,
                                             const std::vector<int>& missing, int threads) {
   if (targets.board.IsCharuco()) return {};
-  const int n = static_cast<int>(missing.size());
-  std::vector<std::vector<Eigen::Vector2d>> found(n);
-  std::vector<std::vector<int>> ids(n);
-  std::vector<std::string> failures(n);
-  std::vector<char> ok(n, 0);
-  ParallelFor(
-      n, [&](int k) { ok[k] = FindRaw(images[missing[k]], targets.board, true, &found[k], &ids[k], &failures[k]); },
-      true, threads);
+  const RawSearch found = SearchRaw(images, targets.board, missing, true, threads);
   std::vector<BoardView> views;
-  for (int k = 0; k < n; ++k)
-    if (ok[k]) views.push_back(calib_internal::ViewOfImage(targets, missing[k], found[k], "raw"));
+  for (size_t k = 0; k < missing.size(); ++k)
+    if (found.ok[k]) views.push_back(calib_internal::ViewOfImage(targets, missing[k], found.corners[k], "raw"));
   return views;
 }
 

@@ -263,13 +263,8 @@ EvaluationResult EvaluateCalibration(const TargetSet& targets, const std::vector
         fitted.back().rvec = r.images[i].fit.rvec;
         fitted.back().tvec = r.images[i].fit.tvec;
       }
-    std::vector<BoardView> extra = FindUnwarpedBoards(targets, images, det.not_found, fitted, sensor,
-                                                      detect.Threads(), &det.warnings);
-    if (det.exhaustive_deferred) {
-      const std::vector<BoardView> exhaustive =
-          FindBoardsExhaustive(targets, images, ImagesWithout(det.not_found, extra), detect.Threads());
-      extra.insert(extra.end(), exhaustive.begin(), exhaustive.end());
-    }
+    std::vector<BoardView> extra =
+        FindMissingBoards(targets, images, det, fitted, sensor, detect.Threads(), &det.warnings);
     if (!extra.empty()) {
       views.insert(views.end(), extra.begin(), extra.end());
       std::sort(views.begin(), views.end(),

@@ -328,6 +328,14 @@ std::vector<BoardView> FindUnwarpedBoards(const TargetSet& targets, const std::v
                                           const std::vector<int>& missing, const std::vector<BoardView>& fitted,
                                           const Sensor& sensor, int threads, std::vector<std::string>* warnings);
 
+// Step 4a as calibrate and evaluate run it: the images det.not_found searched
+// in views unwarped through `sensor` (FindUnwarpedBoards), then those still
+// without a board by the exhaustive raw search when det deferred it; the
+// boards found in image order.
+std::vector<BoardView> FindMissingBoards(const TargetSet& targets, const std::vector<cv::Mat>& images,
+                                         const DetectionResult& det, const std::vector<BoardView>& fitted,
+                                         const Sensor& sensor, int threads, std::vector<std::string>* warnings);
+
 // Pose of one more board from the rays of its corners through `sensor`
 // (rig faults and asphere terms included): the homography from the board
 // plane to the rays' directions, made a rotation, then the translation with
