@@ -61,12 +61,12 @@ Agreement CalibrateThenEvaluate(const TargetSet& targets, const std::vector<cv::
           refined.boards_fitted};
 }
 
-// refined_tolerance, raw_tolerance: the relative tolerances on the
-// refined-corner and the raw-corner figures.
-void CheckAgreement(const Agreement& a, double refined_tolerance = 0.10, double raw_tolerance = 0.10) {
+// refined_tolerance: the relative tolerance on the refined-corner figure
+// (the raw-corner figures agree within 10 % everywhere).
+void CheckAgreement(const Agreement& a, double refined_tolerance = 0.10) {
   CHECK(a.boards_evaluated == a.boards_used);
   CHECK(a.evaluate_refined == Approx(a.calibrate_refined).epsilon(refined_tolerance));
-  CHECK(a.evaluate_raw == Approx(a.calibrate_raw).epsilon(raw_tolerance));
+  CHECK(a.evaluate_raw == Approx(a.calibrate_raw).epsilon(0.10));
 }
 
 // The rendered boards of `preset` under `cases`.
@@ -78,24 +78,24 @@ void CheckRenderedAgreement(const char* preset, const std::vector<Case>& cases) 
   for (const Case& c : cases) {
     INFO(preset << ", " << c.name);
     const Agreement a = CalibrateThenEvaluate(targets, images, c, dir);
-    // The exceptions left, on the faulty rig (k1 -0.03): the sphere without
+    // The exception left, on the faulty rig (k1 -0.03): the sphere without
     // lens distortion (plain or with its decentre free) cannot map the
     // board nearest the limb (cal_007.png), and that board's corners
-    // refined through the model move with every small change of the model
-    // (0.32 to 0.56 px from one fit to the next): calibrate 0.192 / 0.195 px
-    // against evaluate 0.127 / 0.125 px (measured). The conic with its
-    // faults free: calibrate 0.1267 px against evaluate 0.1523 px (20 %;
-    // 14 % the other way before the raw search took CALIB_CB_ACCURACY), and
-    // its raw figures too move from run to run with the fit's last digits
-    // (0.1638 against 0.1719 - 0.1847 px under load); the others' raw
-    // figures agree within 10 %.
+    // refined through the model move with every small change of the model:
+    // calibrate 0.181 px against evaluate 0.091 px (measured; before,
+    // 0.192 / 0.195 against 0.127 / 0.125). The raw figures agree within
+    // 10 % (0.1493 against 0.1479 px). The conic with its faults free agrees
+    // since the stray limb corners of boards found in unwarped views are
+    // left out (0.1292 - 0.1296 against 0.1234 - 0.1245 px; raw 0.1514
+    // against 0.1490 - 0.1517): before, one corner 1.5 - 4.3 px off, placed
+    // by the last digits of the fit, gave evaluate 0.15 - 0.24 px.
     const bool faulty = std::string(preset) == "faulty-rig";
     const bool unmappable = faulty && c.model == MirrorModel::kSphere;
-    const bool faults_free_conic = faulty && c.model == MirrorModel::kConic && c.free_auto;
-    CheckAgreement(a, unmappable ? 0.6 : faults_free_conic ? 0.25 : 0.10, faults_free_conic ? 0.2 : 0.10);
-    // Measured: 0.055-0.080 px refined (those exceptions: 0.19, 0.14 px),
-    // 0.20-0.27 px raw (corner noise of 2 grey levels).
-    CHECK(a.calibrate_refined < (unmappable ? 0.25 : faults_free_conic ? 0.16 : 0.1));
+    CheckAgreement(a, unmappable ? 0.6 : 0.10);
+    // Measured: 0.055-0.080 px refined (the exception: 0.18 px; the faulty
+    // rig's conic --free auto 0.13 px), 0.15-0.27 px raw (corner noise of 2
+    // grey levels).
+    CHECK(a.calibrate_refined < (unmappable ? 0.25 : faulty && c.free_auto ? 0.16 : 0.1));
     CHECK(a.calibrate_raw < 0.3);
   }
 }

@@ -5,12 +5,14 @@
 
 #include <Eigen/Dense>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
 
 #include "panotrack/calibrate/calibrate.h"
 #include "panotrack/calibrate/corner_weights.h"
+#include "panotrack/calibrate/internal.h"
 #include "panotrack/io/calibration.h"
 #include "sensor/sensor_models.h"
 #include "synthetic.h"
@@ -281,6 +283,63 @@ TEST_CASE("corner order: flipped detections fit the same", "[corner_order]") {
   const CalibrationResult ru =
       CalibrateViews(test::WithoutPoses(flipped), set.board, 640, 480, "cm", CalibrateOptions());
   CHECK(ru.rms_px < 0.1);
+}
+
+
+TEST_CASE("corner order: a partial chessboard view takes the ids of its known pose", "[corner_order]") {
+  PANO_SEEDED_RNG(66);
+  const Sensor truth = PaperReal();
+  const TargetBoard board = Board96();
+  const auto set = test::MakeSyntheticSet(truth, board, 4, 12.0, 30.0, -30.0, 10.0, 0.0, rng);
+  REQUIRE(set.views.size() == 4);
+  std::vector<BoardView> views;
+  for (size_t i = 0; i < set.views.size(); ++i) {
+    // The detector's order: the grid flipped (each of the four ways), then
+    // its first row left out (a partial view, ids in the detector's order).
+    const bool fx = i & 1, fy = i & 2;
+    BoardView v = set.views[i];
+    v.corners.clear();
+    for (int j = 0; j < board.rows; ++j)
+      for (int c = 0; c < board.cols; ++c) {
+        const int id = (fy ? board.rows - 1 - j : j) * board.cols + (fx ? board.cols - 1 - c : c);
+        if (j == 0) continue;
+        v.corners.push_back(set.views[i].corners[static_cast<size_t>(id)]);
+        v.ids.push_back(j * board.cols + c);
+      }
+    views.push_back(v);
+  }
+  OrderCornersByKnownPose(board, truth.params.cx, truth.params.cy, &views);
+  for (size_t i = 0; i < views.size(); ++i) {
+    INFO("view " << i);
+    REQUIRE(views[i].ids.size() == views[i].corners.size());
+    double worst = 0.0;
+    for (size_t k = 0; k < views[i].corners.size(); ++k)
+      worst = std::max(worst, (views[i].corners[k] - set.views[i].corners[static_cast<size_t>(views[i].ids[k])]).norm());
+    CHECK(worst == 0.0);
+  }
+}
+
+TEST_CASE("a stray corner of a board found in an unwarped view is left out", "[corner_order]") {
+  PANO_SEEDED_RNG(67);
+  const Sensor truth = PaperReal();
+  const TargetBoard board = Board96();
+  const auto set = test::MakeSyntheticSet(truth, board, 3, 12.0, 30.0, -30.0, 10.0, 0.1, rng);
+  REQUIRE(set.views.size() == 3);
+  // Corners with 0.1 px noise: every one kept, the full grid.
+  BoardView clean = test::WithoutPoses(set.views)[0];
+  CHECK(calib_internal::DropStrayCorners(board, truth, &clean));
+  CHECK(clean.corners.size() == 54);
+  CHECK_FALSE(clean.Partial());
+  // One corner 4 px off (a limb corner the view's detector misplaced), one
+  // 0.8 px off (within the 1 px floor): the first left out, ids given.
+  BoardView stray = test::WithoutPoses(set.views)[1];
+  stray.corners[20] += Eigen::Vector2d(4.0, 0.0);
+  stray.corners[30] += Eigen::Vector2d(0.0, 0.8);
+  CHECK(calib_internal::DropStrayCorners(board, truth, &stray));
+  REQUIRE(stray.corners.size() == 53);
+  REQUIRE(stray.ids.size() == 53);
+  CHECK(std::find(stray.ids.begin(), stray.ids.end(), 20) == stray.ids.end());
+  CHECK(stray.ids[29] == 30);
 }
 
 }  // namespace

@@ -663,6 +663,35 @@ BoardPlace TypicalBoardPlace(const std::vector<BoardView>& views, const TargetBo
 
 }  // namespace
 
+bool DropStrayCorners(const TargetBoard& board, const Sensor& sensor, BoardView* view) {
+  constexpr double kFloorPx = 1.0, kMedianFactor = 5.0;
+  for (int round = 0; round < 3; ++round) {
+    const BoardPoseFit fit = FitBoardPose(*view, board, sensor, EvaluateOptions());
+    if (!fit.ok) return true;  // judged by the fit that follows, as any board
+    std::vector<double> err;
+    for (const Eigen::Vector2d& r : fit.residuals)
+      if (r.allFinite()) err.push_back(r.norm());
+    if (err.empty()) return true;
+    std::vector<double> sorted = err;
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+    const double limit = std::max(kFloorPx, kMedianFactor * sorted[sorted.size() / 2]);
+    BoardView kept = *view;
+    kept.corners.clear();
+    kept.ids.clear();
+    for (size_t k = 0; k < view->corners.size(); ++k) {
+      const Eigen::Vector2d& r = fit.residuals[k];
+      if (r.allFinite() && r.norm() > limit) continue;
+      kept.corners.push_back(view->corners[k]);
+      kept.ids.push_back(view->PointId(k));
+    }
+    if (kept.corners.size() == view->corners.size()) return true;
+    if (!EnoughCorners(kept.ids, board)) return false;
+    *view = kept;
+  }
+  return true;
+}
+
+
 std::vector<BoardView> FindUnwarpedBoards(const TargetSet& targets, const std::vector<cv::Mat>& images,
                                           const std::vector<int>& missing, const std::vector<BoardView>& fitted,
                                           const Sensor& sensor, int threads, std::vector<std::string>* warnings) {
@@ -683,8 +712,14 @@ std::vector<BoardView> FindUnwarpedBoards(const TargetSet& targets, const std::v
   std::vector<BoardView> found;
   for (int k = 0; k < n_missing; ++k) {
     if (ok[k]) {
-      found.push_back(ViewOfImage(targets, missing[k], corners[k], "unwarped"));
-      found.back().ids = ids[k];
+      BoardView view = ViewOfImage(targets, missing[k], corners[k], "unwarped");
+      view.ids = ids[k];
+      if (DropStrayCorners(targets.board, sensor, &view)) {
+        found.push_back(view);
+      } else if (warnings) {
+        warnings->push_back(view.file + ": the board found in an unwarped view has too few corners where the "
+                            "model puts them: left out");
+      }
     } else if (!failures[k].empty() && warnings) {
       warnings->push_back(targets.images[static_cast<size_t>(missing[k])].file +
                           ": the search in unwarped views failed (" + failures[k] + ")");

@@ -571,16 +571,10 @@ bool DetectBoardUnwarped(const cv::Mat& image, const TargetBoard& board, const S
 
 namespace {
 
-// Corner order after flipping the board's x and/or y.
-std::vector<Eigen::Vector2d> Flipped(const std::vector<Eigen::Vector2d>& c, int cols, int rows, bool fx,
-                                     bool fy) {
-  std::vector<Eigen::Vector2d> out(c.size());
-  for (int j = 0; j < rows; ++j)
-    for (int i = 0; i < cols; ++i) {
-      const int si = fx ? cols - 1 - i : i, sj = fy ? rows - 1 - j : j;
-      out[j * cols + i] = c[sj * cols + si];
-    }
-  return out;
+// A board point's id after flipping the board's x and/or y.
+int FlippedId(int id, int cols, int rows, bool fx, bool fy) {
+  const int i = id % cols, j = id / cols;
+  return (fy ? rows - 1 - j : j) * cols + (fx ? cols - 1 - i : i);
 }
 
 double Spearman(const std::vector<double>& a, const std::vector<double>& b) {
@@ -604,41 +598,54 @@ double Spearman(const std::vector<double>& a, const std::vector<double>& b) {
 void OrderCornersByKnownPose(const TargetBoard& board, double cx, double cy, std::vector<BoardView>* views) {
   const std::vector<Eigen::Vector3d> pts = BoardPoints(board);
   for (BoardView& v : *views) {
-    // A partial view's corners carry their ids: their order is known.
-    if (!v.has_pose || v.Partial()) continue;
+    // A ChArUco corner's id is its own: the order is known. A chessboard's
+    // ids (a partial view) count in the detector's order, as a full grid's
+    // indices do.
+    if (!v.has_pose || (v.Partial() && board.IsCharuco())) continue;
     Eigen::Matrix3d R;
     ceres::AngleAxisToRotationMatrix(v.rvec.data(), R.data());
-    std::vector<Eigen::Vector3d> X;
-    for (const Eigen::Vector3d& p : pts) X.push_back(R * p + v.tvec);
     double best = 1e300;
-    std::vector<Eigen::Vector2d> best_c = v.corners;
+    int best_flip = 0;
     for (int f = 0; f < 4; ++f) {
-      const std::vector<Eigen::Vector2d> c = Flipped(v.corners, board.cols, board.rows, f & 1, f & 2);
       // Azimuth residual about its circular mean (the azimuth offset).
-      std::vector<double> d(c.size()), rho(c.size()), elev(c.size());
+      const size_t n = v.corners.size();
+      std::vector<double> d(n), rho(n), elev(n);
       double sx = 0, sy = 0;
-      for (size_t j = 0; j < c.size(); ++j) {
-        d[j] = std::atan2(c[j].y() - cy, c[j].x() - cx) - std::atan2(X[j].y(), X[j].x());
-        sx += std::cos(d[j]);
-        sy += std::sin(d[j]);
-        rho[j] = std::hypot(c[j].x() - cx, c[j].y() - cy);
-        elev[j] = std::atan2(X[j].z(), std::hypot(X[j].x(), X[j].y()));
+      for (size_t k = 0; k < n; ++k) {
+        const Eigen::Vector3d X =
+            R * pts[static_cast<size_t>(FlippedId(v.PointId(k), board.cols, board.rows, f & 1, f & 2))] + v.tvec;
+        const Eigen::Vector2d& c = v.corners[k];
+        d[k] = std::atan2(c.y() - cy, c.x() - cx) - std::atan2(X.y(), X.x());
+        sx += std::cos(d[k]);
+        sy += std::sin(d[k]);
+        rho[k] = std::hypot(c.x() - cx, c.y() - cy);
+        elev[k] = std::atan2(X.z(), std::hypot(X.x(), X.y()));
       }
       const double mean = std::atan2(sy, sx);
       double ss = 0;
-      for (double dj : d) {
-        const double e = wrap_angle(dj - mean);
+      for (double dk : d) {
+        const double e = wrap_angle(dk - mean);
         ss += e * e;
       }
-      const double az_rms = std::sqrt(ss / d.size());
+      const double az_rms = std::sqrt(ss / static_cast<double>(n));
       // Radii grow with elevation for the right order.
       const double score = az_rms + 0.5 * (1.0 - Spearman(rho, elev));
       if (score < best) {
         best = score;
-        best_c = c;
+        best_flip = f;
       }
     }
-    v.corners = best_c;
+    std::vector<int> ids(v.corners.size());
+    for (size_t k = 0; k < ids.size(); ++k)
+      ids[k] = FlippedId(v.PointId(k), board.cols, board.rows, best_flip & 1, best_flip & 2);
+    if (v.Partial()) {
+      v.ids = ids;
+      continue;
+    }
+    // A full grid stays in board order.
+    std::vector<Eigen::Vector2d> ordered(v.corners.size());
+    for (size_t k = 0; k < ids.size(); ++k) ordered[static_cast<size_t>(ids[k])] = v.corners[k];
+    v.corners = ordered;
   }
 }
 

@@ -319,6 +319,16 @@ inline double CapRadiusPx(int width, int height) { return 0.75 * std::hypot(widt
 bool InitialPoseFromSensor(const BoardView& view, const TargetBoard& board, const Sensor& sensor,
                            std::array<double, 6>* pose);
 
+// Leaves out the corners of a board found in an unwarped view that sit far
+// from where the board's pose through `sensor` puts them (more than 1 px and
+// 5 times the board's median error), refitting the pose until none is left;
+// the view then carries ids. At the limb, where the squares shrink to 2 - 4
+// px, the view's detector can place a corner several pixels off, and where
+// it does depends on the last digits of the model the view was unwarped
+// through: one such corner among 500 doubles a calibration's RMS. False when
+// the corners left are too few for a board.
+bool DropStrayCorners(const TargetBoard& board, const Sensor& sensor, BoardView* view);
+
 // Step 4a: the images `missing` (target file indices) searched in views
 // unwarped through `sensor`, near where the fitted boards `fitted` lie
 // (their median distance and height), in parallel over images. Returns the
