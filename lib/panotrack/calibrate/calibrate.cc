@@ -4,6 +4,7 @@
 #include "panotrack/calibrate/model_selection.h"
 #include "panotrack/config.h"
 
+#include <Eigen/QR>
 #include <ceres/rotation.h>
 
 #include <opencv2/imgcodecs.hpp>
@@ -13,6 +14,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <optional>
 #include <sstream>
 #include <thread>
@@ -663,24 +665,70 @@ BoardPlace TypicalBoardPlace(const std::vector<BoardView>& views, const TargetBo
 
 }  // namespace
 
+namespace {
+
+// Each corner's residual less what its grid neighbours' residuals predict
+// there (an affine trend over the board points within 2 of it, itself left
+// out): what the model's own error, smooth across a board, does not
+// explain. NaN where the corner has no residual or fewer than 5 neighbours
+// with one.
+std::vector<double> ResidualsOffNeighbours(const BoardView& view, const TargetBoard& board,
+                                           const std::vector<Eigen::Vector2d>& residuals) {
+  std::vector<int> index_of(static_cast<size_t>(board.cols) * board.rows, -1);
+  for (size_t k = 0; k < view.corners.size(); ++k) index_of[static_cast<size_t>(view.PointId(k))] = static_cast<int>(k);
+  std::vector<double> off(view.corners.size(), NAN);
+  for (size_t k = 0; k < view.corners.size(); ++k) {
+    if (!residuals[k].allFinite()) continue;
+    const int i = view.PointId(k) % board.cols, j = view.PointId(k) / board.cols;
+    std::vector<Eigen::Vector3d> rows;
+    std::vector<Eigen::Vector2d> values;
+    for (int dj = -2; dj <= 2; ++dj)
+      for (int di = -2; di <= 2; ++di) {
+        const int ni = i + di, nj = j + dj;
+        if ((di == 0 && dj == 0) || ni < 0 || nj < 0 || ni >= board.cols || nj >= board.rows) continue;
+        const int n = index_of[static_cast<size_t>(nj * board.cols + ni)];
+        if (n < 0 || !residuals[static_cast<size_t>(n)].allFinite()) continue;
+        rows.emplace_back(1.0, di, dj);
+        values.push_back(residuals[static_cast<size_t>(n)]);
+      }
+    if (rows.size() < 5) continue;
+    Eigen::MatrixX3d A(rows.size(), 3);
+    Eigen::MatrixX2d b(rows.size(), 2);
+    for (size_t r = 0; r < rows.size(); ++r) {
+      A.row(static_cast<Eigen::Index>(r)) = rows[r].transpose();
+      b.row(static_cast<Eigen::Index>(r)) = values[r].transpose();
+    }
+    // The trend's value at the corner itself (di = dj = 0): its constant term.
+    const Eigen::Matrix<double, 3, 2> trend = A.colPivHouseholderQr().solve(b);
+    off[k] = (residuals[k] - trend.row(0).transpose()).norm();
+  }
+  return off;
+}
+
+}  // namespace
+
 bool DropStrayCorners(const TargetBoard& board, const Sensor& sensor, BoardView* view) {
   constexpr double kFloorPx = 1.0, kMedianFactor = 5.0;
+  // max(1 px, 5x the median of `v`'s finite values); infinity when none.
+  auto limit_of = [&](std::vector<double> v) {
+    v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return !std::isfinite(x); }), v.end());
+    if (v.empty()) return std::numeric_limits<double>::infinity();
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return std::max(kFloorPx, kMedianFactor * v[v.size() / 2]);
+  };
   for (int round = 0; round < 3; ++round) {
     const BoardPoseFit fit = FitBoardPose(*view, board, sensor, EvaluateOptions());
     if (!fit.ok) return true;  // judged by the fit that follows, as any board
-    std::vector<double> err;
-    for (const Eigen::Vector2d& r : fit.residuals)
-      if (r.allFinite()) err.push_back(r.norm());
-    if (err.empty()) return true;
-    std::vector<double> sorted = err;
-    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-    const double limit = std::max(kFloorPx, kMedianFactor * sorted[sorted.size() / 2]);
+    std::vector<double> error(fit.residuals.size());
+    for (size_t k = 0; k < error.size(); ++k) error[k] = fit.residuals[k].norm();
+    const std::vector<double> off = ResidualsOffNeighbours(*view, board, fit.residuals);
+    const double error_limit = limit_of(error), off_limit = limit_of(off);
     BoardView kept = *view;
     kept.corners.clear();
     kept.ids.clear();
     for (size_t k = 0; k < view->corners.size(); ++k) {
-      const Eigen::Vector2d& r = fit.residuals[k];
-      if (r.allFinite() && r.norm() > limit) continue;
+      // Stray: far off the pose and off its neighbours both.
+      if (std::isfinite(error[k]) && error[k] > error_limit && std::isfinite(off[k]) && off[k] > off_limit) continue;
       kept.corners.push_back(view->corners[k]);
       kept.ids.push_back(view->PointId(k));
     }
@@ -690,7 +738,6 @@ bool DropStrayCorners(const TargetBoard& board, const Sensor& sensor, BoardView*
   }
   return true;
 }
-
 
 std::vector<BoardView> FindUnwarpedBoards(const TargetSet& targets, const std::vector<cv::Mat>& images,
                                           const std::vector<int>& missing, const std::vector<BoardView>& fitted,

@@ -330,9 +330,11 @@ bool DetectBoardUnwarped(const cv::Mat& image, const TargetBoard& board, const S
                          double distance, double height, std::vector<Eigen::Vector2d>* corners,
                          int num_threads = 0, std::string* failure = nullptr, std::vector<int>* ids = nullptr);
 
-// Reorders the corners of views with known poses so that they match the board
-// frame (OpenCV may start at any of the board's corners): the order whose
-// image azimuths follow the bearings and whose image radii grow with elevation.
+// Matches the corners of chessboard views with known poses to the board frame
+// (OpenCV may start at any of the board's corners): the order whose image
+// azimuths follow the bearings and whose image radii grow with elevation. A
+// full grid is reordered; a partial view's ids (counted in the detector's
+// order) are rewritten. ChArUco views, whose ids are their own, are left.
 void OrderCornersByKnownPose(const TargetBoard& board, double cx, double cy,
                              std::vector<BoardView>* views);
 

@@ -319,13 +319,17 @@ inline double CapRadiusPx(int width, int height) { return 0.75 * std::hypot(widt
 bool InitialPoseFromSensor(const BoardView& view, const TargetBoard& board, const Sensor& sensor,
                            std::array<double, 6>* pose);
 
-// Leaves out the corners of a board found in an unwarped view that sit far
-// from where the board's pose through `sensor` puts them (more than 1 px and
-// 5 times the board's median error), refitting the pose until none is left;
-// the view then carries ids. At the limb, where the squares shrink to 2 - 4
-// px, the view's detector can place a corner several pixels off, and where
-// it does depends on the last digits of the model the view was unwarped
-// through: one such corner among 500 doubles a calibration's RMS. False when
+// Leaves out the corners of a board found in an unwarped view that lie off
+// both where the board's pose through `sensor` puts them and where the
+// affine trend of their grid neighbours' errors (within 2 board points)
+// puts them, each by more than 1 px and 5 times the board's median of that
+// figure, refitting the pose until none is left; the view then carries ids.
+// At the limb, where the squares shrink to 2 - 4 px, the view's detector
+// can place a corner several pixels off, and where it does depends on the
+// last digits of the model the view was unwarped through: one such corner
+// among 500 doubles a calibration's RMS. The model's own error, smooth
+// across a board (a rough first fit's at the limb, or a poor calibration's
+// under evaluation), follows the trend and takes out no corner. False when
 // the corners left are too few for a board.
 bool DropStrayCorners(const TargetBoard& board, const Sensor& sensor, BoardView* view);
 
