@@ -599,7 +599,8 @@ bool Localizer::TrackFrom(const Pose2& pose, double search_px, FrameResult* fr,
   return Acceptable(*fr, *tri);
 }
 
-bool Localizer::Relocalize(const cv::Mat& grey, bool near_last, FrameResult* fr, TriangulationResult* tri) const {
+bool Localizer::Relocalize(const cv::Mat& grey, bool near_last, FrameResult* fr, TriangulationResult* tri,
+                           std::vector<VerifiedPose>* verified) const {
   if (!relocalization_index_) {
     const auto build = [this] {
       return std::make_unique<const RelocalizationIndex>(calib_.sensor, *table_, map_, scene_, landmarks_,
@@ -611,12 +612,12 @@ bool Localizer::Relocalize(const cv::Mat& grey, bool near_last, FrameResult* fr,
   const std::vector<PoseHypothesis> hyps = relocalization_index_->Hypotheses(grey, SearchThreadCount(opt_));
   // With the map's polarities, then (while the images have not confirmed
   // them) with either.
-  return RelocalizeWith(hyps, false, near_last, fr, tri) ||
-         (EitherFallbackUseful() && RelocalizeWith(hyps, true, near_last, fr, tri));
+  return RelocalizeWith(hyps, false, near_last, fr, tri, verified) ||
+         (EitherFallbackUseful() && RelocalizeWith(hyps, true, near_last, fr, tri, verified));
 }
 
 bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool either, bool near_last, FrameResult* fr,
-                               TriangulationResult* tri) const {
+                               TriangulationResult* tri, std::vector<VerifiedPose>* verified_out) const {
   const double distinct = opt_.relocalize_distinct * room_size_;
   struct Verified {
     FrameResult fr;
@@ -639,15 +640,15 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
   std::vector<Verified> verified;
   for (std::optional<Verified>& v : tracked)
     if (v) verified.push_back(std::move(*v));
+  if (verified_out)
+    for (const Verified& v : verified) verified_out->push_back({v.tri.pose, static_cast<int>(v.tri.inliers.size())});
   if (verified.empty()) return false;
   auto count = [](const Verified& v) { return static_cast<int>(v.tri.inliers.size()); };
   const auto best = std::max_element(verified.begin(), verified.end(),
                                      [&](const Verified& a, const Verified& b) { return count(a) < count(b); });
   for (const Verified& v : verified) {
     const double apart = std::hypot(v.tri.pose.x - best->tri.pose.x, v.tri.pose.y - best->tri.pose.y);
-    if (&v != &*best && apart > distinct &&
-        (count(v) > count(*best) - opt_.relocalize_margin || count(v) >= opt_.relocalize_ambiguity * count(*best)))
-      return false;
+    if (&v != &*best && apart > distinct && !ClearlyBetterSupported(count(*best), count(v))) return false;
   }
   // The best-supported pose, unambiguous, must also pass the integrity test
   // (a pose with fewer inliers that passes it is no better: few bearings
@@ -1191,6 +1192,26 @@ bool Localizer::Corroborated(const FrameResult& fr, const TriangulationResult& t
          fraction * std::max(ChosenLandmarks(fr), SurveyChosenLandmarks(fr));
 }
 
+bool Localizer::RoomSearchAgrees(const cv::Mat& grey, const TriangulationResult& tri) const {
+  FrameResult found;
+  TriangulationResult t;
+  std::vector<VerifiedPose> verified;
+  // Not near the held pose: it is what is being checked.
+  Relocalize(grey, false, &found, &t, &verified);
+  const double distinct = opt_.relocalize_distinct * room_size_;
+  auto apart = [](const Pose2& a, const Pose2& b) { return std::hypot(a.x - b.x, a.y - b.y); };
+  int own = static_cast<int>(tri.inliers.size());
+  for (const VerifiedPose& v : verified)
+    if (apart(v.pose, tri.pose) <= distinct) own = std::max(own, v.inliers);
+  return std::none_of(verified.begin(), verified.end(), [&](const VerifiedPose& v) {
+    return apart(v.pose, tri.pose) > distinct && !ClearlyBetterSupported(own, v.inliers);
+  });
+}
+
+bool Localizer::ClearlyBetterSupported(int a, int b) const {
+  return a >= b + opt_.relocalize_margin && b < opt_.relocalize_ambiguity * a;
+}
+
 bool Localizer::BeyondReach(const Pose2& pose, double time_s) const {
   if (!last_known_) return false;
   const auto& [known, known_time] = *last_known_;
@@ -1446,7 +1467,13 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
     accepted = accepted && !PartialFirstFrame(fr, tri);
     if (held_ && !accepted) ++relocalize_failures_;
   }
+  const bool was_held = held_;
   held_ = false;
+  // What the survey estimate was before this frame taught or probed it from
+  // a held pose: a pose not confirmed leaves no trace in it (a wrong pose's
+  // residuals, or the level the probe had to widen to before it fitted).
+  std::optional<SurveyErrorEstimate> survey_before_hold;
+  if (was_held) survey_before_hold = survey_;
   // Until the residuals have shown how well the map was measured, a frame
   // whose bearings agree on a pose (a consensus of many) but not within the
   // survey error assumed teaches it, though it is not reported.
@@ -1461,6 +1488,13 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
       accepted = Acceptable(fr, tri) && Consistent(&fr, tri) && AgreesWithMotion(&fr, tri) && ConfirmsJump(fr, tri);
     }
   }
+  // A search's hypothesis confirmed before the residuals have shown how well
+  // the map was measured: within a map error's tolerances (the probe's, or
+  // a map stated exact but centimetres off) a wrong pose fits most of what
+  // it finds too. It stands only where the room-wide search under the same
+  // tolerances finds no rival about as well supported (the true pose fits
+  // many more bearings there than a twin); else the search below runs.
+  if (accepted && was_held && opt_.survey.check && !survey_.confident()) accepted = RoomSearchAgrees(grey, tri);
   int n_found = 0;  // before any relocalisation: what tracking from the prediction found
   for (const auto& m : fr.measurements) n_found += m.found;
   // Lost for a while (the robot may have been carried), or never found: search the room.
@@ -1474,7 +1508,11 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
     if (near_consistent) near.emplace(fr, tri);
     if (RelocalizeIfLost(grey, frame, ever_tracked_ && ViewUnlikePrediction(fr, tri), &fr, &tri)) {
       if (near && std::hypot(tri.pose.x - near->second.pose.x, tri.pose.y - near->second.pose.y) >
-                      opt_.relocalize_distinct * room_size_) {
+                      opt_.relocalize_distinct * room_size_ &&
+          !(was_held && ClearlyBetterSupported(static_cast<int>(tri.inliers.size()),
+                                               static_cast<int>(near->second.inliers.size())))) {
+        // A held pose is only a hypothesis: it keeps the robot only against
+        // a search result no better supported than it.
         fr = std::move(near->first);
         tri = near->second;
       } else {
@@ -1500,7 +1538,17 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
   // The step of the model that tracked up to this frame (a hold starts a new one).
   fr.has_motion_step = motion_stepped_;
   if (fr.has_motion_step) fr.motion_step = motion_.step();
-  if (fr.unconfirmed) HoldForConfirmation(tri.pose, frame, BeyondReach(tri.pose, time_s));
+  if (fr.unconfirmed) {
+    HoldForConfirmation(tri.pose, frame, BeyondReach(tri.pose, time_s));
+  } else if (was_held && !accepted) {
+    // A search's hypothesis that its next frame did not confirm is no
+    // start (tracking from it lets a wrong pose be accepted once the survey
+    // probe has widened the tolerances far enough), and what its frame
+    // taught the survey estimate is forgotten. The room is searched again.
+    known_start_ = false;
+    survey_ = *survey_before_hold;
+    UpdateLandmarkBudget();
+  }
   if (view_ && fr.row.status != PoseStatus::kLost) fr.row.pose = view_->RobotPose(fr.row.pose);
   return fr;
 }

@@ -435,13 +435,20 @@ class Localizer {
                  bool either = false) const;
   // `near_last`: the robot is likely still near the last pose it had (a
   // short loss, the view as predicted), not carried off.
-  bool Relocalize(const cv::Mat& grey, bool near_last, FrameResult* fr, TriangulationResult* tri) const;
+  // `verified` (optional): every hypothesis the search verified, with its
+  // inlier count, whatever the search then decided.
+  struct VerifiedPose {
+    Pose2 pose;
+    int inliers = 0;
+  };
+  bool Relocalize(const cv::Mat& grey, bool near_last, FrameResult* fr, TriangulationResult* tri,
+                  std::vector<VerifiedPose>* verified = nullptr) const;
   // Among a relocalised pose and its twins under the map's symmetries, the
   // one clearly nearest the last known pose (tracked from); false when
   // there are twins and none is.
   bool ChooseAmongTwins(bool either, bool near_last, FrameResult* fr, TriangulationResult* tri) const;
   bool RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool either, bool near_last, FrameResult* fr,
-                      TriangulationResult* tri) const;
+                      TriangulationResult* tri, std::vector<VerifiedPose>* verified_out) const;
   // The covariance a pose is reported with: the solution's, or where
   // larger the one its geometry predicts from what the weights assume (the
   // image noise of the consensus, each corner's reported survey sigma
@@ -504,6 +511,13 @@ class Localizer {
   int BackedOffRelocalizeFrame(int frame) const;
   // whether a relocalised pose has the inliers a room-wide search requires;
   bool EnoughForRelocalized(const FrameResult& fr, const TriangulationResult& tri) const;
+  // whether a pose with `a` inliers is clearly better supported than one
+  // with `b`: by relocalize_margin, and `b` below relocalize_ambiguity of
+  // `a` (the room-wide search's test of ambiguity);
+  bool ClearlyBetterSupported(int a, int b) const;
+  // whether the room-wide search on this frame verifies no pose away from
+  // `tri`'s that rivals the best near it;
+  bool RoomSearchAgrees(const cv::Mat& grey, const TriangulationResult& tri) const;
   // whether a relocalised pose lies beyond where the robot could have gone
   // since its last accepted pose (the motion model's largest speed over the
   // time since, plus the search's distinct-pose tolerance): a jump;
