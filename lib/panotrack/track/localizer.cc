@@ -618,7 +618,6 @@ bool Localizer::Relocalize(const cv::Mat& grey, bool near_last, FrameResult* fr,
 
 bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool either, bool near_last, FrameResult* fr,
                                TriangulationResult* tri, std::vector<VerifiedPose>* verified_out) const {
-  const double distinct = opt_.relocalize_distinct * room_size_;
   struct Verified {
     FrameResult fr;
     TriangulationResult tri;
@@ -647,8 +646,8 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
   const auto best = std::max_element(verified.begin(), verified.end(),
                                      [&](const Verified& a, const Verified& b) { return count(a) < count(b); });
   for (const Verified& v : verified) {
-    const double apart = std::hypot(v.tri.pose.x - best->tri.pose.x, v.tri.pose.y - best->tri.pose.y);
-    if (&v != &*best && apart > distinct && !ClearlyBetterSupported(count(*best), count(v))) return false;
+    if (&v != &*best && DistinctPlaces(v.tri.pose, best->tri.pose) && !ClearlyBetterSupported(count(*best), count(v)))
+      return false;
   }
   // The best-supported pose, unambiguous, must also pass the integrity test
   // (a pose with fewer inliers that passes it is no better: few bearings
@@ -1198,14 +1197,16 @@ bool Localizer::RoomSearchAgrees(const cv::Mat& grey, const TriangulationResult&
   std::vector<VerifiedPose> verified;
   // Not near the held pose: it is what is being checked.
   Relocalize(grey, false, &found, &t, &verified);
-  const double distinct = opt_.relocalize_distinct * room_size_;
-  auto apart = [](const Pose2& a, const Pose2& b) { return std::hypot(a.x - b.x, a.y - b.y); };
   int own = static_cast<int>(tri.inliers.size());
   for (const VerifiedPose& v : verified)
-    if (apart(v.pose, tri.pose) <= distinct) own = std::max(own, v.inliers);
+    if (!DistinctPlaces(v.pose, tri.pose)) own = std::max(own, v.inliers);
   return std::none_of(verified.begin(), verified.end(), [&](const VerifiedPose& v) {
-    return apart(v.pose, tri.pose) > distinct && !ClearlyBetterSupported(own, v.inliers);
+    return DistinctPlaces(v.pose, tri.pose) && !ClearlyBetterSupported(own, v.inliers);
   });
+}
+
+bool Localizer::DistinctPlaces(const Pose2& a, const Pose2& b) const {
+  return std::hypot(a.x - b.x, a.y - b.y) > opt_.relocalize_distinct * room_size_;
 }
 
 bool Localizer::ClearlyBetterSupported(int a, int b) const {
@@ -1507,8 +1508,7 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
     std::optional<std::pair<FrameResult, TriangulationResult>> near;
     if (near_consistent) near.emplace(fr, tri);
     if (RelocalizeIfLost(grey, frame, ever_tracked_ && ViewUnlikePrediction(fr, tri), &fr, &tri)) {
-      if (near && std::hypot(tri.pose.x - near->second.pose.x, tri.pose.y - near->second.pose.y) >
-                      opt_.relocalize_distinct * room_size_ &&
+      if (near && DistinctPlaces(tri.pose, near->second.pose) &&
           !(was_held && ClearlyBetterSupported(static_cast<int>(tri.inliers.size()),
                                                static_cast<int>(near->second.inliers.size())))) {
         // A held pose is only a hypothesis: it keeps the robot only against

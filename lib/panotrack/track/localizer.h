@@ -433,14 +433,15 @@ class Localizer {
   // Tracks from `pose` (first a wide, then a narrow search); true if accepted.
   bool TrackFrom(const Pose2& pose, double search_px, FrameResult* fr, TriangulationResult* tri,
                  bool either = false) const;
-  // `near_last`: the robot is likely still near the last pose it had (a
-  // short loss, the view as predicted), not carried off.
-  // `verified` (optional): every hypothesis the search verified, with its
-  // inlier count, whatever the search then decided.
+  // A hypothesis of the room-wide search that tracking verified.
   struct VerifiedPose {
     Pose2 pose;
     int inliers = 0;
   };
+  // `near_last`: the robot is likely still near the last pose it had (a
+  // short loss, the view as predicted), not carried off. `verified`
+  // (optional): every hypothesis the search verified, whatever it then
+  // decided.
   bool Relocalize(const cv::Mat& grey, bool near_last, FrameResult* fr, TriangulationResult* tri,
                   std::vector<VerifiedPose>* verified = nullptr) const;
   // Among a relocalised pose and its twins under the map's symmetries, the
@@ -511,6 +512,9 @@ class Localizer {
   int BackedOffRelocalizeFrame(int frame) const;
   // whether a relocalised pose has the inliers a room-wide search requires;
   bool EnoughForRelocalized(const FrameResult& fr, const TriangulationResult& tri) const;
+  // whether two poses lie further apart than relocalize_distinct of the
+  // room (the search counts them as different places);
+  bool DistinctPlaces(const Pose2& a, const Pose2& b) const;
   // whether a pose with `a` inliers is clearly better supported than one
   // with `b`: by relocalize_margin, and `b` below relocalize_ambiguity of
   // `a` (the room-wide search's test of ambiguity);
