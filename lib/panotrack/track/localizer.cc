@@ -185,6 +185,7 @@ void Localizer::Reset(const Pose2& robot_initial, bool hint) {
   last_known_.reset();
   bearing_sigma_ = 0.0;
   survey_.Reset();
+  survey_before_search_.reset();
   residual_memory_.assign(landmarks_.size(), 0.0);
   residual_frame_.assign(landmarks_.size(), -2);
   UpdateLandmarkBudget();
@@ -373,6 +374,14 @@ void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, c
   meas.resize(used);
   out->predicted = std::move(ordered);
   out->measurements = std::move(meas);
+}
+
+int Localizer::ChosenInliers(const FrameResult& fr, const TriangulationResult& tri) const {
+  const int chosen = static_cast<int>(std::max(ChosenLandmarks(fr), SurveyChosenLandmarks(fr)));
+  std::vector<int> seen = InlierPredictions(fr, tri);
+  std::sort(seen.begin(), seen.end());
+  seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
+  return static_cast<int>(std::count_if(seen.begin(), seen.end(), [&](int i) { return i < chosen; }));
 }
 
 std::vector<int> Localizer::InlierPredictions(const FrameResult& fr, const TriangulationResult& tri) const {
@@ -640,7 +649,8 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
   for (std::optional<Verified>& v : tracked)
     if (v) verified.push_back(std::move(*v));
   if (verified_out)
-    for (const Verified& v : verified) verified_out->push_back({v.tri.pose, static_cast<int>(v.tri.inliers.size())});
+    for (const Verified& v : verified)
+      verified_out->push_back({v.tri.pose, static_cast<int>(v.tri.inliers.size()), ChosenInliers(v.fr, v.tri)});
   if (verified.empty()) return false;
   auto count = [](const Verified& v) { return static_cast<int>(v.tri.inliers.size()); };
   const auto best = std::max_element(verified.begin(), verified.end(),
@@ -1137,14 +1147,18 @@ bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, F
     next_relocalize_frame_ = BackedOffRelocalizeFrame(frame);
     return false;
   }
-  fr->predicted = std::move(found.predicted);
-  fr->measurements = std::move(found.measurements);
-  fr->integrity = found.integrity;
+  AdoptSearchResult({std::move(found), t}, fr, tri);
+  return true;
+}
+
+void Localizer::AdoptSearchResult(SearchResult&& found, FrameResult* fr, TriangulationResult* tri) {
+  fr->predicted = std::move(found.first.predicted);
+  fr->measurements = std::move(found.first.measurements);
+  fr->integrity = found.first.integrity;
   fr->innovation = -1.0;
   fr->relocalized = true;
-  *tri = t;
+  *tri = found.second;
   n_good_ = 0;  // no velocity across the jump
-  return true;
 }
 
 namespace {
@@ -1191,18 +1205,29 @@ bool Localizer::Corroborated(const FrameResult& fr, const TriangulationResult& t
          fraction * std::max(ChosenLandmarks(fr), SurveyChosenLandmarks(fr));
 }
 
-bool Localizer::RoomSearchAgrees(const cv::Mat& grey, const TriangulationResult& tri) const {
+Localizer::RoomSearch Localizer::SearchRoomAgainst(const cv::Mat& grey, const TriangulationResult& tri) const {
+  RoomSearch search;
   FrameResult found;
   TriangulationResult t;
   std::vector<VerifiedPose> verified;
-  // Not near the held pose: it is what is being checked.
-  Relocalize(grey, false, &found, &t, &verified);
-  int own = static_cast<int>(tri.inliers.size());
-  for (const VerifiedPose& v : verified)
-    if (!DistinctPlaces(v.pose, tri.pose)) own = std::max(own, v.inliers);
-  return std::none_of(verified.begin(), verified.end(), [&](const VerifiedPose& v) {
-    return DistinctPlaces(v.pose, tri.pose) && !ClearlyBetterSupported(own, v.inliers);
-  });
+  // Not near the pose checked: it is what is being checked.
+  if (Relocalize(grey, false, &found, &t, &verified)) search.chosen.emplace(std::move(found), t);
+  search.own = static_cast<int>(tri.inliers.size());
+  for (const VerifiedPose& v : verified) {
+    if (DistinctPlaces(v.pose, tri.pose)) {
+      search.elsewhere.push_back(v);
+    } else {
+      search.own = std::max(search.own, v.inliers);
+      search.own_chosen = std::max(search.own_chosen, v.chosen_inliers);
+    }
+  }
+  return search;
+}
+
+bool Localizer::RoomSearchAgrees(const cv::Mat& grey, const TriangulationResult& tri) const {
+  const RoomSearch search = SearchRoomAgainst(grey, tri);
+  return std::none_of(search.elsewhere.begin(), search.elsewhere.end(),
+                      [&](const VerifiedPose& v) { return !ClearlyBetterSupported(search.own, v.inliers); });
 }
 
 bool Localizer::DistinctPlaces(const Pose2& a, const Pose2& b) const {
@@ -1496,10 +1521,33 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
   // tolerances finds no rival about as well supported (the true pose fits
   // many more bearings there than a twin); else the search below runs.
   if (accepted && was_held && opt_.survey.check && !survey_.confident()) accepted = RoomSearchAgrees(grey, tri);
+  // A pose tracked from such a search's pose, until the residuals have
+  // shown the map's error: the tolerances they have shown since may let the
+  // search find the true pose that narrower ones missed (a map stated exact
+  // but centimetres off: a twin on a few bearings was all it found). A
+  // tracked pose gives way only to one clearly better supported on the
+  // landmarks chosen to track (a twin tracking many extra landmarks can fit
+  // more of them in all), and is then replaced by the search's pose, or
+  // forgotten.
+  bool gave_way = false;
+  std::optional<SearchResult> searched;
+  if (accepted && !was_held && survey_before_search_ && opt_.survey.check && !survey_.confident()) {
+    RoomSearch search = SearchRoomAgainst(grey, tri);
+    const int own = std::max(search.own_chosen, ChosenInliers(fr, tri));
+    gave_way = std::any_of(search.elsewhere.begin(), search.elsewhere.end(),
+                           [&](const VerifiedPose& v) { return ClearlyBetterSupported(v.chosen_inliers, own); });
+    if (gave_way) searched = std::move(search.chosen);
+    accepted = !gave_way;
+  }
   int n_found = 0;  // before any relocalisation: what tracking from the prediction found
   for (const auto& m : fr.measurements) n_found += m.found;
+  if (gave_way && searched) {
+    AdoptSearchResult(std::move(*searched), &fr, &tri);
+    accepted = Corroborated(fr, tri);
+    fr.unconfirmed = !accepted;
+  }
   // Lost for a while (the robot may have been carried), or never found: search the room.
-  if (!accepted) {
+  if (!accepted && !gave_way) {
     // A pose near the prediction whose bearings agree, though its error
     // bound was too wide to report it: the robot is there, and a pose the
     // room-wide search finds far away is a look-alike (a room nearly
@@ -1527,6 +1575,8 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
   if (accepted && !fr.relocalized && opt_.survey.check && !survey_.confident()) RetrackUnderShownSurvey(&fr, &tri);
   fr.triangulation = tri;
   if (opt_.compass) last_signature_ = std::move(signature);
+  if (accepted && (fr.relocalized || was_held) && opt_.survey.check && !survey_.confident())
+    survey_before_search_ = was_held ? *survey_before_hold : survey_;
   if (accepted) UpdatePredictionErrors(model_pred, fr, tri);
   if (accepted && !fr.relocalized) recentre_rate_ = 0.9 * recentre_rate_ + 0.1 * recentred;
   RecordOutcome(&fr, tri, accepted, n_found);
@@ -1548,7 +1598,14 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
     known_start_ = false;
     survey_ = *survey_before_hold;
     UpdateLandmarkBudget();
+  } else if (gave_way && !searched) {
+    // The room is searched again from the next frame, and what the
+    // given-way pose's frames taught the survey estimate goes with it.
+    known_start_ = ever_tracked_ = false;
+    survey_ = *survey_before_search_;
+    UpdateLandmarkBudget();
   }
+  if (survey_.confident()) survey_before_search_.reset();
   if (view_ && fr.row.status != PoseStatus::kLost) fr.row.pose = view_->RobotPose(fr.row.pose);
   return fr;
 }

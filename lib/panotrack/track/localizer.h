@@ -437,7 +437,12 @@ class Localizer {
   struct VerifiedPose {
     Pose2 pose;
     int inliers = 0;
+    int chosen_inliers = 0;  // ChosenInliers
   };
+  // The inliers among the landmarks chosen to track (the first of the
+  // predictions, within either budget): a count comparable between poses
+  // that tracked different numbers of extra landmarks.
+  int ChosenInliers(const FrameResult& fr, const TriangulationResult& tri) const;
   // `near_last`: the robot is likely still near the last pose it had (a
   // short loss, the view as predicted), not carried off. `verified`
   // (optional): every hypothesis the search verified, whatever it then
@@ -522,6 +527,19 @@ class Localizer {
   // whether the room-wide search on this frame verifies no pose away from
   // `tri`'s that rivals the best near it;
   bool RoomSearchAgrees(const cv::Mat& grey, const TriangulationResult& tri) const;
+  // the room-wide search on this frame against a pose being checked: the
+  // poses it verified away from it, the support of the best near it (at
+  // least its own), and the search's own result where it chose one;
+  using SearchResult = std::pair<FrameResult, TriangulationResult>;
+  struct RoomSearch {
+    int own = 0;
+    int own_chosen = 0;
+    std::vector<VerifiedPose> elsewhere;
+    std::optional<SearchResult> chosen;
+  };
+  RoomSearch SearchRoomAgainst(const cv::Mat& grey, const TriangulationResult& tri) const;
+  // takes a room-wide search's pose as this frame's (relocalised);
+  void AdoptSearchResult(SearchResult&& found, FrameResult* fr, TriangulationResult* tri);
   // whether a relocalised pose lies beyond where the robot could have gone
   // since its last accepted pose (the motion model's largest speed over the
   // time since, plus the search's distinct-pose tolerance): a jump;
@@ -599,6 +617,11 @@ class Localizer {
   // relocalisation's distinct-pose and symmetry tolerances.
   double room_size_ = 1.0;
   SurveyErrorEstimate survey_;
+  // The survey estimate before the pose tracked from was found by a
+  // room-wide search that the residuals had not yet shown the map's error
+  // to: that pose is checked against the search on every frame until they
+  // have, and what its frames taught is forgotten if it gives way.
+  std::optional<SurveyErrorEstimate> survey_before_search_;
   int max_landmarks_ = 0;  // MaxLandmarks
   // opt_.prediction, with the surface tolerance of the survey error now
   // assumed (tracking) and of the map's statement (the relocalisation
