@@ -1139,9 +1139,11 @@ bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, F
   FrameResult found;
   TriangulationResult t;
   survey_evidence_.reset();
-  const bool relocalized = Relocalize(grey, !at_once, &found, &t);
+  bool relocalized = Relocalize(grey, !at_once, &found, &t);
   if (survey_evidence_) UpdateSurveyEstimate(survey_evidence_->first, survey_evidence_->second);
   survey_evidence_.reset();
+  if (!relocalized && !ever_tracked_ && opt_.relocalize_survey_probe && opt_.survey.check && !survey_.confident())
+    relocalized = RelocalizeUnderProbe(grey, !at_once, &found, &t);
   if (!relocalized) {
     ++relocalize_failures_;
     next_relocalize_frame_ = BackedOffRelocalizeFrame(frame);
@@ -1149,6 +1151,29 @@ bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, F
   }
   AdoptSearchResult({std::move(found), t}, fr, tri);
   return true;
+}
+
+bool Localizer::RelocalizeUnderProbe(const cv::Mat& grey, bool near_last, FrameResult* fr, TriangulationResult* tri) {
+  // As ProbeSurveyError's ladder, the smallest level that verifies a pose:
+  // a wrong pose fits a few bearings more easily the wider the tolerance.
+  const double current = LargestSurveySigma();
+  bool found = false;
+  for (double fraction : {0.005, 0.01, 0.02}) {
+    const double level = fraction * typical_distance_;
+    if (level <= 1.5 * current) continue;
+    probe_sigma_ = level;
+    UpdatePrediction();
+    found = Relocalize(grey, near_last, fr, tri);
+    probe_sigma_ = 0.0;
+    UpdatePrediction();
+    if (found) {
+      survey_.Provisional(level);
+      UpdateLandmarkBudget();
+      break;
+    }
+  }
+  survey_evidence_.reset();
+  return found;
 }
 
 void Localizer::AdoptSearchResult(SearchResult&& found, FrameResult* fr, TriangulationResult* tri) {

@@ -183,6 +183,14 @@ struct LocalizerOptions {
   // that half the bearings fit tracks from frame to frame as well as the
   // true pose.
   double relocalize_jump_fraction = 2.0 / 3.0;
+  // Before the first pose, while the residuals have not shown the map's
+  // error, a room-wide search that verifies nothing under the survey error
+  // assumed is tried again under larger ones (1/200, 1/100 and 1/50 of the
+  // typical landmark distance; the smallest that verifies a pose becomes
+  // the provisional survey sigma): a map stated exact, or stating nothing,
+  // but centimetres off hides the true pose from narrow tolerances while a
+  // twin of the room may fit a few bearings.
+  bool relocalize_survey_probe = true;
   RelocalizeOptions relocalize;
   // The longest exposure expected, as a fraction of the frame interval:
   // motion blur spans at most this fraction of a landmark's image motion
@@ -500,6 +508,9 @@ class Localizer {
   bool RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) const;
   // the room-wide search after relocalize_after lost frames;
   // `at_once`: the view is not the predicted one (ViewUnlikePrediction).
+  // The search again under the ladder of survey errors of
+  // relocalize_survey_probe; true if one verified a pose.
+  bool RelocalizeUnderProbe(const cv::Mat& grey, bool near_last, FrameResult* fr, TriangulationResult* tri);
   bool RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, FrameResult* fr, TriangulationResult* tri);
   // whether a frame's tracking says the robot is not near the prediction;
   bool ViewUnlikePrediction(const FrameResult& fr, const TriangulationResult& tri) const;
