@@ -10,8 +10,11 @@
 # ok further off than 1 % of the mean landmark distance and 5x the median
 # error ("wrong"), and the fraction of ok frames inside their reported
 # 3-sigma position ellipse (std_x, std_y columns).
+# START=no: no start pose (the case.yaml's initial pose is not given; the
+# first frame is found by the room-wide search).
 # Usage: tools/bench_maps.sh [BUILD_DIR] [WORK_DIR]
 #   PRESETS="paper-real fast-turns" SIGMAS="0.5 1 2" SEEDS="1 2 3" STATED="yes no" METHODS="junction vertex"
+#   START=yes|no
 set -euo pipefail
 build=${1:-build}
 work=${2:-$(mktemp -d)}
@@ -25,6 +28,8 @@ sigmas=${SIGMAS:-"0 0.5 1 2"}
 seeds=${SEEDS:-"1 2 3"}
 stated=${STATED:-"yes"}
 methods=${METHODS:-"junction vertex"}
+start=${START:-yes}
+[[ $start == yes || $start == no ]] || { echo "bench_maps.sh: START must be yes or no" >&2; exit 1; }
 python=/usr/bin/python3
 [ -x "$python" ] || python=python3
 
@@ -32,6 +37,14 @@ echo "| preset | method | map sigma | stated | seed | tracked | RMS | max | wron
 echo "|---|---|---:|---|---:|---:|---:|---:|---:|---:|"
 for p in $presets; do
   [[ -f $work/$p/video.mp4 ]] || "$bin/panosim" sequence --preset "$p" -o "$work/$p" --force --quiet
+  video="$work/$p/video.mp4"
+  if [[ $start == no ]]; then
+    # The video alone in a folder of its own: no case.yaml beside it or one
+    # folder up (where panoloc looks for a start pose).
+    mkdir -p "$work/no-start-$p"
+    ln -sf "$(cd "$work/$p" && pwd)/video.mp4" "$work/no-start-$p/video.mp4"
+    video="$work/no-start-$p/video.mp4"
+  fi
   for s in $sigmas; do
     for seed in $seeds; do
       for st in $stated; do
@@ -61,8 +74,8 @@ elif stated == "zero":  # a rendered map's "exact" left in place after perturbin
 yaml.safe_dump(m, open(out, "w"), sort_keys=False)
 PY
         for m in $methods; do
-          csv="$work/$p/$m-s$s-$seed-$st.csv"
-          "$bin/panoloc" "$work/$p/video.mp4" --calib "$work/$p/calib.yaml" --map "$map" --method "$m" \
+          csv="$work/$p/$m-s$s-$seed-$st-start-$start.csv"
+          "$bin/panoloc" "$video" --calib "$work/$p/calib.yaml" --map "$map" --method "$m" \
             -o "$csv" --force -q ${PANOLOC_FLAGS:-} || true
           "$python" - "$work/$p" "$csv" "$p" "$m" "$s" "$st" "$seed" <<'PY'
 import sys, csv, yaml, numpy as np
