@@ -265,7 +265,7 @@ TEST_CASE("a map measured to 2 cm that claims to be exact, no start: a twin foun
   // before a pose tracked from a search's is checked against the search
   // until the map's error is known: the twin tracked from frame 16 to the
   // end (277 frames 0.9 - 1.7 m off); after, frames 16 and 17 only (95 cm
-  // off), every later one within 3 cm. (With the search's survey probe,
+  // off), every later one within 1.2 cm. (With the search's survey probe,
   // below, the true pose is found on frame 0: off here to keep the twin.)
   const test::RenderedCase truth = test::RenderPreset("fast-turns", 40);
   test::RenderedCase r = truth;
@@ -291,7 +291,7 @@ TEST_CASE("a map measured to 2 cm that claims to be exact, no start: a twin foun
   }
   INFO("frames 18 - 39: " << later_ok << " ok, at most " << later_max << " cm off");
   CHECK(later_ok >= 20);
-  CHECK(later_max <= 5.0);
+  CHECK(later_max <= 2.5);
 }
 
 TEST_CASE("a map measured to 2 cm that states nothing or claims to be exact, no start: the search tries larger errors",
