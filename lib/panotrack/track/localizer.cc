@@ -91,6 +91,10 @@ constexpr double kReportedNoiseMargin = 1.5;
 // The survey-error probe's choice: the smallest level whose bearings agree
 // with at least this fraction of the inliers of the level most agree under.
 constexpr double kProbeSaturation = 0.9;
+// The survey errors, as fractions of the typical landmark distance, that
+// the search for a first pose tries where it verified nothing under the one
+// assumed (LocalizerOptions::relocalize_survey_probe).
+constexpr double kSearchProbeFractions[] = {0.005, 0.01, 0.02};
 
 // A frame to be measured again from scratch: its row and prediction kept.
 FrameResult FrameToMeasure(const PoseRow& row, const Pose2& predicted) {
@@ -1158,7 +1162,7 @@ bool Localizer::RelocalizeUnderProbe(const cv::Mat& grey, bool near_last, FrameR
   // a wrong pose fits a few bearings more easily the wider the tolerance.
   const double current = LargestSurveySigma();
   bool found = false;
-  for (double fraction : {0.005, 0.01, 0.02}) {
+  for (double fraction : kSearchProbeFractions) {
     const double level = fraction * typical_distance_;
     if (level <= 1.5 * current) continue;
     probe_sigma_ = level;

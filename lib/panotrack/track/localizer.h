@@ -506,11 +506,11 @@ class Localizer {
   // narrow passes around the solved pose when landmarks were off-centre
   // (returns whether they were);
   bool RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) const;
+  // the room-wide search again under the ladder of survey errors of
+  // relocalize_survey_probe; true if one verified a pose;
+  bool RelocalizeUnderProbe(const cv::Mat& grey, bool near_last, FrameResult* fr, TriangulationResult* tri);
   // the room-wide search after relocalize_after lost frames;
   // `at_once`: the view is not the predicted one (ViewUnlikePrediction).
-  // The search again under the ladder of survey errors of
-  // relocalize_survey_probe; true if one verified a pose.
-  bool RelocalizeUnderProbe(const cv::Mat& grey, bool near_last, FrameResult* fr, TriangulationResult* tri);
   bool RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, FrameResult* fr, TriangulationResult* tri);
   // whether a frame's tracking says the robot is not near the prediction;
   bool ViewUnlikePrediction(const FrameResult& fr, const TriangulationResult& tri) const;
