@@ -118,6 +118,7 @@ class PyLocalizer {
   py::dict Track(const py::array& frame, std::optional<double> time_s, bool details) {
     const cv::Mat grey = GreyView(frame);
     FrameResult fr;
+    std::optional<FrameResult> confirmed;
     {
       py::gil_scoped_release release;
       // One frame at a time, whichever Python threads call; the frame
@@ -125,8 +126,22 @@ class PyLocalizer {
       std::lock_guard<std::mutex> lock(busy_);
       const int index = next_frame_;
       fr = localizer_->Process(grey, index, time_s ? *time_s : index / fps_);
+      confirmed = localizer_->TakeConfirmedHold();
       next_frame_ = index + 1;
     }
+    py::dict d = ResultDict(fr, details);
+    d["unconfirmed"] = fr.unconfirmed;
+    d["confirms_previous"] = confirmed ? py::object(ResultDict(*confirmed, details)) : py::object(py::none());
+    return d;
+  }
+
+  int next_frame() const { return next_frame_.load(); }
+  const Calibration& calibration() const { return calib_; }
+  const Map& map() const { return map_; }
+  std::string method() const { return tracking_method_name(options_.method); }
+
+ private:
+  py::dict ResultDict(const FrameResult& fr, bool details) const {
     const PoseRow& row = fr.row;
     const bool ok = row.status == PoseStatus::kOk;
     const bool has_pose = row.status != PoseStatus::kLost;
@@ -151,12 +166,6 @@ class PyLocalizer {
     return d;
   }
 
-  int next_frame() const { return next_frame_.load(); }
-  const Calibration& calibration() const { return calib_; }
-  const Map& map() const { return map_; }
-  std::string method() const { return tracking_method_name(options_.method); }
-
- private:
   // As panoloc: a given pose is a hint (the room-wide search takes over when
   // the first frame does not confirm it); none: the room-wide search.
   void ResetTo(const std::optional<Pose2>& init) {
@@ -396,7 +405,9 @@ void BindLocalize(py::module_& m) {
            py::arg("details") = false,
            "Localises the next frame (uint8 H x W). Returns a dict: frame, time_s, status (ok, lost, init), "
            "x, y, theta, std_x, std_y, std_theta, quality, covariance (3 x 3, x y theta), n_landmarks, "
-           "residual, relocalized, innovation, predicted (x, y, theta); NaN where not defined. With "
+           "residual, relocalized, innovation, predicted (x, y, theta); NaN where not defined; unconfirmed "
+           "(a pose the room-wide search found, reported lost until the next frame confirms it) and "
+           "confirms_previous (None, or the previous frame's dict, ok, once this frame confirmed it). With "
            "details, also landmarks: what the frame's measurement saw, as panoloc's debug video draws it "
            "(per predicted landmark: ids, found, why, corner_world (K, 3), predicted_corner_px (K, 2), "
            "predicted_edge_px (K, 2, 2: the vertical edge's ends), junction_px (K, 2, NaN when not found); "

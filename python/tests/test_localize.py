@@ -112,6 +112,31 @@ def test_localizer_searches_the_room_without_init(sequence):
     assert statuses[-1] == "ok"  # relocalised by the room-wide search
 
 
+def test_localizer_reports_a_held_frame_once_confirmed(tmp_path):
+    # paper-synthetic on a map measured to 2 cm (seed 1), no start: the
+    # search's pose of frame 0 is held (reported lost); frame 1 confirms it
+    # and carries frame 0's report, ok, as panoloc writes it (measured:
+    # 0.2 cm off).
+    out = tmp_path / "seq"
+    r = run([program("panosim"), "sequence", "--preset", "paper-synthetic", "--map-sigma", "2", "--map-seed", "1",
+             "--frames", "--no-video", "-q", "-o", str(out)])
+    assert r.returncode == 0, r.stderr
+    gt = read_pose_csv_gt(out / "gt.csv")
+    loc = pt.Localizer(out / "calib.yaml", out / "map.yaml")
+    frames = pt.FrameReader(out / "frames")
+    results = [loc.track(frame) for (frame, _), _ in zip(frames, range(3))]
+    assert results[0]["unconfirmed"] and results[0]["status"] == "lost"
+    assert results[0]["confirms_previous"] is None
+    assert results[1]["status"] == "ok" and not results[1]["unconfirmed"]
+    held = results[1]["confirms_previous"]
+    assert held is not None and held["frame"] == 0 and held["status"] == "ok"
+    assert math.hypot(held["x"] - gt["x"][0], held["y"] - gt["y"][0]) < 0.5
+    assert results[2]["confirms_previous"] is None
+    (out / "case.yaml").unlink()  # its start pose: localize_video would take it, as panoloc does
+    expected = pt.localize_video(out / "frames", out / "calib.yaml", out / "map.yaml")
+    np.testing.assert_allclose([held["x"], held["y"]], [expected["x"][0], expected["y"][0]], atol=5e-5)
+
+
 def test_errors_carry_the_library_message(sequence, tmp_path):
     # The same one-line message as panoloc prints after "panoloc: ".
     bad = tmp_path / "bad.yaml"

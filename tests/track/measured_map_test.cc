@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <utility>
 
 #include "panotrack/pipeline/accuracy.h"
@@ -19,6 +20,16 @@ namespace {
 
 const test::RenderedCase& PaperReal() {
   static const test::RenderedCase r = test::RenderPreset("paper-real", 57);
+  return r;
+}
+
+// `truth`'s frames on its map measured to `sigma` (map seed `seed`),
+// the map stating `stated` (NaN: nothing).
+test::RenderedCase OnMeasuredMap(const test::RenderedCase& truth, double sigma, uint64_t seed, double stated) {
+  test::RenderedCase r = truth;
+  r.c.map = PerturbedMap(truth.c.map, sigma, seed);
+  r.c.map.survey_sigma = stated;
+  r.table = TableForMap(r.c.calib, r.c.map, true);
   return r;
 }
 
@@ -36,11 +47,14 @@ double InsideThreeSigma(const std::vector<PoseRow>& rows, const std::vector<Pose
   return ok > 0 ? static_cast<double>(inside) / ok : 0.0;
 }
 
-// The rows of every frame of `r`, taken `fps` frames a second apart.
+// The rows of every frame of `r`, taken `fps` frames a second apart, as
+// panoloc writes them (a held frame's row ok once the next confirms it).
 std::vector<PoseRow> ProcessFrames(Localizer* loc, const test::RenderedCase& r, double fps) {
   std::vector<PoseRow> rows;
-  for (size_t i = 0; i < r.frames.size(); ++i)
+  for (size_t i = 0; i < r.frames.size(); ++i) {
     rows.push_back(loc->Process(r.frames[i], static_cast<int>(i), static_cast<double>(i) / fps).row);
+    if (std::optional<FrameResult> held = loc->TakeConfirmedHold()) rows[static_cast<size_t>(held->row.frame)] = held->row;
+  }
   return rows;
 }
 
@@ -51,10 +65,7 @@ struct MeasuredMapRun {
 
 MeasuredMapRun LocalizeOnMeasuredMap(TrackingMethod method, double stated_sigma, double sigma, uint64_t seed = 2) {
   const test::RenderedCase& truth = PaperReal();
-  test::RenderedCase r = truth;
-  r.c.map = PerturbedMap(truth.c.map, sigma, seed);
-  r.c.map.survey_sigma = stated_sigma;
-  r.table = TableForMap(r.c.calib, r.c.map, true);
+  const test::RenderedCase r = OnMeasuredMap(truth, sigma, seed, stated_sigma);
   LocalizerOptions o;
   o.method = method;
   const std::vector<PoseRow> rows = test::Localize(r, o, truth.c.poses.front());
@@ -153,10 +164,7 @@ TEST_CASE("a map measured to 2 cm that claims to be exact: a loss in a fast turn
   // ok 150 - 207 cm off (map seed 2), 80 cm RMS (seed 7).
   const test::RenderedCase& truth = PaperReal();
   for (uint64_t seed : {uint64_t{2}, uint64_t{7}}) {
-    test::RenderedCase r = truth;
-    r.c.map = PerturbedMap(truth.c.map, 2.0, seed);
-    r.c.map.survey_sigma = 0.0;
-    r.table = TableForMap(r.c.calib, r.c.map, true);
+    const test::RenderedCase r = OnMeasuredMap(truth, 2.0, seed, 0.0);
     LocalizerOptions o;
     Localizer loc(r.c.calib, r.c.map, r.table, o);
     loc.Reset(truth.c.poses.front(), true);
@@ -195,10 +203,7 @@ TEST_CASE("a map measured to 2 cm that says nothing: a first frame where few fou
   // the survey probe tries it under larger errors: 24 of 31 agree on a pose
   // 1.4 cm off.
   const test::RenderedCase& truth = PaperReal();
-  test::RenderedCase r = truth;
-  r.c.map = PerturbedMap(truth.c.map, 2.0, 4);
-  r.c.map.survey_sigma = std::numeric_limits<double>::quiet_NaN();
-  r.table = TableForMap(r.c.calib, r.c.map, true);
+  const test::RenderedCase r = OnMeasuredMap(truth, 2.0, 4, std::numeric_limits<double>::quiet_NaN());
   LocalizerOptions o;
   o.method = TrackingMethod::kVertex;
   Localizer loc(r.c.calib, r.c.map, r.table, o);
@@ -237,10 +242,7 @@ TEST_CASE("a map measured to 2 cm that claims to be exact, no start: a search's 
   };
   for (const Case& c : {Case{TrackingMethod::kJunction, 7, 52}, Case{TrackingMethod::kVertex, 1, 48},
                         Case{TrackingMethod::kVertex, 2, 42}}) {
-    test::RenderedCase r = truth;
-    r.c.map = PerturbedMap(truth.c.map, 2.0, c.seed);
-    r.c.map.survey_sigma = 0.0;
-    r.table = TableForMap(r.c.calib, r.c.map, true);
+    const test::RenderedCase r = OnMeasuredMap(truth, 2.0, c.seed, 0.0);
     LocalizerOptions o;
     o.method = c.method;
     Localizer loc(r.c.calib, r.c.map, r.table, o);
@@ -252,6 +254,42 @@ TEST_CASE("a map measured to 2 cm that claims to be exact, no start: a search's 
     CHECK(a.max <= 5.0);
     CHECK(a.tracked >= c.min_tracked);
   }
+}
+
+TEST_CASE("no start: a search's pose held for the next frame is reported once that frame confirms it",
+          "[measured_map]") {
+  // paper-synthetic on a map measured to 2 cm (seed 1) that says so: the
+  // search's pose of frame 0 fits too few of the landmarks chosen to track
+  // to be reported at once. Frame 1, tracked from it, confirms it; frame 0
+  // is then tracked again from its pose under what frame 1 taught and
+  // reported. Measured: 0.21 cm off, 0.28 of its standard deviations.
+  const test::RenderedCase truth = test::RenderPreset("paper-synthetic", 3);
+  const test::RenderedCase r = OnMeasuredMap(truth, 2.0, 1, 2.0);
+  Localizer loc(r.c.calib, r.c.map, r.table, LocalizerOptions());
+  loc.ResetUnknown();
+  const FrameResult first = loc.Process(r.frames[0], 0, 0.0);
+  REQUIRE(first.unconfirmed);
+  CHECK(first.row.status == PoseStatus::kLost);
+  CHECK_FALSE(loc.TakeConfirmedHold());
+  const FrameResult second = loc.Process(r.frames[1], 1, 0.1);
+  CHECK(second.row.status == PoseStatus::kOk);
+  const std::optional<FrameResult> held = loc.TakeConfirmedHold();
+  REQUIRE(held);
+  CHECK_FALSE(loc.TakeConfirmedHold());  // once
+  CHECK(held->row.frame == 0);
+  CHECK(held->row.time_s == 0.0);
+  REQUIRE(held->row.status == PoseStatus::kOk);
+  REQUIRE(held->row.extra.size() == 4);
+  const Pose2& t = truth.truth[0].pose;
+  const double off = std::hypot(held->row.pose.x - t.x, held->row.pose.y - t.y);
+  const double sigmas =
+      std::hypot((held->row.pose.x - t.x) / held->row.extra[0], (held->row.pose.y - t.y) / held->row.extra[1]);
+  INFO("frame 0: " << off << " cm off, " << sigmas << " standard deviations");
+  CHECK(off <= 0.5);
+  CHECK(sigmas <= 1.0);
+  // A frame not held has nothing to confirm.
+  loc.Process(r.frames[2], 2, 0.2);
+  CHECK_FALSE(loc.TakeConfirmedHold());
 }
 
 TEST_CASE("a map measured to 2 cm that claims to be exact, no start: a twin found first gives way to the true pose",
@@ -268,10 +306,7 @@ TEST_CASE("a map measured to 2 cm that claims to be exact, no start: a twin foun
   // off), every later one within 1.2 cm. (With the search's survey probe,
   // below, the true pose is found on frame 0: off here to keep the twin.)
   const test::RenderedCase truth = test::RenderPreset("fast-turns", 40);
-  test::RenderedCase r = truth;
-  r.c.map = PerturbedMap(truth.c.map, 2.0, 2);
-  r.c.map.survey_sigma = 0.0;
-  r.table = TableForMap(r.c.calib, r.c.map, true);
+  const test::RenderedCase r = OnMeasuredMap(truth, 2.0, 2, 0.0);
   LocalizerOptions o;
   o.method = TrackingMethod::kJunction;
   o.relocalize_survey_probe = false;
@@ -302,15 +337,16 @@ TEST_CASE("a map measured to 2 cm that states nothing or claims to be exact, no 
   // tried again under larger survey errors (map seeds 1 - 3; stating
   // nothing / stating 0): vertex 30, 28, 70 / 88, 79, 96 % of the frames
   // tracked, junction 95, 70, 70 / 84, 84, 56 %; after 98 - 100 %, no
-  // frame further off than 7 cm.
+  // frame further off than 7 cm. With the first frame's held pose reported
+  // once confirmed: 53 - 57 of 57 tracked, every ok frame inside its 3
+  // sigma; one outlier (junction, stating nothing, seed 3: frame 31, 6.6 cm
+  // off, 1.5 of its standard deviations, counts as one once frame 0 is
+  // reported: the median error falls below a fifth of it).
   const test::RenderedCase& truth = PaperReal();
   for (TrackingMethod method : {TrackingMethod::kVertex, TrackingMethod::kJunction}) {
     for (double stated : {std::numeric_limits<double>::quiet_NaN(), 0.0}) {
       for (uint64_t seed : {uint64_t{1}, uint64_t{2}, uint64_t{3}}) {
-        test::RenderedCase r = truth;
-        r.c.map = PerturbedMap(truth.c.map, 2.0, seed);
-        r.c.map.survey_sigma = stated;
-        r.table = TableForMap(r.c.calib, r.c.map, true);
+        const test::RenderedCase r = OnMeasuredMap(truth, 2.0, seed, stated);
         LocalizerOptions o;
         o.method = method;
         Localizer loc(r.c.calib, r.c.map, r.table, o);
@@ -320,8 +356,9 @@ TEST_CASE("a map measured to 2 cm that states nothing or claims to be exact, no 
         INFO(tracking_method_name(method) << ", stated " << stated << ", map seed " << seed << ": "
                                           << FormatAccuracy(a, "cm"));
         CHECK(a.tracked >= 52);
-        CHECK(a.outliers == 0);
+        CHECK(a.outliers <= 1);
         CHECK(a.max <= 7.0);
+        CHECK(InsideThreeSigma(rows, truth.truth) >= 0.98);
       }
     }
   }

@@ -2,6 +2,7 @@
 // panosim's presets, rendered in memory (no video codec in the way).
 #pragma once
 
+#include <optional>
 #include <vector>
 
 #include "panotrack/render/presets.h"
@@ -42,8 +43,11 @@ inline std::vector<PoseRow> Localize(const RenderedCase& r, const LocalizerOptio
   Localizer loc(r.c.calib, r.c.map, r.table, opt);
   loc.Reset(init);
   std::vector<PoseRow> rows;
-  for (size_t i = 0; i < r.frames.size(); ++i)
+  for (size_t i = 0; i < r.frames.size(); ++i) {
     rows.push_back(loc.Process(r.frames[i], static_cast<int>(i), i / r.c.fps).row);
+    // As panoloc writes it: a held frame's row ok once the next confirms it.
+    if (std::optional<FrameResult> held = loc.TakeConfirmedHold()) rows[static_cast<size_t>(held->row.frame)] = held->row;
+  }
   return rows;
 }
 

@@ -214,6 +214,21 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
     // search starts its threads for each search, at this thread's priority.)
     priority.emplace(kIdleWhileWaiting, std::min(kNormalFromWaiting, source->prefetch_frames() / 2));
   }
+  // A frame's outputs, in frame order; a frame held for confirmation waits
+  // for the next (Localizer::TakeConfirmedHold).
+  auto report = [&](const FrameResult& fr) {
+    csv.Write(fr.row);
+    if (smoothed) smoothed->Add(fr);
+    if (tum) tum->Write(fr.row);
+    if (keep_rows) {
+      rows.push_back(fr.row);
+      if (!keep_std) rows.back().extra = std::vector<double>();
+    }
+    ++sum->frames;
+    sum->n_ok += fr.row.status == PoseStatus::kOk;
+    sum->n_lost += fr.row.status == PoseStatus::kLost;
+  };
+  std::optional<FrameResult> held;
   sum->end = VideoEnd::kDone;
   bool rate_assumed = false;  // some frame had no time: FrameTime took kAssumedFps
   for (int frame = 0;; ++frame) {
@@ -247,20 +262,21 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
       sum->frames_without_odometry += !odometry;
     }
     previous_time = time_s;
-    const FrameResult fr = loc.Process(grey, frame, time_s, odometry ? &*odometry : nullptr);
-    csv.Write(fr.row);
-    if (smoothed) smoothed->Add(fr);
-    if (tum) tum->Write(fr.row);
-    if (keep_rows) {
-      rows.push_back(fr.row);
-      if (!keep_std) rows.back().extra = std::vector<double>();
+    FrameResult fr = loc.Process(grey, frame, time_s, odometry ? &*odometry : nullptr);
+    if (held) {
+      std::optional<FrameResult> confirmed = loc.TakeConfirmedHold();
+      report(confirmed ? *confirmed : *held);
+      held.reset();
     }
-    ++sum->frames;
-    sum->n_ok += fr.row.status == PoseStatus::kOk;
-    sum->n_lost += fr.row.status == PoseStatus::kLost;
     if (dbg) dbg->Write(grey, s, fr);
+    if (fr.unconfirmed)
+      held = std::move(fr);
+    else
+      report(fr);
     if (opt.frames_done) ++*opt.frames_done;
   }
+  // No frame came to confirm it.
+  if (held) report(*held);
   // The rows written are intact however the loop ended: the outputs are
   // finished with them.
   csv.Close();

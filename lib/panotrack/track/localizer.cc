@@ -186,6 +186,8 @@ void Localizer::Reset(const Pose2& robot_initial, bool hint) {
   next_relocalize_frame_ = 0;
   relocalize_failures_ = 0;
   held_ = held_jump_ = false;
+  held_frame_.reset();
+  confirmed_hold_.reset();
   last_known_.reset();
   bearing_sigma_ = 0.0;
   survey_.Reset();
@@ -1402,15 +1404,8 @@ void Localizer::UpdateSurveyEstimate(const FrameResult& fr, const TriangulationR
 void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, bool accepted, int n_found) {
   PoseRow* row = &fr->row;
   if (accepted) {
-    row->status = PoseStatus::kOk;
-    row->pose = tri.pose;
-    row->n_landmarks = static_cast<int>(tri.inliers.size());
-    row->residual = tri.residual;
-    row->extra.clear();
+    FillReportedRow(fr, tri);
     const std::vector<BearingObservation> obs = Observations(*fr);
-    fr->covariance = ReportedCovariance(*fr, obs, tri);
-    for (int k = 0; k < 3; ++k) row->extra.push_back(std::sqrt(std::max(0.0, fr->covariance(k, k))));
-    row->extra.push_back(fr->integrity.quality);
     const PoseMeasurement m = MeasurementOf(tri, obs, opt_.gate_position_fraction, opt_.gate_heading_sigma);
     if (!motion_.initialized()) {
       motion_.Reset(row->time_s, tri.pose, m.covariance, motion_options_.max_speed, motion_options_.max_turn_rate);
@@ -1461,6 +1456,33 @@ void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, b
   ++n_lost_;
 }
 
+void Localizer::FillReportedRow(FrameResult* fr, const TriangulationResult& tri) const {
+  PoseRow* row = &fr->row;
+  row->status = PoseStatus::kOk;
+  row->pose = tri.pose;
+  row->n_landmarks = static_cast<int>(tri.inliers.size());
+  row->residual = tri.residual;
+  row->extra.clear();
+  fr->covariance = ReportedCovariance(*fr, Observations(*fr), tri);
+  for (int k = 0; k < 3; ++k) row->extra.push_back(std::sqrt(std::max(0.0, fr->covariance(k, k))));
+  row->extra.push_back(fr->integrity.quality);
+}
+
+std::optional<FrameResult> Localizer::ReportConfirmedHold(const HeldFrame& held) {
+  FrameResult fr;
+  fr.row = held.row;
+  fr.predicted_pose = held.pose;
+  fr.relocalized = true;
+  TriangulationResult tri;
+  tracker_->BeginFrame(held.grey);
+  if (!TrackFrom(held.pose, opt_.search_px, &fr, &tri) || !Consistent(&fr, tri) || !EnoughForRelocalized(fr, tri))
+    return std::nullopt;
+  fr.triangulation = tri;
+  FillReportedRow(&fr, tri);
+  if (view_) fr.row.pose = view_->RobotPose(fr.row.pose);
+  return fr;
+}
+
 bool Localizer::BeyondAlertLimitOnly(FrameResult* fr, const TriangulationResult& tri) const {
   if (!tri.ok || fr->relocalized || fr->unconfirmed || !motion_.initialized()) return false;
   Consistent(fr, tri);  // the report of this solution (the last test may have been another's)
@@ -1474,6 +1496,7 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
                                const OdometryIncrement* odometry) {
   CheckFrame(frame_image, frame);
   frame_ = frame;
+  confirmed_hold_.reset();  // the previous frame's, not taken
   if (view_) view_->Resample(frame_image, &view_frame_);
   const cv::Mat& grey = view_ ? view_frame_ : frame_image;
   motion_stepped_ = false;
@@ -1617,7 +1640,12 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
   // The step of the model that tracked up to this frame (a hold starts a new one).
   fr.has_motion_step = motion_stepped_;
   if (fr.has_motion_step) fr.motion_step = motion_.step();
+  // The held frame's pose is the one this frame tracked from and accepted
+  // (not a pose the search found elsewhere): the held frame is reported.
+  if (was_held && accepted && !fr.relocalized && held_frame_) confirmed_hold_ = ReportConfirmedHold(*held_frame_);
+  held_frame_.reset();
   if (fr.unconfirmed) {
+    held_frame_ = HeldFrame{grey.clone(), fr.row, tri.pose};
     HoldForConfirmation(tri.pose, frame, BeyondReach(tri.pose, time_s));
   } else if (was_held && !accepted) {
     // A search's hypothesis that its next frame did not confirm is no

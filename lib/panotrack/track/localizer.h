@@ -304,6 +304,13 @@ class Localizer {
   // instead of the constant-velocity model.
   FrameResult Process(const cv::Mat& grey, int frame, double time_s,
                       const OdometryIncrement* odometry = nullptr);
+  // A frame whose pose the room-wide search found but held back (its
+  // result `unconfirmed`, its row lost) is reported once the frame after it
+  // confirms the pose: after that frame's Process, this returns the held
+  // frame's result with its row ok, once; else nothing. A caller that writes
+  // rows as they come writes an unconfirmed frame's row after the next
+  // Process: this one where given, else the lost one.
+  std::optional<FrameResult> TakeConfirmedHold() { return std::exchange(confirmed_hold_, std::nullopt); }
 
   const Map& map() const { return map_; }
   // The sensor the tracking works with: the calibration's, or for a rig
@@ -564,6 +571,20 @@ class Localizer {
   void HoldForConfirmation(const Pose2& pose, int frame, bool jump);
   // the output row and the motion model's state.
   void RecordOutcome(FrameResult* fr, const TriangulationResult& tri, bool accepted, int n_found);
+  // The row of a reported pose: the pose, its inliers, residual, covariance
+  // and integrity quality.
+  void FillReportedRow(FrameResult* fr, const TriangulationResult& tri) const;
+  // A frame held for confirmation: its image (as tracked), row and pose.
+  struct HeldFrame {
+    cv::Mat grey;
+    PoseRow row;
+    Pose2 pose;
+  };
+  // The held frame's result once the next frame has confirmed its pose:
+  // tracked again from it with what that frame taught (the survey error
+  // its residuals showed, the learned blur), reported where it is accepted
+  // as a tracked frame is; else none.
+  std::optional<FrameResult> ReportConfirmedHold(const HeldFrame& held);
 
   Calibration calib_;  // with a rig's faults, its aligned view's sensor
   Map map_;
@@ -647,6 +668,10 @@ class Localizer {
   // survey error assumed: evidence of it while the estimate is not yet
   // confident (Relocalize is const; RelocalizeIfLost learns from it).
   mutable std::optional<std::pair<FrameResult, TriangulationResult>> survey_evidence_;
+  // The frame held for confirmation; its report once the next frame
+  // confirmed it (TakeConfirmedHold).
+  std::optional<HeldFrame> held_frame_;
+  std::optional<FrameResult> confirmed_hold_;
   // The survey sigma a probe assumes (ProbeSurveyError; 0 otherwise).
   double probe_sigma_ = 0.0;
   // Polarities learned from the images, per landmark; per map object
