@@ -140,13 +140,14 @@ TEST_CASE("survey error: the sigma used for a stated, an unstated and an exact m
   CHECK(e.Sigma(kUnstated) == Approx(e.estimated()));
   // Where the estimate is all there is, the covariances reported hold it
   // with its margin (never beyond the cap, 3 % of the typical distance); a
-  // stated sigma is only raised to it.
+  // stated sigma, raised to it where smaller, with the stated margin.
   const double with_margin = std::min(o.estimate_margin * e.estimated(), o.max_fraction * 120.0);
   CHECK(with_margin > e.estimated());
   CHECK(e.ReportedSigma(0.0) == Approx(with_margin));
   CHECK(e.ReportedSigma(kUnstated) == Approx(with_margin));
-  CHECK(e.ReportedSigma(0.5) == Approx(e.estimated()));
-  CHECK(e.ReportedSigma(3.0) == 3.0);
+  CHECK(e.ReportedSigma(0.5) == Approx(o.stated_margin * e.estimated()));
+  CHECK(e.ReportedSigma(3.0) == Approx(o.stated_margin * 3.0));
+  CHECK(o.stated_margin == 1.25);
   CHECK(e.estimated() == Approx(2.0).epsilon(0.25));
   // The cap: beyond 3 % of the typical distance a corner is wrong, not
   // imprecise.
@@ -177,7 +178,7 @@ TEST_CASE("survey error: a few frames' clear error is told before the estimate i
   CHECK(e.Sigma(0.0) == 0.0);
   // The covariances reported hold it (with its margin) at once.
   CHECK(e.ReportedSigma(0.0) == Approx(o.estimate_margin * e.Early()));
-  CHECK(e.ReportedSigma(0.5) == 0.5);
+  CHECK(e.ReportedSigma(0.5) == Approx(o.stated_margin * 0.5));
   e.Provisional(e.Early());
   CHECK(e.Sigma(0.0) == e.Early());
   CHECK(e.Sigma(kUnstated) == std::max(e.Early(), o.unstated_fraction * 120.0));

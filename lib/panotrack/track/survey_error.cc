@@ -35,6 +35,8 @@ void SurveyErrorOptions::Check() const {
   if (!(forgetting > 0.0 && forgetting <= 1.0)) throw Error("survey error: forgetting: expected in (0, 1]");
   if (!(estimate_margin >= 1.0) || !std::isfinite(estimate_margin))
     throw Error("survey error: estimate_margin: expected >= 1");
+  if (!(stated_margin >= 1.0) || !std::isfinite(stated_margin))
+    throw Error("survey error: stated_margin: expected >= 1");
 }
 
 SurveyErrorEstimate::SurveyErrorEstimate(const SurveyErrorOptions& options, double typical_distance)
@@ -72,7 +74,8 @@ double SurveyErrorEstimate::ExactDoubt() const {
 
 double SurveyErrorEstimate::ReportedSigma(double stated) const {
   const double used = Sigma(stated);
-  if (!opt_.check || !(std::isnan(stated) || stated == 0.0)) return used;
+  if (!(std::isnan(stated) || stated == 0.0)) return opt_.stated_margin * used;
+  if (!opt_.check) return used;
   // The estimate alone decides: a map that states nothing, or an exact
   // statement the residuals overrule; before it is confident, what the
   // first frames show where it is clearly more than an exact map's (the
