@@ -47,17 +47,6 @@ double InsideThreeSigma(const std::vector<PoseRow>& rows, const std::vector<Pose
   return ok > 0 ? static_cast<double>(inside) / ok : 0.0;
 }
 
-// The rows of every frame of `r`, taken `fps` frames a second apart, as
-// panoloc writes them (a held frame's row ok once the next confirms it).
-std::vector<PoseRow> ProcessFrames(Localizer* loc, const test::RenderedCase& r, double fps) {
-  std::vector<PoseRow> rows;
-  for (size_t i = 0; i < r.frames.size(); ++i) {
-    rows.push_back(loc->Process(r.frames[i], static_cast<int>(i), static_cast<double>(i) / fps).row);
-    if (std::optional<FrameResult> held = loc->TakeConfirmedHold()) rows[static_cast<size_t>(held->row.frame)] = held->row;
-  }
-  return rows;
-}
-
 struct MeasuredMapRun {
   AccuracySummary accuracy;
   double inside_three_sigma = 0.0;
@@ -168,7 +157,7 @@ TEST_CASE("a map measured to 2 cm that claims to be exact: a loss in a fast turn
     LocalizerOptions o;
     Localizer loc(r.c.calib, r.c.map, r.table, o);
     loc.Reset(truth.c.poses.front(), true);
-    const std::vector<PoseRow> rows = ProcessFrames(&loc, r, 10.0);
+    const std::vector<PoseRow> rows = test::ProcessFrames(&loc, r, 10.0);
     const AccuracySummary a = CompareToGroundTruth(rows, truth.truth, TypicalRange(truth.c.map, truth.truth));
     INFO("map seed " << seed << ": " << FormatAccuracy(a, "cm") << ", inside 3 sigma "
                      << InsideThreeSigma(rows, truth.truth));
@@ -208,7 +197,7 @@ TEST_CASE("a map measured to 2 cm that says nothing: a first frame where few fou
   o.method = TrackingMethod::kVertex;
   Localizer loc(r.c.calib, r.c.map, r.table, o);
   loc.Reset(truth.c.poses.front(), /*hint=*/true);
-  const std::vector<PoseRow> rows = ProcessFrames(&loc, r, 5.0);
+  const std::vector<PoseRow> rows = test::ProcessFrames(&loc, r, 5.0);
   const AccuracySummary a = CompareToGroundTruth(rows, truth.truth, TypicalRange(truth.c.map, truth.truth));
   INFO(FormatAccuracy(a, "cm") << ", inside 3 sigma " << InsideThreeSigma(rows, truth.truth) << "; first frame "
                                << std::hypot(rows[0].pose.x - truth.truth[0].pose.x,
@@ -247,7 +236,7 @@ TEST_CASE("a map measured to 2 cm that claims to be exact, no start: a search's 
     o.method = c.method;
     Localizer loc(r.c.calib, r.c.map, r.table, o);
     loc.ResetUnknown();
-    const std::vector<PoseRow> rows = ProcessFrames(&loc, r, 5.0);
+    const std::vector<PoseRow> rows = test::ProcessFrames(&loc, r, 5.0);
     const AccuracySummary a = CompareToGroundTruth(rows, truth.truth, TypicalRange(truth.c.map, truth.truth));
     INFO(tracking_method_name(c.method) << ", map seed " << c.seed << ": " << FormatAccuracy(a, "cm"));
     CHECK(a.outliers == 0);
@@ -312,7 +301,7 @@ TEST_CASE("a map measured to 2 cm that claims to be exact, no start: a twin foun
   o.relocalize_survey_probe = false;
   Localizer loc(r.c.calib, r.c.map, r.table, o);
   loc.ResetUnknown();
-  const std::vector<PoseRow> rows = ProcessFrames(&loc, r, 10.0);
+  const std::vector<PoseRow> rows = test::ProcessFrames(&loc, r, 10.0);
   const AccuracySummary a = CompareToGroundTruth(rows, truth.truth, TypicalRange(truth.c.map, truth.truth));
   INFO(FormatAccuracy(a, "cm"));
   CHECK(a.outliers <= 2);
@@ -351,7 +340,7 @@ TEST_CASE("a map measured to 2 cm that states nothing or claims to be exact, no 
         o.method = method;
         Localizer loc(r.c.calib, r.c.map, r.table, o);
         loc.ResetUnknown();
-        const std::vector<PoseRow> rows = ProcessFrames(&loc, r, 5.0);
+        const std::vector<PoseRow> rows = test::ProcessFrames(&loc, r, 5.0);
         const AccuracySummary a = CompareToGroundTruth(rows, truth.truth, TypicalRange(truth.c.map, truth.truth));
         INFO(tracking_method_name(method) << ", stated " << stated << ", map seed " << seed << ": "
                                           << FormatAccuracy(a, "cm"));

@@ -39,16 +39,21 @@ inline RenderedCase RenderPreset(const std::string& name, int n_frames, int firs
   return r;
 }
 
+// The rows of every frame of `r`, taken `fps` frames a second apart, as
+// panoloc writes them (a held frame's row ok once the next confirms it).
+inline std::vector<PoseRow> ProcessFrames(Localizer* loc, const RenderedCase& r, double fps) {
+  std::vector<PoseRow> rows;
+  for (size_t i = 0; i < r.frames.size(); ++i) {
+    rows.push_back(loc->Process(r.frames[i], static_cast<int>(i), static_cast<double>(i) / fps).row);
+    if (std::optional<FrameResult> held = loc->TakeConfirmedHold()) rows[static_cast<size_t>(held->row.frame)] = held->row;
+  }
+  return rows;
+}
+
 inline std::vector<PoseRow> Localize(const RenderedCase& r, const LocalizerOptions& opt, const Pose2& init) {
   Localizer loc(r.c.calib, r.c.map, r.table, opt);
   loc.Reset(init);
-  std::vector<PoseRow> rows;
-  for (size_t i = 0; i < r.frames.size(); ++i) {
-    rows.push_back(loc.Process(r.frames[i], static_cast<int>(i), i / r.c.fps).row);
-    // As panoloc writes it: a held frame's row ok once the next confirms it.
-    if (std::optional<FrameResult> held = loc.TakeConfirmedHold()) rows[static_cast<size_t>(held->row.frame)] = held->row;
-  }
-  return rows;
+  return ProcessFrames(&loc, r, r.c.fps);
 }
 
 }  // namespace pano::test

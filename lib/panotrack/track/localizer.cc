@@ -1404,8 +1404,8 @@ void Localizer::UpdateSurveyEstimate(const FrameResult& fr, const TriangulationR
 void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, bool accepted, int n_found) {
   PoseRow* row = &fr->row;
   if (accepted) {
-    FillReportedRow(fr, tri);
     const std::vector<BearingObservation> obs = Observations(*fr);
+    FillReportedRow(fr, obs, tri);
     const PoseMeasurement m = MeasurementOf(tri, obs, opt_.gate_position_fraction, opt_.gate_heading_sigma);
     if (!motion_.initialized()) {
       motion_.Reset(row->time_s, tri.pose, m.covariance, motion_options_.max_speed, motion_options_.max_turn_rate);
@@ -1456,14 +1456,15 @@ void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, b
   ++n_lost_;
 }
 
-void Localizer::FillReportedRow(FrameResult* fr, const TriangulationResult& tri) const {
+void Localizer::FillReportedRow(FrameResult* fr, const std::vector<BearingObservation>& obs,
+                                const TriangulationResult& tri) const {
   PoseRow* row = &fr->row;
   row->status = PoseStatus::kOk;
   row->pose = tri.pose;
   row->n_landmarks = static_cast<int>(tri.inliers.size());
   row->residual = tri.residual;
   row->extra.clear();
-  fr->covariance = ReportedCovariance(*fr, Observations(*fr), tri);
+  fr->covariance = ReportedCovariance(*fr, obs, tri);
   for (int k = 0; k < 3; ++k) row->extra.push_back(std::sqrt(std::max(0.0, fr->covariance(k, k))));
   row->extra.push_back(fr->integrity.quality);
 }
@@ -1478,7 +1479,7 @@ std::optional<FrameResult> Localizer::ReportConfirmedHold(const HeldFrame& held)
   if (!TrackFrom(held.pose, opt_.search_px, &fr, &tri) || !Consistent(&fr, tri) || !EnoughForRelocalized(fr, tri))
     return std::nullopt;
   fr.triangulation = tri;
-  FillReportedRow(&fr, tri);
+  FillReportedRow(&fr, Observations(fr), tri);
   if (view_) fr.row.pose = view_->RobotPose(fr.row.pose);
   return fr;
 }

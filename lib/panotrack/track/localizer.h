@@ -572,8 +572,9 @@ class Localizer {
   // the output row and the motion model's state.
   void RecordOutcome(FrameResult* fr, const TriangulationResult& tri, bool accepted, int n_found);
   // The row of a reported pose: the pose, its inliers, residual, covariance
-  // and integrity quality.
-  void FillReportedRow(FrameResult* fr, const TriangulationResult& tri) const;
+  // and integrity quality (`obs`: the frame's Observations).
+  void FillReportedRow(FrameResult* fr, const std::vector<BearingObservation>& obs,
+                       const TriangulationResult& tri) const;
   // A frame held for confirmation: its image (as tracked), row and pose.
   struct HeldFrame {
     cv::Mat grey;

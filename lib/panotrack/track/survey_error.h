@@ -86,8 +86,9 @@ class SurveyErrorEstimate {
   // provisional sigma.
   double Sigma(double stated) const;
   // The sigma the reported covariances hold: stated_margin times Sigma
-  // where the map states an error, or where the estimate alone decides it (the map stating nothing or an exact map overruled)
-  // estimate_margin times the estimate, within the cap; before the
+  // where the map states an error; where the estimate alone decides it
+  // (the map stating nothing or an exact map overruled), estimate_margin
+  // times the estimate, within the cap; before the
   // estimate is confident, from a frame's evidence on, where it shows twice
   // exact_doubt_fraction of the typical distance.
   double ReportedSigma(double stated) const;
