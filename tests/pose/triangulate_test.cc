@@ -123,6 +123,62 @@ TEST_CASE("leverages: a bearing's share of its own error that the fit absorbs", 
   }
 }
 
+TEST_CASE("standardized residuals: unit spread under the noise model, the pulling bearing stands out",
+          "[leverage]") {
+  PANO_SEEDED_RNG(7);
+  const Pose2 truth{95, 110, 0.8};
+  const double sigma = 0.1 * M_PI / 180;
+  TriangulationOptions exact;
+  exact.huber = 1.0;
+  exact.outlier_threshold = 1.0;
+  std::normal_distribution<double> unit(0.0, 1.0);
+  // Weighted bearings, the last two the corners of one edge (one bearing,
+  // its weight shared): a bearing of weight w has noise sigma / sqrt(w).
+  std::vector<BearingObservation> base = Observe(truth, kLandmarks);
+  for (size_t i = 0; i < base.size(); ++i) base[i].weight = 1.0 + 0.5 * static_cast<double>(i % 3);
+  BearingObservation twin = base.back();
+  base.back().weight = twin.weight = 0.5;
+  base.back().group = twin.group = static_cast<int>(base.size()) - 1;
+  base.push_back(twin);
+  double sum2 = 0.0;
+  int count = 0;
+  const int trials = 1000;
+  for (int t = 0; t < trials; ++t) {
+    std::vector<BearingObservation> obs = base;
+    const double shared = unit(rng);
+    for (size_t i = 0; i + 2 < obs.size(); ++i) obs[i].bearing += sigma / std::sqrt(obs[i].weight) * unit(rng);
+    for (size_t i = obs.size() - 2; i < obs.size(); ++i) obs[i].bearing += sigma * shared;
+    const TriangulationResult fit = Triangulate(obs, truth, exact);
+    REQUIRE(fit.ok);
+    const std::vector<double> w = StandardizedResiduals(obs, fit, sigma);
+    REQUIRE(w.size() == obs.size());
+    CHECK(w[obs.size() - 1] == w[obs.size() - 2]);  // one bearing, one statistic
+    for (size_t k = 0; k + 1 < w.size(); ++k) {
+      REQUIRE(std::isfinite(w[k]));
+      sum2 += w[k] * w[k];
+      ++count;
+    }
+  }
+  // Unit variance within 10 % (the standard error of 8000 squares, not all
+  // independent, is about 2 %).
+  CHECK(sum2 / count == Approx(1.0).epsilon(0.1));
+  // A bearing off by 6 sigma: whatever it pulled, its statistic is the
+  // largest, and beyond Baarda's 3.29.
+  for (size_t bad = 0; bad + 2 < base.size(); ++bad) {
+    std::vector<BearingObservation> obs = base;
+    obs[bad].bearing += 6.0 * sigma / std::sqrt(obs[bad].weight);
+    const TriangulationResult fit = Triangulate(obs, truth, exact);
+    REQUIRE(fit.ok);
+    const std::vector<double> w = StandardizedResiduals(obs, fit, sigma);
+    size_t largest = 0;
+    for (size_t k = 1; k < w.size(); ++k)
+      if (std::abs(w[k]) > std::abs(w[largest])) largest = k;
+    INFO("bad bearing " << bad << " statistic " << w[bad]);
+    CHECK(largest == bad);
+    CHECK(std::abs(w[bad]) > 3.29);
+  }
+}
+
 TEST_CASE("degenerate geometry: landmarks on one line through the camera", "[degenerate]") {
   const Pose2 truth{100, 100, 0.0};
   // All on the line y = x through the camera, on both sides.

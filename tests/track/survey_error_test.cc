@@ -106,6 +106,34 @@ TEST_CASE("survey error: without edge pairs or spread distances the excess beyon
   CHECK(e.estimated() == Approx(1.9).epsilon(0.15));
 }
 
+TEST_CASE("survey error: one edge pair with a wrong junction does not take the map's error for the image's",
+          "[survey_error]") {
+  PANO_SEEDED_RNG(47);
+  SurveyErrorEstimate e(SurveyErrorOptions(), 120.0);
+  // Landmarks at 110 - 130 (the distances cannot split the residuals), a
+  // 1-unit survey error, image noise 0.0005 rad, two edges' pairs a frame:
+  // the pairs alone bound the image's share.
+  const double survey = 1.0, image = 0.0005;
+  std::uniform_real_distribution<double> distance(110.0, 130.0);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  for (int f = 0; f < 12; ++f) {
+    std::vector<double> residuals, distances, pairs;
+    for (int i = 0; i < 12; ++i) {
+      distances.push_back(distance(rng));
+      residuals.push_back(unit(rng) * std::hypot(image, survey / distances.back()));
+    }
+    for (int k = 0; k < 2; ++k) pairs.push_back(unit(rng) * std::sqrt(2.0) * image);
+    // On one frame one corner of an edge is a degree off (someone in front
+    // of it): its pair's difference is no image noise.
+    if (f == 8) pairs.push_back(1.0 * M_PI / 180);
+    e.Update(residuals, distances, pairs, 0);
+  }
+  REQUIRE(e.confident());
+  INFO("survey " << e.estimated() << " image " << e.image_sigma());
+  CHECK(e.estimated() == Approx(survey).epsilon(0.15));
+  CHECK(e.image_sigma() < 4.0 * image);
+}
+
 TEST_CASE("survey error: an exact map's residuals show no survey error", "[survey_error]") {
   PANO_SEEDED_RNG(38);
   SurveyErrorEstimate e(SurveyErrorOptions(), 120.0);

@@ -75,6 +75,18 @@ double BearingResidual(const BearingObservation& o, const Pose2& pose,
 // each where the pose is not determined). Huber's down-weighting is not in it.
 std::vector<double> BearingLeverages(const std::vector<BearingObservation>& obs, const TriangulationResult& tri);
 
+// Baarda's w-statistic of each of tri.inliers (in that order): its residual
+// over the standard deviation a residual of that bearing has (a bearing of
+// unit weight has standard deviation `sigma`, radians; the fit absorbs the
+// share of it its leverage says). The corners of one edge (one group) are
+// one bearing: each gets the statistic of their weighted mean. Unlike the
+// residual itself it finds a bearing that pulled the pose towards itself
+// (one the pose rests on almost alone leaves a small residual). NaN where
+// the fit absorbs nearly all of a bearing's error (a leverage above
+// max_leverage: its error cannot be seen) or the pose is not determined.
+std::vector<double> StandardizedResiduals(const std::vector<BearingObservation>& obs, const TriangulationResult& tri,
+                                          double sigma, double max_leverage = 0.95);
+
 // ---------------------------------------------------------------------------
 // Robust consensus loop.
 

@@ -95,6 +95,17 @@ constexpr double kProbeSaturation = 0.9;
 // the search for a first pose tries where it verified nothing under the one
 // assumed (LocalizerOptions::relocalize_survey_probe).
 constexpr double kSearchProbeFractions[] = {0.005, 0.01, 0.02};
+// A pose fits clearly better than another (FitsClearlyBetter) where the
+// other's RMS residual is this many times its own: for two fits of 8 or
+// more bearings each, the ratio of their variances (9) exceeds the
+// F-distribution's 0.999 quantile.
+constexpr double kClearlyBetterFit = 3.0;
+// Bearings that pulled the pose (DropPulledBearings) left out of one
+// frame at most: a person or two in front of edges.
+constexpr int kMaxPulledBearings = 2;
+// ... tested at this false-alarm rate per bearing (Baarda's 0.001: 3.29
+// standard deviations); a false alarm costs the frame one bearing.
+constexpr double kPulledBearingAlpha = 0.001;
 
 // A frame to be measured again from scratch: its row and prediction kept.
 FrameResult FrameToMeasure(const PoseRow& row, const Pose2& predicted) {
@@ -552,6 +563,11 @@ void Localizer::DropSuddenResiduals(const FrameResult& fr, const std::vector<Bea
   if (sudden.empty()) return;
   std::vector<char> drop(obs.size(), 0);
   for (int i : sudden) drop[static_cast<size_t>(i)] = 1;
+  SolveWithout(obs, drop, prior, tri);
+}
+
+bool Localizer::SolveWithout(const std::vector<BearingObservation>& obs, const std::vector<char>& drop,
+                             const Pose2& prior, TriangulationResult* tri) const {
   std::vector<BearingObservation> kept;
   std::vector<int> index;
   for (size_t i = 0; i < obs.size(); ++i)
@@ -560,11 +576,44 @@ void Localizer::DropSuddenResiduals(const FrameResult& fr, const std::vector<Bea
       index.push_back(static_cast<int>(i));
     }
   TriangulationResult again = SolveBearings(kept, prior);
-  if (!again.ok) return;
+  if (!again.ok) return false;
   for (int& i : again.inliers) i = index[static_cast<size_t>(i)];
   again.bearing_residuals.assign(obs.size(), 0.0);
   for (size_t i = 0; i < obs.size(); ++i) again.bearing_residuals[i] = BearingResidual(obs[i], again.pose);
   *tri = std::move(again);
+  return true;
+}
+
+void Localizer::DropPulledBearings(const FrameResult& fr, TriangulationResult* tri) const {
+  if (!tri->ok || !SurveyLimits()) return;
+  const std::vector<BearingObservation> obs = Observations(fr);
+  // The integrity test's bearings: the same found landmarks, each weighed
+  // by its expected error relative to the test's noise.
+  const double sigma = IntegritySigma();
+  const std::vector<BearingObservation> tested = Observations(fr, sigma);
+  const double limit = NormalQuantile(1.0 - 0.5 * kPulledBearingAlpha);
+  std::vector<char> drop(obs.size(), 0);
+  for (int round = 0; round < kMaxPulledBearings; ++round) {
+    const std::vector<double> w = StandardizedResiduals(tested, *tri, sigma);
+    size_t worst = w.size();
+    double largest = limit;
+    for (size_t k = 0; k < w.size(); ++k)
+      if (std::abs(w[k]) > largest) {
+        largest = std::abs(w[k]);
+        worst = k;
+      }
+    if (worst == w.size()) return;
+    const size_t i = static_cast<size_t>(tri->inliers[worst]);
+    const int group = obs[i].group >= 0 ? obs[i].group : static_cast<int>(i);
+    for (size_t j = 0; j < obs.size(); ++j)
+      if ((obs[j].group >= 0 ? obs[j].group : static_cast<int>(j)) == group) drop[j] = 1;
+    // Enough left to test what remains: else the integrity check judges
+    // the frame as it is.
+    std::vector<int> left;
+    for (int j : tri->inliers)
+      if (!drop[static_cast<size_t>(j)]) left.push_back(j);
+    if (DistinctBearings(obs, left) < 4 || !SolveWithout(obs, drop, tri->pose, tri)) return;
+  }
 }
 
 TriangulationResult Localizer::SolveBearings(const std::vector<BearingObservation>& obs, const Pose2& prior) const {
@@ -656,15 +705,22 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
     if (v) verified.push_back(std::move(*v));
   if (verified_out)
     for (const Verified& v : verified)
-      verified_out->push_back({v.tri.pose, static_cast<int>(v.tri.inliers.size()), ChosenInliers(v.fr, v.tri)});
+      verified_out->push_back(
+          {v.tri.pose, static_cast<int>(v.tri.inliers.size()), ChosenInliers(v.fr, v.tri), v.tri.residual});
   if (verified.empty()) return false;
   auto count = [](const Verified& v) { return static_cast<int>(v.tri.inliers.size()); };
-  const auto best = std::max_element(verified.begin(), verified.end(),
-                                     [&](const Verified& a, const Verified& b) { return count(a) < count(b); });
-  for (const Verified& v : verified) {
-    if (&v != &*best && DistinctPlaces(v.tri.pose, best->tri.pose) && !ClearlyBetterSupported(count(*best), count(v)))
-      return false;
-  }
+  // The pose that outranks every pose elsewhere, the best supported first;
+  // none: the search is ambiguous.
+  std::stable_sort(verified.begin(), verified.end(),
+                   [&](const Verified& a, const Verified& b) { return count(a) > count(b); });
+  const auto outranks_all = [&](const Verified& a) {
+    return std::all_of(verified.begin(), verified.end(), [&](const Verified& v) {
+      return &v == &a || !DistinctPlaces(v.tri.pose, a.tri.pose) ||
+             Outranks(count(a), a.tri.residual, count(v), v.tri.residual);
+    });
+  };
+  const auto best = std::find_if(verified.begin(), verified.end(), outranks_all);
+  if (best == verified.end()) return false;
   // The best-supported pose, unambiguous, must also pass the integrity test
   // (a pose with fewer inliers that passes it is no better: few bearings
   // fit a wrong pose easily).
@@ -754,12 +810,16 @@ PoseMeasurement MeasurementOf(const TriangulationResult& tri, const std::vector<
 
 }  // namespace
 
+double Localizer::IntegritySigma() const {
+  // Three times the recent noise: the residuals' spread varies from frame
+  // to frame with blur and geometry; a wrong junction is off by far more.
+  return std::clamp(bearing_sigma_ > 0 ? 3.0 * bearing_sigma_ : opt_.initial_bearing_sigma, opt_.min_bearing_sigma,
+                    opt_.max_bearing_sigma);
+}
+
 bool Localizer::Consistent(FrameResult* fr, const TriangulationResult& tri) const {
   IntegrityOptions io;
-  // Twice the recent noise: the residuals' spread varies from frame to
-  // frame with blur and geometry; a wrong junction is off by far more.
-  io.sigma_bearing = std::clamp(bearing_sigma_ > 0 ? 3.0 * bearing_sigma_ : opt_.initial_bearing_sigma,
-                                opt_.min_bearing_sigma, opt_.max_bearing_sigma);
+  io.sigma_bearing = IntegritySigma();
   io.confidence = opt_.integrity_confidence;
   io.protection_sigmas = opt_.protection_sigmas;
   io.alert_fraction = opt_.alert_fraction;
@@ -1134,7 +1194,8 @@ bool Localizer::ViewUnlikePrediction(const FrameResult& fr, const TriangulationR
 }
 
 bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, FrameResult* fr,
-                                 TriangulationResult* tri) {
+                                 TriangulationResult* tri, bool* under_probe) {
+  *under_probe = false;
   // Before the first pose (no start, or a start the frames did not confirm)
   // at once; later after relocalize_after lost frames (at once when the
   // view is not the predicted one), then less and less often while it
@@ -1149,7 +1210,7 @@ bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, F
   if (survey_evidence_) UpdateSurveyEstimate(survey_evidence_->first, survey_evidence_->second);
   survey_evidence_.reset();
   if (!relocalized && !ever_tracked_ && opt_.relocalize_survey_probe && opt_.survey.check && !survey_.confident())
-    relocalized = RelocalizeUnderProbe(grey, !at_once, &found, &t);
+    relocalized = *under_probe = RelocalizeUnderProbe(grey, !at_once, &found, &t);
   if (!relocalized) {
     ++relocalize_failures_;
     next_relocalize_frame_ = BackedOffRelocalizeFrame(frame);
@@ -1244,12 +1305,14 @@ Localizer::RoomSearch Localizer::SearchRoomAgainst(const cv::Mat& grey, const Tr
   // Not near the pose checked: it is what is being checked.
   if (Relocalize(grey, false, &found, &t, &verified)) search.chosen.emplace(std::move(found), t);
   search.own = static_cast<int>(tri.inliers.size());
+  search.own_residual = tri.residual;
   for (const VerifiedPose& v : verified) {
     if (DistinctPlaces(v.pose, tri.pose)) {
       search.elsewhere.push_back(v);
     } else {
       search.own = std::max(search.own, v.inliers);
       search.own_chosen = std::max(search.own_chosen, v.chosen_inliers);
+      search.own_residual = std::min(search.own_residual, v.residual);
     }
   }
   return search;
@@ -1258,7 +1321,9 @@ Localizer::RoomSearch Localizer::SearchRoomAgainst(const cv::Mat& grey, const Tr
 bool Localizer::RoomSearchAgrees(const cv::Mat& grey, const TriangulationResult& tri) const {
   const RoomSearch search = SearchRoomAgainst(grey, tri);
   return std::none_of(search.elsewhere.begin(), search.elsewhere.end(),
-                      [&](const VerifiedPose& v) { return !ClearlyBetterSupported(search.own, v.inliers); });
+                      [&](const VerifiedPose& v) {
+                        return !Outranks(search.own, search.own_residual, v.inliers, v.residual);
+                      });
 }
 
 bool Localizer::DistinctPlaces(const Pose2& a, const Pose2& b) const {
@@ -1267,6 +1332,14 @@ bool Localizer::DistinctPlaces(const Pose2& a, const Pose2& b) const {
 
 bool Localizer::ClearlyBetterSupported(int a, int b) const {
   return a >= b + opt_.relocalize_margin && b < opt_.relocalize_ambiguity * a;
+}
+
+bool Localizer::FitsClearlyBetter(int a, double a_residual, int b, double b_residual) const {
+  // Residuals of the image noise alone at the typical distance count as a
+  // perfect fit: below that no pose fits better than another.
+  const double floor = ReferenceSigma() * typical_distance_;
+  return a >= opt_.relocalize_min_landmarks && a >= opt_.relocalize_ambiguity * b &&
+         b_residual > kClearlyBetterFit * std::max(a_residual, floor);
 }
 
 bool Localizer::BeyondReach(const Pose2& pose, double time_s) const {
@@ -1525,14 +1598,21 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
     // Coarse to fine where it pays; what it does not accept (the azimuths
     // alone misled, under heavy blur) is tracked the full way.
     const Pose2 pred = fr.predicted_pose;
+    // A held hypothesis is confirmed on its bearings as they are: leaving
+    // out those a wrong pose fits worst would help it pass.
+    const auto drop_pulled = [&] {
+      if (!held_) DropPulledBearings(fr, &tri);
+    };
     if (CoarseToFineUseful() && TrackCoarseToFine(pred, &fr, &tri, &recentred)) {
       RefineAroundSolution(&fr, &tri);
+      drop_pulled();
       accepted = acceptable();
     }
     if (!accepted) {
       fr = FrameToMeasure(fr.row, pred);
       TrackPredictions(pred, &fr, &tri);
       recentred = RefineAroundSolution(&fr, &tri);
+      drop_pulled();
       accepted = acceptable();
     }
     // A held relocalised pose is confirmed only on as much evidence as a
@@ -1544,7 +1624,7 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
     // room then tracks as well as the true pose from one frame to the next.
     accepted = accepted && ConfirmsJump(fr, tri);
     accepted = accepted && !PartialFirstFrame(fr, tri);
-    if (held_ && !accepted) ++relocalize_failures_;
+      if (held_ && !accepted) ++relocalize_failures_;
   }
   const bool was_held = held_;
   held_ = false;
@@ -1588,7 +1668,9 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
     RoomSearch search = SearchRoomAgainst(grey, tri);
     const int own = std::max(search.own_chosen, ChosenInliers(fr, tri));
     gave_way = std::any_of(search.elsewhere.begin(), search.elsewhere.end(),
-                           [&](const VerifiedPose& v) { return ClearlyBetterSupported(v.chosen_inliers, own); });
+                           [&](const VerifiedPose& v) {
+                                                        return Outranks(v.chosen_inliers, v.residual, own, search.own_residual);
+                           });
     if (gave_way) searched = std::move(search.chosen);
     accepted = !gave_way;
   }
@@ -1608,7 +1690,8 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
     const bool near_consistent = fr.integrity.testable && fr.integrity.consistent;
     std::optional<std::pair<FrameResult, TriangulationResult>> near;
     if (near_consistent) near.emplace(fr, tri);
-    if (RelocalizeIfLost(grey, frame, ever_tracked_ && ViewUnlikePrediction(fr, tri), &fr, &tri)) {
+    bool under_probe = false;
+    if (RelocalizeIfLost(grey, frame, ever_tracked_ && ViewUnlikePrediction(fr, tri), &fr, &tri, &under_probe)) {
       if (near && DistinctPlaces(tri.pose, near->second.pose) &&
           !(was_held && ClearlyBetterSupported(static_cast<int>(tri.inliers.size()),
                                                static_cast<int>(near->second.inliers.size())))) {
@@ -1617,7 +1700,9 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
         fr = std::move(near->first);
         tri = near->second;
       } else {
-        accepted = Corroborated(fr, tri);
+        // A pose found only under a survey error wider than the map's waits
+        // for the next frame: a twin of the room fits under it as well.
+        accepted = Corroborated(fr, tri) && !under_probe;
         fr.unconfirmed = !accepted;
       }
     }

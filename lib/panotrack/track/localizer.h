@@ -380,6 +380,21 @@ class Localizer {
   // With a surveyed map: `tri` solved again without those.
   void DropSuddenResiduals(const FrameResult& fr, const std::vector<BearingObservation>& obs, const Pose2& prior,
                            TriangulationResult* tri) const;
+  // `tri` solved again from obs without those marked in `drop` (indices
+  // kept as obs's). False, `tri` unchanged, where no pose is left.
+  bool SolveWithout(const std::vector<BearingObservation>& obs, const std::vector<char>& drop, const Pose2& prior,
+                    TriangulationResult* tri) const;
+  // A bearing that pulled the pose towards itself: its residual, for the
+  // leverage it had on the fit, beyond what the integrity test's noise and
+  // its corner's survey error allow (Baarda's w-test at integrity_confidence).
+  // `tri` solved again without it, up to kMaxPulledBearings of them, while
+  // enough are left to test what remains. A bearing the pose rests on
+  // nearly alone cannot be tested this way (the protection level bounds it).
+  // Only where the frame is tracked from a pose already reported: a search's
+  // hypothesis must fit its bearings as they are.
+  void DropPulledBearings(const FrameResult& fr, TriangulationResult* tri) const;
+  // The image noise the integrity test assumes (radians).
+  double IntegritySigma() const;
   bool Acceptable(const FrameResult& fr, const TriangulationResult& tri) const;
   // The found landmarks' bearings, each with its spread: its expected error
   // (the image noise `reference_sigma`, radians, and its corner's survey
@@ -453,6 +468,7 @@ class Localizer {
     Pose2 pose;
     int inliers = 0;
     int chosen_inliers = 0;  // ChosenInliers
+    double residual = 0.0;   // TriangulationResult::residual (map units)
   };
   // The inliers among the landmarks chosen to track (the first of the
   // predictions, within either budget): a count comparable between poses
@@ -518,7 +534,10 @@ class Localizer {
   bool RelocalizeUnderProbe(const cv::Mat& grey, bool near_last, FrameResult* fr, TriangulationResult* tri);
   // the room-wide search after relocalize_after lost frames;
   // `at_once`: the view is not the predicted one (ViewUnlikePrediction).
-  bool RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, FrameResult* fr, TriangulationResult* tri);
+  // `under_probe`: the pose was verified only under a survey error wider
+  // than the map's (RelocalizeUnderProbe).
+  bool RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, FrameResult* fr, TriangulationResult* tri,
+                        bool* under_probe);
   // whether a frame's tracking says the robot is not near the prediction;
   bool ViewUnlikePrediction(const FrameResult& fr, const TriangulationResult& tri) const;
   // whether a relocalised pose stands on its own evidence (`fraction` of
@@ -542,6 +561,20 @@ class Localizer {
   // with `b`: by relocalize_margin, and `b` below relocalize_ambiguity of
   // `a` (the room-wide search's test of ambiguity);
   bool ClearlyBetterSupported(int a, int b) const;
+  // whether a pose with `a` inliers and RMS residual `a_residual` (map
+  // units) fits clearly better than one with `b` and `b_residual`: about as
+  // well supported (not below relocalize_ambiguity of it) and the other's
+  // residuals several times its own (or the image noise's at the typical
+  // distance): the other fits only under a map error several times larger,
+  // which the same map cannot have at one place and not at another (the
+  // half-turned twin of a nearly symmetric room, fitted under a wide
+  // tolerance);
+  bool FitsClearlyBetter(int a, double a_residual, int b, double b_residual) const;
+  // whether a pose outranks another in the room-wide search: clearly
+  // better supported, or about as well supported and fitting clearly better;
+  bool Outranks(int a, double a_residual, int b, double b_residual) const {
+    return ClearlyBetterSupported(a, b) || FitsClearlyBetter(a, a_residual, b, b_residual);
+  }
   // whether the room-wide search on this frame verifies no pose away from
   // `tri`'s that rivals the best near it;
   bool RoomSearchAgrees(const cv::Mat& grey, const TriangulationResult& tri) const;
@@ -552,6 +585,7 @@ class Localizer {
   struct RoomSearch {
     int own = 0;
     int own_chosen = 0;
+    double own_residual = 0.0;  // of the best near it (at most its own)
     std::vector<VerifiedPose> elsewhere;
     std::optional<SearchResult> chosen;
   };

@@ -22,6 +22,11 @@ constexpr double kEarlyClear = 1.5;
 constexpr double kMaxLeverage = 0.8;
 // Reweighting steps of the fit.
 constexpr int kFitIterations = 6;
+// The median of a chi-square of one degree of freedom.
+constexpr double kChiSquare1Median = 0.454936423119572;
+// A pair difference beyond this many standard deviations of the pairs'
+// core is a wrong junction's, not image noise.
+constexpr double kPairOutlier = 3.0;
 }  // namespace
 
 void SurveyErrorOptions::Check() const {
@@ -49,7 +54,7 @@ SurveyErrorEstimate::SurveyErrorEstimate(const SurveyErrorOptions& options, doub
 void SurveyErrorEstimate::Reset() {
   samples_.clear();
   n_ = 0.0;
-  n_pairs_ = s_pairs_ = 0.0;
+  pair_samples_.clear();
   survey_ = image_variance_ = provisional_ = 0.0;
 }
 
@@ -110,13 +115,12 @@ void SurveyErrorEstimate::Update(const std::vector<double>& residuals, const std
                  samples_.end());
   n_ = 0.0;
   for (const Sample& sample : samples_) n_ += sample.weight;
-  n_pairs_ *= keep;
-  s_pairs_ *= keep;
-  for (double q : pairs) {
-    if (!std::isfinite(q)) continue;
-    n_pairs_ += 1.0;
-    s_pairs_ += 0.5 * q * q;
-  }
+  for (Sample& pair : pair_samples_) pair.weight *= keep;
+  pair_samples_.erase(std::remove_if(pair_samples_.begin(), pair_samples_.end(),
+                                     [](const Sample& x) { return x.weight < 1e-2; }),
+                      pair_samples_.end());
+  for (double q : pairs)
+    if (std::isfinite(q)) pair_samples_.push_back({0.0, 0.5 * q * q, 1.0});
   for (size_t i = 0; i < n; ++i) {
     if (!(distances[i] > 0.0) || !std::isfinite(residuals[i])) continue;
     // A bearing the fit rests on almost alone tells little: its share is
@@ -128,14 +132,42 @@ void SurveyErrorEstimate::Update(const std::vector<double>& residuals, const std
   Fit();
 }
 
+double SurveyErrorEstimate::PairVariance() const {
+  double total = 0.0;
+  for (const Sample& pair : pair_samples_) total += pair.weight;
+  if (total < kMinPairs) return std::numeric_limits<double>::infinity();
+  // The weighted median of the halved squared differences, over the median
+  // of a chi-square of one degree of freedom: the variance of the pairs'
+  // core. Their mean square beyond kPairOutlier of its standard deviations
+  // left out: one pair with a wrong junction (a person in front of one
+  // corner, a degree off) is no image noise, and lifted the mean square
+  // enough to take a map's error for the images'; blur's broad tails stay.
+  std::vector<Sample> sorted = pair_samples_;
+  std::sort(sorted.begin(), sorted.end(), [](const Sample& a, const Sample& b) { return a.y < b.y; });
+  double below = 0.0, core = sorted.back().y;
+  for (const Sample& pair : sorted) {
+    below += pair.weight;
+    if (below >= 0.5 * total) {
+      core = pair.y / kChiSquare1Median;
+      break;
+    }
+  }
+  const double limit = kPairOutlier * kPairOutlier * core;
+  double weight = 0.0, sum = 0.0;
+  for (const Sample& pair : sorted) {
+    if (pair.y > limit) break;
+    weight += pair.weight;
+    sum += pair.weight * pair.y;
+  }
+  return weight > 0.0 ? sum / weight : core;
+}
+
 void SurveyErrorEstimate::Fit() {
   if (samples_.empty()) return;
   // The pairs' image noise, with a margin (four times its variance: a few
   // pairs vary), caps the image's share, as does the noisiest tracker's;
   // the rest is the survey's.
-  const double image_bound = std::min(opt_.max_image_sigma * opt_.max_image_sigma,
-                                      n_pairs_ >= kMinPairs ? 4.0 * s_pairs_ / n_pairs_
-                                                            : std::numeric_limits<double>::infinity());
+  const double image_bound = std::min(opt_.max_image_sigma * opt_.max_image_sigma, 4.0 * PairVariance());
   // Start from all of it the survey's (the residuals' mean square in map
   // units), then reweigh by the variance fitted.
   double a = 0.0, b = 0.0, sw = 0.0;

@@ -128,6 +128,9 @@ class SurveyErrorEstimate {
 
  private:
   void Fit();
+  // The image noise's variance the pairs show (radians^2; infinite until
+  // there are enough of them).
+  double PairVariance() const;
   // The estimate above which a map stated exact is taken to be measured.
   double ExactDoubt() const;
   SurveyErrorOptions opt_;
@@ -139,8 +142,8 @@ class SurveyErrorEstimate {
   };
   std::vector<Sample> samples_;
   double n_ = 0.0;
-  // The same for the squared pair differences.
-  double n_pairs_ = 0.0, s_pairs_ = 0.0;
+  // The pairs' halved squared differences (y; u unused), weighed the same.
+  std::vector<Sample> pair_samples_;
   double survey_ = 0.0;
   double image_variance_ = 0.0;
   double provisional_ = 0.0;
