@@ -386,12 +386,14 @@ class Localizer {
                     TriangulationResult* tri) const;
   // A bearing that pulled the pose towards itself: its residual, for the
   // leverage it had on the fit, beyond what the integrity test's noise and
-  // its corner's survey error allow (Baarda's w-test at integrity_confidence).
-  // `tri` solved again without it, up to kMaxPulledBearings of them, while
-  // enough are left to test what remains. A bearing the pose rests on
-  // nearly alone cannot be tested this way (the protection level bounds it).
-  // Only where the frame is tracked from a pose already reported: a search's
-  // hypothesis must fit its bearings as they are.
+  // its corner's survey error allow (Baarda's w-test at 0.001). `tri`
+  // solved again without it, at most two a frame, while enough are left to
+  // test what remains. A bearing the pose rests on nearly alone cannot be
+  // tested this way (the protection level bounds it). Only where the map's
+  // survey error dominates (SurveyLimits: its tolerances can hide such a
+  // pull; with an exact map the consensus's narrow threshold does not), and
+  // on frames tracked from a pose already reported: a search's hypothesis
+  // must fit its bearings as they are.
   void DropPulledBearings(const FrameResult& fr, TriangulationResult* tri) const;
   // The image noise the integrity test assumes (radians).
   double IntegritySigma() const;
