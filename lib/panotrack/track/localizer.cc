@@ -1625,7 +1625,7 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
     // room then tracks as well as the true pose from one frame to the next.
     accepted = accepted && ConfirmsJump(fr, tri);
     accepted = accepted && !PartialFirstFrame(fr, tri);
-      if (held_ && !accepted) ++relocalize_failures_;
+    if (held_ && !accepted) ++relocalize_failures_;
   }
   const bool was_held = held_;
   held_ = false;
@@ -1670,7 +1670,7 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
     const int own = std::max(search.own_chosen, ChosenInliers(fr, tri));
     gave_way = std::any_of(search.elsewhere.begin(), search.elsewhere.end(),
                            [&](const VerifiedPose& v) {
-                                                        return Outranks(v.chosen_inliers, v.residual, own, search.own_residual);
+                             return Outranks(v.chosen_inliers, v.residual, own, search.own_residual);
                            });
     if (gave_way) searched = std::move(search.chosen);
     accepted = !gave_way;

@@ -138,10 +138,11 @@ double SurveyErrorEstimate::PairVariance() const {
   if (total < kMinPairs) return std::numeric_limits<double>::infinity();
   // The weighted median of the halved squared differences, over the median
   // of a chi-square of one degree of freedom: the variance of the pairs'
-  // core. Their mean square beyond kPairOutlier of its standard deviations
-  // left out: one pair with a wrong junction (a person in front of one
+  // core. The mean square of the pairs within kPairOutlier of its standard
+  // deviations: one pair with a wrong junction (a person in front of one
   // corner, a degree off) is no image noise, and lifted the mean square
-  // enough to take a map's error for the images'; blur's broad tails stay.
+  // enough to take a map's error for the images'; the median alone would
+  // leave out blur's broad tails, which are.
   std::vector<Sample> sorted = pair_samples_;
   std::sort(sorted.begin(), sorted.end(), [](const Sample& a, const Sample& b) { return a.y < b.y; });
   double below = 0.0, core = sorted.back().y;
