@@ -96,11 +96,13 @@ constexpr double kProbeSaturation = 0.9;
 // assumed (LocalizerOptions::relocalize_survey_probe).
 constexpr double kSearchProbeFractions[] = {0.005, 0.01, 0.02};
 // A pose fits clearly better than another (FitsClearlyBetter) where the
-// other's RMS residual is this many times its own. Two fits under the same
-// noise differ so much in variance (a ratio of 9, F-distributed) with a
-// chance of 1.5 % at 8 bearings each, 0.09 % at 13 and 0.002 % at 20; a
-// twin about as well supported fits 20 or so.
+// other's RMS residual is this many times its own, both fitting at least
+// kFitComparedBearings. Two fits under the same noise differ so much in
+// variance (a ratio of 9, F-distributed) with a chance of 1.5 % at 8
+// bearings each, 0.09 % at 13 and 0.002 % at 20; a twin about as well
+// supported fits 20 or so.
 constexpr double kClearlyBetterFit = 3.0;
+constexpr int kFitComparedBearings = 13;
 // Bearings that pulled the pose (DropPulledBearings) left out of one
 // frame at most: a person or two in front of edges.
 constexpr int kMaxPulledBearings = 2;
@@ -1339,8 +1341,8 @@ bool Localizer::FitsClearlyBetter(int a, double a_residual, int b, double b_resi
   // Residuals of the image noise alone at the typical distance count as a
   // perfect fit: below that no pose fits better than another.
   const double floor = ReferenceSigma() * typical_distance_;
-  return a >= opt_.relocalize_min_landmarks && a >= opt_.relocalize_ambiguity * b &&
-         b_residual > kClearlyBetterFit * std::max(a_residual, floor);
+  return std::min(a, b) >= std::max(opt_.relocalize_min_landmarks, kFitComparedBearings) &&
+         a >= opt_.relocalize_ambiguity * b && b_residual > kClearlyBetterFit * std::max(a_residual, floor);
 }
 
 bool Localizer::BeyondReach(const Pose2& pose, double time_s) const {

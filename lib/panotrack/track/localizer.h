@@ -565,12 +565,12 @@ class Localizer {
   bool ClearlyBetterSupported(int a, int b) const;
   // whether a pose with `a` inliers and RMS residual `a_residual` (map
   // units) fits clearly better than one with `b` and `b_residual`: about as
-  // well supported (not below relocalize_ambiguity of it) and the other's
-  // residuals several times its own (or the image noise's at the typical
-  // distance): the other fits only under a map error several times larger,
-  // which the same map cannot have at one place and not at another (the
-  // half-turned twin of a nearly symmetric room, fitted under a wide
-  // tolerance);
+  // well supported (not below relocalize_ambiguity of it, both on enough
+  // bearings to compare their fits) and the other's residuals several
+  // times its own (or the image noise's at the typical distance): the
+  // other fits only under a map error several times larger, which the same
+  // map cannot have at one place and not at another (the half-turned twin
+  // of a nearly symmetric room, fitted under a wide tolerance);
   bool FitsClearlyBetter(int a, double a_residual, int b, double b_residual) const;
   // whether a pose outranks another in the room-wide search: clearly
   // better supported, or about as well supported and fitting clearly better;
