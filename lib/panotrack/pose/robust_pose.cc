@@ -68,18 +68,17 @@ std::vector<double> StandardizedResiduals(const std::vector<BearingObservation>&
     double weight = 0.0, weighted_residual = 0.0, leverage = 0.0;
   };
   std::map<int, Group> groups;
-  const auto key = [&](int i) { return obs[static_cast<size_t>(i)].group >= 0 ? obs[static_cast<size_t>(i)].group : i; };
   for (size_t k = 0; k < tri.inliers.size(); ++k) {
     const int i = tri.inliers[k];
     const BearingObservation& o = obs[static_cast<size_t>(i)];
-    Group& g = groups[key(i)];
+    Group& g = groups[BearingGroup(obs, i)];
     g.weight += o.weight;
     g.weighted_residual += o.weight * BearingResidual(o, tri.pose);
     g.leverage += leverages[k];
   }
   std::vector<double> out(tri.inliers.size(), std::numeric_limits<double>::quiet_NaN());
   for (size_t k = 0; k < tri.inliers.size(); ++k) {
-    const Group& g = groups[key(tri.inliers[k])];
+    const Group& g = groups[BearingGroup(obs, tri.inliers[k])];
     // A residual of a bearing of weight W has variance sigma^2 (1 - h) / W.
     if (!(g.weight > 0.0) || !(g.leverage > 0.0) || g.leverage > max_leverage) continue;
     out[k] = g.weighted_residual / std::sqrt(g.weight) / (sigma * std::sqrt(1.0 - g.leverage));

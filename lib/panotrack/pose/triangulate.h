@@ -37,6 +37,13 @@ struct BearingObservation {
 // The number of independent bearings among obs[use]: distinct groups.
 int DistinctBearings(const std::vector<BearingObservation>& obs, const std::vector<int>& use);
 
+// The bearing obs[i] belongs to: its group, or its own index where it has
+// none (a group's id is its first member's index, so the two never meet).
+inline int BearingGroup(const std::vector<BearingObservation>& obs, int i) {
+  const int group = obs[static_cast<size_t>(i)].group;
+  return group >= 0 ? group : i;
+}
+
 struct TriangulationOptions {
   int min_landmarks = 3;
   // Refine by Gauss-Newton on bearing residuals after Eqns 1-2.

@@ -606,10 +606,9 @@ void Localizer::DropPulledBearings(const FrameResult& fr, TriangulationResult* t
         worst = k;
       }
     if (worst == w.size()) return;
-    const size_t i = static_cast<size_t>(tri->inliers[worst]);
-    const int group = obs[i].group >= 0 ? obs[i].group : static_cast<int>(i);
+    const int group = BearingGroup(obs, tri->inliers[worst]);
     for (size_t j = 0; j < obs.size(); ++j)
-      if ((obs[j].group >= 0 ? obs[j].group : static_cast<int>(j)) == group) drop[j] = 1;
+      if (BearingGroup(obs, static_cast<int>(j)) == group) drop[j] = 1;
     // Enough left to test what remains: else the integrity check judges
     // the frame as it is.
     std::vector<int> left;
