@@ -715,10 +715,19 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
   // none: the search is ambiguous.
   std::stable_sort(verified.begin(), verified.end(),
                    [&](const Verified& a, const Verified& b) { return count(a) > count(b); });
+  // A pose that found few of the landmarks it chose tracks more of them,
+  // and may fit more in all: it outranks none clearly better supported on
+  // the landmarks chosen.
+  std::vector<int> chosen;
+  for (const Verified& v : verified) chosen.push_back(ChosenInliers(v.fr, v.tri));
+  const auto chosen_of = [&](const Verified& v) { return chosen[static_cast<size_t>(&v - verified.data())]; };
+  const auto outranks = [&](const Verified& a, const Verified& b) {
+    return Outranks(count(a), a.tri.residual, count(b), b.tri.residual) &&
+           !ClearlyBetterSupported(chosen_of(b), chosen_of(a));
+  };
   const auto outranks_all = [&](const Verified& a) {
     return std::all_of(verified.begin(), verified.end(), [&](const Verified& v) {
-      return &v == &a || !DistinctPlaces(v.tri.pose, a.tri.pose) ||
-             Outranks(count(a), a.tri.residual, count(v), v.tri.residual);
+      return &v == &a || !DistinctPlaces(v.tri.pose, a.tri.pose) || outranks(a, v);
     });
   };
   const auto best = std::find_if(verified.begin(), verified.end(), outranks_all);
@@ -1321,10 +1330,13 @@ Localizer::RoomSearch Localizer::SearchRoomAgainst(const cv::Mat& grey, const Tr
 }
 
 bool Localizer::RoomSearchAgrees(const cv::Mat& grey, const TriangulationResult& tri) const {
+  // A rival that found few of the landmarks it chose (and tracked more to
+  // fit more in all) is outranked on those chosen.
   const RoomSearch search = SearchRoomAgainst(grey, tri);
   return std::none_of(search.elsewhere.begin(), search.elsewhere.end(),
                       [&](const VerifiedPose& v) {
-                        return !Outranks(search.own, search.own_residual, v.inliers, v.residual);
+                        return !Outranks(search.own, search.own_residual, v.inliers, v.residual) &&
+                               !ClearlyBetterSupported(search.own_chosen, v.chosen_inliers);
                       });
 }
 
@@ -1664,9 +1676,14 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
   // landmarks chosen to track (a twin tracking many extra landmarks can fit
   // more of them in all), and is then replaced by the search's pose, or
   // forgotten.
+  // So is a tracked pose that fits few of the landmarks chosen where the
+  // survey error widens every tolerance: the place a kidnapped robot was
+  // carried from fits a few of them under the motion model's prediction.
   bool gave_way = false;
   std::optional<SearchResult> searched;
-  if (accepted && !was_held && survey_before_search_ && opt_.survey.check && !survey_.confident()) {
+  const bool after_search = survey_before_search_ && opt_.survey.check && !survey_.confident();
+  const bool weakly_supported = SurveyLimits() && !fr.relocalized && !Corroborated(fr, tri);
+  if (accepted && !was_held && (after_search || weakly_supported)) {
     RoomSearch search = SearchRoomAgainst(grey, tri);
     const int own = std::max(search.own_chosen, ChosenInliers(fr, tri));
     gave_way = std::any_of(search.elsewhere.begin(), search.elsewhere.end(),
@@ -1695,16 +1712,24 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
     bool under_probe = false;
     if (RelocalizeIfLost(grey, frame, ever_tracked_ && ViewUnlikePrediction(fr, tri), &fr, &tri, &under_probe)) {
       if (near && DistinctPlaces(tri.pose, near->second.pose) &&
-          !(was_held && ClearlyBetterSupported(static_cast<int>(tri.inliers.size()),
-                                               static_cast<int>(near->second.inliers.size())))) {
-        // A held pose is only a hypothesis: it keeps the robot only against
-        // a search result no better supported than it.
+          !ClearlyBetterSupported(static_cast<int>(tri.inliers.size()),
+                                  static_cast<int>(near->second.inliers.size()))) {
+        // The pose near the prediction is only a hypothesis (the robot may
+        // have been carried off, and a held pose is one): it keeps the
+        // robot only against a search result no better supported than it.
         fr = std::move(near->first);
         tri = near->second;
       } else {
         // A pose found only under a survey error wider than the map's waits
-        // for the next frame: a twin of the room fits under it as well.
-        accepted = Corroborated(fr, tri) && !under_probe;
+        // for the next frame: a twin of the room fits under it as well. So
+        // does one resting on extra landmarks (tracked because few of those
+        // chosen were found) before the residuals have shown the map's
+        // error: a map stated exact but centimetres off lets a wrong pose
+        // fit a few anywhere.
+        const double chosen = std::max(ChosenLandmarks(fr), SurveyChosenLandmarks(fr));
+        const bool on_extras = opt_.survey.check && !survey_.confident() &&
+                               ChosenInliers(fr, tri) < opt_.relocalize_confirmed_fraction * chosen;
+        accepted = Corroborated(fr, tri) && !under_probe && !on_extras;
         fr.unconfirmed = !accepted;
       }
     }
@@ -1743,7 +1768,7 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
     known_start_ = false;
     survey_ = *survey_before_hold;
     UpdateLandmarkBudget();
-  } else if (gave_way && !searched) {
+  } else if (gave_way && !searched && after_search) {
     // The room is searched again from the next frame, and what the
     // given-way pose's frames taught the survey estimate goes with it.
     known_start_ = ever_tracked_ = false;
