@@ -355,7 +355,8 @@ InitialEstimate Initialize(const std::vector<BoardView>& views, const TargetBoar
 
 // Step 3: the Ceres fit from an initial estimate, with covariance. Throws on
 // failure (non-finite values, no convergence, RMS above options.max_rms_px).
-// threads: Ceres threads (0: options.Threads()).
+// threads: for the covariance's Jacobian (0: options.Threads()); the fit
+// itself runs on one thread (repeatable).
 CalibrationResult FitCalibration(const std::vector<BoardView>& views, const TargetBoard& board,
                                  const InitialEstimate& init, bool poses_known,
                                  const CalibrateOptions& options, int threads = 0);

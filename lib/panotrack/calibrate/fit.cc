@@ -158,7 +158,11 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
   ceres::Solver::Options so;
   so.linear_solver_type = poses_known ? ceres::DENSE_QR : ceres::DENSE_SCHUR;
   so.max_num_iterations = options.max_iterations;
-  so.num_threads = threads > 0 ? threads : options.Threads();
+  // One Ceres thread: its threaded Schur elimination sums in an order that
+  // varies from run to run, and in the conic's near-degenerate valley that
+  // takes a fit to another basin (under load, one a held-out board cannot
+  // be fitted through). The callers run fits side by side instead.
+  so.num_threads = 1;
   so.function_tolerance = 1e-12;
   so.parameter_tolerance = 1e-12;
   so.gradient_tolerance = 1e-12;
@@ -243,7 +247,7 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
   ceres::Problem::EvaluateOptions eo;
   eo.parameter_blocks = blocks;
   eo.apply_loss_function = false;
-  eo.num_threads = so.num_threads;
+  eo.num_threads = threads > 0 ? threads : options.Threads();
   ceres::CRSMatrix jac;
   double cost = 0.0;
   std::vector<int> free_idx;
