@@ -722,8 +722,9 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
   for (const Verified& v : verified) chosen.push_back(ChosenInliers(v.fr, v.tri));
   const auto chosen_of = [&](const Verified& v) { return chosen[static_cast<size_t>(&v - verified.data())]; };
   const auto outranks = [&](const Verified& a, const Verified& b) {
-    return Outranks(count(a), a.tri.residual, count(b), b.tri.residual) &&
-           !ClearlyBetterSupported(chosen_of(b), chosen_of(a));
+    if (ClearlyBetterSupported(chosen_of(b), chosen_of(a))) return false;
+    return Outranks(count(a), a.tri.residual, count(b), b.tri.residual) ||
+           (!either && count(a) >= count(b) && ClearlyBetterSupported(chosen_of(a), chosen_of(b)));
   };
   const auto outranks_all = [&](const Verified& a) {
     return std::all_of(verified.begin(), verified.end(), [&](const Verified& v) {
