@@ -397,7 +397,7 @@ void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, c
 }
 
 int Localizer::ChosenInliers(const FrameResult& fr, const TriangulationResult& tri) const {
-  const int chosen = static_cast<int>(std::max(ChosenLandmarks(fr), SurveyChosenLandmarks(fr)));
+  const int chosen = static_cast<int>(ChosenToTrack(fr));
   std::vector<int> seen = InlierPredictions(fr, tri);
   std::sort(seen.begin(), seen.end());
   seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
@@ -687,6 +687,7 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
   struct Verified {
     FrameResult fr;
     TriangulationResult tri;
+    int chosen = 0;  // ChosenInliers
   };
   // Each hypothesis tracked on its own (in parallel), kept in their order.
   std::vector<std::optional<Verified>> tracked(hyps.size());
@@ -699,7 +700,9 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
         if (!TrackFrom(pose, opt_.search_px, &v.fr, &v.tri, either) &&
             !TrackFrom(pose, opt_.max_search_px, &v.fr, &v.tri, either))
           return;
-        if (EnoughForRelocalized(v.fr, v.tri)) tracked[static_cast<size_t>(i)] = std::move(v);
+        if (!EnoughForRelocalized(v.fr, v.tri)) return;
+        v.chosen = ChosenInliers(v.fr, v.tri);
+        tracked[static_cast<size_t>(i)] = std::move(v);
       },
       SearchThreadCount(opt_));
   std::vector<Verified> verified;
@@ -708,7 +711,7 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
   if (verified_out)
     for (const Verified& v : verified)
       verified_out->push_back(
-          {v.tri.pose, static_cast<int>(v.tri.inliers.size()), ChosenInliers(v.fr, v.tri), v.tri.residual});
+          {v.tri.pose, static_cast<int>(v.tri.inliers.size()), v.chosen, v.tri.residual});
   if (verified.empty()) return false;
   auto count = [](const Verified& v) { return static_cast<int>(v.tri.inliers.size()); };
   // The pose that outranks every pose elsewhere, the best supported first;
@@ -718,13 +721,10 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
   // A pose that found few of the landmarks it chose tracks more of them,
   // and may fit more in all: it outranks none clearly better supported on
   // the landmarks chosen.
-  std::vector<int> chosen;
-  for (const Verified& v : verified) chosen.push_back(ChosenInliers(v.fr, v.tri));
-  const auto chosen_of = [&](const Verified& v) { return chosen[static_cast<size_t>(&v - verified.data())]; };
   const auto outranks = [&](const Verified& a, const Verified& b) {
-    if (ClearlyBetterSupported(chosen_of(b), chosen_of(a))) return false;
+    if (ClearlyBetterSupported(b.chosen, a.chosen)) return false;
     return Outranks(count(a), a.tri.residual, count(b), b.tri.residual) ||
-           (!either && count(a) >= count(b) && ClearlyBetterSupported(chosen_of(a), chosen_of(b)));
+           (!either && count(a) >= count(b) && ClearlyBetterSupported(a.chosen, b.chosen));
   };
   const auto outranks_all = [&](const Verified& a) {
     return std::all_of(verified.begin(), verified.end(), [&](const Verified& v) {
@@ -1287,8 +1287,7 @@ bool Localizer::EnoughForRelocalized(const FrameResult& fr, const TriangulationR
   const int inliers = static_cast<int>(tri.inliers.size());
   // Of all the landmarks the search tracked: a wrong pose finds a few
   // within a survey error's wide tolerance more easily than an exact map's.
-  if (inliers < opt_.relocalize_min_landmarks ||
-      inliers < opt_.relocalize_min_fraction * std::max(ChosenLandmarks(fr), SurveyChosenLandmarks(fr)))
+  if (inliers < opt_.relocalize_min_landmarks || inliers < opt_.relocalize_min_fraction * ChosenToTrack(fr))
     return false;
   // Where the survey error widens every tolerance, wrong correspondences
   // fit too: most of what was found must agree (a confirmed fraction).
@@ -1305,8 +1304,7 @@ double Localizer::SurveyChosenLandmarks(const FrameResult& fr) const {
 bool Localizer::Corroborated(const FrameResult& fr, const TriangulationResult& tri, double fraction) const {
   // The motion model cannot vouch for it: after a loss its prediction is
   // too wide to tell a right pose from a wrong one nearby.
-  return static_cast<double>(tri.inliers.size()) >=
-         fraction * std::max(ChosenLandmarks(fr), SurveyChosenLandmarks(fr));
+  return static_cast<double>(tri.inliers.size()) >= fraction * ChosenToTrack(fr);
 }
 
 Localizer::RoomSearch Localizer::SearchRoomAgainst(const cv::Mat& grey, const TriangulationResult& tri) const {
@@ -1727,9 +1725,8 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
         // chosen were found) before the residuals have shown the map's
         // error: a map stated exact but centimetres off lets a wrong pose
         // fit a few anywhere.
-        const double chosen = std::max(ChosenLandmarks(fr), SurveyChosenLandmarks(fr));
         const bool on_extras = opt_.survey.check && !survey_.confident() &&
-                               ChosenInliers(fr, tri) < opt_.relocalize_confirmed_fraction * chosen;
+                               ChosenInliers(fr, tri) < opt_.relocalize_confirmed_fraction * ChosenToTrack(fr);
         accepted = Corroborated(fr, tri) && !under_probe && !on_extras;
         fr.unconfirmed = !accepted;
       }

@@ -5,6 +5,7 @@
 // and the PH window on the edges.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <optional>
@@ -550,8 +551,12 @@ class Localizer {
   bool Corroborated(const FrameResult& fr, const TriangulationResult& tri, double fraction) const;
   // the landmarks chosen to track at this frame (max_landmarks of those predicted);
   double ChosenLandmarks(const FrameResult& fr) const;
-  // ... and with those the map's survey error adds (MaxLandmarks).
+  // ... and with those the map's survey error adds (MaxLandmarks);
   double SurveyChosenLandmarks(const FrameResult& fr) const;
+  // the larger of the two: the landmarks a pose is expected to find;
+  double ChosenToTrack(const FrameResult& fr) const {
+    return std::max(ChosenLandmarks(fr), SurveyChosenLandmarks(fr));
+  }
   // the frame before which no room-wide search runs after the recent failures;
   int BackedOffRelocalizeFrame(int frame) const;
   // whether a relocalised pose has the inliers a room-wide search requires;
