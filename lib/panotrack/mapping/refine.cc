@@ -403,7 +403,9 @@ RefineResult SolveMapRefinement(const Calibration& calib, const Map& surveyed, c
     ceres::Solver::Options so;
     so.linear_solver_type = ceres::SPARSE_SCHUR;
     so.max_num_iterations = opt.max_iterations;
-    so.num_threads = ThreadCount(opt.num_threads);
+    // One Ceres thread: its threaded Schur elimination sums in an order that
+    // varies from run to run, and the same poses must give the same map.
+    so.num_threads = 1;
     so.function_tolerance = 1e-10;
     so.parameter_tolerance = 1e-10;
     so.logging_type = ceres::SILENT;
@@ -441,7 +443,7 @@ RefineResult SolveMapRefinement(const Calibration& calib, const Map& surveyed, c
   {
     ceres::Covariance::Options co;
     co.algorithm_type = ceres::SPARSE_QR;
-    co.num_threads = ThreadCount(opt.num_threads);
+    co.num_threads = 1;  // repeatable, as the solve
     ceres::Covariance cov(co);
     std::vector<std::pair<const double*, const double*>> blocks;
     for (auto& r : u.rects) blocks.push_back({r.data(), r.data()});
@@ -581,7 +583,8 @@ RefineResult RefineMap(const Calibration& calib, const Map& surveyed, const std:
       predicting.room.max.array() += 3.0 * opt.map_sigma;
     }
     const Scene scene = Scene::FromMap(predicting, false);
-    auto table = std::make_shared<RadiusTable>(RadiusTable::Build(calib.sensor, RangesForMap(predicting, calib.sensor)));
+    auto table = std::make_shared<RadiusTable>(
+        RadiusTable::Build(calib.sensor, RangesForMap(predicting, calib.sensor), LutSize(), opt.num_threads));
     auto ph_tables = MakeTrackingPhTables(table, opt.num_threads);
     std::unique_ptr<LandmarkTracker> tracker =
         MakeTracker(TrackingMethod::kJunction, calib.sensor, table, opt.tracking, ph_tables);
