@@ -1,8 +1,7 @@
 // panosim rendering: one 500 x 500 frame of the paper-synthetic preset with
-// 3 x 3 supersampling (no noise), 1 and 2 OpenMP threads. The per-pixel rays
+// 3 x 3 supersampling (no noise), 1 and 2 threads. The per-pixel rays
 // are precomputed once (outside the timed loop), as panosim does per sequence.
 #include <benchmark/benchmark.h>
-#include <omp.h>
 
 #include "panotrack/render/presets.h"
 #include "panotrack/render/render.h"
@@ -11,11 +10,10 @@ namespace {
 
 void BM_RenderPaperSynthetic(benchmark::State& state) {
   const int threads = static_cast<int>(state.range(0));
-  const int saved = omp_get_max_threads();
-  omp_set_num_threads(threads);
   const pano::SequenceCase c = pano::MakePreset("paper-synthetic");
   pano::RenderOptions o = c.options;
   o.supersample = static_cast<int>(state.range(1));
+  o.num_threads = threads;
   const pano::Scene scene = pano::Scene::FromMap(c.map, true);
   const pano::Renderer r(c.calib.sensor, scene, c.map.sensor_height, o);
   size_t i = 0;
@@ -24,7 +22,6 @@ void BM_RenderPaperSynthetic(benchmark::State& state) {
     benchmark::DoNotOptimize(img.data);
     ++i;
   }
-  omp_set_num_threads(saved);
   state.counters["threads"] = threads;
   state.counters["frames_per_s"] = benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
@@ -33,18 +30,17 @@ BENCHMARK(BM_RenderPaperSynthetic)->Args({1, 3})->Args({2, 3})->Unit(benchmark::
 // The same with the paper-real options (640 x 480, noise, blur, gradient).
 void BM_RenderPaperReal(benchmark::State& state) {
   const int threads = static_cast<int>(state.range(0));
-  const int saved = omp_get_max_threads();
-  omp_set_num_threads(threads);
   const pano::SequenceCase c = pano::MakePreset("paper-real");
+  pano::RenderOptions o = c.options;
+  o.num_threads = threads;
   const pano::Scene scene = pano::Scene::FromMap(c.map, true);
-  const pano::Renderer r(c.calib.sensor, scene, c.map.sensor_height, c.options);
+  const pano::Renderer r(c.calib.sensor, scene, c.map.sensor_height, o);
   size_t i = 0;
   for (auto _ : state) {
     cv::Mat img = r.Render(c.poses[i % c.poses.size()], static_cast<int>(i));
     benchmark::DoNotOptimize(img.data);
     ++i;
   }
-  omp_set_num_threads(saved);
   state.counters["frames_per_s"] = benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_RenderPaperReal)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();

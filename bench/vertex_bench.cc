@@ -13,7 +13,6 @@
 // Every benchmark reports frames_per_s; the throughput ratio is panoloc's
 // frames/s over decode-only's.
 #include <benchmark/benchmark.h>
-#include <omp.h>
 
 #include <algorithm>
 #include <cstdlib>
@@ -69,8 +68,6 @@ void BM_Panoloc(benchmark::State& state) {
   job.output = (std::filesystem::temp_directory_path() / "pano_bench_vertex.csv").string();
   // As panoloc does for one video: one core is left to the decoding thread.
   run.localizer.num_threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()) - 1);
-  const int saved = omp_get_max_threads();
-  omp_set_num_threads(run.localizer.num_threads);
   long frames = 0, ok = 0;
   for (auto _ : state) {
     const pano::VideoSummary s = pano::LocalizeVideo(job, res, run);
@@ -78,7 +75,6 @@ void BM_Panoloc(benchmark::State& state) {
     frames += s.frames;
     ok += s.n_ok;
   }
-  omp_set_num_threads(saved);
   std::filesystem::remove(job.output);
   state.SetLabel(pano::tracking_method_name(run.localizer.method));
   state.counters["frames_per_s"] = benchmark::Counter(static_cast<double>(frames), benchmark::Counter::kIsRate);
@@ -109,17 +105,15 @@ struct Frame0 {
 void BM_VertexFullWarp(benchmark::State& state) {
   const std::string dir = CaseDir();
   if (dir.empty()) return state.SkipWithError("set PANO_BENCH_CASE to a panosim case folder");
-  const int saved = omp_get_max_threads();
-  omp_set_num_threads(static_cast<int>(state.range(0)));
+  const int threads = static_cast<int>(state.range(0));
   const Frame0 f(dir);
   if (!f.ok) return state.SkipWithError("cannot read the first frame");
   pano::VertexTracker t(f.calib.sensor, pano::VertexOptions());
   cv::Mat view;
   for (auto _ : state) {
-    t.view().Warp(f.grey, &view);
+    t.view().Warp(f.grey, &view, threads);
     benchmark::DoNotOptimize(view.data);
   }
-  omp_set_num_threads(saved);
   state.counters["threads"] = static_cast<double>(state.range(0));
   state.counters["frames_per_s"] =
       benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
@@ -129,8 +123,7 @@ BENCHMARK(BM_VertexFullWarp)->Arg(1)->Arg(2)->Unit(benchmark::kMicrosecond)->Use
 void BM_VertexMeasure(benchmark::State& state) {
   const std::string dir = CaseDir();
   if (dir.empty()) return state.SkipWithError("set PANO_BENCH_CASE to a panosim case folder");
-  const int saved = omp_get_max_threads();
-  omp_set_num_threads(static_cast<int>(state.range(0)));
+  const int threads = static_cast<int>(state.range(0));
   const Frame0 f(dir);
   if (!f.ok) return state.SkipWithError("cannot read the first frame");
   pano::VertexTracker t(f.calib.sensor, pano::VertexOptions());
@@ -144,11 +137,10 @@ void BM_VertexMeasure(benchmark::State& state) {
   std::vector<pano::LandmarkMeasurement> m(p.size());
   for (auto _ : state) {
     t.BeginFrame(f.grey);
-#pragma omp parallel for schedule(dynamic, 1)
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
     for (int i = 0; i < n; ++i) m[i] = t.Measure(p[i], 8.0);
     benchmark::DoNotOptimize(m.data());
   }
-  omp_set_num_threads(saved);
   state.counters["landmarks"] = n;
   state.counters["frames_per_s"] =
       benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);

@@ -107,7 +107,7 @@ class PyLocalizer {
     options_ = LocalizerOptionsOf(method, num_threads, search_px, min_step, alert_fraction);
     options_.Check();
     py::gil_scoped_release release;
-    table_ = TableForMap(calib_, map_, /*quiet=*/true);
+    table_ = TableForMap(calib_, map_, /*quiet=*/true, TableCacheOptions(), options_.num_threads);
     ph_tables_ = MakeTrackingPhTables(table_, options_.num_threads);
     localizer_ = std::make_unique<Localizer>(calib_, map_, table_, options_, ph_tables_);
     ResetTo(PoseOf(init));

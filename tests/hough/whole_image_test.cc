@@ -2,7 +2,6 @@
 // and vertical edges; nominal-height error; thread-count independence; the
 // GPU path against the CPU path; bad input.
 #include <catch2/catch.hpp>
-#include <omp.h>
 
 #include <algorithm>
 #include <cmath>
@@ -167,17 +166,14 @@ TEST_CASE("nominal-height approximation error of the whole-image mode", "[nomina
 TEST_CASE("whole-image results are identical for 1, 2 and 4 threads", "[threads]") {
   Fixture f;
   f.options.parallel_min_votes = 0;  // vote on all threads even for one small image
-  f.ph = PhWholeImage::Build(*f.table, f.options);
   const cv::Mat img = test::RenderRoom(f.sensor, test::PaperRoom());
   const EdgeMap edges = ComputeEdgeMap(img);
-  const int saved = omp_get_max_threads();
-  omp_set_num_threads(1);
-  const WholeImageResult r1 = f.ph.Run(edges);
-  omp_set_num_threads(2);
-  const WholeImageResult r2 = f.ph.Run(edges);
-  omp_set_num_threads(4);
-  const WholeImageResult r4 = f.ph.Run(edges);
-  omp_set_num_threads(saved);
+  auto run = [&](int threads) {
+    WholeImageOptions o = f.options;
+    o.num_threads = threads;
+    return PhWholeImage::Build(*f.table, o).Run(edges);
+  };
+  const WholeImageResult r1 = run(1), r2 = run(2), r4 = run(4);
   REQUIRE(r1.n_votes > 100000);
   CHECK(r1.accumulator == r2.accumulator);
   CHECK(r1.accumulator == r4.accumulator);
@@ -249,7 +245,11 @@ TEST_CASE("optimised whole-image voting equals the straightforward vote, any thr
   PANO_SEEDED_RNG(2026);
   Fixture f;
   f.options.parallel_min_votes = 0;  // the parallel voting and peak search too
+  f.options.num_threads = 1;
   f.ph = PhWholeImage::Build(*f.table, f.options);
+  WholeImageOptions two = f.options;
+  two.num_threads = 2;
+  const PhWholeImage ph2 = PhWholeImage::Build(*f.table, two);
   // The rendered room (few records: 16-bit counts), and a dense random edge
   // map (more than 2^15 records: 32-bit counts) with random gradients.
   std::vector<EdgeMap> maps = {ComputeEdgeMap(test::RenderRoom(f.sensor, test::PaperRoom()))};
@@ -265,7 +265,6 @@ TEST_CASE("optimised whole-image voting equals the straightforward vote, any thr
       dense.dy.at<int16_t>(v, u) = static_cast<int16_t>(grad(rng));
     }
   maps.push_back(dense);
-  const int saved = omp_get_max_threads();
   for (size_t m = 0; m < maps.size(); ++m) {
     INFO("edge map " << m);
     std::vector<PhVoteRecord> records;
@@ -276,11 +275,8 @@ TEST_CASE("optimised whole-image voting equals the straightforward vote, any thr
     CHECK(VotersInScanOrder(prepared, scan));
     CHECK((m == 0 ? records.size() < 32768 : records.size() > 32768));
     const std::vector<int32_t> reference = ReferenceVote(f.ph, records);
-    omp_set_num_threads(1);
     const WholeImageResult r1 = f.ph.Run(maps[m]);
-    omp_set_num_threads(2);
-    const WholeImageResult r2 = f.ph.Run(maps[m]);
-    omp_set_num_threads(saved);
+    const WholeImageResult r2 = ph2.Run(maps[m]);
     REQUIRE(r1.n_votes > 100000);
     CHECK(r1.accumulator == reference);  // integer votes: tolerance zero
     CHECK(r2.accumulator == reference);

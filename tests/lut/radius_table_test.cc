@@ -6,6 +6,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 
 #include "panotrack/core/error.h"
 #include "core/test_fifo.h"
@@ -112,6 +113,23 @@ TEST_CASE("tabulated inverse D = E^-1(R, Z) round-trips through the exact model"
   REQUIRE(s.image_radius(120.0, 25.0, &R));
   REQUIRE(s.inverse_image_radius(R, 25.0, &D_exact));
   CHECK(D_exact == Approx(120.0).epsilon(500 * std::numeric_limits<double>::epsilon()));
+}
+
+TEST_CASE("a table is the same built on one thread or on three", "[threads]") {
+  const std::string dir = test::ScratchDir("lut_threads");
+  LutSize small;
+  small.n_distance = small.n_elevation = small.n_radius = small.n_height = 96;
+  RadiusTable::Build(PaperSensor(), RoomRanges(), small, 1).Save(dir + "/one.lut");
+  RadiusTable::Build(PaperSensor(), RoomRanges(), small, 3).Save(dir + "/three.lut");
+  auto bytes = [](const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  };
+  const std::string one = bytes(dir + "/one.lut");
+  CHECK(one.size() > 4 * 96 * 96);
+  CHECK(one == bytes(dir + "/three.lut"));
+  CHECK_THROWS_WITH(RadiusTable::Build(PaperSensor(), RoomRanges(), small, -2),
+                    Catch::Contains("num_threads: expected 0 (every core) or 1..1024, got -2"));
 }
 
 TEST_CASE("table files: round trip, corrupt, truncated and mismatched files", "[file_format]") {

@@ -1,7 +1,6 @@
 // Determinism, the presets' guarantees, the sequence writer and the
 // calibration target renderer.
 #include <catch2/catch.hpp>
-#include <omp.h>
 
 #include <Eigen/Geometry>
 
@@ -32,16 +31,19 @@ bool Same(const cv::Mat& a, const cv::Mat& b) {
 TEST_CASE("rendering is deterministic for a seed, whatever the thread count", "[deterministic]") {
   SequenceCase c = MakePreset("paper-real");  // noise, blur, gradient
   const Scene scene = Scene::FromMap(c.map, true);
+  c.options.num_threads = 1;
+  const Renderer r1(c.calib.sensor, scene, c.map.sensor_height, c.options);
+  c.options.num_threads = 3;
   const Renderer r(c.calib.sensor, scene, c.map.sensor_height, c.options);
-  const int saved = omp_get_max_threads();
-  omp_set_num_threads(1);
-  const cv::Mat a1 = r.Render(c.poses[5], 5);
-  omp_set_num_threads(2);
+  const cv::Mat a1 = r1.Render(c.poses[5], 5);
   const cv::Mat a2 = r.Render(c.poses[5], 5);
   const cv::Mat a3 = r.Render(c.poses[5], 5);
-  omp_set_num_threads(saved);
   CHECK(Same(a1, a2));
   CHECK(Same(a2, a3));
+  // A thread count no run may have is refused, naming the field.
+  RenderOptions bad = c.options;
+  bad.num_threads = -1;
+  CHECK_THROWS_WITH(bad.Check("options"), Catch::Contains("options: num_threads"));
   // Another frame index (noise) or another seed gives another image.
   CHECK_FALSE(Same(a1, r.Render(c.poses[5], 6)));
   RenderOptions o2 = c.options;
@@ -152,9 +154,12 @@ TEST_CASE("sequence writer: gt.csv, map, calib, case, lossless frames", "[sequen
   const std::string dir = test::ScratchDir("render_sequence") + "/out";
   SequenceWriteOptions wo;
   wo.frames = true;
-  wo.quiet = true;
+  std::vector<std::pair<int, int>> progress;
+  wo.on_progress = [&](int done, int total) { progress.emplace_back(done, total); };
   const SequenceWriteResult res = WriteSequence(c, dir, wo);
   CHECK(res.frames == 3);
+  // Progress every tenth frame and at the last: here the last alone.
+  CHECK(progress == std::vector<std::pair<int, int>>{{3, 3}});
   CHECK((res.codec == "h264" || res.codec == "mp4v"));
   for (const char* f : {"video.mp4", "gt.csv", "map.yaml", "calib.yaml", "case.yaml", "frames/frame_0002.png"})
     CHECK(fs::exists(dir + "/" + f));
@@ -254,7 +259,7 @@ TEST_CASE("chessboard targets: pattern convention, poses, files", "[targets]") {
   }
   const std::string dir = test::ScratchDir("render_targets") + "/cal";
   o.noise_sigma = 2.0;
-  WriteTargetImages(dir, calib, board, {poses[0], poses[1]}, o, TargetsWriteOptions{false, true});
+  WriteTargetImages(dir, calib, board, {poses[0], poses[1]}, o, TargetsWriteOptions{});
   const TargetSet known = ReadTargets(dir + "/targets.yaml");
   CHECK(known.AllPosesKnown());
   REQUIRE(known.images.size() == 2);

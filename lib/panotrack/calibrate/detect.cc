@@ -1,7 +1,6 @@
 // Step 1 and 4: chessboard corners in raw mirror images, and in views
 // unwarped through a fitted model where the raw image fails.
 #include <ceres/rotation.h>
-#include <omp.h>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -517,8 +516,7 @@ bool DetectBoardUnwarped(const cv::Mat& image, const TargetBoard& board, const S
   // search (the first view in order that shows the board wins, whatever the
   // batch). Without a thread count: one at a time when the caller already
   // runs in parallel.
-  const int batch =
-      num_threads > 0 ? num_threads : omp_in_parallel() ? 1 : std::max(1, omp_get_max_threads());
+  const int batch = num_threads > 0 ? ThreadCount(num_threads) : InParallelRegion() ? 1 : ThreadCount(0);
   for (int b0 = 0; b0 < n; b0 += batch) {
     const int b1 = std::min(n, b0 + batch);
     ParallelFor(

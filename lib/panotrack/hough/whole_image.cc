@@ -65,6 +65,7 @@ void WholeImageOptions::Check(const std::string& what) const {
     throw Error(what + ": min_votes: expected at least 1");
   if (nms_r < 0 || nms_theta < 0 || vertical_nms < 0 || max_peaks < 0)
     throw Error(what + ": nms/max_peaks: expected non-negative values");
+  CheckThreadCount(num_threads, what + ": num_threads");
 }
 
 void PhWholeImage::SetGeometry(const Sensor& sensor, const WholeImageOptions& options) {
@@ -101,8 +102,7 @@ void PhWholeImage::SetGeometry(const Sensor& sensor, const WholeImageOptions& op
 PhWholeImage::PolarPixel PhWholeImage::Polar(int u, int v) const {
   const double du = u - cx_, dv = (v - cy_) / aspect_;
   const double r = std::sqrt(du * du + dv * dv);
-  double t = std::atan2(dv, du);
-  if (t < 0.0) t += 2.0 * M_PI;
+  const double t = wrap_angle_positive(std::atan2(dv, du));
   return {static_cast<float>(r), static_cast<float>(t), static_cast<float>(r > 0 ? du / r : 1.0),
           static_cast<float>(r > 0 ? dv / r : 0.0)};
 }
@@ -116,7 +116,7 @@ void PhWholeImage::FillPolarTable(const Sensor& sensor) {
   az_rows_ = std::clamp(static_cast<int>(std::ceil(cy_ + half_v)) + 1, az_v0_, sensor.image_height) - az_v0_;
   polar_.resize(static_cast<size_t>(az_cols_) * az_rows_);
   // Arithmetic only (nothing throws).
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(ThreadCount(options_.num_threads))
   for (int y = 0; y < az_rows_; ++y)
     for (int x = 0; x < az_cols_; ++x) polar_[static_cast<size_t>(y) * az_cols_ + x] = Polar(az_u0_ + x, az_v0_ + y);
 }
@@ -129,7 +129,7 @@ void PhWholeImage::FillIntegerPlane(const PhTable& ph, double d_min, double d_ma
   valid->assign(static_cast<size_t>(NR) * W, 0);
   psi->assign(static_cast<size_t>(NR) * W, std::numeric_limits<float>::quiet_NaN());
   // The rows only evaluate the PH table (nothing throws).
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(ThreadCount(options_.num_threads))
   for (int i = 0; i < NR; ++i) {
     const double R = i * q;
     double D_row = 0.0;
@@ -167,7 +167,7 @@ void PhWholeImage::FillOrientationRanges(const std::vector<unsigned char>& valid
   const size_t P = options_.heights.size();
   const double tol = options_.orientation_tolerance + 0.5 * M_PI / 180;
   // Arithmetic on the tables only (nothing throws).
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(ThreadCount(options_.num_threads))
   for (int i = 0; i < NR - 1; ++i) {
     auto ok = [&](int m) {
       return valid[static_cast<size_t>(i) * W + m + M] && valid[static_cast<size_t>(i + 1) * W + m + M];
@@ -229,7 +229,7 @@ void PhWholeImage::FillCurveTable(Plane* plane) const {
   plane->curve.assign(int_plane_size_, std::numeric_limits<float>::quiet_NaN());
   const PhTable& ph = plane->table;
   // The rows only evaluate the PH table (nothing throws).
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(ThreadCount(options_.num_threads))
   for (int i = 0; i < NR; ++i)
     for (int s2 = 0; s2 < S; ++s2)
       for (int m = -M; m <= M; ++m) {
@@ -584,7 +584,7 @@ void PhWholeImage::VoteInto(const std::vector<PhVoteRecord>& unsorted, const Acc
   for (int i = 0; i < n_keys; ++i) start[i + 1] += start[i];
   records.resize(unsorted.size());
   for (const PhVoteRecord& r : unsorted) records[start[r.plane * n_theta_ + r.k_start]++] = r;
-  const int n_threads = votes < options_.parallel_min_votes ? 1 : omp_get_max_threads();
+  const int n_threads = votes < options_.parallel_min_votes ? 1 : ThreadCount(options_.num_threads);
   const VoteLayout layout{int_table_.data(),       int_plane_size_,        row_stride(),
                           acc_layout.offset.data(), acc_layout.j0.data(), acc_layout.cols.data(),
                           n_r_,                     n_theta_};
@@ -827,7 +827,7 @@ void PhWholeImage::FindHorizontalPeaks(const T* padded, const AccumulatorLayout&
   const int P = static_cast<int>(planes_.size());
   std::vector<std::vector<HorizontalPeak>> plane_peaks(P);
   const bool parallel = static_cast<int64_t>(layout.size) >= options_.parallel_min_votes;
-  ParallelFor(P, [&](int p) { plane_peaks[p] = PlanePeaks(padded, layout, p); }, parallel);
+  ParallelFor(P, [&](int p) { plane_peaks[p] = PlanePeaks(padded, layout, p); }, parallel, options_.num_threads);
   res->peaks.clear();
   for (const std::vector<HorizontalPeak>& pp : plane_peaks)
     res->peaks.insert(res->peaks.end(), pp.begin(), pp.end());
@@ -932,8 +932,7 @@ PhWholeImage::VoterIndex PhWholeImage::BucketVoters(const WholeImageResult& res)
 
 void PhWholeImage::PeakCurve(const HorizontalPeak& pk, CurveRows* rows) const {
   const int S = sub_steps_, W = width_, M = half_width_;
-  double t0 = pk.theta_main;
-  if (t0 < 0) t0 += 2.0 * M_PI;
+  const double t0 = wrap_angle_positive(pk.theta_main);
   // Bin edges (kc + d) theta_bin - theta_main = (d - frac) theta_bin.
   const double x = t0 / theta_bin_;
   int kc = static_cast<int>(std::floor(x));

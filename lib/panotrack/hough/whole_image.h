@@ -130,6 +130,9 @@ struct WholeImageOptions {
   // (below it the threads' start-up and the per-thread accumulators cost
   // more than they save); the result is the same either way.
   int64_t parallel_min_votes = 1 << 20;
+  // Threads for the tables, the voting and the peak search (0: every core,
+  // ThreadCount). The result is the same for every count.
+  int num_threads = 0;
   // Vertical edges: pixels whose gradient is within vertical_tolerance of
   // tangential vote into a theta histogram (theta_bin bins); peaks of the
   // histogram smoothed by [1 2 1] with at least vertical_min_votes pixels in

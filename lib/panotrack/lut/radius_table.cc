@@ -1,7 +1,5 @@
 #include "panotrack/lut/radius_table.h"
 
-#include <omp.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -11,6 +9,7 @@
 #include "panotrack/core/angles.h"
 #include "panotrack/core/atomic_file.h"
 #include "panotrack/core/error.h"
+#include "panotrack/core/parallel.h"
 #include "panotrack/scene/map.h"
 
 namespace pano {
@@ -147,10 +146,13 @@ void RadiusTable::SetGeometry() {
   z_step_ = (ranges_.z_max - ranges_.z_min) / (size_.n_height - 1);
 }
 
-RadiusTable RadiusTable::Build(const Sensor& sensor, const LutRanges& ranges, const LutSize& size) {
+RadiusTable RadiusTable::Build(const Sensor& sensor, const LutRanges& ranges, const LutSize& size,
+                               int num_threads) {
   sensor.Check("lookup table");
   ranges.Check("lookup table");
   size.Check("lookup table");
+  CheckThreadCount(num_threads, "lookup table: num_threads");
+  [[maybe_unused]] const int threads = ThreadCount(num_threads);
   RadiusTable t;
   t.sensor_ = sensor;
   t.ranges_ = ranges;
@@ -158,7 +160,7 @@ RadiusTable RadiusTable::Build(const Sensor& sensor, const LutRanges& ranges, co
   t.SetGeometry();
   const int nd = size.n_distance, ne = size.n_elevation;
   t.forward_.assign(static_cast<size_t>(nd) * ne, kNaN);
-#pragma omp parallel for schedule(dynamic, 8)
+#pragma omp parallel for schedule(dynamic, 8) num_threads(threads)
   for (int j = 0; j < ne; ++j) {
     const double elev = t.elev_min_ + j * t.elev_step_;
     const double tan_e = std::tan(elev);
@@ -178,7 +180,7 @@ RadiusTable RadiusTable::Build(const Sensor& sensor, const LutRanges& ranges, co
   // negative beyond: bilinear interpolation of D itself would fail there.
   const SensorParams<double>& p = sensor.params;
   const double m_limb = max_normalized_radius(p) * (1.0 - 1e-12);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(threads)
   for (int j = 0; j < nz; ++j) {
     const double Z = ranges.z_min + j * t.z_step_;
     for (int i = 0; i < nr; ++i) {

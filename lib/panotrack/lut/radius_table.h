@@ -45,9 +45,10 @@ struct LutSize {
 class RadiusTable {
  public:
   RadiusTable() = default;
-  // Tabulates the exact model (OpenMP over rows).
+  // Tabulates the exact model, rows on `num_threads` threads (0: every
+  // core, ThreadCount); the table is the same for every count.
   static RadiusTable Build(const Sensor& sensor, const LutRanges& ranges,
-                           const LutSize& size = LutSize());
+                           const LutSize& size = LutSize(), int num_threads = 0);
   // Loads a table; rejects a corrupt, truncated or foreign file, and (when
   // `expected` is given) one built for other sensor parameters.
   static RadiusTable Load(const std::string& path, const Sensor* expected = nullptr);

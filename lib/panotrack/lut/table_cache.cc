@@ -8,6 +8,7 @@
 #include <system_error>
 
 #include "panotrack/core/error.h"
+#include "panotrack/core/parallel.h"
 
 namespace pano {
 
@@ -114,16 +115,17 @@ std::string RadiusTableCachePath(const std::string& dir, const Sensor& sensor, c
 }
 
 RadiusTable LoadOrBuildRadiusTable(const Sensor& sensor, const LutRanges& ranges, const LutSize& size,
-                                   const TableCacheOptions& cache, TableCacheOutcome* outcome) {
+                                   const TableCacheOptions& cache, TableCacheOutcome* outcome, int num_threads) {
   TableCacheOutcome result = TableCacheOutcome::kDisabled;
   if (cache.dir.empty()) {
     if (outcome) *outcome = result;
-    return RadiusTable::Build(sensor, ranges, size);
+    return RadiusTable::Build(sensor, ranges, size, num_threads);
   }
   // Invalid requests fail as Build would, before the cache is touched.
   sensor.Check("lookup table");
   ranges.Check("lookup table");
   size.Check("lookup table");
+  CheckThreadCount(num_threads, "lookup table: num_threads");
   const std::string path = RadiusTableCachePath(cache.dir, sensor, ranges, size);
   std::error_code ec;
   if (fs::exists(path, ec)) {
@@ -142,7 +144,7 @@ RadiusTable LoadOrBuildRadiusTable(const Sensor& sensor, const LutRanges& ranges
   } else {
     Say(cache.on_trace, "lookup table not in the cache: building " + path);
   }
-  RadiusTable t = RadiusTable::Build(sensor, ranges, size);
+  RadiusTable t = RadiusTable::Build(sensor, ranges, size, num_threads);
   result = TableCacheOutcome::kBuilt;
   try {
     fs::create_directories(cache.dir, ec);

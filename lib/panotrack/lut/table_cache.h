@@ -49,10 +49,11 @@ enum class TableCacheOutcome {
   kNotStored  // built; storing it failed (see on_note)
 };
 
-// The table Build(sensor, ranges, size) returns, from the cache when it holds
-// a valid copy (bit-identical to a fresh build), else built and stored.
-// Throws pano::Error only for what Build throws for.
+// The table Build(sensor, ranges, size, num_threads) returns, from the cache
+// when it holds a valid copy (bit-identical to a fresh build), else built
+// and stored. Throws pano::Error only for what Build throws for.
 RadiusTable LoadOrBuildRadiusTable(const Sensor& sensor, const LutRanges& ranges, const LutSize& size,
-                                   const TableCacheOptions& cache, TableCacheOutcome* outcome = nullptr);
+                                   const TableCacheOptions& cache, TableCacheOutcome* outcome = nullptr,
+                                   int num_threads = 0);
 
 }  // namespace pano

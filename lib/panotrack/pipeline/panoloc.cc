@@ -95,7 +95,7 @@ void PanolocOptions::Check() const {
 }
 
 std::shared_ptr<const RadiusTable> TableForMap(const Calibration& calib, const Map& map, bool quiet,
-                                               const TableCacheOptions& cache) {
+                                               const TableCacheOptions& cache, int num_threads) {
   const LutRanges need = RangesForMap(map, calib.sensor);
   if (!calib.lut_resolved.empty()) {
     try {
@@ -108,7 +108,8 @@ std::shared_ptr<const RadiusTable> TableForMap(const Calibration& calib, const M
       if (!quiet) std::fprintf(stderr, "panoloc: note: %s; building a table instead\n", e.what());
     }
   }
-  return std::make_shared<RadiusTable>(LoadOrBuildRadiusTable(calib.sensor, need, LutSize(), cache));
+  return std::make_shared<RadiusTable>(
+      LoadOrBuildRadiusTable(calib.sensor, need, LutSize(), cache, /*outcome=*/nullptr, num_threads));
 }
 
 std::string SmoothedOutputPath(const std::string& output) {
@@ -333,8 +334,7 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
   // What the table build would refuse, refused here, before any input starts.
   res.calib.sensor.Check(opt.calib_path);
   RangesForMap(res.map, res.calib.sensor).Check(opt.map_path + ": lookup table ranges");
-  const int threads = opt.num_threads > 0 ? opt.num_threads
-                                          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  const int threads = ThreadCount(opt.num_threads);
   const int n_jobs = std::clamp(opt.jobs > 0 ? opt.jobs : threads, 1, static_cast<int>(jobs.size()));
   VideoRunOptions run;
   run.localizer = opt.localizer;
@@ -366,7 +366,7 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
   const int ph_threads = run.localizer.num_threads;
   res.pending_tables = std::async(std::launch::async, [&res, &opt, cache, ph_threads] {
                          TrackingTables t;
-                         t.table = TableForMap(res.calib, res.map, opt.quiet, cache);
+                         t.table = TableForMap(res.calib, res.map, opt.quiet, cache, opt.num_threads);
                          t.ph_tables = MakeTrackingPhTables(t.table, ph_threads);
                          return t;
                        }).share();

@@ -97,9 +97,11 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& options);
 
 // Loads the calibration's lookup table when it exists, matches and covers
 // the map; otherwise builds one (a note on stderr says why), through the
-// table cache when `cache.dir` is set.
+// table cache when `cache.dir` is set, on `num_threads` threads (0: every
+// core).
 std::shared_ptr<const RadiusTable> TableForMap(const Calibration& calib, const Map& map, bool quiet,
-                                               const TableCacheOptions& cache = TableCacheOptions());
+                                               const TableCacheOptions& cache = TableCacheOptions(),
+                                               int num_threads = 0);
 
 // `<output stem>.smoothed.csv` beside a pose CSV (out.csv -> out.smoothed.csv).
 std::string SmoothedOutputPath(const std::string& output);

@@ -58,6 +58,7 @@ void RenderOptions::Check(const std::string& what) const {
   if (people < 0 || people > 50) fail("people", "expected 0..50 people, got " + std::to_string(people));
   if (covered_frames < 0) fail("covered-frames", "expected a non-negative number of frames");
   if (dropped_frames < 0) fail("dropped-frames", "expected a non-negative number of frames");
+  CheckThreadCount(num_threads, what + ": num_threads");
 }
 
 double SurfaceTexture(const Eigen::Vector3d& p, double wavelength) {
@@ -102,8 +103,9 @@ void CheckPose(const Map& map, const Pose2& pose, const std::string& what, doubl
 
 // ---------------------------------------------------------------- RayTable
 
-RayTable::RayTable(const Sensor& sensor, int supersample, double camera_radius_px)
+RayTable::RayTable(const Sensor& sensor, int supersample, double camera_radius_px, int num_threads)
     : sensor_(sensor), ss_(supersample) {
+  CheckThreadCount(num_threads, "ray table: num_threads");
   const int W = sensor.image_width, H = sensor.image_height;
   const int s = supersample;
   const double limb = sensor.limb_radius();
@@ -169,7 +171,7 @@ RayTable::RayTable(const Sensor& sensor, int supersample, double camera_radius_p
       }
       counts[static_cast<size_t>(v) * W + u] = n;
     }
-  });
+  }, /*parallel=*/true, num_threads);
   for (double m : row_miss) max_axis_miss_ = std::max(max_axis_miss_, m);
   size_t total = 0;
   for (const auto& r : rows) total += r.size();
@@ -219,8 +221,8 @@ Renderer::Renderer(const Sensor& sensor, const Scene& scene, double sensor_heigh
     : scene_(scene),
       sensor_height_(sensor_height),
       options_(options),
-      table_(Checked(sensor, options), options.supersample, options.camera_radius_px),
-      centre_table_(sensor, 1, options.camera_radius_px) {
+      table_(Checked(sensor, options), options.supersample, options.camera_radius_px, options.num_threads),
+      centre_table_(sensor, 1, options.camera_radius_px, options.num_threads) {
   axis_miss_ = std::max(table_.max_axis_miss(), centre_table_.max_axis_miss());
   const Eigen::Vector3d extent = scene.max() - scene.min();
   texture_wavelength_ = std::max(1e-6, 0.06 * std::max(extent.x(), extent.y()));
@@ -500,7 +502,7 @@ void Renderer::Accumulate(const Pose2& pose, double gain, const std::vector<Surf
         }
         row[u] += 255.0f * acc * inv_n;
       }
-    });
+    }, /*parallel=*/true, options_.num_threads);
   };
   if (miss)
     trace_rows(std::true_type());

@@ -40,6 +40,9 @@ struct RenderOptions {
   int people = 0;                  // moving cylinders (people) not in the map (0..50)
   int covered_frames = 0;          // frames where a dark object covers most of the mirror
   int dropped_frames = 0;          // frames left out of the video and gt.csv
+  // Rows rendered at once (0: every core, ThreadCount); the images are the
+  // same for every count.
+  int num_threads = 0;
   // Throws pano::Error naming `what` (an option or file) and the problem.
   void Check(const std::string& what) const;
 };
@@ -54,7 +57,8 @@ void CheckPose(const Map& map, const Pose2& pose, const std::string& what,
 // (they do not depend on the pose). Shared by the scene and board renderers.
 class RayTable {
  public:
-  RayTable(const Sensor& sensor, int supersample, double camera_radius_px = 0.0);
+  // Rows traced on `num_threads` threads (0: every core).
+  RayTable(const Sensor& sensor, int supersample, double camera_radius_px = 0.0, int num_threads = 0);
   // Direction azimuth phi (c, s = its cosine and sine); origin
   // (ps c - e s, ps s + e c, pz), direction (ds c, ds s, dz). e, the ray's
   // horizontal miss of the axis, is 0 for an aligned sensor (meridian rays).

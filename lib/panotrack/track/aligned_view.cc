@@ -8,6 +8,7 @@
 #include <Eigen/Dense>
 
 #include "panotrack/core/error.h"
+#include "panotrack/core/parallel.h"
 #include "panotrack/scene/map.h"
 
 namespace pano {
@@ -30,11 +31,13 @@ bool PointAtDistance(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, 
 
 }  // namespace
 
-AlignedView::AlignedView(const Sensor& rig, double exact_distance, int grid_step_px)
+AlignedView::AlignedView(const Sensor& rig, double exact_distance, int grid_step_px, int num_threads)
     : rig_(rig), view_(rig), exact_distance_(exact_distance) {
   rig_.Check("aligned view: rig");
   if (!(exact_distance > 0)) throw Error("aligned view: exact_distance: expected > 0");
   if (grid_step_px < 1) throw Error("aligned view: grid_step_px: expected >= 1");
+  CheckThreadCount(num_threads, "aligned view: num_threads");
+  [[maybe_unused]] const int threads = ThreadCount(num_threads);
   view_.faults = RigFaults<double>();
   // The mirror's centre (a sphere's centre; a conic's centre of curvature at
   // its vertex) in the robot frame; the view's upright rig has its own there.
@@ -63,7 +66,7 @@ AlignedView::AlignedView(const Sensor& rig, double exact_distance, int grid_step
   cv::Mat ok(gh, gw, CV_8UC1, cv::Scalar(0));
   auto node_u = [&](int j) { return std::min(j * grid_step_px, w - 1); };
   auto node_v = [&](int i) { return std::min(i * grid_step_px, h - 1); };
-#pragma omp parallel for schedule(dynamic, 4)
+#pragma omp parallel for schedule(dynamic, 4) num_threads(threads)
   for (int i = 0; i < gh; ++i)
     for (int j = 0; j < gw; ++j) {
       double ur, vr;
@@ -73,7 +76,7 @@ AlignedView::AlignedView(const Sensor& rig, double exact_distance, int grid_step
         ok.at<uchar>(i, j) = 1;
       }
     }
-#pragma omp parallel for schedule(dynamic, 4)
+#pragma omp parallel for schedule(dynamic, 4) num_threads(threads)
   for (int i = 0; i < gh - 1; ++i)
     for (int j = 0; j + 1 < gw; ++j) {
       const int u0 = node_u(j), u1 = node_u(j + 1), v0 = node_v(i), v1 = node_v(i + 1);

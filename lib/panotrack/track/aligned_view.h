@@ -37,9 +37,10 @@ class AlignedView {
   // (map units) at which the resampling is exact, best the typical distance
   // of the landmarks. `grid_step_px`: the exact mapping is computed every
   // that many pixels and interpolated between (the mapping is smooth).
-  // Throws pano::Error when the rig's parameters are impossible or the
-  // distance is not positive.
-  AlignedView(const Sensor& rig, double exact_distance, int grid_step_px = 2);
+  // The grid's rows on `num_threads` threads (0: every core); the mapping is
+  // the same for every count. Throws pano::Error when the rig's parameters
+  // are impossible or the distance is not positive.
+  AlignedView(const Sensor& rig, double exact_distance, int grid_step_px = 2, int num_threads = 0);
 
   // The view's rig: `rig` with every fault zeroed.
   const Sensor& view_sensor() const { return view_; }

@@ -162,7 +162,8 @@ Localizer::Localizer(const Calibration& calib, const Map& map,
   if (!calib_.sensor.aligned()) {
     // A real rig's faults: track in the aligned view of its frames.
     const double typical = TypicalLandmarkDistance(map_);
-    view_.emplace(calib_.sensor, typical > 0 ? typical : 20 * calib_.sensor.params.curvature_radius);
+    view_.emplace(calib_.sensor, typical > 0 ? typical : 20 * calib_.sensor.params.curvature_radius,
+                  /*grid_step_px=*/2, opt_.num_threads);
     calib_.sensor = view_->view_sensor();
     compass_ = AzimuthCompass(calib_.sensor);
   }
