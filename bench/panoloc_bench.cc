@@ -28,7 +28,6 @@ struct Fixture {
     dir = (std::filesystem::temp_directory_path() / "pano_bench_panoloc").string();
     c = pano::MakePreset(getenv("PANO_BENCH_PRESET") ? getenv("PANO_BENCH_PRESET") : "paper-synthetic");
     pano::SequenceWriteOptions w;
-    w.quiet = true;
     w.overwrite = true;
     pano::WriteSequence(c, dir, w);
     table = pano::TableForMap(c.calib, pano::ReadMap(dir + "/map.yaml"), true);

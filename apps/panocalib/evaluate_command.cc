@@ -67,6 +67,7 @@ void AddEvaluateCommand(CLI::App& app) {
   cmd->callback([o]() {
     EvaluateOptions opt = o->eval;
     SetDecoderLogging(opt.verbose);  // a board video's FFmpeg lines only with -v
+    if (opt.verbose) opt.on_log = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
     if (o->no_refine) opt.refine_passes = 0;
     opt.unwarp_fallback = !o->no_unwarp;
     opt.Check();

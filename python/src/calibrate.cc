@@ -2,6 +2,7 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include <cstdio>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -45,6 +46,7 @@ CalibrationResult RunCalibrate(const std::filesystem::path& targets_path, const 
   o.max_rms_px = max_rms_px;
   o.num_threads = num_threads;
   o.verbose = verbose;
+  if (verbose) o.on_log = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
   o.Check();
   py::gil_scoped_release release;
   const TargetSet targets = ReadTargets(targets_path.string());

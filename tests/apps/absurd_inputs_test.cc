@@ -25,7 +25,6 @@ const std::string& Sequence() {
     SequenceCase sc = MakePreset("paper-real");
     sc.poses.resize(8);
     SequenceWriteOptions w;
-    w.quiet = true;
     w.overwrite = true;
     WriteSequence(sc, dir, w);
     return dir;
@@ -173,7 +172,6 @@ TEST_CASE("a PNG cut short among the frames: the tool's own line, not libpng's",
   SequenceCase sc = MakePreset("paper-real");
   sc.poses.resize(4);
   SequenceWriteOptions w;
-  w.quiet = true;
   w.frames = true;
   w.video = false;
   WriteSequence(sc, dir + "/seq", w);
@@ -237,7 +235,7 @@ void WriteShortFolder(const SequenceCase& sc, const std::string& dir) {
   SequenceCase shortened = sc;
   shortened.poses.resize(3);
   SequenceWriteOptions w;
-  w.quiet = w.overwrite = w.frames = true;
+  w.overwrite = w.frames = true;
   w.video = false;
   WriteSequence(shortened, dir, w);
 }

@@ -49,7 +49,6 @@ std::string FramesCase(const std::string& dir) {
   SequenceCase sc = MakePreset("paper-real");
   sc.poses.resize(4);
   SequenceWriteOptions w;
-  w.quiet = true;
   w.frames = true;
   w.video = false;
   WriteSequence(sc, dir + "/seq", w);

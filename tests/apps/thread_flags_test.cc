@@ -28,7 +28,6 @@ TEST_CASE("absurd thread counts are refused by every program, naming the flag", 
   SequenceCase sc = MakePreset("paper-real");
   sc.poses.resize(4);
   SequenceWriteOptions w;
-  w.quiet = true;
   WriteSequence(sc, dir + "/seq", w);
   const std::string seq = dir + "/seq", files = " --calib " + seq + "/calib.yaml --map " + seq + "/map.yaml";
   ExpectThreadsRefused("panoloc " + seq + "/video.mp4" + files + " -o " + dir + "/est.csv --threads 100000",

@@ -123,7 +123,6 @@ TEST_CASE("ChArUco boards past the mirror's limb calibrate from a folder of imag
   ro.seed = 1;
   TargetsWriteOptions wo;
   wo.overwrite = true;
-  wo.quiet = true;
   WriteTargetImages(dir, truth, board, poses, ro, wo);
   int fully_visible = 0;
   for (const BoardPose& p : poses) fully_visible += BoardFullyVisible(truth.sensor, board, p, 0.0, 1.0);

@@ -6,8 +6,10 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <mutex>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "panotrack/calibrate/calibrate.h"
 #include "panotrack/calibrate/refit.h"
@@ -68,7 +70,23 @@ TEST_CASE("two calibrations at once give what one alone gives", "[concurrent]") 
   const std::vector<cv::Mat>& images = set.images;
   CalibrateOptions o;
   o.num_threads = 2;
-  const CalibrationResult alone = Calibrate(targets, images, o);
+  // The steps' timings and the fits' summaries go to the caller's log (the
+  // library prints nothing), from the threads the fits run on.
+  std::mutex log_mutex;
+  std::vector<std::string> log;
+  CalibrateOptions logged = o;
+  logged.on_log = [&](const std::string& line) {
+    std::lock_guard<std::mutex> lock(log_mutex);
+    log.push_back(line);
+  };
+  const CalibrationResult alone = Calibrate(targets, images, logged);
+  auto logged_line = [&](const std::string& start) {
+    return std::any_of(log.begin(), log.end(), [&](const std::string& l) { return l.rfind(start, 0) == 0; });
+  };
+  CHECK(logged_line("[raw detection: "));
+  CHECK(logged_line("[initialisation: "));
+  CHECK(logged_line("[corner refinement and refit: "));
+  CHECK(logged_line("Ceres Solver Report: "));
 
   CalibrationResult results[2];
   std::string errors[2];

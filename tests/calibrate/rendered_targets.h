@@ -24,7 +24,6 @@ inline std::string RenderTargets(const std::string& name, const Calibration& tru
   ro.seed = seed;
   TargetsWriteOptions wo;
   wo.overwrite = true;
-  wo.quiet = true;
   WriteTargetImages(dir, truth, board, AutoBoardPoses(truth.sensor, board, n, seed), ro, wo);
   return dir;
 }

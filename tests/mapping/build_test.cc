@@ -33,7 +33,6 @@ std::string RenderPaperReal(const std::string& name, int stride, int count) {
   SequenceWriteOptions wo;
   wo.frames = true;
   wo.video = false;
-  wo.quiet = true;
   WriteSequence(c, dir, wo);
   Map seed = ReadMap(dir + "/map.yaml");
   const std::set<std::string> keep = {"s2", "e2", "n2", "w2"};

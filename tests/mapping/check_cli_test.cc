@@ -23,7 +23,6 @@ TEST_CASE("panomap check: exit 0 with the findings, exit 1 and one line for bad 
   SequenceCase sc = MakePreset("paper-real");
   sc.poses.resize(10);
   SequenceWriteOptions w;
-  w.quiet = true;
   w.frames = true;
   WriteSequence(sc, dir + "/seq", w);
   const std::string seq = dir + "/seq";

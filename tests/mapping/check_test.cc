@@ -46,7 +46,6 @@ const FaultCase& GetFaultCase() {
     sc.poses.resize(kFrames);
     SequenceWriteOptions w;
     w.frames = true;
-    w.quiet = true;
     WriteSequence(sc, f.dir, w);
     f.frames = f.dir + "/frames";
     f.video = f.dir + "/video.mp4";
@@ -283,7 +282,6 @@ TEST_CASE("map check: panosim's gross survey errors are each flagged", "[check_g
   SequenceWriteOptions w;
   w.frames = true;
   w.video = false;
-  w.quiet = true;
   WriteSequence(sc, dir, w);
   MapCheckJob job;
   job.map_path = dir + "/map.yaml";

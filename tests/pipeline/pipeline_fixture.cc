@@ -37,7 +37,6 @@ const SmallCase& GetSmallCase() {
     sc.poses.resize(static_cast<size_t>(s.n_frames));
     SequenceWriteOptions w;
     w.frames = true;
-    w.quiet = true;
     w.overwrite = true;
     s.dir = root + "/seq";
     WriteSequence(sc, s.dir, w);

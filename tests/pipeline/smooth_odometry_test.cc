@@ -166,7 +166,6 @@ TEST_CASE("--odometry keeps tracking where every 8th frame alone is too far apar
   SequenceWriteOptions w;
   w.frames = true;
   w.video = false;
-  w.quiet = true;
   WriteSequence(sc, dir + "/seq", w);
   // Frames 0, 8, 16, ... as an input at 10/8 frames/s: their times are those
   // of the whole sequence, which the odometry log covers.

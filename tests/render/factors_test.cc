@@ -233,7 +233,6 @@ TEST_CASE("people walk clear of the sensor, occlude landmarks and are not in the
   c.poses.resize(3);
   const std::string dir = test::ScratchDir("render_people") + "/out";
   SequenceWriteOptions wo;
-  wo.quiet = true;
   wo.video = false;
   wo.frames = true;
   WriteSequence(c, dir, wo);
@@ -261,7 +260,6 @@ TEST_CASE("dropped frames: gt.csv rows match the video's frames; covered frames 
   }
   const std::string dir = test::ScratchDir("render_dropped") + "/out";
   SequenceWriteOptions wo;
-  wo.quiet = true;
   wo.frames = true;
   const SequenceWriteResult res = WriteSequence(c, dir, wo);
   CHECK(res.frames == 13);

@@ -222,7 +222,6 @@ TEST_CASE("sequence writer: surveyed map, true map, faults, and the room rendere
   SequenceWriteOptions wo;
   wo.frames = true;
   wo.video = false;
-  wo.quiet = true;
   WriteSequence(c, dir, wo);
   const SurveyedMap s = SurveyMap(c.map, c.survey);
   const Map written = ReadMap(dir + "/map.yaml"), true_map = ReadMap(dir + "/map_true.yaml");

@@ -24,7 +24,6 @@ TEST_CASE("panoloc rejects bad inputs with clear messages", "[bad_input]") {
   SequenceCase c = MakePreset("paper-synthetic");
   c.poses.resize(4);
   SequenceWriteOptions w;
-  w.quiet = true;
   w.overwrite = true;
   WriteSequence(c, dir + "/seq", w);
   PanolocOptions o;

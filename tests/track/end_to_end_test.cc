@@ -41,7 +41,6 @@ TEST_CASE("panoloc's video path: H.264 video in, pose CSV out, accuracy against 
   SequenceCase c = MakePreset("paper-synthetic");
   c.poses.resize(12);
   SequenceWriteOptions w;
-  w.quiet = true;
   w.overwrite = true;
   WriteSequence(c, dir + "/seq", w);
   PanolocOptions o;

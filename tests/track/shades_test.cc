@@ -111,7 +111,6 @@ TEST_CASE("vertex tracker, cluttered video: shades removed, the first frame as p
   SequenceCase c = MakePreset("cluttered");
   c.poses.resize(3);
   SequenceWriteOptions w;
-  w.quiet = true;
   w.overwrite = true;
   WriteSequence(c, dir + "/seq", w);
   WriteMap(dir + "/map-none.yaml", EditShades(c.map, Shades::kRemoved));

@@ -257,7 +257,6 @@ TEST_CASE("panoloc's runner with the vertex method on 14 frames of paper-synthet
   SequenceWriteOptions wo;
   wo.frames = true;
   wo.video = false;
-  wo.quiet = true;
   WriteSequence(c, dir, wo);
   PanolocOptions o;
   o.inputs = {dir + "/frames"};

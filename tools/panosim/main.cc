@@ -3,7 +3,6 @@
 // each subcommand's options, one runs it.
 #include <CLI/CLI.hpp>
 
-#include <omp.h>
 #include <opencv2/core/utils/logger.hpp>
 
 #include <cctype>
@@ -277,8 +276,8 @@ struct StillArgs {
 
 CLI::App* AddStill(CLI::App* app, StillArgs* a) {
   CLI::App* still = app->add_subcommand("still", "Render one frame to a PNG (8-bit grey)");
-  still->add_option("--map", a->map_path, "Map file (YAML, spec section 4)");
-  still->add_option("--calib", a->calib_path, "Calibration file (YAML, spec section 3)");
+  still->add_option("--map", a->map_path, "Map file (YAML, docs/maps.md)");
+  still->add_option("--calib", a->calib_path, "Calibration file (YAML)");
   AddNumberList(still, "--pose", &a->pose, 3, "x,y,theta (map units, radians)",
                 "Robot pose x,y,theta: pinhole world position (map units), heading (radians)");
   still->add_option("--preset", a->preset, "Take map, sensor, options and pose from a preset instead");
@@ -326,6 +325,7 @@ void RunStill(const StillArgs& a) {
   StillScene(a, &sensor, &map, &pose, &ro);
   a.rig.Apply(&sensor);
   a.flags.Apply(&ro, true);
+  ro.num_threads = a.common.jobs;
   ro.Check("options");
   pano::WritePng(a.out, pano::RenderStill(sensor, map, pose, ro));
 }
@@ -376,7 +376,7 @@ CLI::App* AddSequence(CLI::App* app, SequenceArgs* a) {
   CLI::App* seq = app->add_subcommand(
       "sequence",
       "Render a test sequence with its ground truth into a folder. Writes DIR/video.mp4 (H.264), "
-      "DIR/gt.csv (ground truth, spec section 5), DIR/gt.tum (the same for evo: metres, the video's "
+      "DIR/gt.csv (ground truth, a pose CSV), DIR/gt.tum (the same for evo: metres, the video's "
       "clock), DIR/map.yaml (no distractors), DIR/calib.yaml, DIR/case.yaml, and DIR/frames/ with "
       "--frames; with survey error (--map-*) also DIR/map_true.yaml (the room rendered) and, with --map-gross, "
       "DIR/map_faults.yaml.");
@@ -384,11 +384,11 @@ CLI::App* AddSequence(CLI::App* app, SequenceArgs* a) {
                   "Built-in case (panosim presets lists them): paper-synthetic, paper-real, cluttered, kidnap, "
                   "fast-turns, motion-blur, real-conditions, long-run, long-run-blur, paper-real-map-error, "
                   "paper-synthetic-map-error; the options below apply on top");
-  seq->add_option("--map", a->map_path, "Map file (YAML, spec section 4)");
-  seq->add_option("--calib", a->calib_path, "Calibration file (YAML, spec section 3)");
+  seq->add_option("--map", a->map_path, "Map file (YAML, docs/maps.md)");
+  seq->add_option("--calib", a->calib_path, "Calibration file (YAML)");
   seq->add_option(
       "--trajectory", a->traj_path,
-      "Poses, one per frame: CSV with header x,y,theta (radians), or a pose CSV (spec section 5)");
+      "Poses, one per frame: CSV with header x,y,theta (radians), or a pose CSV (docs/panoloc.md)");
   a->o_fps = seq->add_option("--fps", a->fps, "Frame rate of the video and of gt.csv times")->default_val(10);
   seq->add_option("-o,--output", a->out, "Output folder (created; must not exist unless --force)")
       ->required()
@@ -432,12 +432,16 @@ void RunSequence(const SequenceArgs& a) {
   if (!a.o_map_sigma->count()) c.survey.sigma = preset.sigma;
   if (!a.o_map_seed->count()) c.survey.seed = preset.seed;
   a.flags.Apply(&c.options, true);
+  c.options.num_threads = a.common.jobs;
   c.options.Check("options");
   pano::SequenceWriteOptions wo;
   wo.frames = a.frames;
   wo.video = !a.no_video;
-  wo.quiet = a.common.quiet;
   wo.overwrite = a.common.force;
+  if (!a.common.quiet) {
+    wo.on_progress = [](int done, int total) { std::cerr << "panosim: frame " << done << "/" << total << "\n"; };
+    wo.on_note = [](const std::string& note) { std::cerr << "panosim: " << note << "\n"; };
+  }
   const pano::SequenceWriteResult r = pano::WriteSequence(c, a.out, wo);
   if (!a.common.quiet)
     std::cerr << "panosim: wrote " << r.frames << " frames to " << a.out
@@ -460,10 +464,10 @@ CLI::App* AddTargets(CLI::App* app, TargetsArgs* a) {
   CLI::App* tg = app->add_subcommand(
       "targets",
       "Render chessboard calibration images into a folder. Writes DIR/cal_NNN.png, DIR/targets.yaml "
-      "(known poses, spec section 6), DIR/targets_unknown.yaml (no poses), DIR/truth.yaml (the "
+      "(known poses), DIR/targets_unknown.yaml (no poses), DIR/truth.yaml (the "
       "calibration used).");
   CLI::Option* o_calib =
-      tg->add_option("--calib", a->calib_path, "Calibration file of the sensor to render (YAML, spec section 3)");
+      tg->add_option("--calib", a->calib_path, "Calibration file of the sensor to render (YAML)");
   tg->add_option("--preset", a->preset, "Render the sensor of this preset (e.g. faulty-rig) instead of --calib")
       ->excludes(o_calib);
   AddNumberList(tg, "--board", &a->board, 3, "cols,rows,square",
@@ -547,11 +551,13 @@ void RunTargets(const TargetsArgs& a) {
   }
   pano::RenderOptions ro;
   a.flags.Apply(&ro, false);
+  ro.num_threads = a.common.jobs;
   ro.Check("options");
   const std::vector<pano::BoardPose> poses = BoardPosesOf(a, calib.sensor, board, ro.seed);
   pano::TargetsWriteOptions wo;
   wo.overwrite = a.common.force;
-  wo.quiet = a.common.quiet;
+  if (!a.common.quiet)
+    wo.on_progress = [](int done, int total) { std::cerr << "panosim: image " << done << "/" << total << "\n"; };
   pano::WriteTargetImages(a.out, calib, board, poses, ro, wo);
 }
 
@@ -619,9 +625,7 @@ int main(int argc, char** argv) {
                                 : *seq ? &seq_args.common
                                 : *tg  ? &tg_args.common
                                        : nullptr;
-    // The renderer's loops take OpenMP's default team size.
     if (common) pano::CheckThreadCount(common->jobs, "-j/--jobs");
-    if (common && common->jobs > 0) omp_set_num_threads(common->jobs);
     // OpenCV's warnings (an image it cannot write) only with --verbose: the error says it in one line.
     cv::utils::logging::setLogLevel(common && common->verbose ? cv::utils::logging::LOG_LEVEL_WARNING
                                                               : cv::utils::logging::LOG_LEVEL_ERROR);

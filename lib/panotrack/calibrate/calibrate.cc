@@ -17,7 +17,6 @@
 #include <limits>
 #include <optional>
 #include <sstream>
-#include <thread>
 
 #include "panotrack/calibrate/internal.h"
 #include "panotrack/calibrate/summary_json.h"
@@ -31,9 +30,7 @@ namespace pano {
 
 using namespace calib_internal;
 
-int CalibrateOptions::Threads() const {
-  return num_threads > 0 ? num_threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-}
+int CalibrateOptions::Threads() const { return ThreadCount(num_threads); }
 
 FreeFaults DefaultFreeFaults(MirrorModel model) {
   FreeFaults f;
@@ -221,10 +218,13 @@ InitialEstimate TimedInitialize(const std::vector<BoardView>& views, const Targe
                                 int height, bool poses_known, const CalibrateOptions& options) {
   const auto t_init = std::chrono::steady_clock::now();
   InitialEstimate init = Initialize(views, board, width, height, poses_known, options);
-  if (options.verbose)
-    std::fprintf(stderr, "[initialisation: %.2f s, %zu starts to refine]\n",
-                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t_init).count(),
-                 1 + init.alternatives.size());
+  if (options.on_log) {
+    char line[96];
+    std::snprintf(line, sizeof line, "[initialisation: %.2f s, %zu starts to refine]",
+                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t_init).count(),
+                  1 + init.alternatives.size());
+    options.on_log(line);
+  }
   return init;
 }
 
@@ -308,14 +308,17 @@ CalibrationResult ExploreUnifiedValley(const std::vector<BoardView>& views, cons
   return fit;
 }
 
-// Prints each step's wall time on stderr when verbose.
+// Logs each step's wall time through `log` (when set).
 class StepClock {
  public:
-  explicit StepClock(bool verbose) : verbose_(verbose) {}
+  explicit StepClock(std::function<void(const std::string&)> log) : log_(std::move(log)) {}
   void Done(const char* step) {
     const auto now = std::chrono::steady_clock::now();
-    if (verbose_)
-      std::fprintf(stderr, "[%s: %.2f s]\n", step, std::chrono::duration<double>(now - last_).count());
+    if (log_) {
+      char line[128];
+      std::snprintf(line, sizeof line, "[%s: %.2f s]", step, std::chrono::duration<double>(now - last_).count());
+      log_(line);
+    }
     last_ = now;
   }
   double Seconds() const {
@@ -323,7 +326,7 @@ class StepClock {
   }
 
  private:
-  bool verbose_;
+  std::function<void(const std::string&)> log_;
   std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now(), last_ = start_;
 };
 
@@ -831,7 +834,7 @@ CalibrationResult Calibrate(const TargetSet& targets, const CalibrateOptions& op
 CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>& images,
                             const CalibrateOptions& options) {
   options.Check();
-  StepClock clock(options.verbose);
+  StepClock clock(options.on_log);
   CheckImages(targets, images);
   Pipeline p(targets, images, options);
   p.det = DetectBoards(targets, images, options, /*defer_to_unwarped=*/true);

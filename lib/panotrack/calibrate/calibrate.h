@@ -154,10 +154,14 @@ struct CalibrateOptions {
   // corners; 0: every core. Set here rather than through OpenMP's global
   // default, so that calibrations running at once do not disturb each other.
   int num_threads = 0;
-  // Step timings on stderr and Ceres' per-iteration progress on stdout (and
-  // its warnings about rejected steps through glog); quiet otherwise. The
-  // library never changes glog's settings: programs set them up once.
+  // Ceres' per-iteration progress on stdout (and its warnings about rejected
+  // steps through glog); quiet otherwise. The library never changes glog's
+  // settings: programs set them up once.
   bool verbose = false;
+  // Step timings and each fit's summary, a line at a time (empty: none);
+  // the library writes nothing itself. Fits run side by side call it from
+  // their threads at once.
+  std::function<void(const std::string&)> on_log;
 
   int DistortionTerms() const {
     return distortion_terms >= 0 ? distortion_terms : (model != MirrorModel::kSphere ? 2 : 0);
@@ -393,7 +397,7 @@ std::string Summary(const CalibrationResult& result);
 
 // Output paths of `panocalib calibrate`; empty: not written.
 struct CalibrationOutputs {
-  std::string calibration;  // YAML (spec section 3)
+  std::string calibration;  // YAML (README, "Files and conventions")
   std::string lut;          // E(D,Z) table, referenced from the YAML
   std::string report;       // PNG
   std::string summary_json; // the summary as JSON (CalibrationSummaryJson); "-": standard output

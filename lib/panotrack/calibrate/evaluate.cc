@@ -118,7 +118,7 @@ double FitPoseFrom(const BoardView& view, const std::vector<Eigen::Vector3d>& pt
   so.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
-  if (options.verbose) std::fprintf(stderr, "%s: %s\n", view.file.c_str(), summary.BriefReport().c_str());
+  if (options.on_log) options.on_log(view.file + ": " + summary.BriefReport());
   bool finite = true;
   for (double v : *pose) finite = finite && std::isfinite(v);
   if (summary.termination_type == ceres::FAILURE || !finite) {
@@ -236,6 +236,7 @@ EvaluationResult EvaluateCalibration(const TargetSet& targets, const std::vector
   CalibrateOptions detect;
   detect.num_threads = options.num_threads;
   detect.verbose = options.verbose;
+  detect.on_log = options.on_log;
   // The detection calibrate runs: the quick raw search (the exhaustive one
   // only where too few boards are found), then the images without a board
   // searched in views unwarped through the calibration and, where those miss,

@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -33,7 +34,9 @@ struct EvaluateOptions {
   bool unwarp_fallback = true;
   int max_iterations = 100;
   int num_threads = 0;  // detection and refinement; 0: every core
-  bool verbose = false;
+  bool verbose = false;  // the libraries' warnings (FFmpeg's, through the programs)
+  // Each pose fit's summary, a line at a time (empty: none).
+  std::function<void(const std::string&)> on_log;
   // Throws pano::Error naming the bad option.
   void Check() const;
 };

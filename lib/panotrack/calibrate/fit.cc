@@ -172,7 +172,7 @@ CalibrationResult FitCalibration(const std::vector<BoardView>& views, const Targ
   so.logging_type = options.verbose ? ceres::PER_MINIMIZER_ITERATION : ceres::SILENT;
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
-  if (options.verbose) std::fprintf(stderr, "%s\n", summary.BriefReport().c_str());
+  if (options.on_log) options.on_log(summary.BriefReport());
   if (summary.termination_type == ceres::FAILURE || !AllFinite(s.data(), kNumSensor) ||
       !AllFinite(f.data(), kNumFaults) || !AllFinite(terms.data(), kNumAsphere))
     throw Error("calibration fit: Ceres failed (" + summary.message + ")");

@@ -5,12 +5,12 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
-#include <iostream>
 #include <random>
 #include <sstream>
 
 #include "panotrack/charuco/charuco.h"
 #include "panotrack/core/error.h"
+#include "panotrack/core/parallel.h"
 #include "panotrack/io/calibration.h"
 #include "panotrack/render/writers.h"
 
@@ -194,7 +194,7 @@ cv::Mat RenderBoard(const RayTable& table, const TargetBoard& board, const Board
   cv::Mat img(H, W, CV_32FC1, cv::Scalar(0));
   cv::Mat mask(H, W, CV_8UC1, cv::Scalar(0));
   // Ray-plane arithmetic only: the rows cannot throw.
-#pragma omp parallel for schedule(dynamic, 4)
+#pragma omp parallel for schedule(dynamic, 4) num_threads(ThreadCount(options.num_threads))
   for (int v = 0; v < H; ++v) {
     for (int u = 0; u < W; ++u) {
       const int b = starts[static_cast<size_t>(v) * W + u], e = starts[static_cast<size_t>(v) * W + u + 1];
@@ -251,7 +251,7 @@ void WriteTargetImages(const std::string& dir, const Calibration& calib, const T
   CheckTargetBoard(board, "--board");
   if (poses.empty()) throw Error("targets: no board poses");
   StagingDir sd(dir, wo.overwrite);
-  const RayTable table(calib.sensor, options.supersample);
+  const RayTable table(calib.sensor, options.supersample, /*camera_radius_px=*/0.0, options.num_threads);
   TargetSet set;
   set.units = calib.units;
   set.board = board;
@@ -266,7 +266,7 @@ void WriteTargetImages(const std::string& dir, const Calibration& calib, const T
     ti.rvec = poses[i].rvec;
     ti.tvec = poses[i].tvec;
     set.images.push_back(ti);
-    if (!wo.quiet) std::cerr << "panosim: image " << i + 1 << "/" << poses.size() << "\n";
+    if (wo.on_progress) wo.on_progress(static_cast<int>(i) + 1, static_cast<int>(poses.size()));
   }
   WriteTargets(sd.File("targets.yaml"), set, true);
   WriteTargets(sd.File("targets_unknown.yaml"), set, false);

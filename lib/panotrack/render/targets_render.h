@@ -1,8 +1,9 @@
-// Calibration images for panocalib: a chessboard (spec section 6) ray traced
+// Calibration images for panocalib: a chessboard (README, "Files and conventions") ray traced
 // in the sensor frame, X_sensor = R(rvec) X_board + tvec (OpenCV convention).
 #pragma once
 
 #include <array>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -51,7 +52,8 @@ cv::Mat RenderBoard(const RayTable& table, const TargetBoard& board, const Board
 
 struct TargetsWriteOptions {
   bool overwrite = false;
-  bool quiet = false;
+  // Progress (images written of all); empty: silent.
+  std::function<void(int done, int total)> on_progress;
 };
 
 // Writes DIR/cal_NNN.png, DIR/targets.yaml (poses), DIR/targets_unknown.yaml

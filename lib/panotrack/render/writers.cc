@@ -5,7 +5,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <iostream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
@@ -84,7 +83,7 @@ void StagingDir::Commit() {
 std::string CaseYaml(const SequenceCase& c, const std::string& codec) {
   const RenderOptions& r = c.options;
   YamlWriter w;
-  w.Comment("panosim test case: ground truth is gt.csv (spec section 5), map.yaml and calib.yaml.");
+  w.Comment("panosim test case: ground truth is gt.csv (a pose CSV), map.yaml and calib.yaml.");
   w.BeginMap();
   w.Key("preset").String(c.name);
   w.Key("description").String(c.description);
@@ -201,8 +200,8 @@ SequenceWriteResult WriteSequence(const SequenceCase& c, const std::string& dir,
       res.codec = "h264";
     } else if (video.open(vpath, cv::VideoWriter::fourcc('m', 'p', '4', 'v'), c.fps, size, true)) {
       res.codec = "mp4v";
-      std::cerr << "panosim: warning: H.264 encoding is not available in this OpenCV; "
-                   "video.mp4 uses MPEG-4 part 2 (mp4v)\n";
+      if (wo.on_note)
+        wo.on_note("warning: H.264 encoding is not available in this OpenCV; video.mp4 uses MPEG-4 part 2 (mp4v)");
     } else {
       throw Error(dir + "/video.mp4: OpenCV cannot open a video writer (neither avc1 nor mp4v)");
     }
@@ -244,8 +243,7 @@ SequenceWriteResult WriteSequence(const SequenceCase& c, const std::string& dir,
     row.pose = {AsWritten(pose.x, "%.4f"), AsWritten(pose.y, "%.4f"),
                 AsWritten(wrap_angle(pose.theta), "%.6f")};
     gt_tum.Write(row);
-    if (!wo.quiet && ((i + 1) % 10 == 0 || i + 1 == n))
-      std::cerr << "panosim: frame " << i + 1 << "/" << n << "\n";
+    if (wo.on_progress && ((i + 1) % 10 == 0 || i + 1 == n)) wo.on_progress(i + 1, n);
   }
   gt.Close();
   gt_tum.Close();

@@ -2,6 +2,7 @@
 // nothing half-written is ever left in place.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -38,8 +39,11 @@ class StagingDir {
 struct SequenceWriteOptions {
   bool frames = false;     // also DIR/frames/frame_%04d.png (lossless)
   bool video = true;       // DIR/video.mp4
-  bool quiet = false;      // no progress on stderr
   bool overwrite = false;  // replace an existing DIR
+  // Progress (frames rendered of all, every tenth and the last) and notes
+  // (a video codec other than H.264); empty: silent.
+  std::function<void(int done, int total)> on_progress;
+  std::function<void(const std::string&)> on_note;
 };
 
 struct SequenceWriteResult {
