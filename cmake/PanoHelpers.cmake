@@ -33,8 +33,10 @@ endfunction()
 # pano_add_library(NAME pano_sensor SRCS a.cc DEPS ... [INTERNAL_HEADERS x.h ...])
 # One static library per concept folder, installed and exported as
 # panotrack::<concept> with the folder's headers under include/panotrack/<concept>.
-# INTERNAL_HEADERS (included only by the folder's own .cc files) stay out of
-# the installed tree.
+# INTERNAL_HEADERS stay out of the installed tree: the toolkit's own code
+# (its libraries, programs and tests) includes them, users do not. The
+# installed headers are the public API (README, "Layout"); none includes an
+# internal one (ctest install/prefix checks).
 function(pano_add_library)
   cmake_parse_arguments(ARG "" "NAME" "SRCS;DEPS;PRIVATE_DEPS;INTERNAL_HEADERS" ${ARGN})
   add_library(${ARG_NAME} STATIC ${ARG_SRCS})

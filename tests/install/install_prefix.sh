@@ -20,7 +20,11 @@ expected=(bin/panoloc bin/panocalib bin/panomap bin/panosim
           share/doc/panotrack/docs/panoloc.md)
 [ "$with_man" = 1 ] && expected+=(share/man/man1/panoloc.1 share/man/man1/panocalib.1 share/man/man1/panomap.1 share/man/man1/panosim.1)
 internal=(include/panotrack/calibrate/internal.h include/panotrack/calibrate/refit.h
-          include/panotrack/calibrate/omnidir_peer.h include/panotrack/hough/peak_refine.h)
+          include/panotrack/calibrate/omnidir_peer.h include/panotrack/hough/peak_refine.h
+          include/panotrack/plot/figure.h include/panotrack/core/parallel.h include/panotrack/render/render.h
+          include/panotrack/calibrate/model_selection.h include/panotrack/io/yaml_util.h)
+expected+=(include/panotrack/track/localizer.h include/panotrack/pipeline/panoloc.h
+           include/panotrack/calibrate/calibrate.h include/panotrack/mapping/refine.h include/panotrack/unwarp/unwarp.h)
 status=0
 for f in "${expected[@]}"; do
   [ -f "$f" ] || { echo "install: missing $f"; status=1; }
@@ -28,5 +32,12 @@ done
 for f in "${internal[@]}"; do
   [ ! -e "$f" ] || { echo "install: internal header installed: $f"; status=1; }
 done
+# The public API is closed: every toolkit header an installed header
+# includes is installed too.
+while IFS= read -r h; do
+  while IFS= read -r inc; do
+    [ -f "include/$inc" ] || { echo "install: $h includes $inc, which is not installed"; status=1; }
+  done < <(sed -n 's/^#include "\(panotrack\/[^"]*\)".*/\1/p' "$h")
+done < <(find include -name '*.h')
 echo "installed $(find . -type f | wc -l) files under $prefix ($(find include -name '*.h' | wc -l) headers)"
 exit $status
