@@ -47,7 +47,7 @@ __all__ = [
 
 __version__ = "0.1.0"
 
-#: The columns of panoloc's pose CSV (spec section 5), one record per frame.
+#: The columns of panoloc's pose CSV (docs/panoloc.md), one record per frame.
 #: Empty CSV fields (lost frames' pose and residual, missing standard
 #: deviations) are NaN.
 POSE_DTYPE = np.dtype([

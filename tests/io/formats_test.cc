@@ -1,4 +1,4 @@
-// Readers and writers of every format of the spec: round trips, and each bad
+// Readers and writers of every file format: round trips, and each bad
 // case rejected with a message naming the file, the key or line, and what was
 // expected.
 #include <catch2/catch.hpp>

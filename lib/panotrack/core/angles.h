@@ -15,6 +15,17 @@ inline double wrap_angle(double a) {
   return a;
 }
 
+// The same for any scalar type (ceres::Jet among them: the derivative
+// passes through unchanged).
+template <typename T>
+T wrap_angle(T a) {
+  using std::remainder;
+  const T two_pi = T(2.0 * M_PI);
+  a = remainder(a, two_pi);
+  if (a <= T(-M_PI)) a += two_pi;
+  return a;
+}
+
 // Wraps an angle to [0, 2 pi).
 inline double wrap_angle_positive(double a) {
   a = std::fmod(a, 2.0 * M_PI);

@@ -1,4 +1,4 @@
-// Calibration file (spec section 3): reads and writes sensor/calibration.h's
+// Calibration file (README, "Files and conventions"): reads and writes sensor/calibration.h's
 // Calibration (panocalib writes it; panoloc, panosim and the tests read it).
 #pragma once
 

@@ -1,4 +1,4 @@
-// Map file (spec section 4): reads and writes scene/map.h's Map.
+// Map file (docs/maps.md): reads and writes scene/map.h's Map.
 #pragma once
 
 #include <string>

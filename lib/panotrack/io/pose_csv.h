@@ -1,4 +1,4 @@
-// Pose CSV (spec section 5): PoseRow as text, written by panoloc row by row,
+// Pose CSV (docs/panoloc.md): PoseRow as text, written by panoloc row by row,
 // also the format of ground truth.
 #pragma once
 

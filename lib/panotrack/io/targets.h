@@ -1,4 +1,4 @@
-// Calibration target file (spec section 6): chessboard images, with board
+// Calibration target file (README, "Files and conventions"): chessboard images, with board
 // poses when they are known.
 #pragma once
 

@@ -1,5 +1,5 @@
 // One row of a trajectory: the pose of one frame and how it was obtained.
-// io/pose_csv.h reads and writes rows as the pose CSV of spec section 5.
+// io/pose_csv.h reads and writes rows as the pose CSV (docs/panoloc.md).
 #pragma once
 
 #include <vector>

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "panotrack/core/angles.h"
 #include "panotrack/pose/triangulate.h"
 #include "panotrack/sensor/sensor.h"
 
@@ -245,15 +246,6 @@ T Det3(const Eigen::Matrix<T, 3, 3>& m) {
          m(0, 2) * (m(1, 0) * m(2, 1) - m(1, 1) * m(2, 0));
 }
 
-template <typename T>
-T WrapAngle(T a) {
-  using std::remainder;
-  const T two_pi = T(2 * M_PI);
-  a = remainder(a, two_pi);
-  if (a <= T(-M_PI)) a += two_pi;
-  return a;
-}
-
 }  // namespace robust_pose_detail
 
 template <typename T>
@@ -332,7 +324,7 @@ bool SolvePoseFrom2BearingsT(const Eigen::Matrix<T, 2, 1> landmarks[2], const T 
   const T lambda1 = (d0.x() * rhs.y() - d0.y() * rhs.x()) / det;
   if (!(lambda0 > T(0)) || !(lambda1 > T(0))) return false;
   const Vec2 p = landmarks[0] - lambda0 * d0;
-  *pose << p.x(), p.y(), robust_pose_detail::WrapAngle(heading);
+  *pose << p.x(), p.y(), wrap_angle(heading);
   return true;
 }
 

@@ -599,7 +599,7 @@ std::vector<Pose2> ReadTrajectory(const std::string& path) {
     }
   } else {
     if (header != "x,y,theta" && header != "x,y,theta_rad")
-      throw Error(path + ": line 1: expected the header 'x,y,theta' (radians) or a pose CSV (spec section 5)");
+      throw Error(path + ": line 1: expected the header 'x,y,theta' (radians) or a pose CSV (docs/panoloc.md)");
     std::string line;
     int ln = 1;
     while (std::getline(in, line)) {

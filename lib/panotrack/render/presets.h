@@ -54,7 +54,7 @@ std::vector<std::string> PresetNames();
 SequenceCase MakePreset(const std::string& name);
 
 // A case from files: map, calibration and a trajectory file. The trajectory is
-// either a pose CSV (spec section 5, e.g. a gt.csv; every row must be ok) or a
+// either a pose CSV (docs/panoloc.md, e.g. a gt.csv; every row must be ok) or a
 // CSV with the header `x,y,theta` (radians) and one pose per line. Checks that
 // every pose is inside the room and not inside a box, naming the file and line.
 SequenceCase MakeCase(const std::string& map_path, const std::string& calib_path,

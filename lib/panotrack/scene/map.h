@@ -1,5 +1,5 @@
 // The a-priori model of the room and its landmarks (paper section 2; the map
-// file of spec section 4 is read and written by io/map.h).
+// file (docs/maps.md) is read and written by io/map.h).
 #pragma once
 
 #include <Eigen/Core>

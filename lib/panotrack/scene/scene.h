@@ -1,7 +1,7 @@
 // The scene of a map file as a list of planar quads, with a ray cast and a
 // segment occlusion test. Used by panosim (rendering) and by the localiser
 // (is a landmark corner hidden by map surfaces?). All coordinates are world
-// coordinates (spec section 1: z up, floor at z = 0).
+// coordinates (z up, floor at z = 0; README, "Files and conventions").
 #pragma once
 
 #include <Eigen/Core>

@@ -1,6 +1,6 @@
 // A calibrated sensor as the tools exchange it: the model, the map units and
 // the E(D,Z) lookup table that belongs to it. io/calibration.h reads and
-// writes it (spec section 3).
+// writes it (README, "Files and conventions").
 #pragma once
 
 #include <Eigen/Core>

@@ -100,7 +100,7 @@ struct SensorParams {
   }
 };
 
-// Sphere of radius r whose centre is d above the pinhole (spec section 2).
+// Sphere of radius r whose centre is d above the pinhole (README, "Files and conventions").
 template <typename T>
 void set_sphere_mirror(SensorParams<T>* p, const T& mirror_radius, const T& mirror_distance) {
   p->curvature_radius = mirror_radius;

@@ -12,7 +12,7 @@
 namespace pano {
 
 // Robot pose on the floor: the pinhole's world (x, y) and the angle from world
-// +x to sensor +x, counter-clockwise (spec section 1).
+// +x to sensor +x, counter-clockwise (README, "Files and conventions").
 struct Pose2 {
   double x = 0.0;
   double y = 0.0;
@@ -52,7 +52,7 @@ struct Sensor {
   bool aligned() const { return faults.IsZero(); }
   GeneralSensorParams<double> general() const { return {params, faults}; }
 
-  // The sphere's own parameters (spec section 2), valid for kSphere.
+  // The sphere's own parameters (README, "Files and conventions"), valid for kSphere.
   double mirror_radius() const { return params.curvature_radius; }
   double mirror_distance() const { return params.vertex_distance + params.curvature_radius; }
 
@@ -83,7 +83,7 @@ struct Sensor {
 // that leaves no pixel.
 Sensor ScaledSensor(const Sensor& sensor, double scale);
 
-// The sphere model of the spec from its named parameters.
+// The sphere model from its named parameters.
 Sensor make_sphere_sensor(int width, int height, double focal_px, double cx, double cy,
                           double aspect, double mirror_radius, double mirror_distance,
                           double azimuth_offset = 0.0);

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 
+#include "panotrack/core/angles.h"
 #include "panotrack/core/error.h"
 #include "panotrack/core/parallel.h"
 #include "panotrack/track/edge_profile.h"
@@ -74,9 +75,7 @@ QuasiCylindricalView::QuasiCylindricalView(const Sensor& sensor, double inner_ra
 }
 
 double QuasiCylindricalView::x_of_azimuth(double azimuth) const {
-  double a = std::fmod(azimuth, 2.0 * M_PI);
-  if (a < 0) a += 2.0 * M_PI;
-  double x = a * width_ / (2.0 * M_PI);
+  double x = wrap_angle_positive(azimuth) * width_ / (2.0 * M_PI);
   if (x >= width_) x -= width_;
   return pad_ + x;
 }
