@@ -15,35 +15,31 @@
 
 namespace pano::app {
 
-void AddCalibrateCommand(CLI::App& app) {
-  struct Opts {
-    std::string targets, out, lut, report, model = "auto", distortion = "auto", free = "none";
-    double huber = 1.0, max_rms = 5.0, full_weight = CalibrateOptions().full_weight_px;
-    int max_iterations = 200, threads = 0, asphere_terms = 2;
-    bool no_aspect = false, ignore_poses = false, no_unwarp = false, no_refine = false, limb = false, verbose = false;
-  };
-  auto o = std::make_shared<Opts>();
-  // Input without a target file: the board on the command line.
-  struct BoardOpts {
-    std::string board, dictionary = "DICT_4X4_50", units = TargetSet().units;
-    double square = 0.0, marker = 0.0;
-    int every = 0;
-  };
-  auto bo = std::make_shared<BoardOpts>();
-  CLI::App* cmd = app.add_subcommand(
-      "calibrate",
-      "Fit the sensor model to images of a chessboard or a ChArUco board (target file: spec section 6; "
-      "or a folder of images or a video with --board). Writes the "
-      "calibration YAML (spec section 3) with standard deviations and RMS reprojection errors, "
-      "optionally the E(D,Z) lookup table and a report PNG, and prints a summary. Boards with "
-      "rvec/tvec given are 'known targets' (only the sensor is fitted); otherwise every board pose "
-      "is estimated too. Nothing is written when the calibration fails.");
-  cmd->add_option("targets", o->targets,
-                  "Calibration target file (.yaml/.yml), or a folder of images (natural order: image_2 before "
-                  "image_10), or a video (every --every-th frame, named VIDEO#FRAME); a folder or video "
-                  "needs --board and --square")
-      ->required();
-  // --- Folder or video input: the board (the target file's board fields).
+namespace {
+
+struct Opts {
+  std::string targets, out, lut, report, model = "auto", distortion = "auto", free = "none";
+  double huber = 1.0, max_rms = 5.0, full_weight = CalibrateOptions().full_weight_px;
+  int max_iterations = 200, threads = 0, asphere_terms = 2;
+  bool no_aspect = false, ignore_poses = false, no_unwarp = false, no_refine = false, limb = false, verbose = false;
+};
+
+// Input without a target file: the board on the command line.
+struct BoardOpts {
+  std::string board, dictionary = "DICT_4X4_50", units = TargetSet().units;
+  double square = 0.0, marker = 0.0;
+  int every = 0;
+};
+
+// The programs' shared conventions: existing outputs kept unless --force,
+// -q, and the summary as JSON.
+struct RunOpts {
+  bool force = false, quiet = false;
+  std::string summary_json;
+};
+
+// --- Folder or video input: the board (the target file's board fields).
+void AddBoardOptions(CLI::App* cmd, BoardOpts* bo) {
   CLI::Option* board_opt = cmd->add_option(
       "--board", bo->board,
       "Board for a folder or video: COLSxROWS inner corners (board.cols along the board's x, board.rows "
@@ -58,16 +54,17 @@ void AddCalibrateCommand(CLI::App& app) {
   cmd->add_option("--every", bo->every, "Video: take every N-th frame (0: about 30 frames)")
       ->capture_default_str()
       ->needs(board_opt);
-  cmd->add_option("-o,--output", o->out, "Output calibration file (YAML)")->required();
-  cmd->add_option("--lut", o->lut, "Also write the E(D,Z) lookup table here (referenced from the YAML)");
-  cmd->add_option("--report", o->report, "Also write a report PNG (per-image RMS, residual vectors)");
+}
+
+// The mirror profile, lens distortion and rig faults; returns --free.
+CLI::Option* AddModelOptions(CLI::App* cmd, Opts* o) {
   cmd->add_option("--model", o->model,
                   "Mirror profile: auto (the default: the mirror profile, the lens distortion and the rig faults "
                   "chosen by 5-fold cross-validation over the boards among sphere, sphere + decentre, sphere + "
                   "k1 k2, conic + k1 k2, asphere (a4) + k1 k2, asphere (a4, a6) + k1 k2, conic + k1 k2 + "
                   "decentre, camera tilt, unified + k1 k2 and unified + k1 k2 + p1 p2, skew: the simplest whose error "
                   "on boards left out of the fit is within 1 % of the best, refusing a model whose parameters the boards do not determine; --distortion or --free "
-                  "given hold for every candidate; fewer than 4 boards: the sphere), sphere (spec section 2), conic "
+                  "given hold for every candidate; fewer than 4 boards: the sphere), sphere, conic "
                   "(quadric of revolution), asphere (the conic plus even-asphere terms a4, a6, for a mirror "
                   "whose maker does not publish its shape) or unified (Mei's central model, xi: for a "
                   "single-viewpoint camera such as a parabolic mirror behind a telecentric lens)")
@@ -78,7 +75,7 @@ void AddCalibrateCommand(CLI::App& app) {
                   "Lens radial distortion terms fitted: auto (chosen with --model auto; else none for sphere, k1 k2 for "
                   "conic, asphere and unified), 0, 1 or 2")
       ->capture_default_str();
-  CLI::Option* free_opt = cmd->add_option("--free", o->free,
+  return cmd->add_option("--free", o->free,
                   "Rig faults fitted (general model; with --model auto and no --free they are chosen): none (the "
                   "aligned model), auto (decentre and camera-tilt "
                   "for conic; decentre for sphere, whose centre off the axis and a camera tilt are one and the "
@@ -86,6 +83,9 @@ void AddCalibrateCommand(CLI::App& app) {
                   "OpenCV's omnidir), or a comma list of decentre, camera-tilt, k1, k2 (as --distortion), "
                   "tangential (p1 p2), k3, skew (the pixel grid's shear), sensor-tilt (known board poses only)")
       ->capture_default_str();
+}
+
+void AddFitOptions(CLI::App* cmd, Opts* o) {
   cmd->add_option("--huber", o->huber, "Huber loss threshold in pixels (0: plain least squares)")
       ->capture_default_str();
   cmd->add_option("--full-weight", o->full_weight,
@@ -107,97 +107,135 @@ void AddCalibrateCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("-v,--verbose", o->verbose,
                 "Print step timings, the solver's progress and the libraries' warnings (quiet otherwise)");
-  // The programs' shared conventions: existing outputs kept unless --force,
-  // -q, and the summary as JSON.
-  struct RunOpts {
-    bool force = false, quiet = false;
-    std::string summary_json;
-  };
-  auto run = std::make_shared<RunOpts>();
+}
+
+void AddRunOptions(CLI::App* cmd, RunOpts* run) {
   cmd->add_flag("--force", run->force, "Replace existing output files (otherwise nothing is done)");
   cmd->add_option("--summary-json", run->summary_json,
                   "Also write the summary (RMS, per-image RMS, parameters with standard deviations, images "
                   "without a board, warnings, timings) as JSON; - writes it to standard output");
   cmd->add_flag("-q,--quiet", run->quiet, "No summary or warnings (errors still on stderr)");
+}
+
+// The calibration's options from the command line (free_given: --free was
+// given). Throws pano::Error for a value the parser let through.
+CalibrateOptions CalibrateOptionsOf(const Opts& o, bool free_given, bool quiet) {
+  CalibrateOptions opt;
+  if (o.model == "sphere") opt.model = MirrorModel::kSphere;
+  else if (o.model == "conic") opt.model = MirrorModel::kConic;
+  else if (o.model == "asphere") opt.model = MirrorModel::kAsphere;
+  else if (o.model == "unified") opt.model = MirrorModel::kUnified;
+  else if (o.model == "auto") opt.select_model = opt.selection_fallback = true;
+  else throw Error("--model: expected sphere, conic, asphere, unified or auto, got '" + o.model + "'");
+  opt.asphere_terms = o.asphere_terms;
+  if (o.distortion == "auto") opt.distortion_terms = -1;
+  else if (o.distortion == "0" || o.distortion == "1" || o.distortion == "2") opt.distortion_terms = std::stoi(o.distortion);
+  else throw Error("--distortion: expected auto, 0, 1 or 2, got '" + o.distortion + "'");
+  {
+    int radial = -1;
+    opt.free_faults = ParseFreeFaults(o.free, opt.model, &radial);
+    opt.free_faults_auto = o.free == "auto";
+    opt.selection_fixed_faults = free_given;
+    if (radial >= 0) {
+      if (o.distortion != "auto" && opt.distortion_terms != radial)
+        throw Error("--free: names k1/k2 but --distortion says " + o.distortion);
+      opt.distortion_terms = radial;
+    }
+  }
+  opt.huber_px = o.huber;
+  opt.max_rms_px = o.max_rms;
+  opt.full_weight_px = o.full_weight;
+  opt.max_iterations = o.max_iterations;
+  opt.fit_aspect = !o.no_aspect;
+  opt.ignore_known_poses = o.ignore_poses;
+  opt.unwarp_fallback = !o.no_unwarp;
+  if (o.no_refine) opt.refine_passes = 0;
+  opt.use_limb = o.limb;
+  opt.num_threads = o.threads;
+  opt.verbose = o.verbose;
+  if (o.verbose) opt.on_log = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
+  if (opt.select_model && !quiet)
+    opt.on_progress = [](const std::string& step) { std::fprintf(stderr, "panocalib: model selection: %s\n", step.c_str()); };
+  opt.Check();
+  return opt;
+}
+
+// Reads the targets, calibrates, writes the outputs and prints the summary.
+void RunCalibrate(const Opts& o, const BoardOpts& bo, const RunOpts& run, const CalibrateOptions& opt,
+                  const NamedPaths& outputs) {
+  TargetInputBoard input;
+  input.board_given = !bo.board.empty();
+  if (input.board_given) {
+    if (!(bo.square > 0.0)) throw Error("--square: required with --board (the square side, map units)");
+    input.board = ParseBoardSpec(bo.board, bo.square, bo.marker, bo.dictionary);
+    input.units = bo.units;
+    input.every = bo.every;
+  }
+  const TargetSet targets = ReadTargetInput(o.targets, input);
+  // The board images are known once the target file is read.
+  CheckOutputsDistinct(TargetInputReads(o.targets, targets), outputs);
+  const std::vector<cv::Mat> images = LoadTargetImages(targets);
+  CalibrationResult r = Calibrate(targets, images, opt);
+  r.calib.command_line = ShellCommandLine(CommandLine());
+  cv::Mat report;
+  if (!o.report.empty()) {
+    // The worst image shows the residuals best.
+    int worst = 0;
+    for (size_t i = 1; i < r.image_rms.size(); ++i)
+      if (r.image_rms[i] > r.image_rms[worst]) worst = static_cast<int>(i);
+    const cv::Mat& im = r.views.empty() ? cv::Mat() : images[r.views[worst].image_index];
+    report = DrawReport(r, im, worst);
+  }
+  CalibrationOutputs out;
+  out.calibration = o.out;
+  out.lut = o.lut;
+  out.report = o.report;
+  out.summary_json = run.summary_json;
+  out.command_line = CommandLine();
+  WriteCalibrationOutputs(r, out, report);
+  if (run.quiet) return;
+  // With the JSON on standard output, the text goes to stderr.
+  std::FILE* text = run.summary_json == "-" ? stderr : stdout;
+  std::fprintf(text, "%s", Summary(r).c_str());
+  std::fprintf(text, "wrote %s%s%s%s%s\n", o.out.c_str(), o.lut.empty() ? "" : ", ", o.lut.c_str(),
+               o.report.empty() ? "" : ", ", o.report.c_str());
+  for (const std::string& w : r.warnings) std::fprintf(stderr, "panocalib: warning: %s\n", w.c_str());
+}
+
+}  // namespace
+
+void AddCalibrateCommand(CLI::App& app) {
+  auto o = std::make_shared<Opts>();
+  auto bo = std::make_shared<BoardOpts>();
+  auto run = std::make_shared<RunOpts>();
+  CLI::App* cmd = app.add_subcommand(
+      "calibrate",
+      "Fit the sensor model to images of a chessboard or a ChArUco board (target file: see docs/calibration.md; "
+      "or a folder of images or a video with --board). Writes the "
+      "calibration YAML with standard deviations and RMS reprojection errors, "
+      "optionally the E(D,Z) lookup table and a report PNG, and prints a summary. Boards with "
+      "rvec/tvec given are 'known targets' (only the sensor is fitted); otherwise every board pose "
+      "is estimated too. Nothing is written when the calibration fails.");
+  cmd->add_option("targets", o->targets,
+                  "Calibration target file (.yaml/.yml), or a folder of images (natural order: image_2 before "
+                  "image_10), or a video (every --every-th frame, named VIDEO#FRAME); a folder or video "
+                  "needs --board and --square")
+      ->required();
+  AddBoardOptions(cmd, bo.get());
+  cmd->add_option("-o,--output", o->out, "Output calibration file (YAML)")->required();
+  cmd->add_option("--lut", o->lut, "Also write the E(D,Z) lookup table here (referenced from the YAML)");
+  cmd->add_option("--report", o->report, "Also write a report PNG (per-image RMS, residual vectors)");
+  CLI::Option* free_opt = AddModelOptions(cmd, o.get());
+  AddFitOptions(cmd, o.get());
+  AddRunOptions(cmd, run.get());
   auto outputs = [o, run]() -> NamedPaths {
     return {{"-o", o->out}, {"--lut", o->lut}, {"--report", o->report}, {"--summary-json", run->summary_json}};
   };
   cmd->parse_complete_callback([o, run, outputs]() { CheckPlannedOutputs({{"", o->targets}}, outputs(), run->force); });
   cmd->callback([o, bo, run, outputs, free_opt]() {
-    CalibrateOptions opt;
-    if (o->model == "sphere") opt.model = MirrorModel::kSphere;
-    else if (o->model == "conic") opt.model = MirrorModel::kConic;
-    else if (o->model == "asphere") opt.model = MirrorModel::kAsphere;
-    else if (o->model == "unified") opt.model = MirrorModel::kUnified;
-    else if (o->model == "auto") opt.select_model = opt.selection_fallback = true;
-    else throw Error("--model: expected sphere, conic, asphere, unified or auto, got '" + o->model + "'");
-    opt.asphere_terms = o->asphere_terms;
-    if (o->distortion == "auto") opt.distortion_terms = -1;
-    else if (o->distortion == "0" || o->distortion == "1" || o->distortion == "2") opt.distortion_terms = std::stoi(o->distortion);
-    else throw Error("--distortion: expected auto, 0, 1 or 2, got '" + o->distortion + "'");
-    {
-      int radial = -1;
-      opt.free_faults = ParseFreeFaults(o->free, opt.model, &radial);
-      opt.free_faults_auto = o->free == "auto";
-      opt.selection_fixed_faults = free_opt->count() > 0;
-      if (radial >= 0) {
-        if (o->distortion != "auto" && opt.distortion_terms != radial)
-          throw Error("--free: names k1/k2 but --distortion says " + o->distortion);
-        opt.distortion_terms = radial;
-      }
-    }
-    opt.huber_px = o->huber;
-    opt.max_rms_px = o->max_rms;
-    opt.full_weight_px = o->full_weight;
-    opt.max_iterations = o->max_iterations;
-    opt.fit_aspect = !o->no_aspect;
-    opt.ignore_known_poses = o->ignore_poses;
-    opt.unwarp_fallback = !o->no_unwarp;
-    if (o->no_refine) opt.refine_passes = 0;
-    opt.use_limb = o->limb;
-    opt.num_threads = o->threads;
-    opt.verbose = o->verbose;
+    const CalibrateOptions opt = CalibrateOptionsOf(*o, free_opt->count() > 0, run->quiet);
     SetDecoderLogging(o->verbose);  // a board video's FFmpeg lines only with -v
-    if (opt.select_model && !run->quiet)
-      opt.on_progress = [](const std::string& step) { std::fprintf(stderr, "panocalib: model selection: %s\n", step.c_str()); };
-    opt.Check();
-    TargetInputBoard input;
-    input.board_given = !bo->board.empty();
-    if (input.board_given) {
-      if (!(bo->square > 0.0)) throw Error("--square: required with --board (the square side, map units)");
-      input.board = ParseBoardSpec(bo->board, bo->square, bo->marker, bo->dictionary);
-      input.units = bo->units;
-      input.every = bo->every;
-    }
-    const TargetSet targets = ReadTargetInput(o->targets, input);
-    // The board images are known once the target file is read.
-    CheckOutputsDistinct(TargetInputReads(o->targets, targets), outputs());
-    const std::vector<cv::Mat> images = LoadTargetImages(targets);
-    CalibrationResult r = Calibrate(targets, images, opt);
-    r.calib.command_line = ShellCommandLine(CommandLine());
-    cv::Mat report;
-    if (!o->report.empty()) {
-      // The worst image shows the residuals best.
-      int worst = 0;
-      for (size_t i = 1; i < r.image_rms.size(); ++i)
-        if (r.image_rms[i] > r.image_rms[worst]) worst = static_cast<int>(i);
-      const cv::Mat& im = r.views.empty() ? cv::Mat() : images[r.views[worst].image_index];
-      report = DrawReport(r, im, worst);
-    }
-    CalibrationOutputs out;
-    out.calibration = o->out;
-    out.lut = o->lut;
-    out.report = o->report;
-    out.summary_json = run->summary_json;
-    out.command_line = CommandLine();
-    WriteCalibrationOutputs(r, out, report);
-    if (run->quiet) return;
-    // With the JSON on standard output, the text goes to stderr.
-    std::FILE* text = run->summary_json == "-" ? stderr : stdout;
-    std::fprintf(text, "%s", Summary(r).c_str());
-    std::fprintf(text, "wrote %s%s%s%s%s\n", o->out.c_str(), o->lut.empty() ? "" : ", ", o->lut.c_str(),
-                 o->report.empty() ? "" : ", ", o->report.c_str());
-    for (const std::string& w : r.warnings) std::fprintf(stderr, "panocalib: warning: %s\n", w.c_str());
+    RunCalibrate(*o, *bo, *run, opt, outputs());
   });
 }
 
