@@ -153,10 +153,42 @@ double RobustSigma(std::vector<double> v, double fallback) {
   return s > 0.0 ? s : fallback;
 }
 
-struct Unknowns {
-  std::vector<std::array<double, kRectangleParams>> rects;
-  std::vector<std::array<double, 3>> poses;
-  double height = 0.0;
+// The adjustment's unknowns in one buffer: the rectangles, the poses, then
+// the sensor height. Ceres's covariance orders the parameter blocks by their
+// addresses: in separate allocations that order (and the deviations' last
+// digits) would change from run to run with where the allocator put them.
+class Unknowns {
+ public:
+  Unknowns(const Map& surveyed, const std::vector<Pose2>& poses)
+      : n_rects_(surveyed.rectangles.size()), values_(n_rects_ * kRectangleParams + 3 * poses.size() + 1) {
+    for (size_t k = 0; k < n_rects_; ++k) {
+      const std::array<double, kRectangleParams> r = RectangleParams(surveyed.rectangles[k]);
+      std::copy(r.begin(), r.end(), rect(k));
+    }
+    for (size_t f = 0; f < poses.size(); ++f) {
+      pose(f)[0] = poses[f].x;
+      pose(f)[1] = poses[f].y;
+      pose(f)[2] = poses[f].theta;
+    }
+    *height() = surveyed.sensor_height;
+  }
+  size_t n_rects() const { return n_rects_; }
+  size_t n_poses() const { return (values_.size() - 1 - n_rects_ * kRectangleParams) / 3; }
+  double* rect(size_t k) { return &values_[k * kRectangleParams]; }
+  const double* rect(size_t k) const { return &values_[k * kRectangleParams]; }
+  std::array<double, kRectangleParams> RectArray(size_t k) const {
+    std::array<double, kRectangleParams> r;
+    std::copy(rect(k), rect(k) + kRectangleParams, r.begin());
+    return r;
+  }
+  double* pose(size_t f) { return &values_[n_rects_ * kRectangleParams + 3 * f]; }
+  const double* pose(size_t f) const { return &values_[n_rects_ * kRectangleParams + 3 * f]; }
+  double* height() { return &values_.back(); }
+  double height_value() const { return values_.back(); }
+
+ private:
+  size_t n_rects_;
+  std::vector<double> values_;
 };
 
 // Raw (unscaled) residuals of every observation at `u`: azimuth and radius.
@@ -164,11 +196,11 @@ void RawResiduals(const SensorParams<double>& sensor, const std::vector<Landmark
                   const std::vector<CornerObservation>& obs, std::vector<double>* az, std::vector<double>* rad) {
   az->clear();
   rad->clear();
-  const int n_rect_landmarks = static_cast<int>(u.rects.size()) * 4;
+  const int n_rect_landmarks = static_cast<int>(u.n_rects()) * 4;
   for (const CornerObservation& o : obs) {
     double X[3];
     if (o.landmark < n_rect_landmarks) {
-      const auto& r = u.rects[static_cast<size_t>(o.landmark / 4)];
+      const double* r = u.rect(static_cast<size_t>(o.landmark / 4));
       X[0] = r[2 * CornerEnd(o.landmark)];
       X[1] = r[2 * CornerEnd(o.landmark) + 1];
       X[2] = r[4 + CornerLevel(o.landmark)];
@@ -178,11 +210,11 @@ void RawResiduals(const SensorParams<double>& sensor, const std::vector<Landmark
       X[1] = c.y();
       X[2] = c.z();
     }
-    const double* pose = u.poses[static_cast<size_t>(o.frame)].data();
+    const double* pose = u.pose(static_cast<size_t>(o.frame));
     double a, r;
-    PredictMeasurement(sensor, pose, X, u.height, false, &a);
+    PredictMeasurement(sensor, pose, X, u.height_value(), false, &a);
     az->push_back(wrap_angle(a - o.azimuth));
-    rad->push_back(PredictMeasurement(sensor, pose, X, u.height, true, &r) ? r - o.radius : std::nan(""));
+    rad->push_back(PredictMeasurement(sensor, pose, X, u.height_value(), true, &r) ? r - o.radius : std::nan(""));
   }
 }
 
@@ -318,10 +350,7 @@ RefineResult SolveMapRefinement(const Calibration& calib, const Map& surveyed, c
       throw Error("corner observation of frame " + std::to_string(o.frame) + ", landmark " +
                   std::to_string(o.landmark) + ": out of range");
 
-  Unknowns u;
-  for (const MapRectangle& r : surveyed.rectangles) u.rects.push_back(RectangleParams(r));
-  for (const Pose2& p : start ? *start : poses) u.poses.push_back({p.x, p.y, p.theta});
-  u.height = surveyed.sensor_height;
+  Unknowns u(surveyed, start ? *start : poses);
 
   RefineResult res;
   std::vector<double> az, rad;
@@ -354,7 +383,7 @@ RefineResult SolveMapRefinement(const Calibration& calib, const Map& surveyed, c
     for (size_t i = 0; i < n_obs; ++i) {
       const CornerObservation& o = observations[i];
       if (!frame_used[static_cast<size_t>(o.frame)]) continue;
-      double* pose = u.poses[static_cast<size_t>(o.frame)].data();
+      double* pose = u.pose(static_cast<size_t>(o.frame));
       for (bool radius : {false, true}) {
         if (!(radius ? use_r[i] : use_az[i])) continue;
         const double sigma = radius ? radius_sigma[static_cast<size_t>(o.landmark)] : sigma_az;
@@ -365,12 +394,12 @@ RefineResult SolveMapRefinement(const Calibration& calib, const Map& surveyed, c
                                             measured, sigma};
           problem->AddResidualBlock(
               new ceres::AutoDiffCostFunction<RectangleCornerCost, 1, 3, kRectangleParams, 1>(f), loss, pose,
-              u.rects[static_cast<size_t>(o.landmark / 4)].data(), &u.height);
+              u.rect(static_cast<size_t>(o.landmark / 4)), u.height());
         } else {
           auto* f = new FixedCornerCost{sensor, landmarks[static_cast<size_t>(o.landmark)].corner, radius,
                                         measured, sigma};
           problem->AddResidualBlock(new ceres::AutoDiffCostFunction<FixedCornerCost, 1, 3, 1>(f), loss, pose,
-                                    &u.height);
+                                    u.height());
         }
       }
     }
@@ -381,23 +410,23 @@ RefineResult SolveMapRefinement(const Calibration& calib, const Map& surveyed, c
         if (opt.pose_sigma > 0.0)
           problem->AddResidualBlock(new ceres::AutoDiffCostFunction<PosePriorCost, 2, 3>(
                                         new PosePriorCost{poses[f].x, poses[f].y, opt.pose_sigma}),
-                                    nullptr, u.poses[f].data());
+                                    nullptr, u.pose(f));
       }
     for (int k = 0; k < n_rect; ++k) {
       auto* prior = new PriorCost{RectangleParams(surveyed.rectangles[static_cast<size_t>(k)]), opt.map_sigma};
       problem->AddResidualBlock(new ceres::AutoDiffCostFunction<PriorCost, kRectangleParams, kRectangleParams>(prior),
-                                nullptr, u.rects[static_cast<size_t>(k)].data());
+                                nullptr, u.rect(static_cast<size_t>(k)));
     }
     if (opt.hold_floor_contacts)
       for (int k = 0; k < n_rect; ++k)
         if (surveyed.rectangles[static_cast<size_t>(k)].z0 == 0.0)
-          problem->SetManifold(u.rects[static_cast<size_t>(k)].data(),
+          problem->SetManifold(u.rect(static_cast<size_t>(k)),
                                new ceres::SubsetManifold(kRectangleParams, {4}));
-    if (problem->HasParameterBlock(&u.height) && !opt.free_height) problem->SetParameterBlockConstant(&u.height);
+    if (problem->HasParameterBlock(u.height()) && !opt.free_height) problem->SetParameterBlockConstant(u.height());
     if (opt.fix_first_pose)
       for (size_t f = 0; f < poses.size(); ++f)
         if (frame_used[f]) {
-          problem->SetParameterBlockConstant(u.poses[f].data());
+          problem->SetParameterBlockConstant(u.pose(f));
           break;
         }
     ceres::Solver::Options so;
@@ -446,26 +475,26 @@ RefineResult SolveMapRefinement(const Calibration& calib, const Map& surveyed, c
     co.num_threads = 1;  // repeatable, as the solve
     ceres::Covariance cov(co);
     std::vector<std::pair<const double*, const double*>> blocks;
-    for (auto& r : u.rects) blocks.push_back({r.data(), r.data()});
-    if (opt.free_height) blocks.push_back({&u.height, &u.height});
+    for (size_t k = 0; k < u.n_rects(); ++k) blocks.push_back({u.rect(k), u.rect(k)});
+    if (opt.free_height) blocks.push_back({u.height(), u.height()});
     if (cov.Compute(blocks, problem.get())) {
       res.covariance_ok = true;
       for (int k = 0; k < n_rect; ++k) {
         double c[kRectangleParams * kRectangleParams];
-        cov.GetCovarianceBlock(u.rects[static_cast<size_t>(k)].data(), u.rects[static_cast<size_t>(k)].data(), c);
+        cov.GetCovarianceBlock(u.rect(static_cast<size_t>(k)), u.rect(static_cast<size_t>(k)), c);
         for (int i = 0; i < kRectangleParams; ++i)
           stds[static_cast<size_t>(k)][static_cast<size_t>(i)] = std::sqrt(std::max(0.0, c[i * kRectangleParams + i]));
       }
       if (opt.free_height) {
         double c;
-        cov.GetCovarianceBlock(&u.height, &u.height, &c);
+        cov.GetCovarianceBlock(u.height(), u.height(), &c);
         res.sensor_height_std = std::sqrt(std::max(0.0, c));
       }
     }
   }
 
   res.map = surveyed;
-  res.map.sensor_height = u.height;
+  res.map.sensor_height = u.height_value();
   std::vector<int> per_rect(static_cast<size_t>(n_rect), 0);
   for (size_t i = 0; i < n_obs; ++i) {
     const CornerObservation& o = observations[i];
@@ -475,12 +504,12 @@ RefineResult SolveMapRefinement(const Calibration& calib, const Map& surveyed, c
   for (int k = 0; k < n_rect; ++k) {
     const size_t kk = static_cast<size_t>(k);
     MapRectangle& r = res.map.rectangles[kk];
-    SetRectangleParams(u.rects[kk], &r);
+    SetRectangleParams(u.RectArray(kk), &r);
     LandmarkCorrection lc;
     lc.id = r.id;
     lc.observations = per_rect[kk];
     lc.surveyed = RectangleParams(surveyed.rectangles[kk]);
-    lc.refined = u.rects[kk];
+    lc.refined = u.RectArray(kk);
     lc.std = stds[kk];
     for (int i = 0; i < kRectangleParams; ++i)
       if (std::abs(lc.refined[static_cast<size_t>(i)] - lc.surveyed[static_cast<size_t>(i)]) > 3.0 * opt.map_sigma)
@@ -495,7 +524,10 @@ RefineResult SolveMapRefinement(const Calibration& calib, const Map& surveyed, c
     res.landmarks.push_back(lc);
   }
   StateRefinedSurveySigma(surveyed, &res);
-  for (const auto& p : u.poses) res.poses.push_back({p[0], p[1], wrap_angle(p[2])});
+  for (size_t f = 0; f < u.n_poses(); ++f) {
+    const double* p = u.pose(f);
+    res.poses.push_back({p[0], p[1], wrap_angle(p[2])});
+  }
   for (char used : frame_used) res.frames_used += used;
   return res;
 }
