@@ -16,36 +16,19 @@
 
 namespace pano::app {
 
-void AddRefineCommand(CLI::App& app) {
-  struct Opts {
-    std::string map, calib, out, report;
-    std::string pose_sigma = "auto";
-    std::vector<std::string> poses, videos;
-    double map_sigma = 1.0, reject_sigmas = 4.0, edge_gap = 10.0, radius_systematic = 0.04;
-    bool free_height = false, fix_first_pose = false, free_floor = false, force = false, quiet = false, verbose = false;
-    int passes = 2, threads = 0;
-  };
-  auto o = std::make_shared<Opts>();
-  CLI::App* cmd = app.add_subcommand(
-      "refine",
-      "Refine a surveyed map from video: a bundle adjustment of the landmark rectangles (each vertical, "
-      "its two floor end points and two heights shared by its four corners), the robot poses (started "
-      "from the pose CSVs, ok rows only) and optionally the sensor height, against the azimuth and image "
-      "radius of every junction tracked at its predicted place. Each surveyed coordinate has a Gaussian "
-      "prior of sigma --map-sigma; the priors (and --pose-sigma's on the poses) fix the gauge, whose "
-      "uncertainty is printed. Measurements beyond --reject-sigmas are dropped. Prints each landmark's "
-      "correction and its standard deviation, flagged when beyond 3 sigma of the survey.");
-  cmd->add_option("--map", o->map, "Surveyed map YAML (never overwritten)")->required();
-  cmd->add_option("--calib", o->calib, "Calibration YAML")->required();
-  cmd->add_option("--poses", o->poses,
-                  "Pose CSV of each video (panoloc's output: one row per frame), repeated in the videos' order")
-      ->required()
-      ->allow_extra_args(false)
-      ->take_all();
-  cmd->add_option("videos", o->videos, "Videos (files, image folders or printf patterns)")->required();
-  cmd->add_option("-o,--output", o->out, "Refined map YAML")->required()->group("Output");
-  cmd->add_option("--report", o->report, "Per-landmark corrections as CSV")->group("Output");
-  cmd->add_flag("--force", o->force, "Replace existing output files")->group("Output");
+namespace {
+
+struct Opts {
+  std::string map, calib, out, report;
+  std::string pose_sigma = "auto";
+  std::vector<std::string> poses, videos;
+  double map_sigma = 1.0, reject_sigmas = 4.0, edge_gap = 10.0, radius_systematic = 0.04;
+  bool free_height = false, fix_first_pose = false, free_floor = false, force = false, quiet = false, verbose = false;
+  int passes = 2, threads = 0;
+};
+
+// The adjustment's options; returns --map-sigma (whether it was given).
+CLI::Option* AddAdjustmentOptions(CLI::App* cmd, Opts* o) {
   CLI::Option* map_sigma_option =
       cmd->add_option("--map-sigma", o->map_sigma,
                       "Survey error: prior sigma of each coordinate (map units); default: the map's survey_sigma "
@@ -94,55 +77,91 @@ void AddRefineCommand(CLI::App& app) {
   cmd->add_option("--passes", o->passes, "Track-and-solve rounds (later ones re-track at the solution)")
       ->check(CLI::Range(1, 10))
       ->capture_default_str();
+  return map_sigma_option;
+}
+
+// The adjustment's options from the command line and the inputs: without
+// --map-sigma, the survey error the map states.
+RefineOptions RefineOptionsOf(Opts* o, const Map& map, const std::vector<RefineVideo>& videos, bool map_sigma_given) {
+  RefineOptions opt;
+  if (!map_sigma_given && map.survey_sigma > 0.0) o->map_sigma = map.survey_sigma;
+  opt.map_sigma = o->map_sigma;
+  opt.pose_sigma = o->pose_sigma == "auto" ? AutoPoseSigma(videos, o->map_sigma) : std::stod(o->pose_sigma);
+  opt.reject_sigmas = o->reject_sigmas;
+  opt.min_edge_gap_px = o->edge_gap;
+  opt.radius_systematic_px = o->radius_systematic;
+  opt.free_height = o->free_height;
+  opt.fix_first_pose = o->fix_first_pose;
+  opt.hold_floor_contacts = !o->free_floor;
+  opt.passes = o->passes;
+  opt.num_threads = o->threads;
+  opt.tracking.num_threads = o->threads;
+  return opt;
+}
+
+// Reads the inputs, refines the map, writes the outputs and prints the table.
+void RunRefine(Opts o, bool map_sigma_given) {
+  CheckThreadCount(o.threads, "--threads");
+  if (o.poses.size() != o.videos.size())
+    throw Error("--poses: " + std::to_string(o.poses.size()) + " pose CSVs for " +
+                std::to_string(o.videos.size()) + " videos (give one per video, in the same order)");
+  NamedPaths reads = {{"--map", o.map}, {"--calib", o.calib}};
+  for (const std::string& p : o.poses) reads.push_back({"--poses", p});
+  for (const std::string& v : o.videos)
+    for (const auto& read : FrameSource::InputReads(v, "VIDEO")) reads.push_back(read);
+  CheckPlannedOutputs(reads, {{"-o", o.out}, {"--report", o.report}}, o.force);
+  const Calibration calib = ReadCalibration(o.calib);
+  const Map map = ReadMap(o.map);
+  std::vector<RefineVideo> videos;
+  for (size_t i = 0; i < o.videos.size(); ++i) videos.push_back({o.videos[i], o.poses[i], ReadPoseCsv(o.poses[i])});
+  const RefineOptions opt = RefineOptionsOf(&o, map, videos, map_sigma_given);
+  const RefineResult r = RefineMap(calib, map, videos, opt);
+  WriteMap(o.out, r.map);
+  if (!o.report.empty()) WriteRefineReportCsv(o.report, r);
+  if (!o.quiet) {
+    if (o.pose_sigma == "auto") {
+      if (opt.pose_sigma > 0.0)
+        std::printf("poses: a reference trajectory (no standard deviations): positions held with sigma %g "
+                    "(--pose-sigma auto)\n",
+                    opt.pose_sigma);
+      else
+        std::printf("poses: localised (with standard deviations): no pose prior, the survey fixes the gauge "
+                    "(--pose-sigma auto)\n");
+    }
+    std::printf("%s", RefineReportTable(r, map, o.map_sigma).c_str());
+    std::printf("wrote %s\n", o.out.c_str());
+  }
+}
+
+}  // namespace
+
+void AddRefineCommand(CLI::App& app) {
+  auto o = std::make_shared<Opts>();
+  CLI::App* cmd = app.add_subcommand(
+      "refine",
+      "Refine a surveyed map from video: a bundle adjustment of the landmark rectangles (each vertical, "
+      "its two floor end points and two heights shared by its four corners), the robot poses (started "
+      "from the pose CSVs, ok rows only) and optionally the sensor height, against the azimuth and image "
+      "radius of every junction tracked at its predicted place. Each surveyed coordinate has a Gaussian "
+      "prior of sigma --map-sigma; the priors (and --pose-sigma's on the poses) fix the gauge, whose "
+      "uncertainty is printed. Measurements beyond --reject-sigmas are dropped. Prints each landmark's "
+      "correction and its standard deviation, flagged when beyond 3 sigma of the survey.");
+  cmd->add_option("--map", o->map, "Surveyed map YAML (never overwritten)")->required();
+  cmd->add_option("--calib", o->calib, "Calibration YAML")->required();
+  cmd->add_option("--poses", o->poses,
+                  "Pose CSV of each video (panoloc's output: one row per frame), repeated in the videos' order")
+      ->required()
+      ->allow_extra_args(false)
+      ->take_all();
+  cmd->add_option("videos", o->videos, "Videos (files, image folders or printf patterns)")->required();
+  cmd->add_option("-o,--output", o->out, "Refined map YAML")->required()->group("Output");
+  cmd->add_option("--report", o->report, "Per-landmark corrections as CSV")->group("Output");
+  cmd->add_flag("--force", o->force, "Replace existing output files")->group("Output");
+  CLI::Option* map_sigma_option = AddAdjustmentOptions(cmd, o.get());
   cmd->add_option("-j,--jobs,--threads", o->threads, "Threads (0: every core)")->group("Run");
   cmd->add_flag("-q,--quiet", o->quiet, "No table (errors still on stderr)")->group("Run");
   cmd->add_flag("-v,--verbose", o->verbose, "Also the libraries' logs")->group("Run");
-  cmd->callback([o, map_sigma_option]() {
-    const bool map_sigma_given = map_sigma_option->count() > 0;
-    CheckThreadCount(o->threads, "--threads");
-    if (o->poses.size() != o->videos.size())
-      throw Error("--poses: " + std::to_string(o->poses.size()) + " pose CSVs for " +
-                  std::to_string(o->videos.size()) + " videos (give one per video, in the same order)");
-    NamedPaths reads = {{"--map", o->map}, {"--calib", o->calib}};
-    for (const std::string& p : o->poses) reads.push_back({"--poses", p});
-    for (const std::string& v : o->videos)
-      for (const auto& read : FrameSource::InputReads(v, "VIDEO")) reads.push_back(read);
-    CheckPlannedOutputs(reads, {{"-o", o->out}, {"--report", o->report}}, o->force);
-    const Calibration calib = ReadCalibration(o->calib);
-    const Map map = ReadMap(o->map);
-    std::vector<RefineVideo> videos;
-    for (size_t i = 0; i < o->videos.size(); ++i) videos.push_back({o->videos[i], o->poses[i], ReadPoseCsv(o->poses[i])});
-    RefineOptions opt;
-    // Without --map-sigma, the survey error the map states.
-    if (!map_sigma_given && map.survey_sigma > 0.0) o->map_sigma = map.survey_sigma;
-    opt.map_sigma = o->map_sigma;
-    opt.pose_sigma = o->pose_sigma == "auto" ? AutoPoseSigma(videos, o->map_sigma) : std::stod(o->pose_sigma);
-    opt.reject_sigmas = o->reject_sigmas;
-    opt.min_edge_gap_px = o->edge_gap;
-    opt.radius_systematic_px = o->radius_systematic;
-    opt.free_height = o->free_height;
-    opt.fix_first_pose = o->fix_first_pose;
-    opt.hold_floor_contacts = !o->free_floor;
-    opt.passes = o->passes;
-    opt.num_threads = o->threads;
-    opt.tracking.num_threads = o->threads;
-    const RefineResult r = RefineMap(calib, map, videos, opt);
-    WriteMap(o->out, r.map);
-    if (!o->report.empty()) WriteRefineReportCsv(o->report, r);
-    if (!o->quiet) {
-      if (o->pose_sigma == "auto") {
-        if (opt.pose_sigma > 0.0)
-          std::printf("poses: a reference trajectory (no standard deviations): positions held with sigma %g "
-                      "(--pose-sigma auto)\n",
-                      opt.pose_sigma);
-        else
-          std::printf("poses: localised (with standard deviations): no pose prior, the survey fixes the gauge "
-                      "(--pose-sigma auto)\n");
-      }
-      std::printf("%s", RefineReportTable(r, map, o->map_sigma).c_str());
-      std::printf("wrote %s\n", o->out.c_str());
-    }
-  });
+  cmd->callback([o, map_sigma_option]() { RunRefine(*o, map_sigma_option->count() > 0); });
 }
 
 }  // namespace pano::app
