@@ -335,6 +335,191 @@ void StateRefinedSurveySigma(const Map& surveyed, RefineResult* res) {
 
 }  // namespace
 
+namespace {
+
+// What enters one solve: the measurements kept, the frames used, and the
+// noise sigmas the measurements are weighted by.
+struct SolveInputs {
+  std::vector<char> use_az, use_r, frame_used;
+  double sigma_az = 0.0, sigma_r = 0.0;
+};
+
+// The problem of one solve: every kept azimuth and radius of the frames used
+// (Huber loss), the poses' priors (pose_sigma), the survey's priors on the
+// rectangles, floor contacts held, the height held unless free.
+std::unique_ptr<ceres::Problem> BuildRefinementProblem(const SensorParams<double>& sensor, const Map& surveyed,
+                                                       const std::vector<Landmark>& landmarks,
+                                                       const std::vector<Pose2>& poses,
+                                                       const std::vector<CornerObservation>& observations,
+                                                       const SolveInputs& in, const RefineOptions& opt,
+                                                       Unknowns* u) {
+  const int n_rect = static_cast<int>(surveyed.rectangles.size());
+  const std::vector<double> radius_sigma = CornerRadiusSigmas(observations, in.use_r, in.frame_used, landmarks.size(),
+                                                              in.sigma_r, opt.radius_systematic_px);
+  ceres::Problem::Options po;
+  auto problem = std::make_unique<ceres::Problem>(po);
+  for (size_t i = 0; i < observations.size(); ++i) {
+    const CornerObservation& o = observations[i];
+    if (!in.frame_used[static_cast<size_t>(o.frame)]) continue;
+    double* pose = u->pose(static_cast<size_t>(o.frame));
+    for (bool radius : {false, true}) {
+      if (!(radius ? in.use_r[i] : in.use_az[i])) continue;
+      const double sigma = radius ? radius_sigma[static_cast<size_t>(o.landmark)] : in.sigma_az;
+      const double measured = radius ? o.radius : o.azimuth;
+      ceres::LossFunction* loss = new ceres::HuberLoss(opt.loss_sigmas);
+      if (o.landmark < 4 * n_rect) {
+        auto* f = new RectangleCornerCost{sensor, CornerEnd(o.landmark), CornerLevel(o.landmark), radius,
+                                          measured, sigma};
+        problem->AddResidualBlock(
+            new ceres::AutoDiffCostFunction<RectangleCornerCost, 1, 3, kRectangleParams, 1>(f), loss, pose,
+            u->rect(static_cast<size_t>(o.landmark / 4)), u->height());
+      } else {
+        auto* f = new FixedCornerCost{sensor, landmarks[static_cast<size_t>(o.landmark)].corner, radius,
+                                      measured, sigma};
+        problem->AddResidualBlock(new ceres::AutoDiffCostFunction<FixedCornerCost, 1, 3, 1>(f), loss, pose,
+                                  u->height());
+      }
+    }
+  }
+  for (size_t f = 0; f < poses.size(); ++f)
+    if (in.frame_used[f] && opt.pose_sigma > 0.0)
+      problem->AddResidualBlock(new ceres::AutoDiffCostFunction<PosePriorCost, 2, 3>(
+                                    new PosePriorCost{poses[f].x, poses[f].y, opt.pose_sigma}),
+                                nullptr, u->pose(f));
+  for (int k = 0; k < n_rect; ++k) {
+    auto* prior = new PriorCost{RectangleParams(surveyed.rectangles[static_cast<size_t>(k)]), opt.map_sigma};
+    problem->AddResidualBlock(new ceres::AutoDiffCostFunction<PriorCost, kRectangleParams, kRectangleParams>(prior),
+                              nullptr, u->rect(static_cast<size_t>(k)));
+  }
+  if (opt.hold_floor_contacts)
+    for (int k = 0; k < n_rect; ++k)
+      if (surveyed.rectangles[static_cast<size_t>(k)].z0 == 0.0)
+        problem->SetManifold(u->rect(static_cast<size_t>(k)), new ceres::SubsetManifold(kRectangleParams, {4}));
+  if (problem->HasParameterBlock(u->height()) && !opt.free_height) problem->SetParameterBlockConstant(u->height());
+  if (opt.fix_first_pose)
+    for (size_t f = 0; f < poses.size(); ++f)
+      if (in.frame_used[f]) {
+        problem->SetParameterBlockConstant(u->pose(f));
+        break;
+      }
+  return problem;
+}
+
+void Solve(const RefineOptions& opt, ceres::Problem* problem) {
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::SPARSE_SCHUR;
+  so.max_num_iterations = opt.max_iterations;
+  // One Ceres thread: its threaded Schur elimination sums in an order that
+  // varies from run to run, and the same poses must give the same map.
+  so.num_threads = 1;
+  so.function_tolerance = 1e-10;
+  so.parameter_tolerance = 1e-10;
+  so.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, problem, &summary);
+  if (!summary.IsSolutionUsable()) throw Error("map refinement failed: " + summary.message);
+}
+
+// Noise sigmas from the measurements kept (robust scale), then the
+// measurements within reject_sigmas of them kept; returns whether that set
+// changed.
+bool UpdateMeasurementSet(const std::vector<double>& az, const std::vector<double>& rad, const RefineOptions& opt,
+                          SolveInputs* in) {
+  in->sigma_az = RobustSigma(Finite(az, &in->use_az), in->sigma_az);
+  in->sigma_r = RobustSigma(Finite(rad, &in->use_r), in->sigma_r);
+  bool changed = false;
+  for (size_t i = 0; i < az.size(); ++i) {
+    const char keep_az = std::abs(az[i]) <= opt.reject_sigmas * in->sigma_az;
+    const char keep_r = std::isfinite(rad[i]) && std::abs(rad[i]) <= opt.reject_sigmas * in->sigma_r;
+    changed = changed || keep_az != in->use_az[i] || keep_r != in->use_r[i];
+    in->use_az[i] = keep_az;
+    in->use_r[i] = keep_r;
+  }
+  return changed;
+}
+
+// Standard deviations of the rectangles (and the height, into
+// res->sensor_height_std) from the last solve; NaN where the covariance
+// cannot be computed (res->covariance_ok false).
+std::vector<std::array<double, kRectangleParams>> RectangleDeviations(const RefineOptions& opt,
+                                                                      ceres::Problem* problem, Unknowns* u,
+                                                                      RefineResult* res) {
+  std::vector<std::array<double, kRectangleParams>> stds(u->n_rects());
+  for (auto& s : stds) s.fill(std::nan(""));
+  ceres::Covariance::Options co;
+  co.algorithm_type = ceres::SPARSE_QR;
+  co.num_threads = 1;  // repeatable, as the solve
+  ceres::Covariance cov(co);
+  std::vector<std::pair<const double*, const double*>> blocks;
+  for (size_t k = 0; k < u->n_rects(); ++k) blocks.push_back({u->rect(k), u->rect(k)});
+  if (opt.free_height) blocks.push_back({u->height(), u->height()});
+  if (!cov.Compute(blocks, problem)) return stds;
+  res->covariance_ok = true;
+  for (size_t k = 0; k < u->n_rects(); ++k) {
+    double c[kRectangleParams * kRectangleParams];
+    cov.GetCovarianceBlock(u->rect(k), u->rect(k), c);
+    for (int i = 0; i < kRectangleParams; ++i)
+      stds[k][static_cast<size_t>(i)] = std::sqrt(std::max(0.0, c[i * kRectangleParams + i]));
+  }
+  if (opt.free_height) {
+    double c;
+    cov.GetCovarianceBlock(u->height(), u->height(), &c);
+    res->sensor_height_std = std::sqrt(std::max(0.0, c));
+  }
+  return stds;
+}
+
+// One rectangle's correction: its observations, the move of each parameter
+// (flagged beyond 3 survey sigmas) and of its corners.
+LandmarkCorrection CorrectionOf(const MapRectangle& surveyed, const std::array<double, kRectangleParams>& refined,
+                                const std::array<double, kRectangleParams>& deviation, int observations,
+                                double map_sigma) {
+  LandmarkCorrection lc;
+  lc.id = surveyed.id;
+  lc.observations = observations;
+  lc.surveyed = RectangleParams(surveyed);
+  lc.refined = refined;
+  lc.std = deviation;
+  for (int i = 0; i < kRectangleParams; ++i)
+    if (std::abs(lc.refined[static_cast<size_t>(i)] - lc.surveyed[static_cast<size_t>(i)]) > 3.0 * map_sigma)
+      lc.flagged = true;
+  for (int c = 0; c < 4; ++c) {
+    const int e = CornerEnd(c), l = CornerLevel(c);
+    const double dx = lc.refined[static_cast<size_t>(2 * e)] - lc.surveyed[static_cast<size_t>(2 * e)];
+    const double dy = lc.refined[static_cast<size_t>(2 * e + 1)] - lc.surveyed[static_cast<size_t>(2 * e + 1)];
+    const double dz = lc.refined[static_cast<size_t>(4 + l)] - lc.surveyed[static_cast<size_t>(4 + l)];
+    lc.max_corner_shift = std::max(lc.max_corner_shift, std::sqrt(dx * dx + dy * dy + dz * dz));
+  }
+  return lc;
+}
+
+// The refined map, each rectangle's correction and the adjusted poses.
+void CollectRefinement(const Map& surveyed, const std::vector<CornerObservation>& observations,
+                       const SolveInputs& in, const std::vector<std::array<double, kRectangleParams>>& stds,
+                       const RefineOptions& opt, const Unknowns& u, RefineResult* res) {
+  const int n_rect = static_cast<int>(surveyed.rectangles.size());
+  res->map = surveyed;
+  res->map.sensor_height = u.height_value();
+  std::vector<int> per_rect(static_cast<size_t>(n_rect), 0);
+  for (size_t i = 0; i < observations.size(); ++i) {
+    const CornerObservation& o = observations[i];
+    if (o.landmark < 4 * n_rect && in.frame_used[static_cast<size_t>(o.frame)] && (in.use_az[i] || in.use_r[i]))
+      ++per_rect[static_cast<size_t>(o.landmark / 4)];
+  }
+  for (size_t k = 0; k < static_cast<size_t>(n_rect); ++k) {
+    SetRectangleParams(u.RectArray(k), &res->map.rectangles[k]);
+    res->landmarks.push_back(CorrectionOf(surveyed.rectangles[k], u.RectArray(k), stds[k], per_rect[k], opt.map_sigma));
+  }
+  StateRefinedSurveySigma(surveyed, res);
+  for (size_t f = 0; f < u.n_poses(); ++f) {
+    const double* p = u.pose(f);
+    res->poses.push_back({p[0], p[1], wrap_angle(p[2])});
+  }
+  for (char used : in.frame_used) res->frames_used += used;
+}
+
+}  // namespace
+
 RefineResult SolveMapRefinement(const Calibration& calib, const Map& surveyed, const std::vector<Pose2>& poses,
                                 const std::vector<CornerObservation>& observations, const RefineOptions& opt,
                                 const std::vector<Pose2>* start) {
@@ -343,7 +528,6 @@ RefineResult SolveMapRefinement(const Calibration& calib, const Map& surveyed, c
   if (start && start->size() != poses.size()) throw Error("SolveMapRefinement: start and poses differ in size");
   const std::vector<Landmark> landmarks = LandmarksFromMap(surveyed);
   const SensorParams<double>& sensor = calib.sensor.params;
-  const int n_rect = static_cast<int>(surveyed.rectangles.size());
   for (const CornerObservation& o : observations)
     if (o.frame < 0 || o.frame >= static_cast<int>(poses.size()) || o.landmark < 0 ||
         o.landmark >= static_cast<int>(landmarks.size()))
@@ -351,20 +535,19 @@ RefineResult SolveMapRefinement(const Calibration& calib, const Map& surveyed, c
                   std::to_string(o.landmark) + ": out of range");
 
   Unknowns u(surveyed, start ? *start : poses);
-
   RefineResult res;
   std::vector<double> az, rad;
   RawResiduals(sensor, landmarks, u, observations, &az, &rad);
   res.rms_azimuth_before = Rms(Finite(az));
-  double sigma_az = opt.initial_azimuth_sigma, sigma_r = opt.initial_radius_sigma;
-
   // Which measurements enter the solve: all at first, then those within
   // reject_sigmas of the last solution.
   const size_t n_obs = observations.size();
-  std::vector<char> use_az(n_obs, 1), use_r(n_obs, 1);
-  std::vector<char> frame_used(poses.size(), 0);
-  std::vector<std::array<double, 3>> prior_poses;
-
+  SolveInputs in;
+  in.use_az.assign(n_obs, 1);
+  in.use_r.assign(n_obs, 1);
+  in.frame_used.assign(poses.size(), 0);
+  in.sigma_az = opt.initial_azimuth_sigma;
+  in.sigma_r = opt.initial_radius_sigma;
   std::unique_ptr<ceres::Problem> problem;
   // The first solve with the initial noise sigmas and every measurement;
   // later ones with the sigmas measured on the last residuals and without
@@ -374,161 +557,29 @@ RefineResult SolveMapRefinement(const Calibration& calib, const Map& surveyed, c
     // A frame with too few azimuths left is dropped altogether (its pose
     // would be free).
     std::vector<int> azimuths(poses.size(), 0);
-    for (size_t i = 0; i < n_obs; ++i) azimuths[static_cast<size_t>(observations[i].frame)] += use_az[i];
-    for (size_t f = 0; f < poses.size(); ++f) frame_used[f] = azimuths[f] >= 3;
-    const std::vector<double> radius_sigma =
-        CornerRadiusSigmas(observations, use_r, frame_used, landmarks.size(), sigma_r, opt.radius_systematic_px);
-    ceres::Problem::Options po;
-    problem = std::make_unique<ceres::Problem>(po);
-    for (size_t i = 0; i < n_obs; ++i) {
-      const CornerObservation& o = observations[i];
-      if (!frame_used[static_cast<size_t>(o.frame)]) continue;
-      double* pose = u.pose(static_cast<size_t>(o.frame));
-      for (bool radius : {false, true}) {
-        if (!(radius ? use_r[i] : use_az[i])) continue;
-        const double sigma = radius ? radius_sigma[static_cast<size_t>(o.landmark)] : sigma_az;
-        const double measured = radius ? o.radius : o.azimuth;
-        ceres::LossFunction* loss = new ceres::HuberLoss(opt.loss_sigmas);
-        if (o.landmark < 4 * n_rect) {
-          auto* f = new RectangleCornerCost{sensor, CornerEnd(o.landmark), CornerLevel(o.landmark), radius,
-                                            measured, sigma};
-          problem->AddResidualBlock(
-              new ceres::AutoDiffCostFunction<RectangleCornerCost, 1, 3, kRectangleParams, 1>(f), loss, pose,
-              u.rect(static_cast<size_t>(o.landmark / 4)), u.height());
-        } else {
-          auto* f = new FixedCornerCost{sensor, landmarks[static_cast<size_t>(o.landmark)].corner, radius,
-                                        measured, sigma};
-          problem->AddResidualBlock(new ceres::AutoDiffCostFunction<FixedCornerCost, 1, 3, 1>(f), loss, pose,
-                                    u.height());
-        }
-      }
-    }
-    prior_poses.clear();
-    for (size_t f = 0; f < poses.size(); ++f)
-      if (frame_used[f]) {
-        prior_poses.push_back({poses[f].x, poses[f].y, poses[f].theta});
-        if (opt.pose_sigma > 0.0)
-          problem->AddResidualBlock(new ceres::AutoDiffCostFunction<PosePriorCost, 2, 3>(
-                                        new PosePriorCost{poses[f].x, poses[f].y, opt.pose_sigma}),
-                                    nullptr, u.pose(f));
-      }
-    for (int k = 0; k < n_rect; ++k) {
-      auto* prior = new PriorCost{RectangleParams(surveyed.rectangles[static_cast<size_t>(k)]), opt.map_sigma};
-      problem->AddResidualBlock(new ceres::AutoDiffCostFunction<PriorCost, kRectangleParams, kRectangleParams>(prior),
-                                nullptr, u.rect(static_cast<size_t>(k)));
-    }
-    if (opt.hold_floor_contacts)
-      for (int k = 0; k < n_rect; ++k)
-        if (surveyed.rectangles[static_cast<size_t>(k)].z0 == 0.0)
-          problem->SetManifold(u.rect(static_cast<size_t>(k)),
-                               new ceres::SubsetManifold(kRectangleParams, {4}));
-    if (problem->HasParameterBlock(u.height()) && !opt.free_height) problem->SetParameterBlockConstant(u.height());
-    if (opt.fix_first_pose)
-      for (size_t f = 0; f < poses.size(); ++f)
-        if (frame_used[f]) {
-          problem->SetParameterBlockConstant(u.pose(f));
-          break;
-        }
-    ceres::Solver::Options so;
-    so.linear_solver_type = ceres::SPARSE_SCHUR;
-    so.max_num_iterations = opt.max_iterations;
-    // One Ceres thread: its threaded Schur elimination sums in an order that
-    // varies from run to run, and the same poses must give the same map.
-    so.num_threads = 1;
-    so.function_tolerance = 1e-10;
-    so.parameter_tolerance = 1e-10;
-    so.logging_type = ceres::SILENT;
-    ceres::Solver::Summary summary;
-    ceres::Solve(so, problem.get(), &summary);
-    if (!summary.IsSolutionUsable()) throw Error("map refinement failed: " + summary.message);
+    for (size_t i = 0; i < n_obs; ++i) azimuths[static_cast<size_t>(observations[i].frame)] += in.use_az[i];
+    for (size_t f = 0; f < poses.size(); ++f) in.frame_used[f] = azimuths[f] >= 3;
+    problem = BuildRefinementProblem(sensor, surveyed, landmarks, poses, observations, in, opt, &u);
+    Solve(opt, problem.get());
     RawResiduals(sensor, landmarks, u, observations, &az, &rad);
-    // Noise sigmas from the measurements kept (robust scale).
-    sigma_az = RobustSigma(Finite(az, &use_az), sigma_az);
-    sigma_r = RobustSigma(Finite(rad, &use_r), sigma_r);
-    bool changed = false;
-    for (size_t i = 0; i < n_obs; ++i) {
-      const char keep_az = std::abs(az[i]) <= opt.reject_sigmas * sigma_az;
-      const char keep_r = std::isfinite(rad[i]) && std::abs(rad[i]) <= opt.reject_sigmas * sigma_r;
-      changed = changed || keep_az != use_az[i] || keep_r != use_r[i];
-      use_az[i] = keep_az;
-      use_r[i] = keep_r;
-    }
+    const bool changed = UpdateMeasurementSet(az, rad, opt, &in);
     // Round 0 only measured the noise: solve at least once with it.
     if (round > 0 && !changed) break;
   }
-  res.azimuth_sigma = sigma_az;
-  res.radius_sigma = sigma_r;
-  res.rms_azimuth_after = Rms(Finite(az, &use_az));
+  res.azimuth_sigma = in.sigma_az;
+  res.radius_sigma = in.sigma_r;
+  res.rms_azimuth_after = Rms(Finite(az, &in.use_az));
   for (size_t i = 0; i < n_obs; ++i) {
-    if (!frame_used[static_cast<size_t>(observations[i].frame)]) continue;
-    res.measurements += use_az[i] || use_r[i];
-    res.rejected += !use_az[i] + !use_r[i];
+    if (!in.frame_used[static_cast<size_t>(observations[i].frame)]) continue;
+    res.measurements += in.use_az[i] || in.use_r[i];
+    res.rejected += !in.use_az[i] + !in.use_r[i];
   }
+  std::vector<std::array<double, 3>> prior_poses;
+  for (size_t f = 0; f < poses.size(); ++f)
+    if (in.frame_used[f]) prior_poses.push_back({poses[f].x, poses[f].y, poses[f].theta});
   GaugeUncertainty(surveyed, prior_poses, opt, &res);
-
-  // Standard deviations of the rectangles (and the height) from the last solve.
-  std::vector<std::array<double, kRectangleParams>> stds(static_cast<size_t>(n_rect));
-  for (auto& s : stds) s.fill(std::nan(""));
-  {
-    ceres::Covariance::Options co;
-    co.algorithm_type = ceres::SPARSE_QR;
-    co.num_threads = 1;  // repeatable, as the solve
-    ceres::Covariance cov(co);
-    std::vector<std::pair<const double*, const double*>> blocks;
-    for (size_t k = 0; k < u.n_rects(); ++k) blocks.push_back({u.rect(k), u.rect(k)});
-    if (opt.free_height) blocks.push_back({u.height(), u.height()});
-    if (cov.Compute(blocks, problem.get())) {
-      res.covariance_ok = true;
-      for (int k = 0; k < n_rect; ++k) {
-        double c[kRectangleParams * kRectangleParams];
-        cov.GetCovarianceBlock(u.rect(static_cast<size_t>(k)), u.rect(static_cast<size_t>(k)), c);
-        for (int i = 0; i < kRectangleParams; ++i)
-          stds[static_cast<size_t>(k)][static_cast<size_t>(i)] = std::sqrt(std::max(0.0, c[i * kRectangleParams + i]));
-      }
-      if (opt.free_height) {
-        double c;
-        cov.GetCovarianceBlock(u.height(), u.height(), &c);
-        res.sensor_height_std = std::sqrt(std::max(0.0, c));
-      }
-    }
-  }
-
-  res.map = surveyed;
-  res.map.sensor_height = u.height_value();
-  std::vector<int> per_rect(static_cast<size_t>(n_rect), 0);
-  for (size_t i = 0; i < n_obs; ++i) {
-    const CornerObservation& o = observations[i];
-    if (o.landmark < 4 * n_rect && frame_used[static_cast<size_t>(o.frame)] && (use_az[i] || use_r[i]))
-      ++per_rect[static_cast<size_t>(o.landmark / 4)];
-  }
-  for (int k = 0; k < n_rect; ++k) {
-    const size_t kk = static_cast<size_t>(k);
-    MapRectangle& r = res.map.rectangles[kk];
-    SetRectangleParams(u.RectArray(kk), &r);
-    LandmarkCorrection lc;
-    lc.id = r.id;
-    lc.observations = per_rect[kk];
-    lc.surveyed = RectangleParams(surveyed.rectangles[kk]);
-    lc.refined = u.RectArray(kk);
-    lc.std = stds[kk];
-    for (int i = 0; i < kRectangleParams; ++i)
-      if (std::abs(lc.refined[static_cast<size_t>(i)] - lc.surveyed[static_cast<size_t>(i)]) > 3.0 * opt.map_sigma)
-        lc.flagged = true;
-    for (int c = 0; c < 4; ++c) {
-      const int e = CornerEnd(c), l = CornerLevel(c);
-      const double dx = lc.refined[static_cast<size_t>(2 * e)] - lc.surveyed[static_cast<size_t>(2 * e)];
-      const double dy = lc.refined[static_cast<size_t>(2 * e + 1)] - lc.surveyed[static_cast<size_t>(2 * e + 1)];
-      const double dz = lc.refined[static_cast<size_t>(4 + l)] - lc.surveyed[static_cast<size_t>(4 + l)];
-      lc.max_corner_shift = std::max(lc.max_corner_shift, std::sqrt(dx * dx + dy * dy + dz * dz));
-    }
-    res.landmarks.push_back(lc);
-  }
-  StateRefinedSurveySigma(surveyed, &res);
-  for (size_t f = 0; f < u.n_poses(); ++f) {
-    const double* p = u.pose(f);
-    res.poses.push_back({p[0], p[1], wrap_angle(p[2])});
-  }
-  for (char used : frame_used) res.frames_used += used;
+  const std::vector<std::array<double, kRectangleParams>> stds = RectangleDeviations(opt, problem.get(), &u, &res);
+  CollectRefinement(surveyed, observations, in, stds, opt, u, &res);
   return res;
 }
 
