@@ -310,52 +310,69 @@ double SolveEdge(const std::vector<Ray>& rays, Eigen::Vector2d* x, Eigen::Matrix
   return rms;
 }
 
-}  // namespace
+// What Build works on: the frames' poses, the vertical edges no seed
+// landmark explains, and the grey frames kept for the horizontal edges.
+struct BuildInputs {
+  const Sensor& sensor;
+  const Map& seed;
+  const MapBuildOptions& opt;
+  double scale;  // the map's size
+  std::vector<Pose2> poses;
+  std::vector<const std::vector<VerticalEdgeDetection>*> edges;
+  const std::vector<std::pair<int, cv::Mat>>& stored;  // (index into poses, grey)
+};
 
-MapBuildResult MapBuilder::Build() const {
-  const Sensor& sensor = calib_.sensor;
-  MapBuildResult res;
-  res.map = seed_;
-  res.frames = frames_;
-  res.frames_with_pose = static_cast<int>(frames_list_.size());
-  res.frames_with_seed = frames_with_seed_;
-  res.detections = detections_;
-  res.unexplained = unexplained_;
-  if (frames_list_.empty()) return res;
-  const double h = seed_.sensor_height;
+// The floor grid the rays vote in: the map's extent and the trajectory's,
+// 5 % of the map's size around.
+struct FloorGrid {
+  Eigen::Vector2d lo{0, 0};
+  double cell = 1.0;
+  int gw = 0, gh = 0;
+  cv::Point2d ToGrid(const Eigen::Vector2d& p) const { return cv::Point2d((p.x() - lo.x()) / cell, (p.y() - lo.y()) / cell); }
+};
 
-  // Floor grid over the map's extent (and the trajectory), 5 % margin.
+FloorGrid GridOf(const BuildInputs& in, double* top) {
   Eigen::Vector2d lo, hi;
-  double top = 0;
-  seed_.Extent(&lo, &hi, &top);
-  for (const Frame& f : frames_list_) {
-    lo = lo.cwiseMin(Eigen::Vector2d(f.pose.x, f.pose.y));
-    hi = hi.cwiseMax(Eigen::Vector2d(f.pose.x, f.pose.y));
+  in.seed.Extent(&lo, &hi, top);
+  for (const Pose2& p : in.poses) {
+    lo = lo.cwiseMin(Eigen::Vector2d(p.x, p.y));
+    hi = hi.cwiseMax(Eigen::Vector2d(p.x, p.y));
   }
-  lo -= Eigen::Vector2d::Constant(0.05 * scale_);
-  hi += Eigen::Vector2d::Constant(0.05 * scale_);
-  const double cell = opt_.cell_fraction * scale_;
-  const int gw = static_cast<int>(std::ceil((hi.x() - lo.x()) / cell)),
-            gh = static_cast<int>(std::ceil((hi.y() - lo.y()) / cell));
-  auto to_grid = [&](const Eigen::Vector2d& p) {
-    return cv::Point2d((p.x() - lo.x()) / cell, (p.y() - lo.y()) / cell);
-  };
-  std::vector<std::vector<Ray>> rays(frames_list_.size());
-  cv::Mat acc(gh, gw, CV_32F, cv::Scalar(0)), mask(gh, gw, CV_8U);
+  lo -= Eigen::Vector2d::Constant(0.05 * in.scale);
+  hi += Eigen::Vector2d::Constant(0.05 * in.scale);
+  FloorGrid g;
+  g.lo = lo;
+  g.cell = in.opt.cell_fraction * in.scale;
+  g.gw = static_cast<int>(std::ceil((hi.x() - lo.x()) / g.cell));
+  g.gh = static_cast<int>(std::ceil((hi.y() - lo.y()) / g.cell));
+  return g;
+}
+
+// Each frame's rays (one per unexplained vertical edge), drawn into the
+// grid; returns the votes, each cell counting a frame once.
+cv::Mat RayVotes(const BuildInputs& in, const FloorGrid& g, std::vector<std::vector<Ray>>* rays) {
+  rays->assign(in.poses.size(), {});
+  cv::Mat acc(g.gh, g.gw, CV_32F, cv::Scalar(0)), mask(g.gh, g.gw, CV_8U);
   const int shift = 4;  // cv::line sub-pixel bits
-  for (size_t fi = 0; fi < frames_list_.size(); ++fi) {
-    const Frame& f = frames_list_[fi];
+  for (size_t fi = 0; fi < in.poses.size(); ++fi) {
+    const Pose2& pose = in.poses[fi];
     mask.setTo(0);
-    const Eigen::Vector2d o(f.pose.x, f.pose.y);
-    for (const VerticalEdgeDetection& d : f.edges) {
-      const double a = wrap_angle(f.pose.theta + sensor.bearing_of_azimuth(d.azimuth));
-      rays[fi].push_back({o, a});
-      const cv::Point2d p0 = to_grid(o), p1 = to_grid(o + 3 * scale_ * Eigen::Vector2d(std::cos(a), std::sin(a)));
+    const Eigen::Vector2d o(pose.x, pose.y);
+    for (const VerticalEdgeDetection& d : *in.edges[fi]) {
+      const double a = wrap_angle(pose.theta + in.sensor.bearing_of_azimuth(d.azimuth));
+      (*rays)[fi].push_back({o, a});
+      const cv::Point2d p0 = g.ToGrid(o), p1 = g.ToGrid(o + 3 * in.scale * Eigen::Vector2d(std::cos(a), std::sin(a)));
       cv::line(mask, cv::Point(int(p0.x * (1 << shift)), int(p0.y * (1 << shift))),
                cv::Point(int(p1.x * (1 << shift)), int(p1.y * (1 << shift))), cv::Scalar(1), 1, cv::LINE_8, shift);
     }
     cv::accumulate(mask, acc);
   }
+  return acc;
+}
+
+// The candidate edges: local maxima of the smoothed votes with at least 40 %
+// of min_views, strongest first, 400 at most.
+std::vector<Eigen::Vector2d> VotePeaks(const cv::Mat& acc, const FloorGrid& g, int min_views) {
   cv::Mat smooth, dilated;
   cv::GaussianBlur(acc, smooth, cv::Size(5, 5), 1.0);
   cv::dilate(smooth, dilated, cv::Mat::ones(5, 5, CV_8U));
@@ -364,271 +381,336 @@ MapBuildResult MapBuilder::Build() const {
     Eigen::Vector2d position;
   };
   std::vector<Peak> peaks;
-  for (int y = 0; y < gh; ++y)
-    for (int x = 0; x < gw; ++x) {
+  for (int y = 0; y < g.gh; ++y)
+    for (int x = 0; x < g.gw; ++x) {
       const float v = smooth.at<float>(y, x);
-      if (v >= 0.4f * opt_.min_views && v >= dilated.at<float>(y, x))
-        peaks.push_back({v, lo + cell * Eigen::Vector2d(x + 0.5, y + 0.5)});
+      if (v >= 0.4f * min_views && v >= dilated.at<float>(y, x))
+        peaks.push_back({v, g.lo + g.cell * Eigen::Vector2d(x + 0.5, y + 0.5)});
     }
   std::sort(peaks.begin(), peaks.end(), [](const Peak& a, const Peak& b) { return a.votes > b.votes; });
   if (peaks.size() > 400) peaks.resize(400);
+  std::vector<Eigen::Vector2d> out;
+  for (const Peak& p : peaks) out.push_back(p.position);
+  return out;
+}
 
-  // Each peak claims, per frame, the nearest unclaimed ray in bearing.
-  std::vector<std::vector<char>> used(frames_list_.size());
-  for (size_t fi = 0; fi < rays.size(); ++fi) used[fi].assign(rays[fi].size(), 0);
-  const double min_range = 0.03 * scale_;
-  auto associate = [&](const Eigen::Vector2d& x, double tol, std::vector<std::pair<int, int>>* ids) {
+// The rays not yet claimed by an edge: per frame, the one nearest in
+// bearing to a point (within a tolerance) until an edge claims it.
+class RayClaims {
+ public:
+  RayClaims(const std::vector<std::vector<Ray>>& rays, const std::vector<Pose2>& poses, double min_range)
+      : rays_(rays), poses_(poses), min_range_(min_range) {
+    used_.resize(rays.size());
+    for (size_t fi = 0; fi < rays.size(); ++fi) used_[fi].assign(rays[fi].size(), 0);
+  }
+  std::vector<Ray> Associate(const Eigen::Vector2d& x, double tol, std::vector<std::pair<int, int>>* ids) const {
     std::vector<Ray> out;
     ids->clear();
-    for (size_t fi = 0; fi < rays.size(); ++fi) {
-      const Eigen::Vector2d o(frames_list_[fi].pose.x, frames_list_[fi].pose.y);
-      const Eigen::Vector2d d = x - o;
-      if (d.norm() < min_range) continue;
+    for (size_t fi = 0; fi < rays_.size(); ++fi) {
+      const Eigen::Vector2d d = x - Eigen::Vector2d(poses_[fi].x, poses_[fi].y);
+      if (d.norm() < min_range_) continue;
       const double a = std::atan2(d.y(), d.x());
       int best = -1;
       double best_err = tol;
-      for (size_t k = 0; k < rays[fi].size(); ++k) {
-        if (used[fi][k]) continue;
-        const double e = std::abs(wrap_angle(rays[fi][k].world_angle - a));
+      for (size_t k = 0; k < rays_[fi].size(); ++k) {
+        if (used_[fi][k]) continue;
+        const double e = std::abs(wrap_angle(rays_[fi][k].world_angle - a));
         if (e < best_err) {
           best_err = e;
           best = static_cast<int>(k);
         }
       }
       if (best >= 0) {
-        out.push_back(rays[fi][static_cast<size_t>(best)]);
+        out.push_back(rays_[fi][static_cast<size_t>(best)]);
         ids->push_back({static_cast<int>(fi), best});
       }
     }
     return out;
-  };
-  const double tol = opt_.ray_tolerance_deg * kDeg;
-  for (const Peak& pk : peaks) {
-    Eigen::Vector2d x = pk.position;
-    std::vector<std::pair<int, int>> ids;
-    std::vector<Ray> r = associate(x, tol, &ids);
-    if (r.size() < 3) continue;
-    Eigen::Matrix2d cov;
-    double rms = SolveEdge(r, &x, &cov);
-    r = associate(x, std::min(tol, std::max(0.25 * kDeg, 3 * rms)), &ids);
-    if (r.size() < 3) continue;
-    rms = SolveEdge(r, &x, &cov);
-    if (!x.allFinite()) continue;
-    BuiltEdge e;
-    e.position = x;
-    e.views = static_cast<int>(r.size());
-    e.rms_bearing_deg = rms / kDeg;
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(cov);
-    e.std_major = std::sqrt(std::max(0.0, eig.eigenvalues().maxCoeff()));
-    // Parallax: the spread of the rays' directions at the edge.
-    double amin = 1e9, amax = -1e9;
-    const double a0 = r.front().world_angle;
-    for (const Ray& ray : r) {
-      const double a = wrap_angle(ray.world_angle - a0);
-      amin = std::min(amin, a);
-      amax = std::max(amax, a);
-    }
-    e.parallax_deg = (amax - amin) / kDeg;
-    e.rays = ids;
-    for (const auto& id : ids) used[static_cast<size_t>(id.first)][static_cast<size_t>(id.second)] = 1;
-    // Heights from the radial extent in each frame.
-    std::vector<double> z_lo, z_hi;
-    const double z_top = std::max(top, seed_.room.present ? seed_.room.height : 0.0) * 1.5 + h;
-    for (const auto& id : ids) {
-      const Frame& f = frames_list_[static_cast<size_t>(id.first)];
-      const VerticalEdgeDetection& d = f.edges[static_cast<size_t>(id.second)];
-      // Radius along the edge's vertical line, by height.
-      const int n = 160;
-      std::vector<double> zs, rs;
-      for (int i = 0; i <= n; ++i) {
-        const double z = z_top * i / n - 0.1 * z_top;
-        double rr, az;
-        if (PolarOf(sensor, f.pose, h, Eigen::Vector3d(x.x(), x.y(), z), &rr, &az)) {
-          zs.push_back(z);
-          rs.push_back(rr);
-        }
-      }
-      auto height_at = [&](double radius, double* z) {
-        for (size_t i = 1; i < rs.size(); ++i)
-          if ((rs[i - 1] - radius) * (rs[i] - radius) <= 0 && rs[i] != rs[i - 1]) {
-            *z = zs[i - 1] + (zs[i] - zs[i - 1]) * (radius - rs[i - 1]) / (rs[i] - rs[i - 1]);
-            return true;
-          }
-        return false;
-      };
-      const double limb = sensor.limb_radius();
-      const double r_in = opt_.prediction.min_radius_fraction * limb + 1.5;
-      const double r_out = limb - opt_.prediction.max_radius_margin - 2.5;
-      // An extent that reaches the annulus' border says nothing about that
-      // end; each end that does not gives one height.
-      for (double radius : {d.r_lo, d.r_hi}) {
-        if (radius <= r_in || radius >= r_out) continue;
-        double z;
-        if (!height_at(radius, &z)) continue;
-        // The other end's height tells which end this is.
-        const double other = radius == d.r_lo ? d.r_hi : d.r_lo;
-        double z_other;
-        bool is_low;
-        if (height_at(other, &z_other))
-          is_low = z < z_other;
-        else
-          is_low = (rs.back() > rs.front()) == (radius < other);
-        (is_low ? z_lo : z_hi).push_back(z);
-      }
-    }
-    if (z_lo.size() >= 3 && z_hi.size() >= 3) {
-      e.z0 = std::max(0.0, Median(z_lo));
-      e.z1 = Median(z_hi);
-      e.z0_std = RobustSigma(z_lo) / std::sqrt(double(z_lo.size()));
-      e.z1_std = RobustSigma(z_hi) / std::sqrt(double(z_hi.size()));
-    }
-    bool room_corner = false;
-    if (seed_.room.present)
-      for (double cx : {seed_.room.min.x(), seed_.room.max.x()})
-        for (double cy : {seed_.room.min.y(), seed_.room.max.y()})
-          if ((x - Eigen::Vector2d(cx, cy)).norm() < 0.03 * scale_) room_corner = true;
-    if (e.views < opt_.min_views)
-      e.verdict = EdgeVerdict::kTooFewViews;
-    else if (e.parallax_deg < opt_.min_parallax_deg)
-      e.verdict = EdgeVerdict::kLowParallax;
-    else if (e.std_major > opt_.max_std_fraction * scale_)
-      e.verdict = EdgeVerdict::kPoorlyConditioned;
-    else if (room_corner)
-      e.verdict = EdgeVerdict::kRoomCorner;
-    else if (z_lo.size() < 3 || z_hi.size() < 3 || !(e.z1 > e.z0))
-      e.verdict = EdgeVerdict::kNoHeight;
-    res.edges.push_back(e);
+  }
+  void Claim(const std::vector<std::pair<int, int>>& ids) {
+    for (const auto& id : ids) used_[static_cast<size_t>(id.first)][static_cast<size_t>(id.second)] = 1;
   }
 
-  // Horizontal edges between two accepted edges at height z: the fraction
-  // of samples showing a step of the majority sign, the mean step, and the
-  // frames they were seen in.
-  const double limb = sensor.limb_radius();
-  const double r_in = opt_.prediction.min_radius_fraction * limb, r_out = limb - opt_.prediction.max_radius_margin;
-  auto horizontal = [&](const Eigen::Vector2d& a, const Eigen::Vector2d& b, double z, double* mean_step, int* frames) {
-    double score = 0, step_sum = 0;
-    int nf = 0;
-    const int samples = 16;
-    for (const auto& sf : stored_) {
-      const Pose2& pose = frames_list_[static_cast<size_t>(sf.first)].pose;
-      int valid = 0, pos = 0, neg = 0;
-      double sum = 0;
-      for (int i = 0; i < samples; ++i) {
-        const double t = 0.15 + 0.7 * i / (samples - 1);
-        const Eigen::Vector2d p = a + t * (b - a), q = a + (t + 0.01) * (b - a);
-        double rp, ap, rq, aq;
-        Eigen::Vector2d pp, pq;
-        if (!PolarOf(sensor, pose, h, Eigen::Vector3d(p.x(), p.y(), z), &rp, &ap, &pp) ||
-            !PolarOf(sensor, pose, h, Eigen::Vector3d(q.x(), q.y(), z), &rq, &aq, &pq))
-          continue;
-        if (rp < r_in || rp > r_out) continue;
-        Eigen::Vector2d tangent = pq - pp;
-        if (tangent.norm() < 1e-9) continue;
-        tangent.normalize();
-        Eigen::Vector2d normal(-tangent.y(), tangent.x());
-        // Orient the normal outwards (increasing radius) for a stable sign.
-        double rn, an;
-        sensor.to_polar(pp.x() + normal.x(), pp.y() + normal.y(), &rn, &an);
-        if (rn < rp) normal = -normal;
-        double g1, g2;
-        if (!GreyAt(sf.second, pp + 1.0 * normal, &g1) || !GreyAt(sf.second, pp - 1.0 * normal, &g2)) continue;
-        const double diff = g1 - g2;
-        ++valid;
-        sum += diff;
-        if (diff > opt_.min_step) ++pos;
-        if (diff < -opt_.min_step) ++neg;
-      }
-      if (valid < samples * 6 / 10) continue;
-      ++nf;
-      score += double(std::max(pos, neg)) / valid;
-      step_sum += std::abs(sum / valid);
-    }
-    *frames = nf;
-    *mean_step = nf ? step_sum / nf : 0.0;
-    return nf ? score / nf : 0.0;
-  };
+ private:
+  const std::vector<std::vector<Ray>>& rays_;
+  const std::vector<Pose2>& poses_;
+  double min_range_;
+  std::vector<std::vector<char>> used_;
+};
 
-  // Pairs with matching heights, strongest horizontal evidence first. One
-  // of the two heights may disagree (an edge partly hidden in most frames
-  // reads short): that height is then searched over both edges' values.
-  const double htol = opt_.height_tolerance_fraction * scale_;
-  struct Pair {
-    int a, b;
-    double z0, z1, top, bottom;
-    int frames;
-    bool both_heights_agree;
-  };
-  std::vector<Pair> pairs;
-  for (size_t i = 0; i < res.edges.size(); ++i)
-    for (size_t j = i + 1; j < res.edges.size(); ++j) {
-      const BuiltEdge &ea = res.edges[i], &eb = res.edges[j];
-      if (ea.verdict != EdgeVerdict::kAccepted || eb.verdict != EdgeVerdict::kAccepted) continue;
-      const double w = (ea.position - eb.position).norm();
-      if (w < opt_.min_width_fraction * scale_ || w > opt_.max_width_fraction * scale_) continue;
-      const bool z0_agree = std::abs(ea.z0 - eb.z0) <= htol, z1_agree = std::abs(ea.z1 - eb.z1) <= htol;
-      if (!z0_agree && !z1_agree) continue;
-      ++res.pairs_considered;
-      Pair p{static_cast<int>(i), static_cast<int>(j), 0.5 * (ea.z0 + eb.z0), 0.5 * (ea.z1 + eb.z1), 0, 0, 0,
-             z0_agree && z1_agree};
-      const double spread[2] = {z0_agree ? htol : 0.5 * std::abs(ea.z0 - eb.z0) + htol,
-                                z1_agree ? htol : 0.5 * std::abs(ea.z1 - eb.z1) + htol};
-      // Refine each height to the strongest horizontal edge near it.
-      // (the maximum of the mean step over a scan, to a fraction of a step
-      // by a parabola through its neighbours).
-      for (int end = 0; end < 2; ++end) {
-        double* z = end == 0 ? &p.z0 : &p.z1;
-        const double range = spread[end];
-        const int half = static_cast<int>(std::ceil(24 * range / htol));
-        std::vector<double> steps(2 * half + 1, -1.0);
-        int best = -1;
-        for (int k = -half; k <= half; ++k) {
-          const double zz = *z + range * k / half;
-          if (zz < 0) continue;
-          double step;
-          int nf;
-          horizontal(ea.position, eb.position, zz, &step, &nf);
-          if (nf < opt_.min_horizontal_frames) continue;
-          steps[static_cast<size_t>(k + half)] = step;
-          if (best < 0 || step > steps[static_cast<size_t>(best)]) best = k + half;
-        }
-        if (best < 0) continue;
-        double offset = 0;
-        if (best > 0 && best < 2 * half && steps[static_cast<size_t>(best - 1)] >= 0 &&
-            steps[static_cast<size_t>(best + 1)] >= 0) {
-          const double a = steps[static_cast<size_t>(best - 1)], b = steps[static_cast<size_t>(best)],
-                       c = steps[static_cast<size_t>(best + 1)];
-          const double den = a - 2 * b + c;
-          if (den < 0) offset = std::clamp(0.5 * (a - c) / den, -0.5, 0.5);
-        }
-        *z += range * (best - half + offset) / half;
+// The spread of the rays' directions at the edge (degrees).
+double ParallaxDeg(const std::vector<Ray>& r) {
+  double amin = 1e9, amax = -1e9;
+  const double a0 = r.front().world_angle;
+  for (const Ray& ray : r) {
+    const double a = wrap_angle(ray.world_angle - a0);
+    amin = std::min(amin, a);
+    amax = std::max(amax, a);
+  }
+  return (amax - amin) / kDeg;
+}
+
+// The heights of the edge at `x` from its radial extent in each frame that
+// saw it (`ids`): each end of an extent inside the annulus gives one height,
+// low or high by the other end.
+void EdgeHeights(const BuildInputs& in, const Eigen::Vector2d& x, const std::vector<std::pair<int, int>>& ids,
+                 double z_top, std::vector<double>* z_lo, std::vector<double>* z_hi) {
+  const double h = in.seed.sensor_height;
+  for (const auto& id : ids) {
+    const Pose2& pose = in.poses[static_cast<size_t>(id.first)];
+    const VerticalEdgeDetection& d = (*in.edges[static_cast<size_t>(id.first)])[static_cast<size_t>(id.second)];
+    // Radius along the edge's vertical line, by height.
+    const int n = 160;
+    std::vector<double> zs, rs;
+    for (int i = 0; i <= n; ++i) {
+      const double z = z_top * i / n - 0.1 * z_top;
+      double rr, az;
+      if (PolarOf(in.sensor, pose, h, Eigen::Vector3d(x.x(), x.y(), z), &rr, &az)) {
+        zs.push_back(z);
+        rs.push_back(rr);
       }
-      if (p.z0 < 0.5 * htol) p.z0 = 0.0;  // standing on the floor
-      double step;
-      int nf0, nf1;
-      p.bottom = horizontal(ea.position, eb.position, p.z0, &step, &nf0);
-      p.top = horizontal(ea.position, eb.position, p.z1, &step, &nf1);
-      p.frames = std::min(nf0, nf1);
-      if (p.frames < opt_.min_horizontal_frames || p.top < opt_.min_horizontal_score ||
-          p.bottom < opt_.min_horizontal_score || !(p.z1 > p.z0)) {
-        ++res.pairs_rejected;
-        continue;
-      }
-      pairs.push_back(p);
     }
-  std::sort(pairs.begin(), pairs.end(), [](const Pair& x, const Pair& y) {
+    auto height_at = [&](double radius, double* z) {
+      for (size_t i = 1; i < rs.size(); ++i)
+        if ((rs[i - 1] - radius) * (rs[i] - radius) <= 0 && rs[i] != rs[i - 1]) {
+          *z = zs[i - 1] + (zs[i] - zs[i - 1]) * (radius - rs[i - 1]) / (rs[i] - rs[i - 1]);
+          return true;
+        }
+      return false;
+    };
+    const double limb = in.sensor.limb_radius();
+    const double r_in = in.opt.prediction.min_radius_fraction * limb + 1.5;
+    const double r_out = limb - in.opt.prediction.max_radius_margin - 2.5;
+    // An extent that reaches the annulus' border says nothing about that
+    // end; each end that does not gives one height.
+    for (double radius : {d.r_lo, d.r_hi}) {
+      if (radius <= r_in || radius >= r_out) continue;
+      double z;
+      if (!height_at(radius, &z)) continue;
+      // The other end's height tells which end this is.
+      const double other = radius == d.r_lo ? d.r_hi : d.r_lo;
+      double z_other;
+      bool is_low;
+      if (height_at(other, &z_other))
+        is_low = z < z_other;
+      else
+        is_low = (rs.back() > rs.front()) == (radius < other);
+      (is_low ? z_lo : z_hi)->push_back(z);
+    }
+  }
+}
+
+EdgeVerdict VerdictOf(const BuildInputs& in, const BuiltEdge& e, size_t n_low, size_t n_high) {
+  bool room_corner = false;
+  const MapRoom& room = in.seed.room;
+  if (room.present)
+    for (double cx : {room.min.x(), room.max.x()})
+      for (double cy : {room.min.y(), room.max.y()})
+        if ((e.position - Eigen::Vector2d(cx, cy)).norm() < 0.03 * in.scale) room_corner = true;
+  if (e.views < in.opt.min_views) return EdgeVerdict::kTooFewViews;
+  if (e.parallax_deg < in.opt.min_parallax_deg) return EdgeVerdict::kLowParallax;
+  if (e.std_major > in.opt.max_std_fraction * in.scale) return EdgeVerdict::kPoorlyConditioned;
+  if (room_corner) return EdgeVerdict::kRoomCorner;
+  if (n_low < 3 || n_high < 3 || !(e.z1 > e.z0)) return EdgeVerdict::kNoHeight;
+  return EdgeVerdict::kAccepted;
+}
+
+// The edge a candidate makes: its position from the bearings of the rays it
+// claims (twice: the second time within 3 RMS), then its views, parallax,
+// heights and verdict. False when fewer than 3 rays agree.
+bool EdgeAt(const BuildInputs& in, Eigen::Vector2d x, double tol, double top, RayClaims* claims, BuiltEdge* e) {
+  std::vector<std::pair<int, int>> ids;
+  std::vector<Ray> r = claims->Associate(x, tol, &ids);
+  if (r.size() < 3) return false;
+  Eigen::Matrix2d cov;
+  double rms = SolveEdge(r, &x, &cov);
+  r = claims->Associate(x, std::min(tol, std::max(0.25 * kDeg, 3 * rms)), &ids);
+  if (r.size() < 3) return false;
+  rms = SolveEdge(r, &x, &cov);
+  if (!x.allFinite()) return false;
+  e->position = x;
+  e->views = static_cast<int>(r.size());
+  e->rms_bearing_deg = rms / kDeg;
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(cov);
+  e->std_major = std::sqrt(std::max(0.0, eig.eigenvalues().maxCoeff()));
+  e->parallax_deg = ParallaxDeg(r);
+  e->rays = ids;
+  claims->Claim(ids);
+  std::vector<double> z_lo, z_hi;
+  const double z_top = std::max(top, in.seed.room.present ? in.seed.room.height : 0.0) * 1.5 + in.seed.sensor_height;
+  EdgeHeights(in, x, ids, z_top, &z_lo, &z_hi);
+  if (z_lo.size() >= 3 && z_hi.size() >= 3) {
+    e->z0 = std::max(0.0, Median(z_lo));
+    e->z1 = Median(z_hi);
+    e->z0_std = RobustSigma(z_lo) / std::sqrt(double(z_lo.size()));
+    e->z1_std = RobustSigma(z_hi) / std::sqrt(double(z_hi.size()));
+  }
+  e->verdict = VerdictOf(in, *e, z_lo.size(), z_hi.size());
+  return true;
+}
+
+// Vertical edges where the frames' rays cross: each vote peak claims, per
+// frame, the nearest unclaimed ray in bearing.
+void FindEdges(const BuildInputs& in, MapBuildResult* res) {
+  double top = 0;
+  const FloorGrid grid = GridOf(in, &top);
+  std::vector<std::vector<Ray>> rays;
+  const cv::Mat acc = RayVotes(in, grid, &rays);
+  RayClaims claims(rays, in.poses, 0.03 * in.scale);
+  const double tol = in.opt.ray_tolerance_deg * kDeg;
+  for (const Eigen::Vector2d& peak : VotePeaks(acc, grid, in.opt.min_views)) {
+    BuiltEdge e;
+    if (EdgeAt(in, peak, tol, top, &claims, &e)) res->edges.push_back(e);
+  }
+}
+
+// The horizontal edge between a and b at height z: the fraction of samples
+// showing a step of the majority sign (mean over the frames kept), the mean
+// step and the frames it was seen in.
+double HorizontalEvidence(const BuildInputs& in, const Eigen::Vector2d& a, const Eigen::Vector2d& b, double z,
+                          double* mean_step, int* frames) {
+  const double h = in.seed.sensor_height;
+  const double limb = in.sensor.limb_radius();
+  const double r_in = in.opt.prediction.min_radius_fraction * limb, r_out = limb - in.opt.prediction.max_radius_margin;
+  double score = 0, step_sum = 0;
+  int nf = 0;
+  const int samples = 16;
+  for (const auto& sf : in.stored) {
+    const Pose2& pose = in.poses[static_cast<size_t>(sf.first)];
+    int valid = 0, pos = 0, neg = 0;
+    double sum = 0;
+    for (int i = 0; i < samples; ++i) {
+      const double t = 0.15 + 0.7 * i / (samples - 1);
+      const Eigen::Vector2d p = a + t * (b - a), q = a + (t + 0.01) * (b - a);
+      double rp, ap, rq, aq;
+      Eigen::Vector2d pp, pq;
+      if (!PolarOf(in.sensor, pose, h, Eigen::Vector3d(p.x(), p.y(), z), &rp, &ap, &pp) ||
+          !PolarOf(in.sensor, pose, h, Eigen::Vector3d(q.x(), q.y(), z), &rq, &aq, &pq))
+        continue;
+      if (rp < r_in || rp > r_out) continue;
+      Eigen::Vector2d tangent = pq - pp;
+      if (tangent.norm() < 1e-9) continue;
+      tangent.normalize();
+      Eigen::Vector2d normal(-tangent.y(), tangent.x());
+      // Orient the normal outwards (increasing radius) for a stable sign.
+      double rn, an;
+      in.sensor.to_polar(pp.x() + normal.x(), pp.y() + normal.y(), &rn, &an);
+      if (rn < rp) normal = -normal;
+      double g1, g2;
+      if (!GreyAt(sf.second, pp + 1.0 * normal, &g1) || !GreyAt(sf.second, pp - 1.0 * normal, &g2)) continue;
+      const double diff = g1 - g2;
+      ++valid;
+      sum += diff;
+      if (diff > in.opt.min_step) ++pos;
+      if (diff < -in.opt.min_step) ++neg;
+    }
+    if (valid < samples * 6 / 10) continue;
+    ++nf;
+    score += double(std::max(pos, neg)) / valid;
+    step_sum += std::abs(sum / valid);
+  }
+  *frames = nf;
+  *mean_step = nf ? step_sum / nf : 0.0;
+  return nf ? score / nf : 0.0;
+}
+
+// A height moved to the strongest horizontal edge within +-range of it: the
+// maximum of the mean step over a scan, to a fraction of a step by a
+// parabola through its neighbours. Unchanged where no height shows one.
+void RefineHeightToEdge(const BuildInputs& in, const Eigen::Vector2d& a, const Eigen::Vector2d& b, double range,
+                        double htol, double* z) {
+  const int half = static_cast<int>(std::ceil(24 * range / htol));
+  std::vector<double> steps(2 * half + 1, -1.0);
+  int best = -1;
+  for (int k = -half; k <= half; ++k) {
+    const double zz = *z + range * k / half;
+    if (zz < 0) continue;
+    double step;
+    int nf;
+    HorizontalEvidence(in, a, b, zz, &step, &nf);
+    if (nf < in.opt.min_horizontal_frames) continue;
+    steps[static_cast<size_t>(k + half)] = step;
+    if (best < 0 || step > steps[static_cast<size_t>(best)]) best = k + half;
+  }
+  if (best < 0) return;
+  double offset = 0;
+  if (best > 0 && best < 2 * half && steps[static_cast<size_t>(best - 1)] >= 0 &&
+      steps[static_cast<size_t>(best + 1)] >= 0) {
+    const double sa = steps[static_cast<size_t>(best - 1)], sb = steps[static_cast<size_t>(best)],
+                 sc = steps[static_cast<size_t>(best + 1)];
+    const double den = sa - 2 * sb + sc;
+    if (den < 0) offset = std::clamp(0.5 * (sa - sc) / den, -0.5, 0.5);
+  }
+  *z += range * (best - half + offset) / half;
+}
+
+// Two accepted edges and the horizontal edges between them.
+struct EdgePair {
+  int a, b;
+  double z0, z1, top, bottom;
+  int frames;
+  bool both_heights_agree;
+};
+
+// The pair of edges i and j when their widths and heights match and both
+// horizontal edges show (counted in res->pairs_considered and
+// pairs_rejected). One of the two heights may disagree (an edge partly
+// hidden in most frames reads short): that height is then searched over
+// both edges' values.
+bool PairOf(const BuildInputs& in, size_t i, size_t j, MapBuildResult* res, EdgePair* out) {
+  const BuiltEdge &ea = res->edges[i], &eb = res->edges[j];
+  if (ea.verdict != EdgeVerdict::kAccepted || eb.verdict != EdgeVerdict::kAccepted) return false;
+  const double w = (ea.position - eb.position).norm();
+  if (w < in.opt.min_width_fraction * in.scale || w > in.opt.max_width_fraction * in.scale) return false;
+  const double htol = in.opt.height_tolerance_fraction * in.scale;
+  const bool z0_agree = std::abs(ea.z0 - eb.z0) <= htol, z1_agree = std::abs(ea.z1 - eb.z1) <= htol;
+  if (!z0_agree && !z1_agree) return false;
+  ++res->pairs_considered;
+  EdgePair p{static_cast<int>(i), static_cast<int>(j), 0.5 * (ea.z0 + eb.z0), 0.5 * (ea.z1 + eb.z1), 0, 0, 0,
+             z0_agree && z1_agree};
+  RefineHeightToEdge(in, ea.position, eb.position, z0_agree ? htol : 0.5 * std::abs(ea.z0 - eb.z0) + htol, htol,
+                     &p.z0);
+  RefineHeightToEdge(in, ea.position, eb.position, z1_agree ? htol : 0.5 * std::abs(ea.z1 - eb.z1) + htol, htol,
+                     &p.z1);
+  if (p.z0 < 0.5 * htol) p.z0 = 0.0;  // standing on the floor
+  double step;
+  int nf0, nf1;
+  p.bottom = HorizontalEvidence(in, ea.position, eb.position, p.z0, &step, &nf0);
+  p.top = HorizontalEvidence(in, ea.position, eb.position, p.z1, &step, &nf1);
+  p.frames = std::min(nf0, nf1);
+  if (p.frames < in.opt.min_horizontal_frames || p.top < in.opt.min_horizontal_score ||
+      p.bottom < in.opt.min_horizontal_score || !(p.z1 > p.z0)) {
+    ++res->pairs_rejected;
+    return false;
+  }
+  *out = p;
+  return true;
+}
+
+// Rectangles from the pairs, strongest horizontal evidence first (both
+// heights agreeing before one), each edge in one rectangle at most, named
+// with the next free id.
+void FindRectangles(const BuildInputs& in, MapBuildResult* res) {
+  std::vector<EdgePair> pairs;
+  for (size_t i = 0; i < res->edges.size(); ++i)
+    for (size_t j = i + 1; j < res->edges.size(); ++j) {
+      EdgePair p;
+      if (PairOf(in, i, j, res, &p)) pairs.push_back(p);
+    }
+  std::sort(pairs.begin(), pairs.end(), [](const EdgePair& x, const EdgePair& y) {
     if (x.both_heights_agree != y.both_heights_agree) return x.both_heights_agree;
     return std::min(x.top, x.bottom) > std::min(y.top, y.bottom);
   });
   std::set<std::string> ids;
-  for (const MapRectangle& r : seed_.rectangles) ids.insert(r.id);
-  for (const MapBox& b : seed_.boxes) ids.insert(b.id);
+  for (const MapRectangle& r : in.seed.rectangles) ids.insert(r.id);
+  for (const MapBox& b : in.seed.boxes) ids.insert(b.id);
   int next = 1;
-  for (const Pair& p : pairs) {
-    BuiltEdge &ea = res.edges[static_cast<size_t>(p.a)], &eb = res.edges[static_cast<size_t>(p.b)];
+  for (const EdgePair& p : pairs) {
+    BuiltEdge &ea = res->edges[static_cast<size_t>(p.a)], &eb = res->edges[static_cast<size_t>(p.b)];
     if (ea.rectangle >= 0 || eb.rectangle >= 0) continue;
     BuiltRectangle br;
-    while (ids.count(opt_.id_prefix + std::to_string(next))) ++next;
-    br.rectangle.id = opt_.id_prefix + std::to_string(next++);
+    while (ids.count(in.opt.id_prefix + std::to_string(next))) ++next;
+    br.rectangle.id = in.opt.id_prefix + std::to_string(next++);
     ids.insert(br.rectangle.id);
     br.rectangle.from = ea.position;
     br.rectangle.to = eb.position;
@@ -640,10 +722,30 @@ MapBuildResult MapBuilder::Build() const {
     br.top_score = p.top;
     br.bottom_score = p.bottom;
     br.frames = p.frames;
-    ea.rectangle = eb.rectangle = static_cast<int>(res.rectangles.size());
-    res.rectangles.push_back(br);
-    res.map.rectangles.push_back(br.rectangle);
+    ea.rectangle = eb.rectangle = static_cast<int>(res->rectangles.size());
+    res->rectangles.push_back(br);
+    res->map.rectangles.push_back(br.rectangle);
   }
+}
+
+}  // namespace
+
+MapBuildResult MapBuilder::Build() const {
+  MapBuildResult res;
+  res.map = seed_;
+  res.frames = frames_;
+  res.frames_with_pose = static_cast<int>(frames_list_.size());
+  res.frames_with_seed = frames_with_seed_;
+  res.detections = detections_;
+  res.unexplained = unexplained_;
+  if (frames_list_.empty()) return res;
+  BuildInputs in{calib_.sensor, seed_, opt_, scale_, {}, {}, stored_};
+  for (const Frame& f : frames_list_) {
+    in.poses.push_back(f.pose);
+    in.edges.push_back(&f.edges);
+  }
+  FindEdges(in, &res);
+  FindRectangles(in, &res);
   return res;
 }
 
