@@ -117,9 +117,7 @@ py::dict ParamsDict(const SensorParams<double>& p) {
 #define PANO_PARAM(name) \
   .def_property(#name, [](const Sensor& s) { return s.params.name; }, [](Sensor& s, double v) { s.params.name = v; })
 
-}  // namespace
-
-void BindSensor(py::module_& m) {
+void BindSensorClass(py::module_& m) {
   py::class_<Sensor>(m, "Sensor",
                      "Catadioptric sensor model: a pinhole camera below a mirror of revolution (sphere or "
                      "conic), with the image size. Units of length are the calibration's.")
@@ -209,7 +207,9 @@ void BindSensor(py::module_& m) {
                std::to_string(s.image_width) + "x" + std::to_string(s.image_height) +
                " focal_px=" + std::to_string(s.params.focal_px) + ">";
       });
+}
 
+void BindSensorFunctions(py::module_& m) {
   // For the speed comparison of the tests: the plain C++ loop over points
   // (one thread, no numpy), in seconds, and the number visible.
   m.def(
@@ -232,7 +232,9 @@ void BindSensor(py::module_& m) {
         py::arg("cx"), py::arg("cy"), py::arg("aspect"), py::arg("mirror_radius"), py::arg("mirror_distance"),
         py::arg("azimuth_offset") = 0.0,
         "The sphere model from its named parameters (mirror centre mirror_distance above the pinhole)");
+}
 
+void BindCalibration(py::module_& m) {
   py::class_<Calibration>(m, "Calibration", "A calibrated sensor as the tools exchange it (calibration YAML)")
       .def(py::init<>())
       .def(py::init([](const Sensor& s, const std::string& units) {
@@ -317,6 +319,14 @@ void BindSensor(py::module_& m) {
       "write_calibration",
       [](const std::filesystem::path& path, const Calibration& calib) { WriteCalibration(path.string(), calib); }, py::arg("path"),
       py::arg("calibration"), "Writes a calibration file atomically");
+}
+
+}  // namespace
+
+void BindSensor(py::module_& m) {
+  BindSensorClass(m);
+  BindSensorFunctions(m);
+  BindCalibration(m);
 }
 
 }  // namespace pano::python
