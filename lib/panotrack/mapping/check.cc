@@ -155,6 +155,135 @@ FrameChecker::FrameChecker(const Calibration& calib, const Map& map, std::shared
   edges_ = MapEdges(landmarks_, &edge_of_landmark_);
 }
 
+// Each vertical edge is searched no further than 0.45 of the way to the
+// nearest other predicted vertical edge beside it: a window holding two
+// edges (a rectangle seen at a grazing angle, two neighbours) measures
+// whichever is stronger.
+double FrameChecker::WindowPx(const PredictedLandmark& p, const std::vector<PredictedLandmark>& predicted) const {
+  const int e = edge_of_landmark_[p.index];
+  const double lo = std::min(p.corner_radius, p.v_radius), hi = std::max(p.corner_radius, p.v_radius);
+  double half = opt_.search_px;
+  for (const PredictedLandmark& q : predicted) {
+    if (edge_of_landmark_[q.index] == e) continue;
+    if (std::max(q.corner_radius, q.v_radius) < lo || std::min(q.corner_radius, q.v_radius) > hi) continue;
+    half = std::min(half, 0.45 * std::abs(wrap_angle(q.azimuth - p.azimuth)) * p.corner_radius);
+  }
+  return half;
+}
+
+// Tangential samples along the vertical edge's radial segment, on the part
+// of it the map leaves in sight, `half` px either side; false when fewer
+// than 3 could be tried (too little of the edge in sight to judge it).
+bool FrameChecker::MeasureVerticalEdge(const cv::Mat& grey, const Pose2& pose, const PredictedLandmark& p,
+                                       double half, EdgeFrameMeasurement* m) const {
+  const Sensor& s = calib_.sensor;
+  const Landmark& l = *p.landmark;
+  const Eigen::Vector3d eye(pose.x, pose.y, map_.sensor_height + s.params.vertex_distance);
+  const Eigen::Vector3d c = sensor_from_world(pose, map_.sensor_height, l.corner);
+  const double len = std::abs(p.v_radius - p.corner_radius);
+  const double spacing = std::max(opt_.sample_spacing_px, (len - 2 * opt_.corner_gap_px) / opt_.max_samples);
+  const double cs = std::cos(p.azimuth), sn = std::sin(p.azimuth), a = s.params.aspect;
+  const Eigen::Vector2d tangent(-sn, a * cs);
+  std::vector<Step> steps;
+  int attempted = 0;
+  // Points of the edge in the world, `spacing` apart in the image, on
+  // the part of it the map leaves in sight (a nearer surface may hide
+  // part of an edge whose corner is seen).
+  const Eigen::Vector3d v = sensor_from_world(pose, map_.sensor_height, l.v_end);
+  double last_r = p.corner_radius;
+  constexpr int kHeights = 400;
+  for (int k = 1; k < kHeights && attempted < opt_.max_samples; ++k) {
+    const double f = double(k) / kHeights;
+    double r;
+    if (!table_->radius(p.distance, c.z() + f * (v.z() - c.z()), &r)) continue;
+    if (std::abs(r - p.corner_radius) < opt_.corner_gap_px || std::abs(r - last_r) < spacing) continue;
+    if ((r - p.v_radius) * (p.corner_radius - p.v_radius) <= 0 || std::abs(r - p.v_radius) < opt_.corner_gap_px)
+      break;  // past the usable end of the edge
+    last_r = r;
+    if (scene_.Occluded(eye, l.corner + f * (l.v_end - l.corner), 1e-3 * (l.corner - eye).norm() + 1e-6,
+                        OnSurfaceTolerance(map_)))
+      continue;
+    ++attempted;
+    Step st;
+    if (StrongestStep(grey, s.from_polar(r, p.azimuth), tangent, half, opt_.min_step, &st)) steps.push_back(st);
+  }
+  if (attempted < 3) return false;
+  int polarity = 0;
+  const std::vector<int> in = AgreeingSteps(steps, attempted, opt_.min_sample_fraction, &polarity);
+  if (in.empty()) return true;
+  m->found = true;
+  m->measured_polarity = polarity * p.inside_azimuth_sign;
+  double sum = 0.0;
+  for (int i : in) {
+    double r, az;
+    s.to_polar(steps[i].px.x(), steps[i].px.y(), &r, &az);
+    sum += wrap_angle(az - p.azimuth);
+  }
+  m->measured_azimuth = wrap_angle(p.azimuth + sum / in.size());
+  // The face's brightness against what lies beyond, at both ends of
+  // the samples (increasing azimuth is "after").
+  std::vector<double> ratios;
+  for (int i : in) {
+    const double inside = p.inside_azimuth_sign > 0 ? steps[i].after : steps[i].before;
+    const double outside = p.inside_azimuth_sign > 0 ? steps[i].before : steps[i].after;
+    if (outside > 1.0) ratios.push_back(inside / outside);
+  }
+  if (!ratios.empty()) m->brightness_ratio = Median(ratios);
+  return true;
+}
+
+// The horizontal edge at this corner: radial samples at azimuths along its
+// nearer half, each centred on the edge's predicted radius there; its curve
+// goes to m->h_curves. True with the median radial offset when enough agree.
+bool FrameChecker::MeasureHorizontalEdge(const cv::Mat& grey, const Pose2& pose, const PredictedLandmark& p,
+                                         EdgeFrameMeasurement* m, double* radial_offset) const {
+  const Sensor& s = calib_.sensor;
+  const Landmark& l = *p.landmark;
+  const Eigen::Vector3d eye(pose.x, pose.y, map_.sensor_height + s.params.vertex_distance);
+  const Eigen::Vector3d c = sensor_from_world(pose, map_.sensor_height, l.corner);
+  const Eigen::Vector3d h = sensor_from_world(pose, map_.sensor_height, l.h_end);
+  const Eigen::Vector3d dir = h - c;
+  std::vector<Eigen::Vector2d> curve;
+  for (int k = 0; k <= 16; ++k) {
+    const Eigen::Vector3d q = c + (k / 16.0) * dir;
+    double r;
+    if (table_->radius(q.head<2>().norm(), q.z(), &r))
+      curve.push_back(s.from_polar(r, s.image_azimuth(std::atan2(q.y(), q.x()))));
+  }
+  m->h_curves.push_back(curve);
+  const double span = wrap_angle(p.h_end_azimuth - p.azimuth);
+  const double step_angle = opt_.sample_spacing_px / p.corner_radius;
+  const double gap_angle = opt_.corner_gap_px / p.corner_radius;
+  std::vector<Step> steps;
+  int attempted = 0;
+  for (double da = gap_angle; da < 0.5 * std::abs(span) && attempted < opt_.max_samples; da += step_angle) {
+    const double az = wrap_angle(p.azimuth + (span > 0 ? da : -da));
+    const double b = s.bearing_of_azimuth(az);
+    // The point of the edge's line on this bearing.
+    const double den = dir.x() * std::sin(b) - dir.y() * std::cos(b);
+    if (std::abs(den) < 1e-12) continue;
+    const double t = (c.y() * std::cos(b) - c.x() * std::sin(b)) / den;
+    const Eigen::Vector3d q = c + t * dir;
+    double r;
+    if (!table_->radius(q.head<2>().norm(), q.z(), &r)) continue;
+    const Eigen::Vector3d world = l.corner + t * (l.h_end - l.corner);
+    if (scene_.Occluded(eye, world, 1e-3 * (world - eye).norm() + 1e-6, OnSurfaceTolerance(map_))) continue;
+    ++attempted;
+    const double ca = std::cos(az), sa = std::sin(az);
+    Step st;
+    if (StrongestStep(grey, s.from_polar(r, az), Eigen::Vector2d(ca, s.params.aspect * sa), opt_.search_px,
+                      opt_.min_step, &st))
+      steps.push_back(st);
+  }
+  int polarity = 0;
+  const std::vector<int> in = AgreeingSteps(steps, attempted, opt_.min_sample_fraction, &polarity);
+  if (in.empty()) return false;
+  std::vector<double> offsets;
+  for (int i : in) offsets.push_back(steps[i].offset_px);
+  *radial_offset = Median(offsets);
+  return true;
+}
+
 FrameCheck FrameChecker::Measure(const cv::Mat& grey, int frame, const Pose2& pose) const {
   const Sensor& s = calib_.sensor;
   FrameCheck fc;
@@ -167,28 +296,10 @@ FrameCheck FrameChecker::Measure(const cv::Mat& grey, int frame, const Pose2& po
   const Eigen::Vector3d eye(pose.x, pose.y, map_.sensor_height + s.params.vertex_distance);
   std::vector<int> slot(edges_.size(), -1);  // this frame's measurement of each edge
   std::vector<std::vector<double>> radial(edges_.size());
-  // Each vertical edge is searched no further than 0.45 of the way to the
-  // nearest other predicted vertical edge beside it: a window holding two
-  // edges (a rectangle seen at a grazing angle, two neighbours) measures
-  // whichever is stronger.
-  auto window_px = [&](const PredictedLandmark& p) {
-    const int e = edge_of_landmark_[p.index];
-    const double lo = std::min(p.corner_radius, p.v_radius), hi = std::max(p.corner_radius, p.v_radius);
-    double half = opt_.search_px;
-    for (const PredictedLandmark& q : predicted) {
-      if (edge_of_landmark_[q.index] == e) continue;
-      if (std::max(q.corner_radius, q.v_radius) < lo || std::min(q.corner_radius, q.v_radius) > hi) continue;
-      half = std::min(half, 0.45 * std::abs(wrap_angle(q.azimuth - p.azimuth)) * p.corner_radius);
-    }
-    return half;
-  };
   for (const PredictedLandmark& p : predicted) {
     const int e = edge_of_landmark_[p.index];
     const Landmark& l = *p.landmark;
-    const Eigen::Vector3d c = sensor_from_world(pose, map_.sensor_height, l.corner);
-    const Eigen::Vector3d h = sensor_from_world(pose, map_.sensor_height, l.h_end);
     if (slot[e] < 0) {
-      // The vertical edge: tangential samples along its radial segment.
       EdgeFrameMeasurement m;
       m.edge = e;
       m.landmark = p.index;
@@ -206,110 +317,14 @@ FrameCheck FrameChecker::Measure(const cv::Mat& grey, int frame, const Pose2& po
         const RayHit hit = scene_.Intersect(eye, (target - eye).normalized());
         m.beyond_shade = hit.hit() ? hit.shade : 0.0;
       }
-      const double half = window_px(p);
+      const double half = WindowPx(p, predicted);
       if (half < opt_.min_window_px) continue;  // too close to another edge to tell them apart
-      const double len = std::abs(p.v_radius - p.corner_radius);
-      const double spacing = std::max(opt_.sample_spacing_px, (len - 2 * opt_.corner_gap_px) / opt_.max_samples);
-      const double cs = std::cos(p.azimuth), sn = std::sin(p.azimuth), a = s.params.aspect;
-      const Eigen::Vector2d tangent(-sn, a * cs);
-      std::vector<Step> steps;
-      int attempted = 0;
-      // Points of the edge in the world, `spacing` apart in the image, on
-      // the part of it the map leaves in sight (a nearer surface may hide
-      // part of an edge whose corner is seen).
-      const Eigen::Vector3d v = sensor_from_world(pose, map_.sensor_height, l.v_end);
-      double last_r = p.corner_radius;
-      constexpr int kHeights = 400;
-      for (int k = 1; k < kHeights && attempted < opt_.max_samples; ++k) {
-        const double f = double(k) / kHeights;
-        double r;
-        if (!table_->radius(p.distance, c.z() + f * (v.z() - c.z()), &r)) continue;
-        if (std::abs(r - p.corner_radius) < opt_.corner_gap_px || std::abs(r - last_r) < spacing) continue;
-        if ((r - p.v_radius) * (p.corner_radius - p.v_radius) <= 0 || std::abs(r - p.v_radius) < opt_.corner_gap_px)
-          break;  // past the usable end of the edge
-        last_r = r;
-        if (scene_.Occluded(eye, l.corner + f * (l.v_end - l.corner), 1e-3 * (l.corner - eye).norm() + 1e-6,
-                            OnSurfaceTolerance(map_)))
-          continue;
-        ++attempted;
-        Step st;
-        if (StrongestStep(grey, s.from_polar(r, p.azimuth), tangent, half, opt_.min_step, &st))
-          steps.push_back(st);
-      }
-      // Too little of the edge in sight to judge it in this frame.
-      if (attempted < 3) continue;
-      int polarity = 0;
-      const std::vector<int> in = AgreeingSteps(steps, attempted, opt_.min_sample_fraction, &polarity);
-      if (!in.empty()) {
-        m.found = true;
-        m.measured_polarity = polarity * p.inside_azimuth_sign;
-        double sum = 0.0;
-        for (int i : in) {
-          double r, az;
-          s.to_polar(steps[i].px.x(), steps[i].px.y(), &r, &az);
-          sum += wrap_angle(az - p.azimuth);
-        }
-        m.measured_azimuth = wrap_angle(p.azimuth + sum / in.size());
-        // The face's brightness against what lies beyond, at both ends of
-        // the samples (increasing azimuth is "after").
-        std::vector<double> ratios;
-        for (int i : in) {
-          const double inside = p.inside_azimuth_sign > 0 ? steps[i].after : steps[i].before;
-          const double outside = p.inside_azimuth_sign > 0 ? steps[i].before : steps[i].after;
-          if (outside > 1.0) ratios.push_back(inside / outside);
-        }
-        if (!ratios.empty()) m.brightness_ratio = Median(ratios);
-      }
+      if (!MeasureVerticalEdge(grey, pose, p, half, &m)) continue;
       slot[e] = static_cast<int>(fc.edges.size());
       fc.edges.push_back(m);
     }
-    // The horizontal edge at this corner: radial samples at azimuths along
-    // its nearer half, each centred on the edge's predicted radius there.
-    if (slot[e] < 0) continue;
-    EdgeFrameMeasurement& m = fc.edges[slot[e]];
-    const Eigen::Vector3d dir = h - c;
-    std::vector<Eigen::Vector2d> curve;
-    for (int k = 0; k <= 16; ++k) {
-      const Eigen::Vector3d q = c + (k / 16.0) * dir;
-      double r;
-      if (table_->radius(q.head<2>().norm(), q.z(), &r))
-        curve.push_back(s.from_polar(r, s.image_azimuth(std::atan2(q.y(), q.x()))));
-    }
-    m.h_curves.push_back(curve);
-    const double span = wrap_angle(p.h_end_azimuth - p.azimuth);
-    const double step_angle = opt_.sample_spacing_px / p.corner_radius;
-    const double gap_angle = opt_.corner_gap_px / p.corner_radius;
-    std::vector<Step> steps;
-    std::vector<double> predicted_r;
-    int attempted = 0;
-    for (double da = gap_angle; da < 0.5 * std::abs(span) && attempted < opt_.max_samples; da += step_angle) {
-      const double az = wrap_angle(p.azimuth + (span > 0 ? da : -da));
-      const double b = s.bearing_of_azimuth(az);
-      // The point of the edge's line on this bearing.
-      const double den = dir.x() * std::sin(b) - dir.y() * std::cos(b);
-      if (std::abs(den) < 1e-12) continue;
-      const double t = (c.y() * std::cos(b) - c.x() * std::sin(b)) / den;
-      const Eigen::Vector3d q = c + t * dir;
-      double r;
-      if (!table_->radius(q.head<2>().norm(), q.z(), &r)) continue;
-      const Eigen::Vector3d world = l.corner + t * (l.h_end - l.corner);
-      if (scene_.Occluded(eye, world, 1e-3 * (world - eye).norm() + 1e-6, OnSurfaceTolerance(map_))) continue;
-      ++attempted;
-      const double ca = std::cos(az), sa = std::sin(az);
-      Step st;
-      if (StrongestStep(grey, s.from_polar(r, az), Eigen::Vector2d(ca, s.params.aspect * sa), opt_.search_px,
-                        opt_.min_step, &st)) {
-        steps.push_back(st);
-        predicted_r.push_back(r);
-      }
-    }
-    int polarity = 0;
-    const std::vector<int> in = AgreeingSteps(steps, attempted, opt_.min_sample_fraction, &polarity);
-    if (!in.empty()) {
-      std::vector<double> offsets;
-      for (int i : in) offsets.push_back(steps[i].offset_px);
-      radial[e].push_back(Median(offsets));
-    }
+    double offset;
+    if (slot[e] >= 0 && MeasureHorizontalEdge(grey, pose, p, &fc.edges[slot[e]], &offset)) radial[e].push_back(offset);
   }
   for (EdgeFrameMeasurement& m : fc.edges)
     if (!radial[m.edge].empty()) {

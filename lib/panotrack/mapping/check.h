@@ -177,6 +177,15 @@ class FrameChecker {
   void SetHeldOutResiduals(FrameCheck* fc) const;
 
  private:
+  // Measure's steps (check.cc): the search window of a vertical edge, the
+  // vertical edge sampled along its radial segment, and the horizontal edge
+  // at a corner sampled radially along its nearer half.
+  double WindowPx(const PredictedLandmark& p, const std::vector<PredictedLandmark>& predicted) const;
+  bool MeasureVerticalEdge(const cv::Mat& grey, const Pose2& pose, const PredictedLandmark& p, double half,
+                           EdgeFrameMeasurement* m) const;
+  bool MeasureHorizontalEdge(const cv::Mat& grey, const Pose2& pose, const PredictedLandmark& p,
+                             EdgeFrameMeasurement* m, double* radial_offset) const;
+
   Calibration calib_;
   Map map_;
   Scene scene_;
