@@ -270,23 +270,172 @@ bool SelectionPossible(int boards, int folds) {
   return folds >= 2 && boards - (boards + folds - 1) / folds >= 3;
 }
 
+namespace {
+
+// What every candidate's fits share.
+struct SelectionContext {
+  const std::vector<BoardView>& views;
+  const TargetBoard& board;
+  int width, height;
+  const std::string& units;
+  const CalibrateOptions& options;
+  bool poses_known;
+  int folds, threads;
+  const CalibrationResult* start_fit;
+  const CalibrateOptions* start_options;
+};
+
+// Candidate c's fit to all boards: from the pipeline's fit when that is the
+// same model, else from the fit of the candidate it starts from, else from
+// its own initialisation. Throws pano::Error when it fails or its RMS is
+// above max_rms_px.
+CalibrationResult FitToAllBoards(const SelectionContext& x, const std::vector<SelectionCandidate>& cands, size_t c,
+                                 const std::vector<CalibrationResult>& full, const std::vector<char>& full_ok) {
+  const SelectionCandidate& cand = cands[c];
+  CalibrationResult fit;
+  if (x.start_fit && x.start_options && SameModel(cand.options, *x.start_options)) {
+    fit = FitCalibration(x.views, x.board, StartAt(*x.start_fit, cand.options, {}, "the pipeline's fit"),
+                         x.poses_known, cand.options);
+  } else if (cand.start >= 0 && full_ok[cand.start]) {
+    fit = FitCalibration(x.views, x.board,
+                         StartAt(full[cand.start], cand.options, {}, "the " + cands[cand.start].name + " fit"),
+                         x.poses_known, cand.options);
+  } else {
+    fit = CalibrateViews(x.views, x.board, x.width, x.height, x.units, cand.options);
+  }
+  if (fit.rms_px > x.options.max_rms_px)
+    throw Error("RMS " + std::to_string(fit.rms_px) + " px exceeds " + std::to_string(x.options.max_rms_px) + " px");
+  return fit;
+}
+
+// The folds, in parallel, each from the fit to all boards (board i held out
+// in fold i mod folds), only each held-out board's pose fitted through it;
+// the held-out figures go into `score`.
+void ScoreFolds(const SelectionContext& x, const SelectionCandidate& cand, const CalibrationResult& full,
+                ModelScore* score) {
+  EvaluateOptions eo;
+  eo.huber_px = x.options.huber_px;
+  eo.full_weight_px = x.options.full_weight_px;
+  eo.num_threads = 1;
+  const int folds = x.folds;
+  std::vector<std::string> fold_failure(folds);
+  std::vector<std::vector<std::pair<std::string, BoardPoseFit>>> held_fits(folds);
+  ParallelFor(
+      folds,
+      [&](int fold) {
+        std::vector<BoardView> train, held;
+        std::vector<char> keep(x.views.size(), 0);
+        for (size_t i = 0; i < x.views.size(); ++i) {
+          const bool out = static_cast<int>(i) % folds == fold;
+          keep[i] = !out;
+          (out ? held : train).push_back(x.views[i]);
+        }
+        CalibrationResult fit;
+        try {
+          fit = FitCalibration(train, x.board, StartAt(full, cand.options, keep, "the fit to all boards"),
+                               x.poses_known, cand.options, folds > 1 ? 1 : x.threads);
+          if (fit.rms_px > x.options.max_rms_px) throw Error("RMS " + std::to_string(fit.rms_px) + " px");
+        } catch (const Error& e) {
+          fold_failure[fold] = "fold " + std::to_string(fold + 1) + ": " + e.what();
+          for (const BoardView& v : held) held_fits[fold].push_back({v.file, BoardPoseFit()});
+          return;
+        }
+        for (const BoardView& v : held) {
+          BoardPoseFit f = FitBoardPose(v, x.board, fit.calib.sensor, eo);
+          if (!f.ok && f.failure.empty()) f.failure = "pose not fitted";
+          held_fits[fold].push_back({v.file, f});
+        }
+      },
+      true, x.threads);
+  double held_s2 = 0.0;
+  size_t held_n = 0;
+  for (int fold = 0; fold < folds; ++fold) {
+    if (!fold_failure[fold].empty() && score->failure.empty()) score->failure = fold_failure[fold];
+    ScoreHeldOutFold(held_fits[fold], score, &held_s2, &held_n);
+  }
+  if (held_n) score->heldout_rms_px = std::sqrt(held_s2 / held_n);
+}
+
+// None could be scored on held-out boards: the simplest candidate that
+// fitted all boards, with a warning. Throws when none fitted.
+void ChooseUnscored(const std::vector<char>& full_ok, ModelSelection* sel) {
+  for (size_t i = 0; i < sel->scores.size() && sel->chosen < 0; ++i)
+    if (full_ok[i]) sel->chosen = static_cast<int>(i);
+  if (sel->chosen < 0) {
+    std::string why;
+    for (const ModelScore& s : sel->scores) why += " " + s.name + ": " + s.failure + ";";
+    throw Error("model selection: no candidate model fits the boards;" + why.substr(0, why.size() - 1));
+  }
+  sel->reason = sel->scores[sel->chosen].name +
+                ": the simplest model that fits the boards; no candidate could be scored on boards left out of "
+                "the fit (their poses could not be fitted, or the boards do not determine the model)";
+  sel->warnings.push_back("model selection: no candidate model could be scored on boards left out of the fit; the " +
+                          sel->scores[sel->chosen].name +
+                          " model is fitted, unchecked (see the model selection table; the calibration may not "
+                          "map images other than these)");
+}
+
+// Among the candidates not refused that map the most held-out boards, the
+// simplest within selection_margin of the lowest held-out RMS, and why.
+void ChooseCandidate(const std::vector<char>& full_ok, const CalibrateOptions& options, ModelSelection* sel) {
+  // A candidate that cannot map every held-out board extrapolates badly
+  // there: those that map the most held-out boards compete.
+  int fewest_failed = std::numeric_limits<int>::max();
+  for (const ModelScore& s : sel->scores)
+    if (s.refused.empty() && s.heldout_boards > 0 && std::isfinite(s.heldout_rms_px))
+      fewest_failed = std::min(fewest_failed, s.failed_boards);
+  auto competes = [&](const ModelScore& s) {
+    return s.refused.empty() && s.heldout_boards > 0 && std::isfinite(s.heldout_rms_px) &&
+           s.failed_boards == fewest_failed;
+  };
+  double best = std::numeric_limits<double>::infinity();
+  for (const ModelScore& s : sel->scores)
+    if (competes(s)) best = std::min(best, s.heldout_rms_px);
+  if (!std::isfinite(best)) return ChooseUnscored(full_ok, sel);
+  int best_index = -1;
+  for (size_t i = 0; i < sel->scores.size(); ++i) {
+    const ModelScore& s = sel->scores[i];
+    if (!competes(s)) continue;
+    if (s.heldout_rms_px == best && best_index < 0) best_index = static_cast<int>(i);
+    if (sel->chosen < 0 && s.heldout_rms_px <= best * (1.0 + options.selection_margin))
+      sel->chosen = static_cast<int>(i);
+  }
+  const ModelScore& ch = sel->scores[sel->chosen];
+  char line[400];
+  if (sel->chosen == best_index)
+    std::snprintf(line, sizeof line, "%s: the lowest error on boards left out of the fit (%.4f px)", ch.name.c_str(),
+                  ch.heldout_rms_px);
+  else
+    std::snprintf(line, sizeof line,
+                  "%s: the simplest model within %.0f %% of the lowest error on boards left out of the fit "
+                  "(%.4f px against %s's %.4f px)",
+                  ch.name.c_str(), 100.0 * options.selection_margin, ch.heldout_rms_px,
+                  sel->scores[best_index].name.c_str(), best);
+  sel->reason = line;
+  if (fewest_failed > 0) {
+    std::snprintf(line, sizeof line,
+                  "model selection: no candidate model maps every board left out of the fit (the best %d of "
+                  "%d); the %s model maps the most, but may not map images other than these",
+                  ch.heldout_boards, ch.heldout_boards + ch.failed_boards, ch.name.c_str());
+    sel->warnings.push_back(line);
+    sel->reason += "; no candidate maps every board left out";
+  }
+}
+
+}  // namespace
+
 ModelSelection SelectModel(const std::vector<BoardView>& views, const TargetBoard& board, int width, int height,
                            const std::string& units, const CalibrateOptions& options,
                            const CalibrationResult* start_fit, const CalibrateOptions* start_options) {
   options.Check();
   // Each fold's training set must still calibrate: 3 boards at least.
   const int n = static_cast<int>(views.size());
-  const int folds = std::min(options.selection_folds, n);
   if (!SelectionPossible(n, options.selection_folds))
     throw Error("model selection: " + std::to_string(views.size()) +
                 " boards found; choosing the model by cross-validation needs 4 at least (give --model)");
-  const bool poses_known = PosesKnownFor(views, options);
+  const SelectionContext x{views,   board, width, height, units, options, PosesKnownFor(views, options),
+                           std::min(options.selection_folds, n), options.Threads(), start_fit, start_options};
   const std::vector<SelectionCandidate> cands = SelectionCandidates(options);
-  const int threads = options.Threads();
-  EvaluateOptions eo;
-  eo.huber_px = options.huber_px;
-  eo.full_weight_px = options.full_weight_px;
-  eo.num_threads = 1;
   ModelSelection sel;
   std::vector<CalibrationResult> full(cands.size());
   std::vector<char> full_ok(cands.size(), 0);
@@ -298,21 +447,8 @@ ModelSelection SelectModel(const std::vector<BoardView>& views, const TargetBoar
     score.name = cand.name;
     score.parameters = cand.parameters;
     Progress(options, cand.name);
-    // The fit to all boards.
     try {
-      if (start_fit && start_options && SameModel(cand.options, *start_options)) {
-        full[c] = FitCalibration(views, board, StartAt(*start_fit, cand.options, {}, "the pipeline's fit"),
-                                 poses_known, cand.options);
-      } else if (cand.start >= 0 && full_ok[cand.start]) {
-        full[c] = FitCalibration(views, board,
-                                 StartAt(full[cand.start], cand.options, {}, "the " + cands[cand.start].name + " fit"),
-                                 poses_known, cand.options);
-      } else {
-        full[c] = CalibrateViews(views, board, width, height, units, cand.options);
-      }
-      if (full[c].rms_px > options.max_rms_px)
-        throw Error("RMS " + std::to_string(full[c].rms_px) + " px exceeds " + std::to_string(options.max_rms_px) +
-                    " px");
+      full[c] = FitToAllBoards(x, cands, c, full, full_ok);
       full_ok[c] = 1;
     } catch (const Error& e) {
       score.failure = std::string("the fit to all boards failed: ") + e.what();
@@ -328,104 +464,10 @@ ModelSelection SelectModel(const std::vector<BoardView>& views, const TargetBoar
       sel.scores.push_back(score);
       continue;
     }
-    // The folds, in parallel, each from the fit to all boards.
-    std::vector<std::string> fold_failure(folds);
-    std::vector<std::vector<std::pair<std::string, BoardPoseFit>>> held_fits(folds);
-    ParallelFor(
-        folds,
-        [&](int fold) {
-          std::vector<BoardView> train, held;
-          std::vector<char> keep(views.size(), 0);
-          for (size_t i = 0; i < views.size(); ++i) {
-            const bool out = static_cast<int>(i) % folds == fold;
-            keep[i] = !out;
-            (out ? held : train).push_back(views[i]);
-          }
-          CalibrationResult fit;
-          try {
-            fit = FitCalibration(train, board, StartAt(full[c], cand.options, keep, "the fit to all boards"),
-                                 poses_known, cand.options, folds > 1 ? 1 : threads);
-            if (fit.rms_px > options.max_rms_px) throw Error("RMS " + std::to_string(fit.rms_px) + " px");
-          } catch (const Error& e) {
-            fold_failure[fold] = "fold " + std::to_string(fold + 1) + ": " + e.what();
-            for (const BoardView& v : held) held_fits[fold].push_back({v.file, BoardPoseFit()});
-            return;
-          }
-          for (const BoardView& v : held) {
-            BoardPoseFit f = FitBoardPose(v, board, fit.calib.sensor, eo);
-            if (!f.ok && f.failure.empty()) f.failure = "pose not fitted";
-            held_fits[fold].push_back({v.file, f});
-          }
-        },
-        true, threads);
-    double held_s2 = 0.0;
-    size_t held_n = 0;
-    for (int fold = 0; fold < folds; ++fold) {
-      if (!fold_failure[fold].empty() && score.failure.empty()) score.failure = fold_failure[fold];
-      ScoreHeldOutFold(held_fits[fold], &score, &held_s2, &held_n);
-    }
-    if (held_n) score.heldout_rms_px = std::sqrt(held_s2 / held_n);
+    ScoreFolds(x, cand, full[c], &score);
     sel.scores.push_back(score);
   }
-  // A candidate that cannot map every held-out board extrapolates badly
-  // there: those that map the most held-out boards compete.
-  int fewest_failed = std::numeric_limits<int>::max();
-  for (const ModelScore& s : sel.scores)
-    if (s.refused.empty() && s.heldout_boards > 0 && std::isfinite(s.heldout_rms_px))
-      fewest_failed = std::min(fewest_failed, s.failed_boards);
-  auto competes = [&](const ModelScore& s) {
-    return s.refused.empty() && s.heldout_boards > 0 && std::isfinite(s.heldout_rms_px) &&
-           s.failed_boards == fewest_failed;
-  };
-  double best = std::numeric_limits<double>::infinity();
-  for (const ModelScore& s : sel.scores)
-    if (competes(s)) best = std::min(best, s.heldout_rms_px);
-  char line[400];
-  if (!std::isfinite(best)) {
-    // None scored: the simplest candidate that fitted all boards, said so.
-    for (size_t i = 0; i < sel.scores.size() && sel.chosen < 0; ++i)
-      if (full_ok[i]) sel.chosen = static_cast<int>(i);
-    if (sel.chosen < 0) {
-      std::string why;
-      for (const ModelScore& s : sel.scores) why += " " + s.name + ": " + s.failure + ";";
-      throw Error("model selection: no candidate model fits the boards;" + why.substr(0, why.size() - 1));
-    }
-    sel.reason = sel.scores[sel.chosen].name +
-                 ": the simplest model that fits the boards; no candidate could be scored on boards left out of "
-                 "the fit (their poses could not be fitted, or the boards do not determine the model)";
-    sel.warnings.push_back("model selection: no candidate model could be scored on boards left out of the fit; the " +
-                           sel.scores[sel.chosen].name +
-                           " model is fitted, unchecked (see the model selection table; the calibration may not "
-                           "map images other than these)");
-  } else {
-    int best_index = -1;
-    for (size_t i = 0; i < sel.scores.size(); ++i) {
-      const ModelScore& s = sel.scores[i];
-      if (!competes(s)) continue;
-      if (s.heldout_rms_px == best && best_index < 0) best_index = static_cast<int>(i);
-      if (sel.chosen < 0 && s.heldout_rms_px <= best * (1.0 + options.selection_margin))
-        sel.chosen = static_cast<int>(i);
-    }
-    const ModelScore& ch = sel.scores[sel.chosen];
-    if (sel.chosen == best_index)
-      std::snprintf(line, sizeof line, "%s: the lowest error on boards left out of the fit (%.4f px)",
-                    ch.name.c_str(), ch.heldout_rms_px);
-    else
-      std::snprintf(line, sizeof line,
-                    "%s: the simplest model within %.0f %% of the lowest error on boards left out of the fit "
-                    "(%.4f px against %s's %.4f px)",
-                    ch.name.c_str(), 100.0 * options.selection_margin, ch.heldout_rms_px,
-                    sel.scores[best_index].name.c_str(), best);
-    sel.reason = line;
-    if (fewest_failed > 0) {
-      std::snprintf(line, sizeof line,
-                    "model selection: no candidate model maps every board left out of the fit (the best %d of "
-                    "%d); the %s model maps the most, but may not map images other than these",
-                    ch.heldout_boards, ch.heldout_boards + ch.failed_boards, ch.name.c_str());
-      sel.warnings.push_back(line);
-      sel.reason += "; no candidate maps every board left out";
-    }
-  }
+  ChooseCandidate(full_ok, options, &sel);
   int refused = 0;
   for (const ModelScore& s : sel.scores) refused += !s.refused.empty();
   if (refused) sel.reason += "; " + std::to_string(refused) + " refused as not determined by the boards";
