@@ -177,6 +177,136 @@ std::optional<OdometryIncrement> OdometryBetween(const std::vector<OdometrySampl
 constexpr int kIdleWhileWaiting = 0;
 constexpr int kNormalFromWaiting = 32;
 
+// The outputs of one input, written frame by frame in frame order: the pose
+// CSV, the smoothed CSV and the TUM trajectory when asked, and the rows the
+// plot and the accuracy need (none when the job has neither, so that memory
+// stays flat over long inputs; without their trailing columns when only the
+// accuracy needs them).
+class RunOutputs {
+ public:
+  RunOutputs(const VideoJob& job, const VideoRunOptions& opt, const Localizer& loc, VideoSummary* sum)
+      : csv_(job.output, {"std_x", "std_y", "std_theta", "quality"}, PoseCsvStaging::kPartial),
+        keep_rows_(!job.plot.empty() || !job.gt.empty()),
+        keep_std_(!job.plot.empty()),  // the plot draws the standard deviations
+        sum_(sum) {
+    if (!job.smoothed_output.empty()) smoothed_.emplace(job.smoothed_output, opt.smoother, !job.gt.empty(), loc);
+    if (!job.tum.empty()) tum_.emplace(job.tum, opt.tum, PoseCsvStaging::kPartial);
+  }
+  void Report(const FrameResult& fr) {
+    csv_.Write(fr.row);
+    if (smoothed_) smoothed_->Add(fr);
+    if (tum_) tum_->Write(fr.row);
+    if (keep_rows_) {
+      rows_.push_back(fr.row);
+      if (!keep_std_) rows_.back().extra = std::vector<double>();
+    }
+    ++sum_->frames;
+    sum_->n_ok += fr.row.status == PoseStatus::kOk;
+    sum_->n_lost += fr.row.status == PoseStatus::kLost;
+  }
+  // The rows written are intact however the run ended: the outputs are
+  // finished with them. Returns the rows kept; the smoothed CSV's in
+  // `smoothed_rows`.
+  std::vector<PoseRow> Close(std::vector<PoseRow>* smoothed_rows) {
+    csv_.Close();
+    if (tum_) tum_->Close();
+    if (smoothed_) {
+      smoothed_->Finish();
+      *smoothed_rows = smoothed_->rows();
+    }
+    return std::move(rows_);
+  }
+
+ private:
+  PoseCsvWriter csv_;
+  std::optional<SmoothedCsv> smoothed_;
+  std::optional<TumWriter> tum_;
+  std::vector<PoseRow> rows_;
+  bool keep_rows_, keep_std_;
+  VideoSummary* sum_;
+};
+
+// The next decoded frame; false at the end, when stopped, or on a decode
+// error (the input then incomplete).
+bool ReadFrame(const VideoRunOptions& opt, int frame, FrameSource* source, cv::Mat* decoded, double* timestamp,
+               VideoSummary* sum) {
+  if (opt.cancel && opt.cancel->load()) {
+    sum->end = VideoEnd::kInterrupted;
+    return false;
+  }
+  *timestamp = std::nan("");
+  try {
+    return source->Read(decoded, timestamp);
+  } catch (const Error& e) {
+    sum->end = VideoEnd::kIncomplete;
+    sum->error = "decode error at frame " + std::to_string(frame) + ": " + e.what();
+    return false;
+  }
+}
+
+// The frame as tracked (resized by area averaging when opt.scale asks);
+// null when its size is not the sensor's (the input then incomplete).
+const cv::Mat* TrackedFrame(const VideoRunOptions& opt, const Sensor& s, int frame, const FrameSource& source,
+                            const cv::Mat& decoded, cv::Mat* resized, VideoSummary* sum) {
+  const cv::Size tracked = TrackedSize(decoded.cols, decoded.rows, opt.scale);
+  if (tracked.width != s.image_width || tracked.height != s.image_height) {
+    sum->end = VideoEnd::kIncomplete;
+    sum->error = "frame " + std::to_string(frame) + " is " + SizeText(decoded.cols, decoded.rows) +
+                 ", the frames before it " + SizeText(source.width(), source.height());
+    return nullptr;
+  }
+  if (opt.scale == 1.0) return &decoded;
+  cv::resize(decoded, *resized, tracked, 0, 0, cv::INTER_AREA);
+  return resized;
+}
+
+// The notes a run leaves on stderr: frames outside the odometry, frame
+// times assumed, a first pose searched on a measured map, the survey error
+// the residuals show, shades that look inverted.
+void PrintRunNotes(const VideoJob& job, const SharedResources& res, const Localizer& loc, const VideoSummary& sum,
+                   bool rate_assumed) {
+  if (sum.frames_without_odometry > 0)
+    std::fprintf(stderr,
+                 "panoloc: note: %s: %d of %d frames lie outside the odometry's times [%.3f, %.3f] s: "
+                 "predicted without it\n",
+                 job.input.c_str(), sum.frames_without_odometry, std::max(0, sum.frames - 1),
+                 job.odometry->front().time_s, job.odometry->back().time_s);
+  // The motion model's limits (speed, turn rate, how far a relocalised
+  // pose may lie from the last) are per second: a rate that is not the
+  // camera's makes the robot look faster or slower than it was.
+  if (rate_assumed)
+    std::fprintf(stderr,
+                 "panoloc: note: %s: the frames carry no times: taken as 10 frames/s (the motion model's speed "
+                 "limits depend on it; --fps RATE gives the camera's)\n",
+                 job.input.c_str());
+  // A measured map (one that does not claim to be exact, or whose
+  // residuals overruled the claim) and no start pose: the room-wide search
+  // chose the first pose, and in a room laid out nearly symmetrically it
+  // can take a twin (docs/maps.md).
+  const bool measured_map = !(loc.StatedSurveySigma() == 0.0) || !std::isnan(loc.ShownSurveySigma());
+  if (!job.init && measured_map && sum.n_ok > 0)
+    std::fprintf(stderr,
+                 "panoloc: note: %s: no start pose was given (--init, or initial_pose in a case.yaml beside the "
+                 "input): the first pose was found by searching the room, which on a measured map can take a "
+                 "twin of a room laid out nearly symmetrically; give a start pose (docs/maps.md)\n",
+                 job.input.c_str());
+  if (!std::isnan(loc.ShownSurveySigma())) {
+    // The residuals overruled the map's survey_sigma, or estimated it.
+    const double stated = loc.StatedSurveySigma();
+    char statement[64] = "the map does not state it";
+    if (!std::isnan(stated)) std::snprintf(statement, sizeof statement, "the map states %.2g", stated);
+    std::fprintf(stderr,
+                 "panoloc: note: %s: the map's corners look measured to about %.2g %s per coordinate (%s): poses "
+                 "are weighed by that and reported with covariances of %.2g (an estimate from the residuals can "
+                 "fall short); state survey_sigma in the map (docs/maps.md)\n",
+                 job.input.c_str(), loc.ShownSurveySigma(), res.map.units.c_str(), statement,
+                 loc.ReportedSurveySigma());
+  }
+  for (const std::string& id : loc.ContradictedShades())
+    std::fprintf(stderr, "panoloc: note: %s: landmark %s: map shade looks inverted (polarity learned from the images)\n",
+                 job.input.c_str(), id.c_str());
+}
+
 // The per-frame loop; fills the counts of `sum` and returns the rows that
 // the plot and the accuracy summary need (the smoothed CSV's in
 // `smoothed_rows`, when the job asks for one and its accuracy): none when
@@ -197,14 +327,7 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
   std::optional<DebugVideo> dbg;
   if (!job.debug_video.empty())
     dbg.emplace(job.debug_video, cv::Size(s.image_width, s.image_height), source->fps() > 0 ? source->fps() : kAssumedFps);
-  PoseCsvWriter csv(job.output, {"std_x", "std_y", "std_theta", "quality"}, PoseCsvStaging::kPartial);
-  std::optional<SmoothedCsv> smoothed;
-  if (!job.smoothed_output.empty()) smoothed.emplace(job.smoothed_output, opt.smoother, !job.gt.empty(), loc);
-  std::optional<TumWriter> tum;
-  if (!job.tum.empty()) tum.emplace(job.tum, opt.tum, PoseCsvStaging::kPartial);
-  std::vector<PoseRow> rows;
-  const bool keep_rows = !job.plot.empty() || !job.gt.empty();
-  const bool keep_std = !job.plot.empty();  // the plot draws the standard deviations
+  RunOutputs outputs(job, opt, loc, sum);
   double previous_time = 0.0;
   cv::Mat decoded, resized;
   std::optional<LagPriority> priority;
@@ -214,47 +337,18 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
     // search starts its threads for each search, at this thread's priority.)
     priority.emplace(kIdleWhileWaiting, std::min(kNormalFromWaiting, source->prefetch_frames() / 2));
   }
-  // A frame's outputs, in frame order; a frame held for confirmation waits
-  // for the next (Localizer::TakeConfirmedHold).
-  auto report = [&](const FrameResult& fr) {
-    csv.Write(fr.row);
-    if (smoothed) smoothed->Add(fr);
-    if (tum) tum->Write(fr.row);
-    if (keep_rows) {
-      rows.push_back(fr.row);
-      if (!keep_std) rows.back().extra = std::vector<double>();
-    }
-    ++sum->frames;
-    sum->n_ok += fr.row.status == PoseStatus::kOk;
-    sum->n_lost += fr.row.status == PoseStatus::kLost;
-  };
+  // A frame's outputs go in frame order; a frame held for confirmation
+  // waits for the next (Localizer::TakeConfirmedHold).
   std::optional<FrameResult> held;
   sum->end = VideoEnd::kDone;
   bool rate_assumed = false;  // some frame had no time: FrameTime took kAssumedFps
   for (int frame = 0;; ++frame) {
-    if (opt.cancel && opt.cancel->load()) {
-      sum->end = VideoEnd::kInterrupted;
-      break;
-    }
-    double timestamp = std::nan("");
-    try {
-      if (!source->Read(&decoded, &timestamp)) break;
-    } catch (const Error& e) {
-      sum->end = VideoEnd::kIncomplete;
-      sum->error = "decode error at frame " + std::to_string(frame) + ": " + e.what();
-      break;
-    }
+    double timestamp;
+    if (!ReadFrame(opt, frame, source, &decoded, &timestamp, sum)) break;
     if (priority) priority->Update(source->frames_waiting());
-    const cv::Size tracked = TrackedSize(decoded.cols, decoded.rows, opt.scale);
-    if (tracked.width != s.image_width || tracked.height != s.image_height) {
-      sum->end = VideoEnd::kIncomplete;
-      sum->error = "frame " + std::to_string(frame) + " is " + SizeText(decoded.cols, decoded.rows) +
-                   ", the frames before it " + SizeText(source->width(), source->height());
-      break;
-    }
-    // Area averaging: each tracked pixel the mean of the pixels it covers.
-    if (opt.scale != 1.0) cv::resize(decoded, resized, tracked, 0, 0, cv::INTER_AREA);
-    const cv::Mat& grey = opt.scale != 1.0 ? resized : decoded;
+    const cv::Mat* tracked = TrackedFrame(opt, s, frame, *source, decoded, &resized, sum);
+    if (!tracked) break;
+    const cv::Mat& grey = *tracked;
     const double time_s = FrameTime(frame, timestamp, opt.fps, source->fps(), &rate_assumed);
     std::optional<OdometryIncrement> odometry;
     if (job.odometry && frame > 0) {
@@ -265,69 +359,21 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
     FrameResult fr = loc.Process(grey, frame, time_s, odometry ? &*odometry : nullptr);
     if (held) {
       std::optional<FrameResult> confirmed = loc.TakeConfirmedHold();
-      report(confirmed ? *confirmed : *held);
+      outputs.Report(confirmed ? *confirmed : *held);
       held.reset();
     }
     if (dbg) dbg->Write(grey, s, fr);
     if (fr.unconfirmed)
       held = std::move(fr);
     else
-      report(fr);
+      outputs.Report(fr);
     if (opt.frames_done) ++*opt.frames_done;
   }
   // No frame came to confirm it.
-  if (held) report(*held);
-  // The rows written are intact however the loop ended: the outputs are
-  // finished with them.
-  csv.Close();
-  if (tum) tum->Close();
-  if (smoothed) {
-    smoothed->Finish();
-    *smoothed_rows = smoothed->rows();
-  }
+  if (held) outputs.Report(*held);
+  std::vector<PoseRow> rows = outputs.Close(smoothed_rows);
   if (dbg) dbg->Commit();
-  if (sum->frames_without_odometry > 0 && !opt.quiet)
-    std::fprintf(stderr,
-                 "panoloc: note: %s: %d of %d frames lie outside the odometry's times [%.3f, %.3f] s: "
-                 "predicted without it\n",
-                 job.input.c_str(), sum->frames_without_odometry, std::max(0, sum->frames - 1),
-                 job.odometry->front().time_s, job.odometry->back().time_s);
-  // The motion model's limits (speed, turn rate, how far a relocalised
-  // pose may lie from the last) are per second: a rate that is not the
-  // camera's makes the robot look faster or slower than it was.
-  if (rate_assumed && !opt.quiet)
-    std::fprintf(stderr,
-                 "panoloc: note: %s: the frames carry no times: taken as 10 frames/s (the motion model's speed "
-                 "limits depend on it; --fps RATE gives the camera's)\n",
-                 job.input.c_str());
-  // A measured map (one that does not claim to be exact, or whose
-  // residuals overruled the claim) and no start pose: the room-wide search
-  // chose the first pose, and in a room laid out nearly symmetrically it
-  // can take a twin (docs/maps.md).
-  const bool measured_map = !(loc.StatedSurveySigma() == 0.0) || !std::isnan(loc.ShownSurveySigma());
-  if (!opt.quiet && !job.init && measured_map && sum->n_ok > 0)
-    std::fprintf(stderr,
-                 "panoloc: note: %s: no start pose was given (--init, or initial_pose in a case.yaml beside the "
-                 "input): the first pose was found by searching the room, which on a measured map can take a "
-                 "twin of a room laid out nearly symmetrically; give a start pose (docs/maps.md)\n",
-                 job.input.c_str());
-  if (!opt.quiet && !std::isnan(loc.ShownSurveySigma())) {
-    // The residuals overruled the map's survey_sigma, or estimated it.
-    const double stated = loc.StatedSurveySigma();
-    char statement[64] = "the map does not state it";
-    if (!std::isnan(stated)) std::snprintf(statement, sizeof statement, "the map states %.2g", stated);
-    std::fprintf(stderr,
-                 "panoloc: note: %s: the map's corners look measured to about %.2g %s per coordinate (%s): poses "
-                 "are weighed by that and reported with covariances of %.2g (an estimate from the residuals can "
-                 "fall short); state survey_sigma in the map (docs/maps.md)\n",
-                 job.input.c_str(), loc.ShownSurveySigma(), res.map.units.c_str(), statement,
-                 loc.ReportedSurveySigma());
-  }
-  if (!opt.quiet)
-    for (const std::string& id : loc.ContradictedShades())
-      std::fprintf(stderr,
-                   "panoloc: note: %s: landmark %s: map shade looks inverted (polarity learned from the images)\n",
-                   job.input.c_str(), id.c_str());
+  if (!opt.quiet) PrintRunNotes(job, res, loc, *sum, rate_assumed);
   return rows;
 }
 
