@@ -228,120 +228,127 @@ Renderer::Renderer(const Sensor& sensor, const Scene& scene, double sensor_heigh
   texture_wavelength_ = std::max(1e-6, 0.06 * std::max(extent.x(), extent.y()));
 }
 
-void Renderer::BuildFrame(const Pose2& pose, const std::vector<Surface>& extra, Frame* f) const {
-  f->pose = pose;
-  f->ct = std::cos(pose.theta);
-  f->st = std::sin(pose.theta);
-  f->theta_off = wrap_angle(pose.theta) + 4.0 * M_PI;
-  const Eigen::Vector2d P(pose.x, pose.y);
-  const double H = sensor_height_;
-  std::vector<std::vector<int>> bins(kBins);
-  const double to_bin = kBins / (2.0 * M_PI);
-  auto mark = [&](double a_start, double width, int item) {
+// The per-frame lists of candidate surfaces by azimuth bin (kBins): an item
+// goes into every bin its angular interval touches, with a bin of margin.
+struct Renderer::AzimuthBins {
+  std::vector<std::vector<int>> bins = std::vector<std::vector<int>>(kBins);
+  double axis_miss = 0.0;  // Renderer::axis_miss_
+
+  void Mark(double a_start, double width, int item) {
     if (width >= 2.0 * M_PI - 1e-9) {
       for (auto& b : bins) b.push_back(item);
       return;
     }
+    const double to_bin = kBins / (2.0 * M_PI);
     const double a0 = a_start + 4.0 * M_PI;
     const long first = static_cast<long>(std::floor(a0 * to_bin)) - 1;
     const long last = static_cast<long>(std::floor((a0 + width) * to_bin)) + 1;
     for (long b = first; b <= last && b - first < kBins; ++b)
       bins[static_cast<size_t>(((b % kBins) + kBins) % kBins)].push_back(item);
-  };
-  // Rays that miss the axis by up to axis_miss_ (a rig with faults) meet a
-  // surface at least `distance` away within asin(axis_miss_ / distance) of
-  // their own azimuth: widen its interval by that (all bins when too near).
-  auto mark_widened = [&](double a_start, double width, double distance, int item) {
-    if (axis_miss_ <= 0.0) return mark(a_start, width, item);
-    if (!(distance > axis_miss_ * 1.01)) return mark(0.0, 2.0 * M_PI, item);
-    const double margin = std::asin(axis_miss_ / distance) + 1e-6;
-    mark(a_start - margin, width + 2.0 * margin, item);
-  };
-  // Angular interval [start, start + width] covering 2D points seen from P.
-  auto interval = [&](const std::vector<Eigen::Vector2d>& pts, double* start, double* width) {
-    Eigen::Vector2d mean(0, 0);
-    for (const auto& q : pts) mean += q - P;
-    const double ref = std::atan2(mean.y(), mean.x());
-    double lo = 0, hi = 0;
-    for (const auto& q : pts) {
-      const double a = wrap_angle(std::atan2(q.y() - P.y(), q.x() - P.x()) - ref);
-      lo = std::min(lo, a);
-      hi = std::max(hi, a);
-    }
-    *start = ref + lo;
-    *width = hi - lo;
-  };
-  f->cands.clear();
-  f->generic.clear();
-  const auto& surfs = scene_.surfaces();
-  const int n_scene = static_cast<int>(surfs.size());
-  for (int i = 0; i < n_scene + static_cast<int>(extra.size()); ++i) {
-    const Surface& s = i < n_scene ? surfs[static_cast<size_t>(i)] : extra[static_cast<size_t>(i - n_scene)];
-    Cand c{};
-    c.id = i;
-    c.shade = s.shade;
-    c.bias = s.background() ? 1e-4 : 0.0;
-    const bool a_flat = s.edge_a.z() == 0.0, b_flat = s.edge_b.z() == 0.0;
-    const bool a_vert = s.edge_a.head<2>().squaredNorm() == 0.0;
-    const bool b_vert = s.edge_b.head<2>().squaredNorm() == 0.0;
-    const Eigen::Vector2d corner = s.corner.head<2>();
-    if ((a_flat && b_vert) || (b_flat && a_vert)) {
-      const Eigen::Vector3d& eh = a_flat ? s.edge_a : s.edge_b;
-      const Eigen::Vector3d& ev = a_flat ? s.edge_b : s.edge_a;
-      c.type = 0;
-      const Eigen::Vector2d a = corner - P, e = eh.head<2>();
-      c.a0 = a.x();
-      c.a1 = a.y();
-      c.e0 = e.x();
-      c.e1 = e.y();
-      c.h = a.x() * e.y() - a.y() * e.x();
-      const double z0 = s.corner.z() - H, z1 = s.corner.z() + ev.z() - H;
-      c.zlo = std::min(z0, z1);
-      c.zhi = std::max(z0, z1);
-      double st, w;
-      interval({corner, corner + e}, &st, &w);
-      f->cands.push_back(c);
-      mark_widened(st, w, SegmentDistance(P, corner, corner + e), static_cast<int>(f->cands.size()) - 1);
-    } else if (a_flat && b_flat) {
-      c.type = 1;
-      const Eigen::Vector2d ea = s.edge_a.head<2>(), eb = s.edge_b.head<2>();
-      const double aa = ea.squaredNorm(), bb = eb.squaredNorm(), ab = ea.dot(eb);
-      const double det = aa * bb - ab * ab;
-      const Eigen::Vector2d ua = (bb * ea - ab * eb) / det, ub = (aa * eb - ab * ea) / det;
-      c.a0 = corner.x() - P.x();
-      c.a1 = corner.y() - P.y();
-      c.e0 = ua.x();
-      c.e1 = ua.y();
-      c.u0 = ub.x();
-      c.u1 = ub.y();
-      c.zlo = s.corner.z() - H;
-      f->cands.push_back(c);
-      const int item = static_cast<int>(f->cands.size()) - 1;
-      const Eigen::Vector2d q = P - corner;
-      const double al = ua.dot(q), be = ub.dot(q);
-      if (al >= 0 && al <= 1 && be >= 0 && be <= 1) {
-        mark(0.0, 2.0 * M_PI, item);
-      } else {
-        double st, w;
-        interval({corner, corner + ea, corner + eb, corner + ea + eb}, &st, &w);
-        const double distance = std::min({SegmentDistance(P, corner, corner + ea), SegmentDistance(P, corner, corner + eb),
-                                          SegmentDistance(P, corner + ea, corner + ea + eb),
-                                          SegmentDistance(P, corner + eb, corner + ea + eb)});
-        mark_widened(st, w, distance, item);
-      }
-    } else {
-      if (i >= n_scene) throw Error("renderer: extra surface '" + s.name + "' is neither vertical nor horizontal");
-      f->generic.push_back(i);
-    }
   }
-  f->bin_start.assign(kBins + 1, 0);
-  f->bin_items.clear();
-  for (int b = 0; b < kBins; ++b) {
-    f->bin_start[static_cast<size_t>(b)] = static_cast<int>(f->bin_items.size());
-    f->bin_items.insert(f->bin_items.end(), bins[static_cast<size_t>(b)].begin(), bins[static_cast<size_t>(b)].end());
+  // Rays that miss the axis by up to axis_miss (a rig with faults) meet a
+  // surface at least `distance` away within asin(axis_miss / distance) of
+  // their own azimuth: its interval widened by that (all bins when too near).
+  void MarkWidened(double a_start, double width, double distance, int item) {
+    if (axis_miss <= 0.0) return Mark(a_start, width, item);
+    if (!(distance > axis_miss * 1.01)) return Mark(0.0, 2.0 * M_PI, item);
+    const double margin = std::asin(axis_miss / distance) + 1e-6;
+    Mark(a_start - margin, width + 2.0 * margin, item);
   }
-  f->bin_start[kBins] = static_cast<int>(f->bin_items.size());
-  // Illumination.
+  // The lists one after the other: bin b's items at [start[b], start[b + 1]).
+  void Flatten(std::vector<int>* start, std::vector<int>* items) const {
+    start->assign(kBins + 1, 0);
+    items->clear();
+    for (int b = 0; b < kBins; ++b) {
+      (*start)[static_cast<size_t>(b)] = static_cast<int>(items->size());
+      items->insert(items->end(), bins[static_cast<size_t>(b)].begin(), bins[static_cast<size_t>(b)].end());
+    }
+    (*start)[kBins] = static_cast<int>(items->size());
+  }
+};
+
+namespace {
+
+// Angular interval [start, start + width] covering 2D points seen from P.
+void AngularInterval(const Eigen::Vector2d& P, const std::vector<Eigen::Vector2d>& pts, double* start,
+                     double* width) {
+  Eigen::Vector2d mean(0, 0);
+  for (const auto& q : pts) mean += q - P;
+  const double ref = std::atan2(mean.y(), mean.x());
+  double lo = 0, hi = 0;
+  for (const auto& q : pts) {
+    const double a = wrap_angle(std::atan2(q.y() - P.y(), q.x() - P.x()) - ref);
+    lo = std::min(lo, a);
+    hi = std::max(hi, a);
+  }
+  *start = ref + lo;
+  *width = hi - lo;
+}
+
+}  // namespace
+
+bool Renderer::AddCandidate(const Surface& s, int id, const Eigen::Vector2d& P, Frame* f, AzimuthBins* bins) const {
+  const double H = sensor_height_;
+  Cand c{};
+  c.id = id;
+  c.shade = s.shade;
+  c.bias = s.background() ? 1e-4 : 0.0;
+  const bool a_flat = s.edge_a.z() == 0.0, b_flat = s.edge_b.z() == 0.0;
+  const bool a_vert = s.edge_a.head<2>().squaredNorm() == 0.0;
+  const bool b_vert = s.edge_b.head<2>().squaredNorm() == 0.0;
+  const Eigen::Vector2d corner = s.corner.head<2>();
+  if ((a_flat && b_vert) || (b_flat && a_vert)) {
+    const Eigen::Vector3d& eh = a_flat ? s.edge_a : s.edge_b;
+    const Eigen::Vector3d& ev = a_flat ? s.edge_b : s.edge_a;
+    c.type = 0;
+    const Eigen::Vector2d a = corner - P, e = eh.head<2>();
+    c.a0 = a.x();
+    c.a1 = a.y();
+    c.e0 = e.x();
+    c.e1 = e.y();
+    c.h = a.x() * e.y() - a.y() * e.x();
+    const double z0 = s.corner.z() - H, z1 = s.corner.z() + ev.z() - H;
+    c.zlo = std::min(z0, z1);
+    c.zhi = std::max(z0, z1);
+    double st, w;
+    AngularInterval(P, {corner, corner + e}, &st, &w);
+    f->cands.push_back(c);
+    bins->MarkWidened(st, w, SegmentDistance(P, corner, corner + e), static_cast<int>(f->cands.size()) - 1);
+    return true;
+  }
+  if (!(a_flat && b_flat)) return false;
+  c.type = 1;
+  const Eigen::Vector2d ea = s.edge_a.head<2>(), eb = s.edge_b.head<2>();
+  const double aa = ea.squaredNorm(), bb = eb.squaredNorm(), ab = ea.dot(eb);
+  const double det = aa * bb - ab * ab;
+  const Eigen::Vector2d ua = (bb * ea - ab * eb) / det, ub = (aa * eb - ab * ea) / det;
+  c.a0 = corner.x() - P.x();
+  c.a1 = corner.y() - P.y();
+  c.e0 = ua.x();
+  c.e1 = ua.y();
+  c.u0 = ub.x();
+  c.u1 = ub.y();
+  c.zlo = s.corner.z() - H;
+  f->cands.push_back(c);
+  const int item = static_cast<int>(f->cands.size()) - 1;
+  const Eigen::Vector2d q = P - corner;
+  const double al = ua.dot(q), be = ub.dot(q);
+  if (al >= 0 && al <= 1 && be >= 0 && be <= 1) {
+    bins->Mark(0.0, 2.0 * M_PI, item);
+  } else {
+    double st, w;
+    AngularInterval(P, {corner, corner + ea, corner + eb, corner + ea + eb}, &st, &w);
+    const double distance = std::min({SegmentDistance(P, corner, corner + ea), SegmentDistance(P, corner, corner + eb),
+                                      SegmentDistance(P, corner + ea, corner + ea + eb),
+                                      SegmentDistance(P, corner + eb, corner + ea + eb)});
+    bins->MarkWidened(st, w, distance, item);
+  }
+  return true;
+}
+
+// Illumination: gain * (1 + k . (x - c)), k across the scene's extent in
+// the gradient's direction.
+void Renderer::SetIllumination(Frame* f) const {
   f->gain = options_.illumination;
   if (options_.gradient > 0.0) {
     const Eigen::Vector3d mn = scene_.min(), mx = scene_.max();
@@ -354,6 +361,28 @@ void Renderer::BuildFrame(const Pose2& pose, const std::vector<Surface>& extra, 
     f->cx = 0.5 * (mn.x() + mx.x());
     f->cy = 0.5 * (mn.y() + mx.y());
   }
+}
+
+void Renderer::BuildFrame(const Pose2& pose, const std::vector<Surface>& extra, Frame* f) const {
+  f->pose = pose;
+  f->ct = std::cos(pose.theta);
+  f->st = std::sin(pose.theta);
+  f->theta_off = wrap_angle(pose.theta) + 4.0 * M_PI;
+  const Eigen::Vector2d P(pose.x, pose.y);
+  AzimuthBins bins;
+  bins.axis_miss = axis_miss_;
+  f->cands.clear();
+  f->generic.clear();
+  const auto& surfs = scene_.surfaces();
+  const int n_scene = static_cast<int>(surfs.size());
+  for (int i = 0; i < n_scene + static_cast<int>(extra.size()); ++i) {
+    const Surface& s = i < n_scene ? surfs[static_cast<size_t>(i)] : extra[static_cast<size_t>(i - n_scene)];
+    if (AddCandidate(s, i, P, f, &bins)) continue;
+    if (i >= n_scene) throw Error("renderer: extra surface '" + s.name + "' is neither vertical nor horizontal");
+    f->generic.push_back(i);
+  }
+  bins.Flatten(&f->bin_start, &f->bin_items);
+  SetIllumination(f);
 }
 
 namespace {

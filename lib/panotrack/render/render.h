@@ -112,7 +112,13 @@ class Renderer {
  private:
   struct Cand;
   struct Frame;
+  struct AzimuthBins;
+  // The frame's candidate surfaces by azimuth and its illumination.
   void BuildFrame(const Pose2& pose, const std::vector<Surface>& extra, Frame* f) const;
+  // A vertical or horizontal quad as a candidate, binned by the azimuths it
+  // covers from `position`; false for a surface that is neither.
+  bool AddCandidate(const Surface& s, int id, const Eigen::Vector2d& position, Frame* f, AzimuthBins* bins) const;
+  void SetIllumination(Frame* f) const;
   const Scene& scene_;
   double sensor_height_;
   RenderOptions options_;
