@@ -1580,170 +1580,141 @@ bool Localizer::BeyondAlertLimitOnly(FrameResult* fr, const TriangulationResult&
          AgreesWithMotion(fr, tri);
 }
 
-FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double time_s,
-                               const OdometryIncrement* odometry) {
-  CheckFrame(frame_image, frame);
-  frame_ = frame;
-  confirmed_hold_.reset();  // the previous frame's, not taken
-  if (view_) view_->Resample(frame_image, &view_frame_);
-  const cv::Mat& grey = view_ ? view_frame_ : frame_image;
-  motion_stepped_ = false;
-  FrameResult fr;
-  fr.row.frame = frame;
-  fr.row.time_s = time_s;
-  tracker_->BeginFrame(grey);
-  TriangulationResult tri;
-  bool accepted = false;
-  std::vector<float> signature;  // the compass's, of this frame (for the next one too)
-  if (opt_.compass) signature = compass_.Signature(grey);
-  compass_heading_.reset();
-  Pose2 model_pred = last_;
-  bool recentred = false;  // the landmarks lay off their predictions
-  if (known_start_ || ever_tracked_) {
-    // Prediction from the motion model, then the visual compass's heading.
-    fr.predicted_pose = model_pred = PredictMotion(time_s, odometry);
-    compass_heading_ = CompassHeading(signature);
-    // A pose is reported only when its residuals are consistent and it
-    // agrees with the motion so far; one the motion model did not expect (a
-    // sudden stop or turn) only on strong evidence, as a relocalised one.
-    auto acceptable = [&] {
-      return Acceptable(fr, tri) && Consistent(&fr, tri) && (AgreesWithMotion(&fr, tri) || Corroborated(fr, tri));
-    };
-    // Coarse to fine where it pays; what it does not accept (the azimuths
-    // alone misled, under heavy blur) is tracked the full way.
-    const Pose2 pred = fr.predicted_pose;
-    // A held hypothesis is confirmed on its bearings as they are: leaving
-    // out those a wrong pose fits worst would help it pass.
-    const auto drop_pulled = [&] {
-      if (!held_) DropPulledBearings(fr, &tri);
-    };
-    if (CoarseToFineUseful() && TrackCoarseToFine(pred, &fr, &tri, &recentred)) {
-      RefineAroundSolution(&fr, &tri);
-      drop_pulled();
-      accepted = acceptable();
-    }
-    if (!accepted) {
-      fr = FrameToMeasure(fr.row, pred);
-      TrackPredictions(pred, &fr, &tri);
-      recentred = RefineAroundSolution(&fr, &tri);
-      drop_pulled();
-      accepted = acceptable();
-    }
-    // A held relocalised pose is confirmed only on as much evidence as a
-    // relocalised pose needs (the frame is nearly the same image).
-    if (held_) accepted = accepted && EnoughForRelocalized(fr, tri);
-    // One beyond the robot's reach, where the map's survey error widens
-    // every tolerance, stands on its own evidence, on this frame and on
-    // every frame tracked from it until one does: a partial twin of the
-    // room then tracks as well as the true pose from one frame to the next.
-    accepted = accepted && ConfirmsJump(fr, tri);
-    accepted = accepted && !PartialFirstFrame(fr, tri);
-    if (held_ && !accepted) ++relocalize_failures_;
+// Prediction from the motion model, then the visual compass's heading;
+// tracked coarse to fine where it pays, else (or where that is not
+// accepted: the azimuths alone misled, under heavy blur) the full way. A
+// pose is accepted only when its residuals are consistent and it agrees
+// with the motion so far; one the motion model did not expect (a sudden
+// stop or turn) only on strong evidence, as a relocalised one.
+void Localizer::TrackFromPrediction(double time_s, const OdometryIncrement* odometry,
+                                    const std::vector<float>& signature, FrameWork* w) {
+  FrameResult& fr = w->fr;
+  TriangulationResult& tri = w->tri;
+  fr.predicted_pose = w->model_pred = PredictMotion(time_s, odometry);
+  compass_heading_ = CompassHeading(signature);
+  auto acceptable = [&] {
+    return Acceptable(fr, tri) && Consistent(&fr, tri) && (AgreesWithMotion(&fr, tri) || Corroborated(fr, tri));
+  };
+  const Pose2 pred = fr.predicted_pose;
+  // A held hypothesis is confirmed on its bearings as they are: leaving
+  // out those a wrong pose fits worst would help it pass.
+  const auto drop_pulled = [&] {
+    if (!held_) DropPulledBearings(fr, &tri);
+  };
+  if (CoarseToFineUseful() && TrackCoarseToFine(pred, &fr, &tri, &w->recentred)) {
+    RefineAroundSolution(&fr, &tri);
+    drop_pulled();
+    w->accepted = acceptable();
   }
-  const bool was_held = held_;
-  held_ = false;
-  // What the survey estimate was before this frame taught or probed it from
-  // a held pose: a pose not confirmed leaves no trace in it (a wrong pose's
-  // residuals, or the level the probe had to widen to before it fitted).
-  std::optional<SurveyErrorEstimate> survey_before_hold;
-  if (was_held) survey_before_hold = survey_;
-  // Until the residuals have shown how well the map was measured, a frame
-  // whose bearings agree on a pose (a consensus of many) but not within the
-  // survey error assumed teaches it, though it is not reported.
-  if (!accepted && opt_.survey.check && !survey_.confident() && (known_start_ || ever_tracked_)) {
-    if (SurveyEvidence(fr, tri)) UpdateSurveyEstimate(fr, tri);
-    if (ProbeSurveyError(fr.predicted_pose)) {
-      // Tracked again under the survey error the probe found.
-      const Pose2 pred = fr.predicted_pose;
-      fr = FrameToMeasure(fr.row, pred);
-      TrackPredictions(pred, &fr, &tri);
-      RefineAroundSolution(&fr, &tri);
-      accepted = Acceptable(fr, tri) && Consistent(&fr, tri) && AgreesWithMotion(&fr, tri) && ConfirmsJump(fr, tri);
-    }
+  if (!w->accepted) {
+    fr = FrameToMeasure(fr.row, pred);
+    TrackPredictions(pred, &fr, &tri);
+    w->recentred = RefineAroundSolution(&fr, &tri);
+    drop_pulled();
+    w->accepted = acceptable();
   }
-  // A search's hypothesis confirmed before the residuals have shown how well
-  // the map was measured: within a map error's tolerances (the probe's, or
-  // a map stated exact but centimetres off) a wrong pose fits most of what
-  // it finds too. It stands only where the room-wide search under the same
-  // tolerances finds no rival about as well supported (the true pose fits
-  // many more bearings there than a twin); else the search below runs.
-  if (accepted && was_held && opt_.survey.check && !survey_.confident()) accepted = RoomSearchAgrees(grey, tri);
-  // A pose tracked from such a search's pose, until the residuals have
-  // shown the map's error: the tolerances they have shown since may let the
-  // search find the true pose that narrower ones missed (a map stated exact
-  // but centimetres off: a twin on a few bearings was all it found). A
-  // tracked pose gives way only to one clearly better supported on the
-  // landmarks chosen to track (a twin tracking many extra landmarks can fit
-  // more of them in all), and is then replaced by the search's pose, or
-  // forgotten.
-  // So is a tracked pose that fits few of the landmarks chosen where the
-  // survey error widens every tolerance: the place a kidnapped robot was
-  // carried from fits a few of them under the motion model's prediction.
-  bool gave_way = false;
-  std::optional<SearchResult> searched;
-  const bool after_search = survey_before_search_ && opt_.survey.check && !survey_.confident();
-  const bool weakly_supported = SurveyLimits() && !fr.relocalized && !Corroborated(fr, tri);
-  if (accepted && !was_held && (after_search || weakly_supported)) {
-    RoomSearch search = SearchRoomAgainst(grey, tri);
-    const int own = std::max(search.own_chosen, ChosenInliers(fr, tri));
-    gave_way = std::any_of(search.elsewhere.begin(), search.elsewhere.end(),
-                           [&](const VerifiedPose& v) {
-                             return Outranks(v.chosen_inliers, v.residual, own, search.own_residual);
-                           });
-    if (gave_way) searched = std::move(search.chosen);
-    accepted = !gave_way;
+  // A held relocalised pose is confirmed only on as much evidence as a
+  // relocalised pose needs (the frame is nearly the same image).
+  if (held_) w->accepted = w->accepted && EnoughForRelocalized(fr, tri);
+  // One beyond the robot's reach, where the map's survey error widens
+  // every tolerance, stands on its own evidence, on this frame and on
+  // every frame tracked from it until one does: a partial twin of the
+  // room then tracks as well as the true pose from one frame to the next.
+  w->accepted = w->accepted && ConfirmsJump(fr, tri);
+  w->accepted = w->accepted && !PartialFirstFrame(fr, tri);
+  if (held_ && !w->accepted) ++relocalize_failures_;
+}
+
+// Until the residuals have shown how well the map was measured, a frame
+// whose bearings agree on a pose (a consensus of many) but not within the
+// survey error assumed teaches it, though it is not reported; where the
+// survey probe finds a wider error, the frame is tracked again under it.
+void Localizer::LearnSurveyFromRejected(FrameWork* w) {
+  FrameResult& fr = w->fr;
+  TriangulationResult& tri = w->tri;
+  if (SurveyEvidence(fr, tri)) UpdateSurveyEstimate(fr, tri);
+  if (!ProbeSurveyError(fr.predicted_pose)) return;
+  const Pose2 pred = fr.predicted_pose;
+  fr = FrameToMeasure(fr.row, pred);
+  TrackPredictions(pred, &fr, &tri);
+  RefineAroundSolution(&fr, &tri);
+  w->accepted = Acceptable(fr, tri) && Consistent(&fr, tri) && AgreesWithMotion(&fr, tri) && ConfirmsJump(fr, tri);
+}
+
+// A pose tracked from a search's pose, until the residuals have shown the
+// map's error: the tolerances they have shown since may let the search
+// find the true pose that narrower ones missed (a map stated exact but
+// centimetres off: a twin on a few bearings was all it found). A tracked
+// pose gives way only to one clearly better supported on the landmarks
+// chosen to track (a twin tracking many extra landmarks can fit more of
+// them in all), and is then replaced by the search's pose, or forgotten.
+// So is a tracked pose that fits few of the landmarks chosen where the
+// survey error widens every tolerance: the place a kidnapped robot was
+// carried from fits a few of them under the motion model's prediction.
+void Localizer::CheckAgainstRoomSearch(const cv::Mat& grey, FrameWork* w) {
+  w->after_search = survey_before_search_ && opt_.survey.check && !survey_.confident();
+  const bool weakly_supported = SurveyLimits() && !w->fr.relocalized && !Corroborated(w->fr, w->tri);
+  if (!w->accepted || w->was_held || !(w->after_search || weakly_supported)) return;
+  RoomSearch search = SearchRoomAgainst(grey, w->tri);
+  const int own = std::max(search.own_chosen, ChosenInliers(w->fr, w->tri));
+  w->gave_way = std::any_of(search.elsewhere.begin(), search.elsewhere.end(), [&](const VerifiedPose& v) {
+    return Outranks(v.chosen_inliers, v.residual, own, search.own_residual);
+  });
+  if (w->gave_way) w->searched = std::move(search.chosen);
+  w->accepted = !w->gave_way;
+}
+
+// Lost for a while (the robot may have been carried), or never found: the
+// room is searched. A pose near the prediction whose bearings agree, though
+// its error bound was too wide to report it, keeps the robot against a
+// search's pose far away no better supported than it (a room nearly
+// symmetric, a map error that makes another place fit as well).
+void Localizer::RelocalizeWhenLost(const cv::Mat& grey, int frame, FrameWork* w) {
+  FrameResult& fr = w->fr;
+  TriangulationResult& tri = w->tri;
+  const bool near_consistent = fr.integrity.testable && fr.integrity.consistent;
+  std::optional<std::pair<FrameResult, TriangulationResult>> near;
+  if (near_consistent) near.emplace(fr, tri);
+  bool under_probe = false;
+  if (!RelocalizeIfLost(grey, frame, ever_tracked_ && ViewUnlikePrediction(fr, tri), &fr, &tri, &under_probe)) return;
+  if (near && DistinctPlaces(tri.pose, near->second.pose) &&
+      !ClearlyBetterSupported(static_cast<int>(tri.inliers.size()), static_cast<int>(near->second.inliers.size()))) {
+    // The pose near the prediction is only a hypothesis (the robot may
+    // have been carried off, and a held pose is one).
+    fr = std::move(near->first);
+    tri = near->second;
+    return;
   }
-  int n_found = 0;  // before any relocalisation: what tracking from the prediction found
-  for (const auto& m : fr.measurements) n_found += m.found;
-  if (gave_way && searched) {
-    AdoptSearchResult(std::move(*searched), &fr, &tri);
-    accepted = Corroborated(fr, tri);
-    fr.unconfirmed = !accepted;
-  }
-  // Lost for a while (the robot may have been carried), or never found: search the room.
-  if (!accepted && !gave_way) {
-    // A pose near the prediction whose bearings agree, though its error
-    // bound was too wide to report it: the robot is there, and a pose the
-    // room-wide search finds far away is a look-alike (a room nearly
-    // symmetric, a map error that makes another place fit as well).
-    const bool near_consistent = fr.integrity.testable && fr.integrity.consistent;
-    std::optional<std::pair<FrameResult, TriangulationResult>> near;
-    if (near_consistent) near.emplace(fr, tri);
-    bool under_probe = false;
-    if (RelocalizeIfLost(grey, frame, ever_tracked_ && ViewUnlikePrediction(fr, tri), &fr, &tri, &under_probe)) {
-      if (near && DistinctPlaces(tri.pose, near->second.pose) &&
-          !ClearlyBetterSupported(static_cast<int>(tri.inliers.size()),
-                                  static_cast<int>(near->second.inliers.size()))) {
-        // The pose near the prediction is only a hypothesis (the robot may
-        // have been carried off, and a held pose is one): it keeps the
-        // robot only against a search result no better supported than it.
-        fr = std::move(near->first);
-        tri = near->second;
-      } else {
-        // A pose found only under a survey error wider than the map's waits
-        // for the next frame: a twin of the room fits under it as well. So
-        // does one resting on extra landmarks (tracked because few of those
-        // chosen were found) before the residuals have shown the map's
-        // error: a map stated exact but centimetres off lets a wrong pose
-        // fit a few anywhere.
-        const bool on_extras = opt_.survey.check && !survey_.confident() &&
-                               ChosenInliers(fr, tri) < opt_.relocalize_confirmed_fraction * ChosenToTrack(fr);
-        accepted = Corroborated(fr, tri) && !under_probe && !on_extras;
-        fr.unconfirmed = !accepted;
-      }
-    }
-  }
-  // Before the survey error is known, a frame tracked and accepted under
-  // too small a one is tracked again under the error its residuals show (a
-  // relocalised pose has its own evidence: its verification).
+  // A pose found only under a survey error wider than the map's waits for
+  // the next frame: a twin of the room fits under it as well. So does one
+  // resting on extra landmarks (tracked because few of those chosen were
+  // found) before the residuals have shown the map's error: a map stated
+  // exact but centimetres off lets a wrong pose fit a few anywhere.
+  const bool on_extras = opt_.survey.check && !survey_.confident() &&
+                         ChosenInliers(fr, tri) < opt_.relocalize_confirmed_fraction * ChosenToTrack(fr);
+  w->accepted = Corroborated(fr, tri) && !under_probe && !on_extras;
+  fr.unconfirmed = !w->accepted;
+}
+
+// The frame's outcome: retracked under the survey error its residuals show
+// (before it is known), the prediction errors, the row, the polarities
+// learned, the motion step, the held frame reported or a new hypothesis
+// held; a hypothesis not confirmed, or a pose that gave way to nothing,
+// starts the room's search again with the survey estimate as it was.
+void Localizer::FinishFrame(const cv::Mat& grey, int frame, double time_s, std::vector<float>&& signature,
+                            FrameWork* w) {
+  FrameResult& fr = w->fr;
+  TriangulationResult& tri = w->tri;
+  const bool accepted = w->accepted;
+  // A relocalised pose has its own evidence: its verification.
   if (accepted && !fr.relocalized && opt_.survey.check && !survey_.confident()) RetrackUnderShownSurvey(&fr, &tri);
   fr.triangulation = tri;
   if (opt_.compass) last_signature_ = std::move(signature);
-  if (accepted && (fr.relocalized || was_held) && opt_.survey.check && !survey_.confident())
-    survey_before_search_ = was_held ? *survey_before_hold : survey_;
-  if (accepted) UpdatePredictionErrors(model_pred, fr, tri);
-  if (accepted && !fr.relocalized) recentre_rate_ = 0.9 * recentre_rate_ + 0.1 * recentred;
-  RecordOutcome(&fr, tri, accepted, n_found);
+  if (accepted && (fr.relocalized || w->was_held) && opt_.survey.check && !survey_.confident())
+    survey_before_search_ = w->was_held ? *w->survey_before_hold : survey_;
+  if (accepted) UpdatePredictionErrors(w->model_pred, fr, tri);
+  if (accepted && !fr.relocalized) recentre_rate_ = 0.9 * recentre_rate_ + 0.1 * w->recentred;
+  RecordOutcome(&fr, tri, accepted, w->n_found);
   if (accepted) LearnPolarity(fr, tri);
   if (accepted) {
     relocalize_failures_ = 0;
@@ -1754,20 +1725,20 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
   if (fr.has_motion_step) fr.motion_step = motion_.step();
   // The held frame's pose is the one this frame tracked from and accepted
   // (not a pose the search found elsewhere): the held frame is reported.
-  if (was_held && accepted && !fr.relocalized && held_frame_) confirmed_hold_ = ReportConfirmedHold(*held_frame_);
+  if (w->was_held && accepted && !fr.relocalized && held_frame_) confirmed_hold_ = ReportConfirmedHold(*held_frame_);
   held_frame_.reset();
   if (fr.unconfirmed) {
     held_frame_ = HeldFrame{grey.clone(), fr.row, tri.pose};
     HoldForConfirmation(tri.pose, frame, BeyondReach(tri.pose, time_s));
-  } else if (was_held && !accepted) {
+  } else if (w->was_held && !accepted) {
     // A search's hypothesis that its next frame did not confirm is no
     // start (tracking from it lets a wrong pose be accepted once the survey
     // probe has widened the tolerances far enough), and what its frame
     // taught the survey estimate is forgotten. The room is searched again.
     known_start_ = false;
-    survey_ = *survey_before_hold;
+    survey_ = *w->survey_before_hold;
     UpdateLandmarkBudget();
-  } else if (gave_way && !searched && after_search) {
+  } else if (w->gave_way && !w->searched && w->after_search) {
     // The room is searched again from the next frame, and what the
     // given-way pose's frames taught the survey estimate goes with it.
     known_start_ = ever_tracked_ = false;
@@ -1776,7 +1747,48 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
   }
   if (survey_.confident()) survey_before_search_.reset();
   if (view_ && fr.row.status != PoseStatus::kLost) fr.row.pose = view_->RobotPose(fr.row.pose);
-  return fr;
+}
+
+FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double time_s,
+                               const OdometryIncrement* odometry) {
+  CheckFrame(frame_image, frame);
+  frame_ = frame;
+  confirmed_hold_.reset();  // the previous frame's, not taken
+  if (view_) view_->Resample(frame_image, &view_frame_);
+  const cv::Mat& grey = view_ ? view_frame_ : frame_image;
+  motion_stepped_ = false;
+  FrameWork w;
+  w.fr.row.frame = frame;
+  w.fr.row.time_s = time_s;
+  tracker_->BeginFrame(grey);
+  std::vector<float> signature;  // the compass's, of this frame (for the next one too)
+  if (opt_.compass) signature = compass_.Signature(grey);
+  compass_heading_.reset();
+  w.model_pred = last_;
+  if (known_start_ || ever_tracked_) TrackFromPrediction(time_s, odometry, signature, &w);
+  w.was_held = held_;
+  held_ = false;
+  if (w.was_held) w.survey_before_hold = survey_;
+  if (!w.accepted && opt_.survey.check && !survey_.confident() && (known_start_ || ever_tracked_))
+    LearnSurveyFromRejected(&w);
+  // A search's hypothesis confirmed before the residuals have shown how well
+  // the map was measured: within a map error's tolerances (the probe's, or
+  // a map stated exact but centimetres off) a wrong pose fits most of what
+  // it finds too. It stands only where the room-wide search under the same
+  // tolerances finds no rival about as well supported (the true pose fits
+  // many more bearings there than a twin); else the search below runs.
+  if (w.accepted && w.was_held && opt_.survey.check && !survey_.confident())
+    w.accepted = RoomSearchAgrees(grey, w.tri);
+  CheckAgainstRoomSearch(grey, &w);
+  for (const auto& m : w.fr.measurements) w.n_found += m.found;  // before any relocalisation
+  if (w.gave_way && w.searched) {
+    AdoptSearchResult(std::move(*w.searched), &w.fr, &w.tri);
+    w.accepted = Corroborated(w.fr, w.tri);
+    w.fr.unconfirmed = !w.accepted;
+  }
+  if (!w.accepted && !w.gave_way) RelocalizeWhenLost(grey, frame, &w);
+  FinishFrame(grey, frame, time_s, std::move(signature), &w);
+  return w.fr;
 }
 
 }  // namespace pano

@@ -628,6 +628,33 @@ class Localizer {
   // as a tracked frame is; else none.
   std::optional<FrameResult> ReportConfirmedHold(const HeldFrame& held);
 
+  // One frame's work in progress, handed from one step of Process to the next.
+  struct FrameWork {
+    FrameResult fr;
+    TriangulationResult tri;
+    bool accepted = false;
+    Pose2 model_pred;        // the motion model's prediction (the last pose before one)
+    bool recentred = false;  // the landmarks lay off their predictions
+    bool was_held = false;   // the frame confirms, or not, a held hypothesis
+    // The survey estimate before this frame taught or probed it from a held
+    // pose: a pose not confirmed leaves no trace in it.
+    std::optional<SurveyErrorEstimate> survey_before_hold;
+    bool after_search = false;  // tracked from a search's pose, the map's error not yet shown
+    bool gave_way = false;      // the tracked pose gave way to the room-wide search
+    std::optional<SearchResult> searched;
+    int n_found = 0;  // what tracking from the prediction found
+  };
+  // Process's steps, in order: track from the prediction (motion model,
+  // compass, coarse to fine, integrity); learn the survey error from a
+  // rejected frame; check a pose against the room-wide search; relocalise
+  // when lost; record the outcome and the hold.
+  void TrackFromPrediction(double time_s, const OdometryIncrement* odometry, const std::vector<float>& signature,
+                           FrameWork* w);
+  void LearnSurveyFromRejected(FrameWork* w);
+  void CheckAgainstRoomSearch(const cv::Mat& grey, FrameWork* w);
+  void RelocalizeWhenLost(const cv::Mat& grey, int frame, FrameWork* w);
+  void FinishFrame(const cv::Mat& grey, int frame, double time_s, std::vector<float>&& signature, FrameWork* w);
+
   Calibration calib_;  // with a rig's faults, its aligned view's sensor
   Map map_;
   std::optional<AlignedView> view_;
