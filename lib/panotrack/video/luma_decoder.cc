@@ -832,6 +832,148 @@ struct LumaDecoder::Impl {
       for (std::condition_variable& c : decoder_cv) c.notify_one();  // a decoder's turn, or more room
     }
   }
+
+  // Open's steps. The container (a file, standard input or a stream; its
+  // stream info read under the I/O timeout).
+  bool OpenContainer(const std::string& path, double io_timeout_s, std::string* reason) {
+    CountDecoderDamage(this, &damage_reports);
+    name = InputName(path);
+    timeout_us = io_timeout_s > 0.0 ? static_cast<int64_t>(io_timeout_s * 1e6) : 0;
+    format = avformat_alloc_context();
+    if (!format) {
+      *reason = "out of memory";
+      return false;
+    }
+    format->interrupt_callback.callback = &Impl::Interrupt;
+    format->interrupt_callback.opaque = this;
+    if (path == "-" && !UseStdin()) {
+      *reason = "out of memory";
+      return false;
+    }
+    DecoderErrorCapture ffmpeg_said;
+    ArmTimeout();
+    int r = avformat_open_input(&format, path == "-" ? "pipe:0" : path.c_str(), nullptr, nullptr);
+    if (r >= 0) r = avformat_find_stream_info(format, nullptr);
+    deadline_us = 0;
+    if (r < 0) {
+      *reason = timed_out ? NoData() : !ffmpeg_said.last().empty() ? ffmpeg_said.last() : AvError(r);
+      return false;
+    }
+    return true;
+  }
+
+  // The best video stream, its rate and frame count, and its decoder's
+  // context (on NVDEC where asked and possible).
+  bool OpenStream(const LumaDecoderOptions& options, const AVCodec** decoder, std::string* reason) {
+    stream = av_find_best_stream(format, AVMEDIA_TYPE_VIDEO, -1, -1, decoder, 0);
+    if (stream < 0) {
+      *reason = "no video stream";
+      return false;
+    }
+    AVStream* st = format->streams[stream];
+    const AVRational r = st->avg_frame_rate.num ? st->avg_frame_rate : st->r_frame_rate;
+    fps = r.den ? av_q2d(r) : 0.0;
+    listed_frames = st->nb_frames > 0 ? static_cast<long>(st->nb_frames) : -1;
+    time_base = st->time_base;
+    if (!*decoder) {
+      *reason = std::string("no decoder for ") + avcodec_get_name(st->codecpar->codec_id);
+      return false;
+    }
+    codec = avcodec_alloc_context3(*decoder);
+    if (!codec || avcodec_parameters_to_context(codec, st->codecpar) < 0) {
+      *reason = "cannot set up the decoder";
+      return false;
+    }
+    codec->opaque = this;  // the key its damage is counted by
+    if (options.hardware != HardwareDecoding::kNone) {
+      std::string why;
+      if (!SetUpNvdec(*decoder, &why) && options.hardware == HardwareDecoding::kCuda) {
+        *reason = "NVDEC: " + why;
+        return false;
+      }
+      demand_cuda = options.hardware == HardwareDecoding::kCuda;
+    }
+    return true;
+  }
+
+  // Two groups of pictures at a time, each decoder single-threaded where
+  // there are two cores: FFmpeg's frame threads hand every frame over
+  // between threads, which costs a fifth more CPU on a cheap stream. Only
+  // files (the segments' frames wait in memory: a group of pictures must
+  // fit in gop_parallel_bytes, known from an index of every frame), H.264 or
+  // HEVC with their parameter sets out of band (length-prefixed NAL units).
+  bool GopParallel(const std::string& path, const LumaDecoderOptions& options, int threads) const {
+    const size_t gop_parallel_bytes = cuda_device ? 0 : options.gop_parallel_bytes;
+    AVStream* st = format->streams[stream];
+    const AVCodecParameters& par = *st->codecpar;
+    const double luma_bytes = static_cast<double>(par.width) * par.height;  // what a waiting frame keeps
+    const long longest_gop = LongestGop(st);
+    return gop_parallel_bytes > 0 && options.io_timeout_s == 0.0 && path != "-" && threads >= 2 &&
+           NalLengthSize(par) > 0 && luma_bytes > 0 && longest_gop > 0 &&
+           longest_gop * luma_bytes <= static_cast<double>(gop_parallel_bytes);
+  }
+
+  // The decoders (kGopDecoders of them `in_segments`), opened with their thread
+  // counts (NVDEC: one; frame threads measured no faster, and each holds
+  // some of the video engine's decode surfaces).
+  bool OpenDecoders(const AVCodec* decoder, bool in_segments, int threads, int num_threads, std::string* reason) {
+    AVStream* st = format->streams[stream];
+    gop_codecs.push_back(codec);
+    while (in_segments && static_cast<int>(gop_codecs.size()) < kGopDecoders) {
+      AVCodecContext* c = avcodec_alloc_context3(decoder);
+      if (!c) {
+        *reason = "cannot set up the decoder";
+        return false;
+      }
+      gop_codecs.push_back(c);  // freed with the others
+      c->opaque = this;
+      if (avcodec_parameters_to_context(c, st->codecpar) < 0) {
+        *reason = "cannot set up the decoder";
+        return false;
+      }
+    }
+    for (AVCodecContext* c : gop_codecs) {
+      c->thread_count =
+          cuda_device ? 1 : in_segments ? std::max(1, threads / kGopDecoders) : num_threads > 0 ? threads : 0;
+      if (avcodec_open2(c, decoder, nullptr) < 0) {
+        *reason = "cannot open the decoder";
+        return false;
+      }
+    }
+    return true;
+  }
+
+  // A stream may state its pixel format only with its first frame: Read()
+  // checks every frame's. A decoder that chose its output format when
+  // opened (VC-1) may have chosen NVDEC's: the stream's own format is then
+  // sw_pix_fmt. Then the packet and frame.
+  bool CheckFormatAndAllocate(std::string* reason) {
+    const AVPixelFormat stream_format = codec->pix_fmt == AV_PIX_FMT_CUDA ? codec->sw_pix_fmt : codec->pix_fmt;
+    if (stream_format != AV_PIX_FMT_NONE && !HasLumaPlane(stream_format)) {
+      *reason = NoLumaPlane(stream_format);
+      return false;
+    }
+    packet = av_packet_alloc();
+    frame = av_frame_alloc();
+    if (!packet || !frame) {
+      *reason = "out of memory";
+      return false;
+    }
+    return true;
+  }
+
+  // The groups of pictures decoded on threads of their own.
+  void StartGopDecoding(size_t gop_parallel_bytes) {
+    const AVCodecParameters& par = *format->streams[stream]->codecpar;
+    gop = true;
+    codec_id = par.codec_id;
+    nal_length_size = NalLengthSize(par);
+    segment_bytes = gop_parallel_bytes;
+    // The frames of two segments and of a FrameSource's queue.
+    luma_buffers = std::make_unique<BufferPool>(gop_parallel_bytes + 2 * kReadAheadBytes);
+    segments.emplace_back();
+    for (size_t i = 0; i < gop_codecs.size(); ++i) gop_threads.emplace_back([this, i] { DecodeSegments(i); });
+  }
 };
 
 bool LumaDecoderAvailable() { return true; }
@@ -840,8 +982,6 @@ LumaDecoder::LumaDecoder() = default;
 LumaDecoder::~LumaDecoder() = default;
 
 bool LumaDecoder::Open(const std::string& path, std::string* reason, const LumaDecoderOptions& options) {
-  const double io_timeout_s = options.io_timeout_s;
-  const int num_threads = options.num_threads;
   UseDefaultDecoderLogging();
   static std::once_flag network_once;
   std::call_once(network_once, [] { avformat_network_init(); });
@@ -849,133 +989,30 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, const LumaD
   path_ = path;
   options_ = options;
   Impl& d = *impl_;
-  CountDecoderDamage(&d, &d.damage_reports);
-  d.name = InputName(path);
-  d.timeout_us = io_timeout_s > 0.0 ? static_cast<int64_t>(io_timeout_s * 1e6) : 0;
-  d.format = avformat_alloc_context();
-  if (!d.format) {
-    *reason = "out of memory";
-    return false;
-  }
-  d.format->interrupt_callback.callback = &Impl::Interrupt;
-  d.format->interrupt_callback.opaque = &d;
-  if (path == "-" && !d.UseStdin()) {
-    *reason = "out of memory";
-    return false;
-  }
-  {
-    DecoderErrorCapture ffmpeg_said;
-    d.ArmTimeout();
-    int r = avformat_open_input(&d.format, path == "-" ? "pipe:0" : path.c_str(), nullptr, nullptr);
-    if (r >= 0) r = avformat_find_stream_info(d.format, nullptr);
-    d.deadline_us = 0;
-    if (r < 0) {
-      *reason = d.timed_out ? d.NoData() : !ffmpeg_said.last().empty() ? ffmpeg_said.last() : AvError(r);
-      return false;
-    }
-  }
+  if (!d.OpenContainer(path, options.io_timeout_s, reason)) return false;
   container_opened_ = true;
   const AVCodec* decoder = nullptr;
-  d.stream = av_find_best_stream(d.format, AVMEDIA_TYPE_VIDEO, -1, -1, &decoder, 0);
-  if (d.stream < 0) {
-    *reason = "no video stream";
-    return false;
+  const bool stream_ok = d.OpenStream(options, &decoder, reason);
+  if (d.stream >= 0) {
+    fps_ = d.fps;
+    frame_count_ = d.listed_frames;
   }
-  AVStream* st = d.format->streams[d.stream];
-  const AVRational r = st->avg_frame_rate.num ? st->avg_frame_rate : st->r_frame_rate;
-  fps_ = d.fps = r.den ? av_q2d(r) : 0.0;
-  frame_count_ = d.listed_frames = st->nb_frames > 0 ? static_cast<long>(st->nb_frames) : -1;
-  d.time_base = st->time_base;
-  if (!decoder) {
-    *reason = std::string("no decoder for ") + avcodec_get_name(st->codecpar->codec_id);
-    return false;
-  }
-  d.codec = avcodec_alloc_context3(decoder);
-  if (!d.codec || avcodec_parameters_to_context(d.codec, st->codecpar) < 0) {
-    *reason = "cannot set up the decoder";
-    return false;
-  }
-  d.codec->opaque = &d;  // the key its damage is counted by
-  if (options.hardware != HardwareDecoding::kNone) {
-    std::string why;
-    if (!d.SetUpNvdec(decoder, &why) && options.hardware == HardwareDecoding::kCuda) {
-      *reason = "NVDEC: " + why;
-      return false;
-    }
-    d.demand_cuda = options.hardware == HardwareDecoding::kCuda;
-  }
-  const size_t gop_parallel_bytes = d.cuda_device ? 0 : options.gop_parallel_bytes;
-  // Two groups of pictures at a time, each decoder single-threaded where
-  // there are two cores: FFmpeg's frame threads hand every frame over
-  // between threads, which costs a fifth more CPU on a cheap stream. Only
-  // files (the segments' frames wait in memory: a group of pictures must
-  // fit in gop_parallel_bytes, known from an index of every frame), H.264 or
-  // HEVC with their parameter sets out of band (length-prefixed NAL units).
+  if (!stream_ok) return false;
   // FFmpeg's own choice stops at 16 frame threads: more decode no faster,
   // and each holds frames of its own (a thousand run out of memory).
   constexpr int kMaxDecoderThreads = 16;
-  const int asked = num_threads > 0 ? num_threads : static_cast<int>(std::thread::hardware_concurrency());
+  const int asked =
+      options.num_threads > 0 ? options.num_threads : static_cast<int>(std::thread::hardware_concurrency());
   const int threads = std::min(kMaxDecoderThreads, asked);
-  const AVCodecParameters& par = *st->codecpar;
-  const double luma_bytes = static_cast<double>(par.width) * par.height;  // what a waiting frame keeps
-  const long longest_gop = LongestGop(st);
-  const int nal_length_size = NalLengthSize(par);
-  const bool gop = gop_parallel_bytes > 0 && io_timeout_s == 0.0 && path != "-" && threads >= 2 &&
-                   nal_length_size > 0 && luma_bytes > 0 && longest_gop > 0 &&
-                   longest_gop * luma_bytes <= static_cast<double>(gop_parallel_bytes);
-  d.gop_codecs.push_back(d.codec);
-  while (gop && static_cast<int>(d.gop_codecs.size()) < kGopDecoders) {
-    AVCodecContext* c = avcodec_alloc_context3(decoder);
-    if (!c) {
-      *reason = "cannot set up the decoder";
-      return false;
-    }
-    d.gop_codecs.push_back(c);  // freed with the others
-    c->opaque = &d;
-    if (avcodec_parameters_to_context(c, st->codecpar) < 0) {
-      *reason = "cannot set up the decoder";
-      return false;
-    }
-  }
-  for (AVCodecContext* c : d.gop_codecs) {
-    // NVDEC: one thread (frame threads measured no faster, and each holds
-    // some of the video engine's decode surfaces).
-    c->thread_count = d.cuda_device ? 1 : gop ? std::max(1, threads / kGopDecoders) : num_threads > 0 ? threads : 0;
-    if (avcodec_open2(c, decoder, nullptr) < 0) {
-      *reason = "cannot open the decoder";
-      return false;
-    }
-  }
-  // A stream may state its pixel format only with its first frame: Read()
-  // checks every frame's.
-  // A decoder that chose its output format when opened (VC-1) may have
-  // chosen NVDEC's: the stream's own format is then sw_pix_fmt.
-  const AVPixelFormat stream_format = d.codec->pix_fmt == AV_PIX_FMT_CUDA ? d.codec->sw_pix_fmt : d.codec->pix_fmt;
-  if (stream_format != AV_PIX_FMT_NONE && !HasLumaPlane(stream_format)) {
-    *reason = NoLumaPlane(stream_format);
-    return false;
-  }
-  d.packet = av_packet_alloc();
-  d.frame = av_frame_alloc();
-  if (!d.packet || !d.frame) {
-    *reason = "out of memory";
-    return false;
-  }
+  const bool gop = d.GopParallel(path, options, threads);
+  if (!d.OpenDecoders(decoder, gop, threads, options.num_threads, reason)) return false;
+  if (!d.CheckFormatAndAllocate(reason)) return false;
   bool frame_threads = false;
   for (const AVCodecContext* c : d.gop_codecs)
     frame_threads = frame_threads || ((c->active_thread_type & FF_THREAD_FRAME) && c->thread_count > 1);
-  d.redecodable = frame_threads && !d.cuda_device && io_timeout_s == 0.0 && path != "-";
+  d.redecodable = frame_threads && !d.cuda_device && options.io_timeout_s == 0.0 && path != "-";
   gop_ = gop;
-  if (gop) {
-    d.gop = true;
-    d.codec_id = par.codec_id;
-    d.nal_length_size = nal_length_size;
-    d.segment_bytes = gop_parallel_bytes;
-    // The frames of two segments and of a FrameSource's queue.
-    d.luma_buffers = std::make_unique<BufferPool>(gop_parallel_bytes + 2 * kReadAheadBytes);
-    d.segments.emplace_back();
-    for (size_t i = 0; i < d.gop_codecs.size(); ++i) d.gop_threads.emplace_back([&d, i] { d.DecodeSegments(i); });
-  }
+  if (gop) d.StartGopDecoding(d.cuda_device ? 0 : options.gop_parallel_bytes);
   return true;
 }
 
