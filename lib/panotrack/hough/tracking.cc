@@ -104,73 +104,84 @@ bool RefineRobust(const PhTable& table, const TrackingVote* pts, const PointRow*
   return ok;
 }
 
-}  // namespace
-
-TrackingResult TrackHorizontalLine(const PhTable& table, const TrackingWindow& w,
-                                   const TrackingVote* points, size_t n_points) {
-  if (table.empty()) throw Error("TrackHorizontalLine: empty Panoramic Hough table");
-  CheckWindow(w);
+void CheckVotes(const TrackingVote* points, size_t n_points) {
   if (n_points > 0 && points == nullptr) throw Error("TrackHorizontalLine: null point array");
   for (size_t i = 0; i < n_points; ++i) {
     const TrackingVote& p = points[i];
-    if (!std::isfinite(p.radius) || !std::isfinite(p.azimuth) || !std::isfinite(p.weight) ||
-        p.weight < 0.0)
+    if (!std::isfinite(p.radius) || !std::isfinite(p.azimuth) || !std::isfinite(p.weight) || p.weight < 0.0)
       throw Error("TrackHorizontalLine: point " + std::to_string(i) +
                   ": expected finite radius/azimuth and a finite non-negative weight");
   }
+}
+
+// The window's accumulator: nt theta columns by nr R bins, bin (c, i)
+// centred on (t_lo + c theta_bin, r_lo + i r_bin); the columns
+// theta_min..theta_max allow (a counter-clockwise arc).
+struct WindowGrid {
+  int nr = 0, nt = 0;
+  double r_lo = 0.0, t_lo = 0.0, inv_r_bin = 1.0;
+  double dt_cap = 0.0;  // |dtheta| voted: the window's and the table's limit
+  std::vector<unsigned char>* col_ok = nullptr;
+};
+
+WindowGrid GridOf(const PhTable& table, const TrackingWindow& w) {
+  WindowGrid g;
   const int hr = static_cast<int>(std::ceil(w.r_halfwidth / w.r_bin));
   const int ht = static_cast<int>(std::ceil(w.theta_halfwidth / w.theta_bin));
-  const int nr = 2 * hr + 1, nt = 2 * ht + 1;
-  const double r_lo = w.r_main - hr * w.r_bin;          // centre of R bin 0
-  const double t_lo = w.theta_main - ht * w.theta_bin;  // centre of theta bin 0
-  const double inv_r_bin = 1.0 / w.r_bin;
-  const double dt_cap = std::min(w.max_abs_dtheta, table.dtheta_max());
-
-  // Columns allowed by theta_min..theta_max (counter-clockwise arc).
+  g.nr = 2 * hr + 1;
+  g.nt = 2 * ht + 1;
+  g.r_lo = w.r_main - hr * w.r_bin;          // centre of R bin 0
+  g.t_lo = w.theta_main - ht * w.theta_bin;  // centre of theta bin 0
+  g.inv_r_bin = 1.0 / w.r_bin;
+  g.dt_cap = std::min(w.max_abs_dtheta, table.dtheta_max());
   thread_local std::vector<unsigned char> col_ok;
-  col_ok.assign(nt, 1);
+  col_ok.assign(g.nt, 1);
   if (std::isfinite(w.theta_min) && std::isfinite(w.theta_max)) {
     const double span = wrap_angle_positive(w.theta_max - w.theta_min);
-    for (int c = 0; c < nt; ++c) {
-      const double off = wrap_angle_positive(t_lo + c * w.theta_bin - w.theta_min);
+    for (int c = 0; c < g.nt; ++c) {
+      const double off = wrap_angle_positive(g.t_lo + c * w.theta_bin - w.theta_min);
       col_ok[c] = off > 0.0 && off < span;
     }
   }
-  // The accumulator [theta][R] stays all zero between calls: only the cells
-  // a call votes into (a small part of the window) are cleared afterwards.
-  thread_local std::vector<float> acc;
-  const size_t n_cells = static_cast<size_t>(nt) * nr;
-  if (acc.size() < n_cells) acc.resize(n_cells, 0.0f);
-  // The voted box, cleared on every way out.
-  struct VotedBox {
-    float* acc;
-    int nr;
-    int c_min, c_max, x_min, x_max;
-    ~VotedBox() {
-      for (int c = c_min; c <= c_max; ++c)
-        std::fill(acc + static_cast<size_t>(c) * nr + x_min, acc + static_cast<size_t>(c) * nr + x_max + 1, 0.0f);
-    }
-  } box{acc.data(), nr, nt, -1, nr, -1};
-  thread_local std::vector<PointRow> rows;
-  rows.resize(n_points);
+  g.col_ok = &col_ok;
+  return g;
+}
 
-  TrackingResult res;
-  double total_weight = 0.0;
+// The cells a call voted into, cleared on every way out: the accumulator
+// [theta][R] stays all zero between calls.
+struct VotedBox {
+  float* acc;
+  int nr;
+  int c_min, c_max, x_min, x_max;
+  ~VotedBox() {
+    for (int c = c_min; c <= c_max; ++c)
+      std::fill(acc + static_cast<size_t>(c) * nr + x_min, acc + static_cast<size_t>(c) * nr + x_max + 1, 0.0f);
+  }
+};
+
+// Each point votes along its curve (Eqns 7-8) into the window, R
+// interpolated between two bins; returns the weight of the points that
+// voted (res->n_votes of them).
+double VoteInWindow(const PhTable& table, const TrackingWindow& w, const WindowGrid& g, const TrackingVote* points,
+                    size_t n_points, float* acc, PointRow* rows, VotedBox* box, TrackingResult* res) {
+  const std::vector<unsigned char>& col_ok = *g.col_ok;
+  const int nr = g.nr, nt = g.nt;
   const double nr_bins = nr;
+  double total_weight = 0.0;
   for (size_t i = 0; i < n_points; ++i) {
     const TrackingVote& p = points[i];
     PointRow& pr = rows[i];
     pr.ok = table.RowAt(p.radius, &pr.row);  // Eqn 7 along R_i
     if (!pr.ok) continue;
     const float wt = static_cast<float>(p.weight);
-    const double dt0 = wrap_angle(t_lo - p.azimuth);  // dtheta of column 0 (Eqn 8)
+    const double dt0 = wrap_angle(g.t_lo - p.azimuth);  // dtheta of column 0 (Eqn 8)
     int c_first = -1, c_last = -1, i_lo = nr, i_hi = -1;
     for (int c = 0; c < nt; ++c) {
       const double dt = dt0 + c * w.theta_bin;
-      if (!col_ok[c] || !(std::abs(dt) < dt_cap)) continue;
+      if (!col_ok[c] || !(std::abs(dt) < g.dt_cap)) continue;
       double rm;
       if (!table.MainOnRow(pr.row, dt, &rm)) continue;  // Eqn 7
-      const double x = (rm - r_lo) * inv_r_bin;
+      const double x = (rm - g.r_lo) * g.inv_r_bin;
       if (!(x > -1.0) || !(x < nr_bins)) continue;
       const int i0 = x >= 0.0 ? static_cast<int>(x) : -1;  // floor(x) on (-1, nr)
       const float f = static_cast<float>(x - i0);
@@ -183,76 +194,103 @@ TrackingResult TrackHorizontalLine(const PhTable& table, const TrackingWindow& w
       c_last = c;
     }
     if (c_last >= 0) {
-      box.c_min = std::min(box.c_min, c_first);
-      box.c_max = std::max(box.c_max, c_last);
-      box.x_min = std::min(box.x_min, std::max(i_lo, 0));
-      box.x_max = std::max(box.x_max, std::min(i_hi + 1, nr - 1));
-      ++res.n_votes;
+      box->c_min = std::min(box->c_min, c_first);
+      box->c_max = std::max(box->c_max, c_last);
+      box->x_min = std::min(box->x_min, std::max(i_lo, 0));
+      box->x_max = std::max(box->x_max, std::min(i_hi + 1, nr - 1));
+      ++res->n_votes;
       total_weight += p.weight;
     }
   }
-  if (res.n_votes == 0 || !(total_weight > 0.0)) return res;
+  return total_weight;
+}
 
-  // Cells beyond the voted box (smoothed: one cell more) are zero, and the
-  // peak, if positive, lies inside: smoothing and searching the box gives
-  // the whole window's result.
-  PeakFit fit;
-  if (w.smooth) {
-    thread_local std::vector<float> smooth, rows_pass;
-    const int y0 = std::max(box.c_min - 1, 0), y1 = std::min(box.c_max + 1, nt - 1);
-    const int x0 = std::max(box.x_min - 1, 0), x1 = std::min(box.x_max + 1, nr - 1);
-    const int by = y1 - y0 + 1, bx = x1 - x0 + 1;
-    smooth.resize(static_cast<size_t>(by) * bx);
-    rows_pass.resize(smooth.size());
-    SmoothBinomial3x3Separable(&acc[static_cast<size_t>(y0) * nr + x0], by, bx, nr, rows_pass.data(),
-                               smooth.data());
-    fit = FindAndRefinePeakInBlock(smooth.data(), by, bx, bx, y0, x0, nt, nr);
-  } else {
-    fit = FindAndRefinePeakInBlock(&acc[static_cast<size_t>(box.c_min) * nr + box.x_min],
-                                   box.c_max - box.c_min + 1, box.x_max - box.x_min + 1, nr, box.c_min,
-                                   box.x_min, nt, nr);
+// Cells beyond the voted box (smoothed: one cell more) are zero, and the
+// peak, if positive, lies inside: smoothing and searching the box gives the
+// whole window's result.
+PeakFit PeakInBox(const TrackingWindow& w, const WindowGrid& g, float* acc, const VotedBox& box) {
+  const int nr = g.nr, nt = g.nt;
+  if (!w.smooth)
+    return FindAndRefinePeakInBlock(&acc[static_cast<size_t>(box.c_min) * nr + box.x_min], box.c_max - box.c_min + 1,
+                                    box.x_max - box.x_min + 1, nr, box.c_min, box.x_min, nt, nr);
+  thread_local std::vector<float> smooth, rows_pass;
+  const int y0 = std::max(box.c_min - 1, 0), y1 = std::min(box.c_max + 1, nt - 1);
+  const int x0 = std::max(box.x_min - 1, 0), x1 = std::min(box.x_max + 1, nr - 1);
+  const int by = y1 - y0 + 1, bx = x1 - x0 + 1;
+  smooth.resize(static_cast<size_t>(by) * bx);
+  rows_pass.resize(smooth.size());
+  SmoothBinomial3x3Separable(&acc[static_cast<size_t>(y0) * nr + x0], by, bx, nr, rows_pass.data(), smooth.data());
+  return FindAndRefinePeakInBlock(smooth.data(), by, bx, bx, y0, x0, nt, nr);
+}
+
+// The peak refined on the points themselves (RefineRobust), within the
+// window and the columns theta_min..theta_max allow.
+void RefinePeak(const PhTable& table, const TrackingWindow& w, const WindowGrid& g, const TrackingVote* points,
+                const PointRow* rows, size_t n_points, TrackingResult* res) {
+  const std::vector<unsigned char>& col_ok = *g.col_ok;
+  const int nt = g.nt;
+  double R = res->r_main, T = res->theta_main;
+  double sr = 0, st = 0;
+  // theta unwrapped next to the window's prediction.
+  T = w.theta_main + wrap_angle(T - w.theta_main);
+  int c_first = 0, c_last = nt - 1;
+  while (c_first < nt - 1 && !col_ok[c_first]) ++c_first;
+  while (c_last > 0 && !col_ok[c_last]) --c_last;
+  if (c_last < c_first) c_last = c_first;
+  if (RefineRobust(table, points, rows, n_points, g.dt_cap, g.r_lo - 0.5 * w.r_bin, g.r_lo + (g.nr - 0.5) * w.r_bin,
+                   g.t_lo + (c_first - 0.5) * w.theta_bin, g.t_lo + (c_last + 0.5) * w.theta_bin,
+                   w.refine_scale_bins * w.r_bin, w.refine_iterations, 1e-3 * w.r_bin, &R, &T, &sr, &st)) {
+    res->r_main = R;
+    res->theta_main = wrap_angle(T);
+    res->r_sigma = sr;
+    res->theta_sigma = st;
   }
-  if (!(fit.value > 0.0f)) return res;
-  res.peak = fit.value;
-  res.at_border = fit.at_border;
-  res.r_main = r_lo + fit.x * w.r_bin;
-  res.theta_main = wrap_angle(t_lo + fit.y * w.theta_bin);
+}
 
-  if (w.refine_iterations > 0) {
-    double R = res.r_main, T = res.theta_main;
-    double sr = 0, st = 0;
-    // theta unwrapped next to the window's prediction.
-    T = w.theta_main + wrap_angle(T - w.theta_main);
-    // Bounds: the window, and in theta the columns theta_min..theta_max allow.
-    int c_first = 0, c_last = nt - 1;
-    while (c_first < nt - 1 && !col_ok[c_first]) ++c_first;
-    while (c_last > 0 && !col_ok[c_last]) --c_last;
-    if (c_last < c_first) c_last = c_first;
-    if (RefineRobust(table, points, rows.data(), n_points, dt_cap, r_lo - 0.5 * w.r_bin,
-                     r_lo + (nr - 0.5) * w.r_bin, t_lo + (c_first - 0.5) * w.theta_bin,
-                     t_lo + (c_last + 0.5) * w.theta_bin, w.refine_scale_bins * w.r_bin,
-                     w.refine_iterations, 1e-3 * w.r_bin, &R, &T, &sr, &st)) {
-      res.r_main = R;
-      res.theta_main = wrap_angle(T);
-      res.r_sigma = sr;
-      res.theta_sigma = st;
-    }
-  }
-
-  // Score: inlier weight fraction at the refined peak.
+// The inliers' weight at the refined peak (res->n_inliers of them).
+double InlierWeight(const PhTable& table, const TrackingWindow& w, const WindowGrid& g, const TrackingVote* points,
+                    const PointRow* rows, size_t n_points, TrackingResult* res) {
   double inlier_w = 0.0;
   const double tol = w.inlier_r_bins * w.r_bin;
   for (size_t i = 0; i < n_points; ++i) {
     const TrackingVote& p = points[i];
-    const double dt = wrap_angle(res.theta_main - p.azimuth);
+    const double dt = wrap_angle(res->theta_main - p.azimuth);
     double rm;
-    if (!(std::abs(dt) < dt_cap) || !rows[i].ok || !table.MainOnRow(rows[i].row, dt, &rm)) continue;
-    if (std::abs(rm - res.r_main) <= tol) {
+    if (!(std::abs(dt) < g.dt_cap) || !rows[i].ok || !table.MainOnRow(rows[i].row, dt, &rm)) continue;
+    if (std::abs(rm - res->r_main) <= tol) {
       inlier_w += p.weight;
-      ++res.n_inliers;
+      ++res->n_inliers;
     }
   }
-  res.score = inlier_w / total_weight;
+  return inlier_w;
+}
+
+}  // namespace
+
+TrackingResult TrackHorizontalLine(const PhTable& table, const TrackingWindow& w,
+                                   const TrackingVote* points, size_t n_points) {
+  if (table.empty()) throw Error("TrackHorizontalLine: empty Panoramic Hough table");
+  CheckWindow(w);
+  CheckVotes(points, n_points);
+  const WindowGrid g = GridOf(table, w);
+  thread_local std::vector<float> acc;
+  const size_t n_cells = static_cast<size_t>(g.nt) * g.nr;
+  if (acc.size() < n_cells) acc.resize(n_cells, 0.0f);
+  VotedBox box{acc.data(), g.nr, g.nt, -1, g.nr, -1};
+  thread_local std::vector<PointRow> rows;
+  rows.resize(n_points);
+  TrackingResult res;
+  const double total_weight = VoteInWindow(table, w, g, points, n_points, acc.data(), rows.data(), &box, &res);
+  if (res.n_votes == 0 || !(total_weight > 0.0)) return res;
+  const PeakFit fit = PeakInBox(w, g, acc.data(), box);
+  if (!(fit.value > 0.0f)) return res;
+  res.peak = fit.value;
+  res.at_border = fit.at_border;
+  res.r_main = g.r_lo + fit.x * w.r_bin;
+  res.theta_main = wrap_angle(g.t_lo + fit.y * w.theta_bin);
+  if (w.refine_iterations > 0) RefinePeak(table, w, g, points, rows.data(), n_points, &res);
+  // Score: inlier weight fraction at the refined peak.
+  res.score = InlierWeight(table, w, g, points, rows.data(), n_points, &res) / total_weight;
   res.found = res.score >= w.min_score;
   return res;
 }
