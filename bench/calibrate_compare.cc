@@ -151,90 +151,52 @@ pano::Sensor FitWithFocalHeld(const std::vector<pano::BoardView>& views, const p
   return sensor;
 }
 
-void CrossValidate(const std::vector<pano::BoardView>& views, const pano::TargetBoard& board, int W, int H,
-                   const std::string& units, int folds, bool gauge) {
+// One method of the comparison and its cross-validated score.
+struct Method {
+  const char* name;
+  const pano::CalibrateOptions* options;  // null: omnidir
+  pano::ModelScore score;
+};
+
+// cv::omnidir on each fold's training boards, each held-out board's pose
+// fitted through it.
+void ScoreOmnidir(const std::vector<std::vector<pano::BoardView>>& trains,
+                  const std::vector<std::vector<pano::BoardView>>& helds, const pano::TargetBoard& board, int W, int H,
+                  pano::ModelScore* score) {
   const std::vector<Eigen::Vector3d> pts = pano::BoardPoints(board);
-  pano::CalibrateOptions conic, sphere, conic_ls, asphere, asphere_a4;
-  conic.model = pano::MirrorModel::kConic;
-  asphere.model = pano::MirrorModel::kAsphere;
-  asphere_a4 = asphere;
-  asphere_a4.asphere_terms = 1;
-  conic_ls = conic;
-  conic_ls.huber_px = 0.0;
-  conic_ls.full_weight_px = 0.0;
-  struct Method {
-    const char* name;
-    const pano::CalibrateOptions* options;  // null: omnidir
-    pano::ModelScore score;
-  };
-  std::vector<Method> methods = {{"panotrack conic (k1,k2)", &conic, {}},
-                                 {"panotrack conic, least sq.", &conic_ls, {}},
-                                 {"panotrack sphere", &sphere, {}},
-                                 {"panotrack asphere (a4)", &asphere_a4, {}},
-                                 {"panotrack asphere (a4,a6)", &asphere, {}},
-                                 {"OpenCV omnidir (Mei)", nullptr, {}}};
-  std::printf("\n%d-fold cross-validation on the same %zu raw-detected boards (board k held out in fold k mod %d; "
-              "held-out boards: only their pose fitted):\n",
-              folds, views.size(), folds);
-  std::printf("  conic per fold: focal_px, curvature_radius, conic_constant, vertex_distance | image radius at "
-              "elevation -30, 0, +30 deg\n");
-  std::vector<double> focals, r0s;
-  std::vector<pano::CalibrationResult> conic_fits;
-  std::vector<std::vector<pano::BoardView>> trains, helds;
-  for (int fold = 0; fold < folds; ++fold) {
-    std::vector<pano::BoardView> train, held;
-    for (size_t i = 0; i < views.size(); ++i) (static_cast<int>(i) % folds == fold ? held : train).push_back(views[i]);
-    trains.push_back(train);
-    helds.push_back(held);
-  }
-  for (Method& m : methods) {
-    if (m.options) {
-      m.score = pano::CrossValidateModel(views, board, W, H, units, *m.options, folds,
-                                         [&](int fold, const pano::CalibrationResult& r) {
-        const pano::SensorParams<double>& p = r.calib.sensor.params;
-        if (m.options->model == pano::MirrorModel::kAsphere)
-          std::printf("  fold %d %s: a4 %.5f a6 %.5f (K %.4f) train %.4f px\n", fold, m.name, p.asphere_a4,
-                      p.asphere_a6, p.conic_constant, r.rms_px);
-        if (m.options != &conic) return;
-        const double r0 = RadiusAtElevation(r.calib.sensor, 0.0);
-        focals.push_back(p.focal_px);
-        conic_fits.push_back(r);
-        r0s.push_back(r0);
-        std::printf("  fold %d: focal %8.2f  R %9.4f  K %8.4f  vertex %9.4f | %.3f %.3f %.3f px\n", fold,
-                    p.focal_px, p.curvature_radius, p.conic_constant, p.vertex_distance,
-                    RadiusAtElevation(r.calib.sensor, -M_PI / 6), r0, RadiusAtElevation(r.calib.sensor, M_PI / 6));
-      });
-      if (!m.score.failure.empty()) std::printf("  %s: first failure: %s\n", m.name, m.score.failure.c_str());
-      continue;
-    }
-    double train_s2 = 0, held_s2 = 0;
-    size_t train_n = 0, held_n = 0;
-    for (int fold = 0; fold < folds; ++fold) {
-      const pano::OmnidirFit f = pano::FitOmnidir(trains[fold], board, cv::Size(W, H));
-      // omnidir's training RMS is over the boards it kept.
-      const size_t kept = CornerCount(trains[fold]) * f.images_used / trains[fold].size();
-      train_s2 += f.rms_px * f.rms_px * kept;
-      train_n += kept;
-      double s2 = 0;
-      size_t n = 0;
-      for (const pano::BoardView& v : helds[fold]) {
-        double s2b = 0;
-        size_t nb = 0;
-        if (!pano::OmnidirHeldOut(f, v, pts, &s2b, &nb)) {
-          ++m.score.failed_boards;
-          continue;
-        }
-        s2 += s2b;
-        n += nb;
-        m.score.board_errors[v.file] = {s2b, nb};
+  double train_s2 = 0, held_s2 = 0;
+  size_t train_n = 0, held_n = 0;
+  for (size_t fold = 0; fold < trains.size(); ++fold) {
+    const pano::OmnidirFit f = pano::FitOmnidir(trains[fold], board, cv::Size(W, H));
+    // omnidir's training RMS is over the boards it kept.
+    const size_t kept = CornerCount(trains[fold]) * f.images_used / trains[fold].size();
+    train_s2 += f.rms_px * f.rms_px * kept;
+    train_n += kept;
+    double s2 = 0;
+    size_t n = 0;
+    for (const pano::BoardView& v : helds[fold]) {
+      double s2b = 0;
+      size_t nb = 0;
+      if (!pano::OmnidirHeldOut(f, v, pts, &s2b, &nb)) {
+        ++score->failed_boards;
+        continue;
       }
-      held_s2 += s2;
-      held_n += n;
-      m.score.fold_heldout_rms_px.push_back(n ? std::sqrt(s2 / n) : NAN);
+      s2 += s2b;
+      n += nb;
+      score->board_errors[v.file] = {s2b, nb};
     }
-    m.score.training_rms_px = train_n ? std::sqrt(train_s2 / train_n) : NAN;
-    m.score.heldout_rms_px = held_n ? std::sqrt(held_s2 / held_n) : NAN;
+    held_s2 += s2;
+    held_n += n;
+    score->fold_heldout_rms_px.push_back(n ? std::sqrt(s2 / n) : NAN);
   }
+  score->training_rms_px = train_n ? std::sqrt(train_s2 / train_n) : NAN;
+  score->heldout_rms_px = held_n ? std::sqrt(held_s2 / held_n) : NAN;
+}
+
+// The table: training, held-out and common-board RMS of every method, the
+// conic's spread over the folds, and the best panotrack / omnidir ratio.
+void PrintComparison(const std::vector<pano::BoardView>& views, const std::vector<Method>& methods,
+                     const std::vector<double>& focals, const std::vector<double>& r0s) {
   // The boards every method could fit when held out: the fair comparison
   // when some model fails on some (its fit does not reach them).
   std::set<std::string> common;
@@ -263,9 +225,13 @@ void CrossValidate(const std::vector<pano::BoardView>& views, const pano::Target
   for (const Method& m : methods)
     if (m.options && m.score.failed_boards == 0) best = std::min(best, m.score.heldout_rms_px);
   std::printf("  best panotrack held-out / omnidir held-out: %.3f\n", best / methods.back().score.heldout_rms_px);
-  if (focals.empty() || !gauge) return;
+}
 
-  // Gauge: every fold's conic with the focal length held at the folds' median.
+// Gauge: every fold's conic with the focal length held at the folds' median.
+void PrintFocalHeld(const std::vector<std::vector<pano::BoardView>>& trains,
+                    const std::vector<std::vector<pano::BoardView>>& helds, const pano::TargetBoard& board,
+                    const std::vector<pano::CalibrationResult>& conic_fits, const std::vector<double>& focals,
+                    const pano::CalibrateOptions& conic, const pano::ModelScore& conic_score) {
   std::vector<double> sorted = focals;
   std::sort(sorted.begin(), sorted.end());
   const double f_held = sorted[sorted.size() / 2];
@@ -292,10 +258,66 @@ void CrossValidate(const std::vector<pano::BoardView>& views, const pano::Target
     std::printf("  fold %zu: R %9.4f  K %8.4f  vertex %9.4f | horizon %.3f px | train %.4f (free %.4f) held-out "
                 "%.4f (free %.4f) px\n",
                 k, p.curvature_radius, p.conic_constant, p.vertex_distance, RadiusAtElevation(sensor, 0.0),
-                train_rms, conic_fits[k].rms_px, n ? std::sqrt(s2 / n) : NAN, methods[0].score.fold_heldout_rms_px[k]);
+                train_rms, conic_fits[k].rms_px, n ? std::sqrt(s2 / n) : NAN, conic_score.fold_heldout_rms_px[k]);
   }
   std::printf("  %-28s %8.4f px %8.4f px\n", "conic, focal held", std::sqrt(train_s2 / train_n),
               std::sqrt(held_s2 / held_n));
+}
+
+void CrossValidate(const std::vector<pano::BoardView>& views, const pano::TargetBoard& board, int W, int H,
+                   const std::string& units, int folds, bool gauge) {
+  pano::CalibrateOptions conic, sphere, conic_ls, asphere, asphere_a4;
+  conic.model = pano::MirrorModel::kConic;
+  asphere.model = pano::MirrorModel::kAsphere;
+  asphere_a4 = asphere;
+  asphere_a4.asphere_terms = 1;
+  conic_ls = conic;
+  conic_ls.huber_px = 0.0;
+  conic_ls.full_weight_px = 0.0;
+  std::vector<Method> methods = {{"panotrack conic (k1,k2)", &conic, {}},
+                                 {"panotrack conic, least sq.", &conic_ls, {}},
+                                 {"panotrack sphere", &sphere, {}},
+                                 {"panotrack asphere (a4)", &asphere_a4, {}},
+                                 {"panotrack asphere (a4,a6)", &asphere, {}},
+                                 {"OpenCV omnidir (Mei)", nullptr, {}}};
+  std::printf("\n%d-fold cross-validation on the same %zu raw-detected boards (board k held out in fold k mod %d; "
+              "held-out boards: only their pose fitted):\n",
+              folds, views.size(), folds);
+  std::printf("  conic per fold: focal_px, curvature_radius, conic_constant, vertex_distance | image radius at "
+              "elevation -30, 0, +30 deg\n");
+  std::vector<double> focals, r0s;
+  std::vector<pano::CalibrationResult> conic_fits;
+  std::vector<std::vector<pano::BoardView>> trains, helds;
+  for (int fold = 0; fold < folds; ++fold) {
+    std::vector<pano::BoardView> train, held;
+    for (size_t i = 0; i < views.size(); ++i) (static_cast<int>(i) % folds == fold ? held : train).push_back(views[i]);
+    trains.push_back(train);
+    helds.push_back(held);
+  }
+  for (Method& m : methods) {
+    if (!m.options) {
+      ScoreOmnidir(trains, helds, board, W, H, &m.score);
+      continue;
+    }
+    m.score = pano::CrossValidateModel(views, board, W, H, units, *m.options, folds,
+                                       [&](int fold, const pano::CalibrationResult& r) {
+      const pano::SensorParams<double>& p = r.calib.sensor.params;
+      if (m.options->model == pano::MirrorModel::kAsphere)
+        std::printf("  fold %d %s: a4 %.5f a6 %.5f (K %.4f) train %.4f px\n", fold, m.name, p.asphere_a4,
+                    p.asphere_a6, p.conic_constant, r.rms_px);
+      if (m.options != &conic) return;
+      const double r0 = RadiusAtElevation(r.calib.sensor, 0.0);
+      focals.push_back(p.focal_px);
+      conic_fits.push_back(r);
+      r0s.push_back(r0);
+      std::printf("  fold %d: focal %8.2f  R %9.4f  K %8.4f  vertex %9.4f | %.3f %.3f %.3f px\n", fold,
+                  p.focal_px, p.curvature_radius, p.conic_constant, p.vertex_distance,
+                  RadiusAtElevation(r.calib.sensor, -M_PI / 6), r0, RadiusAtElevation(r.calib.sensor, M_PI / 6));
+    });
+    if (!m.score.failure.empty()) std::printf("  %s: first failure: %s\n", m.name, m.score.failure.c_str());
+  }
+  PrintComparison(views, methods, focals, r0s);
+  if (!focals.empty() && gauge) PrintFocalHeld(trains, helds, board, conic_fits, focals, conic, methods[0].score);
 }
 
 }  // namespace
