@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "commands.h"
 #include "panotrack/core/error.h"
@@ -12,7 +13,7 @@ namespace pano::app {
 void AddBuildCommand(CLI::App& app) {
   struct Opts {
     MapBuildJob job;
-    std::string start;
+    std::vector<double> start;
     bool quiet = false;
   };
   auto o = std::make_shared<Opts>();
@@ -27,7 +28,11 @@ void AddBuildCommand(CLI::App& app) {
   cmd->add_option("--map", o->job.map_path, "Seed map YAML (a few measured landmarks; never overwritten)")->required();
   cmd->add_option("--calib", o->job.calib_path, "Calibration YAML of the camera")->required();
   cmd->add_option("input", o->job.input, "Video, image folder or printf pattern")->required();
-  cmd->add_option("--start", o->start, "The first frame's pose x,y,theta (map units, radians) for localising");
+  cmd->add_option("--start", o->start, "The first frame's pose x,y,theta (map units, radians) for localising")
+      ->delimiter(',')
+      ->expected(3)
+      ->type_name("X,Y,THETA")
+      ->default_str("");
   cmd->add_option("--poses", o->job.poses_path,
                   "Pose CSV with one row per frame (panoloc's output or panosim's gt.csv); lost rows are skipped");
   cmd->add_option("-o,--output", o->job.output, "Grown map YAML")->required()->group("Output");
@@ -51,10 +56,7 @@ void AddBuildCommand(CLI::App& app) {
   cmd->add_flag("-v,--verbose", "Print the libraries' logs");
   cmd->callback([o]() {
     if (!o->start.empty()) {
-      char tail = 0;
-      Pose2& p = o->job.start;
-      if (std::sscanf(o->start.c_str(), "%lf,%lf,%lf%c", &p.x, &p.y, &p.theta, &tail) != 3)
-        throw Error("--start: expected x,y,theta (map units, radians), got '" + o->start + "'");
+      o->job.start = Pose2{o->start[0], o->start[1], o->start[2]};
       o->job.has_start = true;
     }
     const MapBuildResult r = RunMapBuild(o->job);

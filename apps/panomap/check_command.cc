@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "commands.h"
 #include "panotrack/core/error.h"
@@ -9,22 +10,10 @@
 
 namespace pano::app {
 
-namespace {
-
-Pose2 ParsePose(const std::string& text) {
-  Pose2 p;
-  char tail = 0;
-  if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &p.x, &p.y, &p.theta, &tail) != 3)
-    throw Error("--pose: expected x,y,theta (map units, radians), got '" + text + "'");
-  return p;
-}
-
-}  // namespace
-
 void AddCheckCommand(CLI::App& app) {
   struct Opts {
     MapCheckJob job;
-    std::string pose;
+    std::vector<double> pose;
     bool quiet = false;
   };
   auto o = std::make_shared<Opts>();
@@ -43,7 +32,11 @@ void AddCheckCommand(CLI::App& app) {
   cmd->add_option("--map", o->job.map_path, "Map YAML to check")->required();
   cmd->add_option("--calib", o->job.calib_path, "Calibration YAML of the camera")->required();
   cmd->add_option("input", o->job.input, "Video, image folder, printf pattern or one image")->required();
-  cmd->add_option("--pose", o->pose, "The camera's pose x,y,theta (map units, radians) for every frame");
+  cmd->add_option("--pose", o->pose, "The camera's pose x,y,theta (map units, radians) for every frame")
+      ->delimiter(',')
+      ->expected(3)
+      ->type_name("X,Y,THETA")
+      ->default_str("");
   cmd->add_option("--poses", o->job.poses_path,
                   "Pose CSV with one row per frame (panoloc's output or panosim's gt.csv); lost rows are skipped");
   cmd->add_option("-o,--output", o->job.overlay,
@@ -72,7 +65,7 @@ void AddCheckCommand(CLI::App& app) {
   cmd->add_flag("-q,--quiet", o->quiet, "Print only the findings");
   cmd->add_flag("-v,--verbose", "Print the libraries' logs");
   cmd->callback([o]() {
-    if (!o->pose.empty()) o->job.pose = ParsePose(o->pose);
+    if (!o->pose.empty()) o->job.pose = Pose2{o->pose[0], o->pose[1], o->pose[2]};
     const MapCheckReport report = RunMapCheck(o->job);
     if (o->quiet) {
       for (const ObjectFinding& f : report.findings) std::printf("%s\n", f.message.c_str());

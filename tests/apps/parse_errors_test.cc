@@ -30,6 +30,10 @@ TEST_CASE("list options: the count and form expected, and what was given", "[par
              "panocalib: --init: expected 3 numbers x,y,theta, got 1");
   ExpectLine("panosim still --preset paper-real -o s.png --pose 1,2",
              "panosim: --pose: expected 3 numbers x,y,theta, got 2");
+  ExpectLine("panomap check in.mp4 --calib c.yaml --map m.yaml --pose 1,2",
+             "panomap: --pose: expected 3 numbers x,y,theta, got 2");
+  ExpectLine("panomap build in.mp4 --calib c.yaml --map m.yaml -o o.yaml --start a,b,c",
+             "panomap: --start: expected 3 numbers x,y,theta, got 'a,b,c'");
 }
 
 TEST_CASE("values that do not convert, missing values, unknown options", "[parse_errors]") {
