@@ -24,6 +24,7 @@ CLI::Option* AddNumbers(CLI::App* app, const std::string& name, std::vector<doub
   for (char& c : form) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
   return app->add_option(name, values, help)
       ->delimiter(',')
+      ->allow_extra_args(false)  // one token: a positional after it stays positional
       ->expected(n)
       ->type_name(form)
       ->check(CLI::Validator(

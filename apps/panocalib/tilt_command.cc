@@ -53,7 +53,8 @@ void AddTiltCommand(CLI::App& app) {
                   "case.yaml beside the input, else the room-wide search")
       ->expected(3)
       ->type_name("X,Y,THETA")
-      ->delimiter(',');
+      ->delimiter(',')
+      ->allow_extra_args(false);  // one token: a positional after it stays positional
   cmd->add_option("--frames", o->tilt.max_frames, "Frames used, from the start");
   cmd->add_flag("--decentre", o->tilt.fit_decentre,
                 "Also refit the mirror's offset from the camera's axis (mirror_offset), which boards with "

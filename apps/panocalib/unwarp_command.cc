@@ -65,6 +65,7 @@ void AddUnwarpCommand(CLI::App& app) {
   cmd->add_option("--elevation", o->elevation,
                   "Panorama: MIN,MAX elevation of the bottom and top rows, degrees (default: what the mirror sees)")
       ->delimiter(',')
+      ->allow_extra_args(false)  // one token: a positional after it stays positional
       ->expected(2)
       ->excludes(persp);
   cmd->add_flag("--clockwise", o->clockwise,

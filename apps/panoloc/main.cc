@@ -151,6 +151,7 @@ void AddTrackingOptions(CLI::App* app, CommandLine* c) {
                  "default: initial_pose of the case.yaml beside the input; without either, the first "
                  "frame is localised by searching the whole room")
       ->delimiter(',')
+      ->allow_extra_args(false)  // one token: a positional after it stays positional
       ->expected(3)
       ->type_name("X,Y,THETA")
       ->default_str("")

@@ -30,6 +30,7 @@ void AddBuildCommand(CLI::App& app) {
   cmd->add_option("input", o->job.input, "Video, image folder or printf pattern")->required();
   cmd->add_option("--start", o->start, "The first frame's pose x,y,theta (map units, radians) for localising")
       ->delimiter(',')
+      ->allow_extra_args(false)  // one token: a positional after it stays positional
       ->expected(3)
       ->type_name("X,Y,THETA")
       ->default_str("");

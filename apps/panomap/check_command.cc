@@ -34,6 +34,7 @@ void AddCheckCommand(CLI::App& app) {
   cmd->add_option("input", o->job.input, "Video, image folder, printf pattern or one image")->required();
   cmd->add_option("--pose", o->pose, "The camera's pose x,y,theta (map units, radians) for every frame")
       ->delimiter(',')
+      ->allow_extra_args(false)  // one token: a positional after it stays positional
       ->expected(3)
       ->type_name("X,Y,THETA")
       ->default_str("");

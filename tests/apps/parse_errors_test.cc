@@ -36,6 +36,15 @@ TEST_CASE("list options: the count and form expected, and what was given", "[par
              "panomap: --start: expected 3 numbers x,y,theta, got 'a,b,c'");
 }
 
+TEST_CASE("a list option before a positional argument takes one token", "[parse_errors]") {
+  // The input after the list option stays the input: the run goes on to
+  // the next problem, not to '--init: expected 3 numbers, got 4'.
+  ExpectLine("panoloc --init 1,2,3 in.mp4 --calib c.yaml --map m.yaml",
+             "panoloc: -o (output) or --out-dir (out_dir): give -o OUT.csv (one input) or --out-dir DIR");
+  ExpectLine("panomap build --start 1,2,3 in.mp4 --calib c.yaml --map m.yaml -o o.yaml",
+             "panomap: c.yaml: cannot open: No such file or directory");
+}
+
 TEST_CASE("values that do not convert, missing values, unknown options", "[parse_errors]") {
   ExpectLine(kLoc + "--fps abc", "panoloc: --fps: expected a number, got 'abc'");
   ExpectLine(kLoc + "--threads 99999999999999999999", "panoloc: --threads: 99999999999999999999 is out of range");

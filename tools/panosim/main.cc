@@ -54,6 +54,7 @@ CLI::Option* AddNumberList(CLI::App* app, const std::string& name, std::vector<d
   for (char& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
   return app->add_option(name, *values, help)
       ->delimiter(',')
+      ->allow_extra_args(false)  // one token: a positional after it stays positional
       ->expected(n)
       ->type_name(upper)
       ->check(finite)
@@ -182,6 +183,7 @@ struct RigFlags {
           app->add_option("--distortion", distortion,
                           "Lens distortion k1,k2[,p1,p2[,k3]] (Brown, on normalised image coordinates)")
               ->delimiter(',')
+              ->allow_extra_args(false)  // one token: a positional after it stays positional
               ->expected(2, 5)
               ->type_name("K1,K2[,P1,P2[,K3]]")
               ->default_str(""),
@@ -192,6 +194,7 @@ struct RigFlags {
                     "Mirror profile: even-asphere terms a4[,a6] added to the sphere's or conic's sag, "
                     "R (a4 (s/R)^4 + a6 (s/R)^6) (model asphere: a mirror that is not a conic)")
         ->delimiter(',')
+        ->allow_extra_args(false)  // one token: a positional after it stays positional
         ->expected(1, 2)
         ->type_name("A4[,A6]")
         ->group("Mirror profile");
