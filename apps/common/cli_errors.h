@@ -243,4 +243,18 @@ inline int ExitOnParseError(const CLI::App& app, const CLI::ParseError& e, const
   return 1;
 }
 
+// A pose option: x,y,theta (map units, radians) as three comma-separated
+// numbers in one token (a positional argument after it stays positional),
+// shown as X,Y,THETA, so that its messages read "expected 3 numbers
+// x,y,theta".
+inline CLI::Option* AddPoseOption(CLI::App* app, const std::string& name, std::vector<double>* values,
+                                  const std::string& help) {
+  return app->add_option(name, *values, help)
+      ->delimiter(',')
+      ->allow_extra_args(false)
+      ->expected(3)
+      ->type_name("X,Y,THETA")
+      ->default_str("");
+}
+
 }  // namespace pano::app

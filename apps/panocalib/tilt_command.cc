@@ -48,13 +48,9 @@ void AddTiltCommand(CLI::App& app) {
   cmd->add_option("--map", o->map, "Map of the room (YAML)")->required();
   cmd->add_option("input", o->input, "Video (or image folder) taken in the room")->required();
   cmd->add_option("-o,--output", o->output, "Calibration YAML to write (with sensor_tilt)")->required();
-  cmd->add_option("--init", o->init,
-                  "The pose x,y,theta at the first frame (map units, radians); default: initial_pose of the "
-                  "case.yaml beside the input, else the room-wide search")
-      ->expected(3)
-      ->type_name("X,Y,THETA")
-      ->delimiter(',')
-      ->allow_extra_args(false);  // one token: a positional after it stays positional
+  AddPoseOption(cmd, "--init", &o->init,
+                "The pose x,y,theta at the first frame (map units, radians); default: initial_pose of the "
+                "case.yaml beside the input, else the room-wide search");
   cmd->add_option("--frames", o->tilt.max_frames, "Frames used, from the start");
   cmd->add_flag("--decentre", o->tilt.fit_decentre,
                 "Also refit the mirror's offset from the camera's axis (mirror_offset), which boards with "

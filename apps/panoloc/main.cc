@@ -146,15 +146,10 @@ void AddInputOutputOptions(CLI::App* app, CommandLine* c) {
 }
 
 void AddTrackingOptions(CLI::App* app, CommandLine* c) {
-  app->add_option("--init", c->init,
-                 "A guess of the initial pose x,y,theta (map units, radians) to start tracking from; "
-                 "default: initial_pose of the case.yaml beside the input; without either, the first "
-                 "frame is localised by searching the whole room")
-      ->delimiter(',')
-      ->allow_extra_args(false)  // one token: a positional after it stays positional
-      ->expected(3)
-      ->type_name("X,Y,THETA")
-      ->default_str("")
+  pano::app::AddPoseOption(app, "--init", &c->init,
+                           "A guess of the initial pose x,y,theta (map units, radians) to start tracking from; "
+                           "default: initial_pose of the case.yaml beside the input; without either, the first "
+                           "frame is localised by searching the whole room")
       ->group(kTracking);
   app->add_option("--fps", c->o.fps,
                  "Frame rate for time_s, overriding the input's timestamps (0: the timestamps; "

@@ -28,12 +28,7 @@ void AddBuildCommand(CLI::App& app) {
   cmd->add_option("--map", o->job.map_path, "Seed map YAML (a few measured landmarks; never overwritten)")->required();
   cmd->add_option("--calib", o->job.calib_path, "Calibration YAML of the camera")->required();
   cmd->add_option("input", o->job.input, "Video, image folder or printf pattern")->required();
-  cmd->add_option("--start", o->start, "The first frame's pose x,y,theta (map units, radians) for localising")
-      ->delimiter(',')
-      ->allow_extra_args(false)  // one token: a positional after it stays positional
-      ->expected(3)
-      ->type_name("X,Y,THETA")
-      ->default_str("");
+  AddPoseOption(cmd, "--start", &o->start, "The first frame's pose x,y,theta (map units, radians) for localising");
   cmd->add_option("--poses", o->job.poses_path,
                   "Pose CSV with one row per frame (panoloc's output or panosim's gt.csv); lost rows are skipped");
   cmd->add_option("-o,--output", o->job.output, "Grown map YAML")->required()->group("Output");

@@ -32,12 +32,7 @@ void AddCheckCommand(CLI::App& app) {
   cmd->add_option("--map", o->job.map_path, "Map YAML to check")->required();
   cmd->add_option("--calib", o->job.calib_path, "Calibration YAML of the camera")->required();
   cmd->add_option("input", o->job.input, "Video, image folder, printf pattern or one image")->required();
-  cmd->add_option("--pose", o->pose, "The camera's pose x,y,theta (map units, radians) for every frame")
-      ->delimiter(',')
-      ->allow_extra_args(false)  // one token: a positional after it stays positional
-      ->expected(3)
-      ->type_name("X,Y,THETA")
-      ->default_str("");
+  AddPoseOption(cmd, "--pose", &o->pose, "The camera's pose x,y,theta (map units, radians) for every frame");
   cmd->add_option("--poses", o->job.poses_path,
                   "Pose CSV with one row per frame (panoloc's output or panosim's gt.csv); lost rows are skipped");
   cmd->add_option("-o,--output", o->job.overlay,
