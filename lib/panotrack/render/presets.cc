@@ -9,7 +9,7 @@
 #include "panotrack/core/error.h"
 #include "panotrack/io/calibration.h"
 #include "panotrack/io/map.h"
-#include "panotrack/io/pose_csv.h"
+#include "panotrack/io/trajectory.h"
 #include "panotrack/render/sequence.h"
 
 namespace pano {
@@ -579,51 +579,6 @@ std::vector<Pose2> SmoothPath(const std::vector<Eigen::Vector2d>& wp, int n, dou
     const Eigen::Vector2d d = dense[b] - dense[a];
     out.push_back({p.x(), p.y(), wrap_angle(std::atan2(d.y(), d.x()) + heading_offset)});
   }
-  return out;
-}
-
-std::vector<Pose2> ReadTrajectory(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw Error(path + ": cannot read the trajectory file");
-  std::string header;
-  if (!std::getline(in, header)) throw Error(path + ": empty trajectory file (expected a header)");
-  if (!header.empty() && header.back() == '\r') header.pop_back();
-  std::vector<Pose2> out;
-  if (header.rfind("frame,", 0) == 0) {
-    in.close();
-    const std::vector<PoseRow> rows = ReadPoseCsv(path);
-    for (size_t i = 0; i < rows.size(); ++i) {
-      if (rows[i].status == PoseStatus::kLost)
-        throw Error(path + ": line " + std::to_string(i + 2) + ": status 'lost' has no pose");
-      out.push_back(rows[i].pose);
-    }
-  } else {
-    if (header != "x,y,theta" && header != "x,y,theta_rad")
-      throw Error(path + ": line 1: expected the header 'x,y,theta' (radians) or a pose CSV (docs/panoloc.md)");
-    std::string line;
-    int ln = 1;
-    while (std::getline(in, line)) {
-      ++ln;
-      if (!line.empty() && line.back() == '\r') line.pop_back();
-      if (line.find_first_not_of(" \t") == std::string::npos) continue;
-      std::stringstream ss(line);
-      std::string f[3];
-      Pose2 p;
-      double* dst[3] = {&p.x, &p.y, &p.theta};
-      for (int k = 0; k < 3; ++k) {
-        if (!std::getline(ss, f[k], ','))
-          throw Error(path + ": line " + std::to_string(ln) + ": expected 3 numbers x,y,theta");
-        char* end = nullptr;
-        *dst[k] = std::strtod(f[k].c_str(), &end);
-        if (end == f[k].c_str() || *end != '\0' || !std::isfinite(*dst[k]))
-          throw Error(path + ": line " + std::to_string(ln) + ": '" + f[k] + "' is not a number");
-      }
-      std::string rest;
-      if (std::getline(ss, rest, ',')) throw Error(path + ": line " + std::to_string(ln) + ": expected 3 columns x,y,theta");
-      out.push_back(p);
-    }
-  }
-  if (out.empty()) throw Error(path + ": no poses in the trajectory file");
   return out;
 }
 

@@ -56,10 +56,10 @@ SequenceCase MakePreset(const std::string& name);
 // A case from files: map, calibration and a trajectory file. The trajectory is
 // either a pose CSV (docs/panoloc.md, e.g. a gt.csv; every row must be ok) or a
 // CSV with the header `x,y,theta` (radians) and one pose per line. Checks that
-// every pose is inside the room and not inside a box, naming the file and line.
+// every pose is inside the room and not inside a box, naming the file and line
+// (the trajectory is read by io/trajectory.h's ReadTrajectory).
 SequenceCase MakeCase(const std::string& map_path, const std::string& calib_path,
                       const std::string& trajectory_path, double fps);
-std::vector<Pose2> ReadTrajectory(const std::string& path);
 
 // Checks a case: sensor, map, options, and every pose (CheckPose with
 // `clearance`); `what` names its origin in messages.

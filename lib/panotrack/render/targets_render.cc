@@ -12,6 +12,7 @@
 #include "panotrack/core/error.h"
 #include "panotrack/core/parallel.h"
 #include "panotrack/io/calibration.h"
+#include "panotrack/io/trajectory.h"
 #include "panotrack/render/writers.h"
 
 namespace pano {
@@ -34,34 +35,8 @@ std::array<double, 3> RvecOf(const Eigen::Matrix3d& R) {
 }  // namespace
 
 std::vector<BoardPose> ReadBoardPoses(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw Error(path + ": cannot read the board poses file");
-  std::string line;
-  if (!std::getline(in, line)) throw Error(path + ": empty file (expected the header rx,ry,rz,tx,ty,tz)");
-  if (!line.empty() && line.back() == '\r') line.pop_back();
-  if (line != "rx,ry,rz,tx,ty,tz") throw Error(path + ": line 1: expected the header 'rx,ry,rz,tx,ty,tz'");
   std::vector<BoardPose> out;
-  int ln = 1;
-  while (std::getline(in, line)) {
-    ++ln;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.find_first_not_of(" \t") == std::string::npos) continue;
-    std::stringstream ss(line);
-    std::string f;
-    double v[6];
-    int k = 0;
-    while (std::getline(ss, f, ',')) {
-      if (k >= 6) throw Error(path + ": line " + std::to_string(ln) + ": expected 6 numbers rx,ry,rz,tx,ty,tz");
-      char* end = nullptr;
-      v[k] = std::strtod(f.c_str(), &end);
-      if (end == f.c_str() || *end != '\0' || !std::isfinite(v[k]))
-        throw Error(path + ": line " + std::to_string(ln) + ": '" + f + "' is not a number");
-      ++k;
-    }
-    if (k != 6) throw Error(path + ": line " + std::to_string(ln) + ": expected 6 numbers rx,ry,rz,tx,ty,tz");
-    out.push_back({{v[0], v[1], v[2]}, {v[3], v[4], v[5]}});
-  }
-  if (out.empty()) throw Error(path + ": no board poses");
+  for (const std::array<double, 6>& v : ReadBoardPoseRows(path)) out.push_back({{v[0], v[1], v[2]}, {v[3], v[4], v[5]}});
   return out;
 }
 
