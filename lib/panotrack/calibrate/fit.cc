@@ -171,15 +171,15 @@ void AddCornerTerms(const std::vector<BoardView>& views, const TargetBoard& boar
     const std::vector<Eigen::Matrix2d> weights = CornerWeights(bv, board, options.full_weight_px);
     n_total += bv.corners.size();
     for (size_t j = 0; j < bv.corners.size(); ++j) {
-      const Eigen::Vector3d& X = pts[bv.PointId(j)];
+      std::vector<double*> blocks;
+      std::unique_ptr<ceres::CostFunction> term = CornerTerm(b, i, pts[bv.PointId(j)], bv.corners[j], weights[j], &blocks);
       double r[2];
-      if (!CornerResidual(b, i, X, bv.corners[j], r)) {
+      if (!term->Evaluate(blocks.data(), r, nullptr)) {
         ++n_invisible;
         continue;  // not visible through the initial model: left out of the fit
       }
       ceres::LossFunction* loss = options.huber_px > 0 ? new ceres::HuberLoss(options.huber_px) : nullptr;
-      std::vector<double*> blocks;
-      problem->AddResidualBlock(CornerTerm(b, i, X, bv.corners[j], weights[j], &blocks).release(), loss, blocks);
+      problem->AddResidualBlock(term.release(), loss, blocks);
       ++n_obs;
     }
   }

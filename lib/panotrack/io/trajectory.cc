@@ -10,12 +10,47 @@
 
 namespace pano {
 
+namespace {
+
+// The first line (a trailing '\r' dropped); `empty` is the message when
+// there is none.
+std::string HeaderLine(std::istream& in, const std::string& path, const std::string& empty) {
+  std::string line;
+  if (!std::getline(in, line)) throw Error(path + ": " + empty);
+  if (!line.empty() && line.back() == '\r') line.pop_back();
+  return line;
+}
+
+// use(line, line number) for each line after the header with something on
+// it, a trailing '\r' dropped.
+template <typename Use>
+void ForEachDataLine(std::istream& in, Use use) {
+  std::string line;
+  int ln = 1;
+  while (std::getline(in, line)) {
+    ++ln;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.find_first_not_of(" \t") == std::string::npos) continue;
+    use(line, ln);
+  }
+}
+
+// A field as a finite number, or pano::Error "<path>: line <ln>: '<field>'
+// is not a number".
+double FieldNumber(const std::string& field, const std::string& path, int ln) {
+  char* end = nullptr;
+  const double v = std::strtod(field.c_str(), &end);
+  if (end == field.c_str() || *end != '\0' || !std::isfinite(v))
+    throw Error(path + ": line " + std::to_string(ln) + ": '" + field + "' is not a number");
+  return v;
+}
+
+}  // namespace
+
 std::vector<Pose2> ReadTrajectory(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw Error(path + ": cannot read the trajectory file");
-  std::string header;
-  if (!std::getline(in, header)) throw Error(path + ": empty trajectory file (expected a header)");
-  if (!header.empty() && header.back() == '\r') header.pop_back();
+  const std::string header = HeaderLine(in, path, "empty trajectory file (expected a header)");
   std::vector<Pose2> out;
   if (header.rfind("frame,", 0) == 0) {
     in.close();
@@ -28,28 +63,19 @@ std::vector<Pose2> ReadTrajectory(const std::string& path) {
   } else {
     if (header != "x,y,theta" && header != "x,y,theta_rad")
       throw Error(path + ": line 1: expected the header 'x,y,theta' (radians) or a pose CSV (docs/panoloc.md)");
-    std::string line;
-    int ln = 1;
-    while (std::getline(in, line)) {
-      ++ln;
-      if (!line.empty() && line.back() == '\r') line.pop_back();
-      if (line.find_first_not_of(" \t") == std::string::npos) continue;
+    ForEachDataLine(in, [&](const std::string& line, int ln) {
       std::stringstream ss(line);
-      std::string f[3];
+      std::string f;
       Pose2 p;
       double* dst[3] = {&p.x, &p.y, &p.theta};
-      for (int k = 0; k < 3; ++k) {
-        if (!std::getline(ss, f[k], ','))
+      for (double* d : dst) {
+        if (!std::getline(ss, f, ','))
           throw Error(path + ": line " + std::to_string(ln) + ": expected 3 numbers x,y,theta");
-        char* end = nullptr;
-        *dst[k] = std::strtod(f[k].c_str(), &end);
-        if (end == f[k].c_str() || *end != '\0' || !std::isfinite(*dst[k]))
-          throw Error(path + ": line " + std::to_string(ln) + ": '" + f[k] + "' is not a number");
+        *d = FieldNumber(f, path, ln);
       }
-      std::string rest;
-      if (std::getline(ss, rest, ',')) throw Error(path + ": line " + std::to_string(ln) + ": expected 3 columns x,y,theta");
+      if (std::getline(ss, f, ',')) throw Error(path + ": line " + std::to_string(ln) + ": expected 3 columns x,y,theta");
       out.push_back(p);
-    }
+    });
   }
   if (out.empty()) throw Error(path + ": no poses in the trajectory file");
   return out;
@@ -58,31 +84,22 @@ std::vector<Pose2> ReadTrajectory(const std::string& path) {
 std::vector<std::array<double, 6>> ReadBoardPoseRows(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw Error(path + ": cannot read the board poses file");
-  std::string line;
-  if (!std::getline(in, line)) throw Error(path + ": empty file (expected the header rx,ry,rz,tx,ty,tz)");
-  if (!line.empty() && line.back() == '\r') line.pop_back();
-  if (line != "rx,ry,rz,tx,ty,tz") throw Error(path + ": line 1: expected the header 'rx,ry,rz,tx,ty,tz'");
+  if (HeaderLine(in, path, "empty file (expected the header rx,ry,rz,tx,ty,tz)") != "rx,ry,rz,tx,ty,tz")
+    throw Error(path + ": line 1: expected the header 'rx,ry,rz,tx,ty,tz'");
   std::vector<std::array<double, 6>> out;
-  int ln = 1;
-  while (std::getline(in, line)) {
-    ++ln;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.find_first_not_of(" \t") == std::string::npos) continue;
+  ForEachDataLine(in, [&](const std::string& line, int ln) {
+    const std::string wrong = path + ": line " + std::to_string(ln) + ": expected 6 numbers rx,ry,rz,tx,ty,tz";
     std::stringstream ss(line);
     std::string f;
-    double v[6];
+    std::array<double, 6> v;
     int k = 0;
     while (std::getline(ss, f, ',')) {
-      if (k >= 6) throw Error(path + ": line " + std::to_string(ln) + ": expected 6 numbers rx,ry,rz,tx,ty,tz");
-      char* end = nullptr;
-      v[k] = std::strtod(f.c_str(), &end);
-      if (end == f.c_str() || *end != '\0' || !std::isfinite(v[k]))
-        throw Error(path + ": line " + std::to_string(ln) + ": '" + f + "' is not a number");
-      ++k;
+      if (k >= 6) throw Error(wrong);
+      v[static_cast<size_t>(k++)] = FieldNumber(f, path, ln);
     }
-    if (k != 6) throw Error(path + ": line " + std::to_string(ln) + ": expected 6 numbers rx,ry,rz,tx,ty,tz");
-    out.push_back({v[0], v[1], v[2], v[3], v[4], v[5]});
-  }
+    if (k != 6) throw Error(wrong);
+    out.push_back(v);
+  });
   if (out.empty()) throw Error(path + ": no board poses");
   return out;
 }
