@@ -39,6 +39,8 @@
 #include "panotrack/calibrate/internal.h"
 #include "panotrack/calibrate/omnidir_peer.h"
 #include "panotrack/io/targets.h"
+#include "panotrack/pipeline/target_input.h"
+#include "panotrack/pipeline/panocalib.h"
 
 namespace {
 
@@ -345,7 +347,7 @@ int main(int argc, char** argv) {
     auto t0 = std::chrono::steady_clock::now();
     const pano::CalibrationResult rc = pano::CalibrateViews(det.views, t.board, W, H, t.units, conic);
     const double tc = Seconds(t0);
-    std::printf("%s", pano::Summary(rc).c_str());
+    std::printf("%s", pano::CalibrationSummary(rc).c_str());
     pano::CalibrateOptions sphere;
     t0 = std::chrono::steady_clock::now();
     const pano::CalibrationResult rs = pano::CalibrateViews(det.views, t.board, W, H, t.units, sphere);

@@ -31,7 +31,7 @@ constexpr int kHoughLinesThreshold = 30;
 // frame's height as at 500 x 500).
 pano::Sensor SensorOfSize(int size) {
   if (size == 0) return pano::test::PaperSyntheticSensor();
-  return pano::make_sphere_sensor(1600, 1200, 590.0 * 2.4, 799.5, 599.5, 1.0, 4.9, 15.1);
+  return pano::MakeSphereSensor(1600, 1200, 590.0 * 2.4, 799.5, 599.5, 1.0, 4.9, 15.1);
 }
 
 struct Setup {

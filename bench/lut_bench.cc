@@ -9,7 +9,7 @@
 namespace {
 
 pano::Sensor PaperSensor() {
-  return pano::make_sphere_sensor(640, 480, 590, 319.5, 239.5, 1.0, 4.9, 15.1);
+  return pano::MakeSphereSensor(640, 480, 590, 319.5, 239.5, 1.0, 4.9, 15.1);
 }
 pano::LutRanges PaperRanges() { return {10.0, 450.0, -30.0, 90.0}; }
 

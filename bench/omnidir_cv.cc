@@ -27,6 +27,7 @@
 #include "panotrack/calibrate/omnidir_peer.h"
 #include "panotrack/core/error.h"
 #include "panotrack/io/targets.h"
+#include "panotrack/pipeline/target_input.h"
 
 namespace {
 

@@ -76,7 +76,7 @@ void BM_Panoloc(benchmark::State& state) {
     ok += s.n_ok;
   }
   std::filesystem::remove(job.output);
-  state.SetLabel(pano::tracking_method_name(run.localizer.method));
+  state.SetLabel(pano::TrackingMethodName(run.localizer.method));
   state.counters["frames_per_s"] = benchmark::Counter(static_cast<double>(frames), benchmark::Counter::kIsRate);
   state.counters["ok_fraction"] = frames ? static_cast<double>(ok) / frames : 0.0;
 }

@@ -3,14 +3,12 @@
 #include <memory>
 #include <string>
 
-#include <opencv2/imgcodecs.hpp>
-
-#include "panotrack/calibrate/calibrate.h"
 #include "panotrack/core/output_check.h"
 #include "commands.h"
 #include "panotrack/core/command_line.h"
 #include "panotrack/core/error.h"
 #include "panotrack/io/targets.h"
+#include "panotrack/pipeline/panocalib.h"
 #include "panotrack/video/logging.h"
 
 namespace pano::app {
@@ -160,43 +158,26 @@ CalibrateOptions CalibrateOptionsOf(const Opts& o, bool free_given, bool quiet) 
   return opt;
 }
 
-// Reads the targets, calibrates, writes the outputs and prints the summary.
-void RunCalibrate(const Opts& o, const BoardOpts& bo, const RunOpts& run, const CalibrateOptions& opt,
-                  const NamedPaths& outputs) {
-  TargetInputBoard input;
-  input.board_given = !bo.board.empty();
-  if (input.board_given) {
+// Runs the calibration job and prints its summary.
+void CalibrateAndPrint(const Opts& o, const BoardOpts& bo, const RunOpts& run, const CalibrateOptions& opt,
+                       const NamedPaths& outputs) {
+  CalibrateJob job;
+  job.targets = o.targets;
+  job.board.board_given = !bo.board.empty();
+  if (job.board.board_given) {
     if (!(bo.square > 0.0)) throw Error("--square: required with --board (the square side, map units)");
-    input.board = ParseBoardSpec(bo.board, bo.square, bo.marker, bo.dictionary);
-    input.units = bo.units;
-    input.every = bo.every;
+    job.board.board = ParseBoardSpec(bo.board, bo.square, bo.marker, bo.dictionary);
+    job.board.units = bo.units;
+    job.board.every = bo.every;
   }
-  const TargetSet targets = ReadTargetInput(o.targets, input);
-  // The board images are known once the target file is read.
-  CheckOutputsDistinct(TargetInputReads(o.targets, targets), outputs);
-  const std::vector<cv::Mat> images = LoadTargetImages(targets);
-  CalibrationResult r = Calibrate(targets, images, opt);
-  r.calib.command_line = ShellCommandLine(CommandLine());
-  cv::Mat report;
-  if (!o.report.empty()) {
-    // The worst image shows the residuals best.
-    int worst = 0;
-    for (size_t i = 1; i < r.image_rms.size(); ++i)
-      if (r.image_rms[i] > r.image_rms[worst]) worst = static_cast<int>(i);
-    const cv::Mat& im = r.views.empty() ? cv::Mat() : images[r.views[worst].image_index];
-    report = DrawReport(r, im, worst);
-  }
-  CalibrationOutputs out;
-  out.calibration = o.out;
-  out.lut = o.lut;
-  out.report = o.report;
-  out.summary_json = run.summary_json;
-  out.command_line = CommandLine();
-  WriteCalibrationOutputs(r, out, report);
+  job.options = opt;
+  job.outputs = {o.out, o.lut, o.report, run.summary_json, CommandLine()};
+  job.names.outputs = outputs;
+  const CalibrationResult r = RunCalibrate(job);
   if (run.quiet) return;
   // With the JSON on standard output, the text goes to stderr.
   std::FILE* text = run.summary_json == "-" ? stderr : stdout;
-  std::fprintf(text, "%s", Summary(r).c_str());
+  std::fprintf(text, "%s", CalibrationSummary(r).c_str());
   std::fprintf(text, "wrote %s%s%s%s%s\n", o.out.c_str(), o.lut.empty() ? "" : ", ", o.lut.c_str(),
                o.report.empty() ? "" : ", ", o.report.c_str());
   for (const std::string& w : r.warnings) std::fprintf(stderr, "panocalib: warning: %s\n", w.c_str());
@@ -235,7 +216,7 @@ void AddCalibrateCommand(CLI::App& app) {
   cmd->callback([o, bo, run, outputs, free_opt]() {
     const CalibrateOptions opt = CalibrateOptionsOf(*o, free_opt->count() > 0, run->quiet);
     SetDecoderLogging(o->verbose);  // a board video's FFmpeg lines only with -v
-    RunCalibrate(*o, *bo, *run, opt, outputs());
+    CalibrateAndPrint(*o, *bo, *run, opt, outputs());
   });
 }
 

@@ -5,14 +5,11 @@
 #include <string>
 
 #include "commands.h"
-#include "panotrack/calibrate/calibrate.h"
-#include "panotrack/calibrate/evaluate.h"
-#include "panotrack/core/atomic_file.h"
 #include "panotrack/core/command_line.h"
 #include "panotrack/core/error.h"
 #include "panotrack/core/output_check.h"
-#include "panotrack/io/calibration.h"
 #include "panotrack/io/targets.h"
+#include "panotrack/pipeline/panocalib.h"
 #include "panotrack/video/logging.h"
 
 namespace pano::app {
@@ -70,25 +67,21 @@ void AddEvaluateCommand(CLI::App& app) {
     if (opt.verbose) opt.on_log = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
     if (o->no_refine) opt.refine_passes = 0;
     opt.unwarp_fallback = !o->no_unwarp;
-    opt.Check();
-    TargetInputBoard input;
-    input.board_given = !o->board.empty();
-    if (input.board_given) {
+    EvaluateJob job;
+    job.calibration = o->calib;
+    job.targets = o->targets;
+    job.board.board_given = !o->board.empty();
+    if (job.board.board_given) {
       if (!(o->square > 0.0)) throw Error("--square: required with --board (the square side, calibration units)");
-      input.board = ParseBoardSpec(o->board, o->square, o->marker, o->dictionary);
-      input.units = o->units;
-      input.every = o->every;
+      job.board.board = ParseBoardSpec(o->board, o->square, o->marker, o->dictionary);
+      job.board.units = o->units;
+      job.board.every = o->every;
     }
-    const Calibration calib = ReadCalibration(o->calib);
-    const TargetSet targets = ReadTargetInput(o->targets, input);
-    // The board images are known once the target file is read.
-    NamedPaths reads = TargetInputReads(o->targets, targets);
-    reads.push_back({"--calib", o->calib});
-    CheckOutputsDistinct(reads, {{"--summary-json", o->summary_json}});
-    const std::vector<cv::Mat> images = LoadTargetImages(targets);
-    const EvaluationResult r = EvaluateCalibration(targets, images, calib, opt);
-    if (!o->summary_json.empty())
-      WriteFileOrStdout(o->summary_json, EvaluationSummaryJson(r, CommandLine()), "--summary-json");
+    job.options = opt;
+    job.summary_json = o->summary_json;
+    job.command_line = CommandLine();
+    job.names = {{{"--calib", o->calib}}, {{"--summary-json", o->summary_json}}};
+    const EvaluationResult r = RunEvaluate(job);
     if (o->quiet) return;
     std::FILE* text = o->summary_json == "-" ? stderr : stdout;
     std::fprintf(text, "%s", EvaluationSummary(r).c_str());

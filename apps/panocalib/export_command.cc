@@ -4,10 +4,9 @@
 #include <string>
 
 #include "commands.h"
-#include "panotrack/calibrate/export_opencv.h"
 #include "panotrack/core/error.h"
 #include "panotrack/core/output_check.h"
-#include "panotrack/io/calibration.h"
+#include "panotrack/pipeline/panocalib.h"
 
 namespace pano::app {
 
@@ -36,12 +35,11 @@ void AddExportCommand(CLI::App& app) {
   cmd->add_flag("-q,--quiet", o->quiet, "Print nothing but errors");
   cmd->callback([o]() {
     CheckPlannedOutputs({{"--calib", o->calib}}, {{"-o", o->out}}, o->force);
-    const Calibration c = ReadCalibration(o->calib);
-    const OmnidirApproximation om = FitOmnidirApproximation(c.sensor, o->omnidir);
-    WriteOpenCvCalibration(o->out, c, om);
+    const ExportResult r = RunExport({o->calib, o->out, o->omnidir});
+    const OmnidirApproximation& om = r.omnidir;
     if (!o->quiet)
       std::printf("wrote %s: omnidir approximation xi %.4f, RMS %.3f px (max %.3f px) at distance %g %s\n",
-                  o->out.c_str(), om.xi, om.rms_px, om.max_px, om.distance, c.units.c_str());
+                  o->out.c_str(), om.xi, om.rms_px, om.max_px, om.distance, r.units.c_str());
   });
 }
 

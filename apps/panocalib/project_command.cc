@@ -5,12 +5,10 @@
 #include <string>
 
 #include "commands.h"
-#include "panotrack/calibrate/batch_projection.h"
 #include "panotrack/core/error.h"
 #include "panotrack/core/output_check.h"
 #include "panotrack/io/calibration.h"
-#include "panotrack/io/map.h"
-#include "panotrack/lut/radius_table.h"
+#include "panotrack/pipeline/panocalib.h"
 
 namespace pano::app {
 
@@ -83,9 +81,7 @@ void AddProjectCommands(CLI::App& app) {
   proj->callback([calib, point, points, quiet, point_opt, proj]() {
     RequireOne(point_opt, proj->get_option("--points"));
     if (!points->input.empty()) {
-      CheckPlannedOutputs({{"--calib", *calib}, {"--points", points->input}}, {{"-o", points->out}}, points->force);
-      const Calibration c = ReadCalibration(*calib);
-      const BatchProjection b = ProjectPointsFile(c.sensor, points->input, points->out);
+      const BatchProjection b = RunProjectPoints({*calib, points->input, points->out, points->force});
       const std::string note = BatchNote(b, false);
       if (!*quiet && !note.empty()) std::fprintf(stderr, "panocalib: note: %s\n", note.c_str());
       return;
@@ -123,10 +119,7 @@ void AddProjectCommands(CLI::App& app) {
   back->callback([calib2, pixel, pixels, quiet2, pixel_opt, back]() {
     RequireOne(pixel_opt, back->get_option("--pixels"));
     if (!pixels->input.empty()) {
-      CheckPlannedOutputs({{"--calib", *calib2}, {"--pixels", pixels->input}}, {{"-o", pixels->out}},
-                          pixels->force);
-      const Calibration c = ReadCalibration(*calib2);
-      const BatchProjection b = BackprojectPixelsFile(c.sensor, pixels->input, pixels->out);
+      const BatchProjection b = RunBackprojectPixels({*calib2, pixels->input, pixels->out, pixels->force});
       const std::string note = BatchNote(b, true);
       if (!*quiet2 && !note.empty()) std::fprintf(stderr, "panocalib: note: %s\n", note.c_str());
       return;
@@ -162,16 +155,11 @@ void AddLutCommand(CLI::App& app) {
   lut->add_flag("-q,--quiet", o->quiet, "No summary line");
   lut->callback([o]() {
     if (o->n < 16 || o->n > 8192) throw Error("--size: expected 16..8192, got " + std::to_string(o->n));
-    CheckPlannedOutputs({{"--calib", o->calib}, {"--map", o->map}}, {{"-o", o->out}}, o->force);
-    const Calibration c = ReadCalibration(o->calib);
-    LutRanges ranges = o->map.empty() ? DefaultRanges(c.sensor) : RangesForMap(ReadMap(o->map), c.sensor);
-    LutSize size;
-    size.n_distance = size.n_elevation = size.n_radius = o->n;
-    const RadiusTable t = RadiusTable::Build(c.sensor, ranges, size);
-    t.Save(o->out);
+    const LutResult r = RunLut({o->calib, o->map, o->out, o->n, o->force});
+    const LutRanges& ranges = r.ranges;
     if (!o->quiet)
       std::printf("wrote %s: D %.4g..%.4g, Z %.4g..%.4g %s, %dx%d nodes\n", o->out.c_str(), ranges.d_min,
-                  ranges.d_max, ranges.z_min, ranges.z_max, c.units.c_str(), o->n, o->n);
+                  ranges.d_max, ranges.z_min, ranges.z_max, r.units.c_str(), o->n, o->n);
   });
 }
 

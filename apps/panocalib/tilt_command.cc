@@ -9,10 +9,8 @@
 #include "commands.h"
 #include "panotrack/core/error.h"
 #include "panotrack/core/output_check.h"
-#include "panotrack/io/calibration.h"
-#include "panotrack/io/map.h"
 #include "panotrack/pipeline/panoloc.h"
-#include "panotrack/pipeline/sensor_tilt.h"
+#include "panotrack/pipeline/panocalib.h"
 #include "panotrack/video/frame_source.h"
 
 namespace pano::app {
@@ -76,24 +74,16 @@ void AddTiltCommand(CLI::App& app) {
       throw Error("--tolerance: expected a positive angle below --step (" + Num(opt.search_deg) + " degrees), got " +
                   Num(opt.tolerance_deg));
     if (opt.max_trials < 3) throw Error("--max-trials: expected 3 or more, got " + std::to_string(opt.max_trials));
-    opt.Check();
-    Calibration calib = ReadCalibration(o->calib);
-    const Map map = ReadMap(o->map);
-    if (calib.units != map.units)
-      throw Error(o->map + ": units '" + map.units + "' differ from the calibration's '" + calib.units + "'");
     const bool quiet = o->quiet;
     opt.on_trial = [quiet](int trials, const double* tilt, double residual) {
       if (!quiet)
         std::fprintf(stderr, "\rpanocalib: tilt: trial %d, best %.3f, %.3f deg (residual %.2e rad)   ", trials,
                      tilt[0] * 180 / M_PI, tilt[1] * 180 / M_PI, residual);
     };
-    const SensorTiltResult r = EstimateSensorTilt(calib, map, o->input, opt);
+    const TiltResult run = RunTilt({o->calib, o->map, o->input, o->output, opt});
     if (!quiet) std::fprintf(stderr, "\n");
-    calib.sensor.faults.sensor_tilt[0] = r.tilt[0];
-    calib.sensor.faults.sensor_tilt[1] = r.tilt[1];
-    calib.sensor.faults.mirror_offset[0] = r.mirror_offset[0];
-    calib.sensor.faults.mirror_offset[1] = r.mirror_offset[1];
-    WriteCalibration(o->output, calib);
+    const SensorTiltResult& r = run.measured;
+    const Calibration& calib = run.calibration;
     if (quiet) return;
     std::printf("sensor_tilt: %.4f, %.4f deg (about x, then y)\n", r.tilt[0] * 180 / M_PI, r.tilt[1] * 180 / M_PI);
     if (o->tilt.fit_decentre)

@@ -6,7 +6,7 @@
 
 #include "commands.h"
 #include "panotrack/core/error.h"
-#include "panotrack/unwarp/unwarp.h"
+#include "panotrack/pipeline/unwarp_files.h"
 
 namespace pano::app {
 
@@ -103,9 +103,9 @@ void AddUnwarpCommand(CLI::App& app) {
     opt.yaw_deg = o->yaw;
     opt.pitch_deg = o->pitch;
     opt.fov_deg = o->fov;
-    int frames = -1;
-    const UnwarpView view = IsVideoPath(o->out) ? UnwarpVideoFile(o->calib, o->image, o->out, opt, o->force, &frames)
-                                                : UnwarpImageFile(o->calib, o->image, o->out, opt, o->force);
+    const UnwarpResult run = RunUnwarp({o->calib, o->image, o->out, opt, o->force});
+    const UnwarpView& view = run.view;
+    const int frames = run.frames;
     if (o->quiet) return;
     std::string written = o->out;
     if (frames >= 0) written += " (" + std::to_string(frames) + " frames)";

@@ -6,7 +6,7 @@
 
 #include "commands.h"
 #include "panotrack/core/error.h"
-#include "panotrack/mapping/build.h"
+#include "panotrack/pipeline/panomap.h"
 
 namespace pano::app {
 

@@ -6,7 +6,7 @@
 
 #include "commands.h"
 #include "panotrack/core/error.h"
-#include "panotrack/mapping/check.h"
+#include "panotrack/pipeline/panomap.h"
 
 namespace pano::app {
 

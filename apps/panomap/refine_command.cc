@@ -5,14 +5,8 @@
 #include <vector>
 
 #include "commands.h"
-#include "panotrack/core/error.h"
-#include "panotrack/core/output_check.h"
 #include "panotrack/core/parallel.h"
-#include "panotrack/io/calibration.h"
-#include "panotrack/io/map.h"
-#include "panotrack/io/pose_csv.h"
-#include "panotrack/mapping/refine.h"
-#include "panotrack/video/frame_source.h"
+#include "panotrack/pipeline/panomap.h"
 
 namespace pano::app {
 
@@ -80,57 +74,49 @@ CLI::Option* AddAdjustmentOptions(CLI::App* cmd, Opts* o) {
   return map_sigma_option;
 }
 
-// The adjustment's options from the command line and the inputs: without
-// --map-sigma, the survey error the map states.
-RefineOptions RefineOptionsOf(Opts* o, const Map& map, const std::vector<RefineVideo>& videos, bool map_sigma_given) {
-  RefineOptions opt;
-  if (!map_sigma_given && map.survey_sigma > 0.0) o->map_sigma = map.survey_sigma;
-  opt.map_sigma = o->map_sigma;
-  opt.pose_sigma = o->pose_sigma == "auto" ? AutoPoseSigma(videos, o->map_sigma) : std::stod(o->pose_sigma);
-  opt.reject_sigmas = o->reject_sigmas;
-  opt.min_edge_gap_px = o->edge_gap;
-  opt.radius_systematic_px = o->radius_systematic;
-  opt.free_height = o->free_height;
-  opt.fix_first_pose = o->fix_first_pose;
-  opt.hold_floor_contacts = !o->free_floor;
-  opt.passes = o->passes;
-  opt.num_threads = o->threads;
-  opt.tracking.num_threads = o->threads;
-  return opt;
+// The adjustment's options from the command line; the sigmas the job
+// settles from the inputs where they were not given.
+MapRefineJob RefineJobOf(const Opts& o, bool map_sigma_given) {
+  MapRefineJob job;
+  job.map_path = o.map;
+  job.calib_path = o.calib;
+  job.videos = o.videos;
+  job.poses = o.poses;
+  job.output = o.out;
+  job.report_csv = o.report;
+  if (map_sigma_given) job.map_sigma = o.map_sigma;
+  if (o.pose_sigma != "auto") job.pose_sigma = std::stod(o.pose_sigma);
+  RefineOptions& opt = job.options;
+  opt.map_sigma = o.map_sigma;  // without --map-sigma, unless the map states its own
+  opt.reject_sigmas = o.reject_sigmas;
+  opt.min_edge_gap_px = o.edge_gap;
+  opt.radius_systematic_px = o.radius_systematic;
+  opt.free_height = o.free_height;
+  opt.fix_first_pose = o.fix_first_pose;
+  opt.hold_floor_contacts = !o.free_floor;
+  opt.passes = o.passes;
+  opt.num_threads = o.threads;
+  opt.tracking.num_threads = o.threads;
+  job.overwrite = o.force;
+  return job;
 }
 
-// Reads the inputs, refines the map, writes the outputs and prints the table.
-void RunRefine(Opts o, bool map_sigma_given) {
+// Refines the map and prints the table.
+void RefineAndPrint(const Opts& o, bool map_sigma_given) {
   CheckThreadCount(o.threads, "--threads");
-  if (o.poses.size() != o.videos.size())
-    throw Error("--poses: " + std::to_string(o.poses.size()) + " pose CSVs for " +
-                std::to_string(o.videos.size()) + " videos (give one per video, in the same order)");
-  NamedPaths reads = {{"--map", o.map}, {"--calib", o.calib}};
-  for (const std::string& p : o.poses) reads.push_back({"--poses", p});
-  for (const std::string& v : o.videos)
-    for (const auto& read : FrameSource::InputReads(v, "VIDEO")) reads.push_back(read);
-  CheckPlannedOutputs(reads, {{"-o", o.out}, {"--report", o.report}}, o.force);
-  const Calibration calib = ReadCalibration(o.calib);
-  const Map map = ReadMap(o.map);
-  std::vector<RefineVideo> videos;
-  for (size_t i = 0; i < o.videos.size(); ++i) videos.push_back({o.videos[i], o.poses[i], ReadPoseCsv(o.poses[i])});
-  const RefineOptions opt = RefineOptionsOf(&o, map, videos, map_sigma_given);
-  const RefineResult r = RefineMap(calib, map, videos, opt);
-  WriteMap(o.out, r.map);
-  if (!o.report.empty()) WriteRefineReportCsv(o.report, r);
-  if (!o.quiet) {
-    if (o.pose_sigma == "auto") {
-      if (opt.pose_sigma > 0.0)
-        std::printf("poses: a reference trajectory (no standard deviations): positions held with sigma %g "
-                    "(--pose-sigma auto)\n",
-                    opt.pose_sigma);
-      else
-        std::printf("poses: localised (with standard deviations): no pose prior, the survey fixes the gauge "
-                    "(--pose-sigma auto)\n");
-    }
-    std::printf("%s", RefineReportTable(r, map, o.map_sigma).c_str());
-    std::printf("wrote %s\n", o.out.c_str());
+  const MapRefineRun run = RunMapRefine(RefineJobOf(o, map_sigma_given));
+  if (o.quiet) return;
+  if (o.pose_sigma == "auto") {
+    if (run.options.pose_sigma > 0.0)
+      std::printf("poses: a reference trajectory (no standard deviations): positions held with sigma %g "
+                  "(--pose-sigma auto)\n",
+                  run.options.pose_sigma);
+    else
+      std::printf("poses: localised (with standard deviations): no pose prior, the survey fixes the gauge "
+                  "(--pose-sigma auto)\n");
   }
+  std::printf("%s", RefineReportTable(run.result, run.surveyed, run.options.map_sigma).c_str());
+  std::printf("wrote %s\n", o.out.c_str());
 }
 
 }  // namespace
@@ -161,7 +147,7 @@ void AddRefineCommand(CLI::App& app) {
   cmd->add_option("-j,--jobs,--threads", o->threads, "Threads (0: every core)")->group("Run");
   cmd->add_flag("-q,--quiet", o->quiet, "No table (errors still on stderr)")->group("Run");
   cmd->add_flag("-v,--verbose", o->verbose, "Also the libraries' logs")->group("Run");
-  cmd->callback([o, map_sigma_option]() { RunRefine(*o, map_sigma_option->count() > 0); });
+  cmd->callback([o, map_sigma_option]() { RefineAndPrint(*o, map_sigma_option->count() > 0); });
 }
 
 }  // namespace pano::app

@@ -11,6 +11,9 @@
 #include "panotrack/calibrate/calibrate.h"
 #include "panotrack/core/error.h"
 #include "panotrack/io/targets.h"
+#include "panotrack/pipeline/target_input.h"
+#include "panotrack/pipeline/panocalib.h"
+#include "panotrack/pipeline/calibration_report.h"
 
 namespace pano::python {
 
@@ -94,7 +97,7 @@ void BindCalibrate(py::module_& m) {
       .def_readonly("iterations", &CalibrationResult::iterations)
       .def_readonly("seconds_detect", &CalibrationResult::seconds_detect)
       .def_readonly("seconds_fit", &CalibrationResult::seconds_fit)
-      .def("summary", &Summary, "The text summary panocalib prints")
+      .def("summary", &CalibrationSummary, "The text summary panocalib prints")
       .def(
           "write",
           [](const CalibrationResult& r, const std::filesystem::path& calibration, const std::filesystem::path& lut,
@@ -105,11 +108,7 @@ void BindCalibrate(py::module_& m) {
             out.report = report.string();
             cv::Mat report_image;
             if (!out.report.empty()) {
-              // The worst image shows the residuals best (as panocalib).
-              int worst = 0;
-              for (size_t i = 1; i < r.image_rms.size(); ++i)
-                if (r.image_rms[i] > r.image_rms[worst]) worst = static_cast<int>(i);
-              report_image = DrawReport(r, cv::Mat(), worst);
+              report_image = DrawReport(r, cv::Mat(), WorstView(r));
             }
             py::gil_scoped_release release;
             WriteCalibrationOutputs(r, out, report_image);

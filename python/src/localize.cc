@@ -138,7 +138,7 @@ class PyLocalizer {
   int next_frame() const { return next_frame_.load(); }
   const Calibration& calibration() const { return calib_; }
   const Map& map() const { return map_; }
-  std::string method() const { return tracking_method_name(options_.method); }
+  std::string method() const { return TrackingMethodName(options_.method); }
 
  private:
   py::dict ResultDict(const FrameResult& fr, bool details) const {
@@ -148,10 +148,10 @@ class PyLocalizer {
     py::dict d;
     d["frame"] = row.frame;
     d["time_s"] = row.time_s;
-    d["status"] = pose_status_name(row.status);
+    d["status"] = PoseStatusName(row.status);
     d["x"] = has_pose ? row.pose.x : kNaN;
     d["y"] = has_pose ? row.pose.y : kNaN;
-    d["theta"] = has_pose ? wrap_angle(row.pose.theta) : kNaN;
+    d["theta"] = has_pose ? WrapAngle(row.pose.theta) : kNaN;
     d["std_x"] = Extra(row, 0);
     d["std_y"] = Extra(row, 1);
     d["std_theta"] = Extra(row, 2);
@@ -328,7 +328,7 @@ py::tuple LocalizeVideoColumns(const std::string& input, const std::string& cali
     const bool lost = r.status == PoseStatus::kLost;
     frame.mutable_at(i) = r.frame;
     n_landmarks.mutable_at(i) = r.n_landmarks;
-    status[static_cast<size_t>(i)] = pose_status_name(r.status);
+    status[static_cast<size_t>(i)] = PoseStatusName(r.status);
     const double values[] = {r.time_s,   lost ? kNaN : r.pose.x,     lost ? kNaN : r.pose.y,
                              lost ? kNaN : r.pose.theta, lost ? kNaN : r.residual, Extra(r, 0),
                              Extra(r, 1), Extra(r, 2),   Extra(r, 3)};
@@ -342,7 +342,7 @@ py::tuple LocalizeVideoColumns(const std::string& input, const std::string& cali
 
   py::dict summary;
   summary["input"] = sum.input;
-  summary["end"] = video_end_name(sum.end);
+  summary["end"] = VideoEndName(sum.end);
   summary["ok"] = sum.ok;
   summary["error"] = sum.error;
   summary["frames"] = sum.frames;

@@ -123,7 +123,7 @@ void BindSensorClass(py::module_& m) {
                      "conic), with the image size. Units of length are the calibration's.")
       .def(py::init<>())
       .def_property(
-          "model", [](const Sensor& s) { return std::string(mirror_model_name(s.model)); },
+          "model", [](const Sensor& s) { return std::string(MirrorModelName(s.model)); },
           [](Sensor& s, const std::string& name) {
             s.model = ModelFromName(name);
             s.params.unified = s.model == MirrorModel::kUnified;
@@ -146,7 +146,7 @@ void BindSensorClass(py::module_& m) {
                              "Image radius (pixels) of the mirror's visible edge")
       .def(py::pickle(
           [](const Sensor& s) {
-            return py::make_tuple(std::string(mirror_model_name(s.model)), s.image_width, s.image_height,
+            return py::make_tuple(std::string(MirrorModelName(s.model)), s.image_width, s.image_height,
                                   ParamsDict(s.params));
           },
           [](const py::tuple& t) {
@@ -203,7 +203,7 @@ void BindSensorClass(py::module_& m) {
           py::arg("radius"), py::arg("height"), py::arg("num_threads") = 0,
           "Horizontal distance D with E(D, Z) = radius; broadcasts; NaN where there is none")
       .def("__repr__", [](const Sensor& s) {
-        return "<panotrack.Sensor " + std::string(mirror_model_name(s.model)) + " " +
+        return "<panotrack.Sensor " + std::string(MirrorModelName(s.model)) + " " +
                std::to_string(s.image_width) + "x" + std::to_string(s.image_height) +
                " focal_px=" + std::to_string(s.params.focal_px) + ">";
       });
@@ -228,7 +228,7 @@ void BindSensorFunctions(py::module_& m) {
       },
       py::arg("sensor"), py::arg("points"));
 
-  m.def("sphere_sensor", &make_sphere_sensor, py::arg("width"), py::arg("height"), py::arg("focal_px"),
+  m.def("sphere_sensor", &MakeSphereSensor, py::arg("width"), py::arg("height"), py::arg("focal_px"),
         py::arg("cx"), py::arg("cy"), py::arg("aspect"), py::arg("mirror_radius"), py::arg("mirror_distance"),
         py::arg("azimuth_offset") = 0.0,
         "The sphere model from its named parameters (mirror centre mirror_distance above the pinhole)");
@@ -307,7 +307,7 @@ void BindCalibration(py::module_& m) {
       .def("__copy__", [](const Calibration& c) { return c; })
       .def("__deepcopy__", [](const Calibration& c, const py::dict&) { return c; }, py::arg("memo"))
       .def("__repr__", [](const Calibration& c) {
-        return "<panotrack.Calibration " + std::string(mirror_model_name(c.sensor.model)) + " " +
+        return "<panotrack.Calibration " + std::string(MirrorModelName(c.sensor.model)) + " " +
                std::to_string(c.sensor.image_width) + "x" + std::to_string(c.sensor.image_height) + " " +
                c.units + ">";
       });

@@ -16,6 +16,8 @@
 #include "panotrack/io/calibration.h"
 #include "panotrack/io/targets.h"
 #include "panotrack/render/presets.h"
+#include "panotrack/pipeline/target_input.h"
+#include "panotrack/pipeline/panocalib.h"
 #include "rendered_targets.h"
 #include "test_paths.h"
 #include "test_skip.h"

@@ -8,6 +8,8 @@
 
 #include "panotrack/calibrate/calibrate.h"
 #include "panotrack/io/calibration.h"
+#include "panotrack/pipeline/target_input.h"
+#include "panotrack/pipeline/panocalib.h"
 #include "rendered_targets.h"
 #include "synthetic.h"
 #include "test_rng.h"
@@ -20,7 +22,7 @@ using test::Param;
 // The hyperboloid of the sensor tests without lens distortion, its profile
 // bent by the terms.
 Sensor AsphereMirror(double a4, double a6) {
-  Sensor s = make_sphere_sensor(752, 480, 300, 376, 240, 1.0, 1, 1);
+  Sensor s = MakeSphereSensor(752, 480, 300, 376, 240, 1.0, 1, 1);
   s.model = a4 == 0.0 && a6 == 0.0 ? MirrorModel::kConic : MirrorModel::kAsphere;
   s.params.curvature_radius = 2.0;
   s.params.conic_constant = -2.2;
@@ -67,7 +69,7 @@ TEST_CASE("asphere: a non-conic mirror, known poses: terms recovered, the conic 
   o.model = MirrorModel::kAsphere;
   const CalibrationResult asphere = CalibrateViews(set.views, board, 752, 480, "cm", o);
   WARN("non-conic mirror, known poses: conic RMS " << conic.rms_px << " px, asphere RMS " << asphere.rms_px
-                                                  << " px\n" << Summary(asphere));
+                                                  << " px\n" << CalibrationSummary(asphere));
   CHECK(asphere.calib.sensor.model == MirrorModel::kAsphere);
   CHECK(asphere.rms_px < 0.08);  // the noise: 0.05 px per axis, 0.071 px Euclidean
   CHECK(conic.rms_px > 4.0 * asphere.rms_px);
@@ -109,7 +111,7 @@ TEST_CASE("asphere: terms that trade with the lens are reported not determined",
   CalibrateOptions o;
   o.model = MirrorModel::kAsphere;
   const CalibrationResult r = CalibrateViews(test::WithoutPoses(set.views), board, 752, 480, "cm", o);
-  WARN("far boards, unknown poses: " << Summary(r));
+  WARN("far boards, unknown poses: " << CalibrationSummary(r));
   const ParameterEstimate* a4 = Find(r, "asphere_a4");
   REQUIRE(a4);
   bool warned = false;
@@ -133,13 +135,13 @@ TEST_CASE("asphere: rendered boards of a non-conic mirror, the asphere recovers 
   CalibrateOptions o;
   o.distortion_terms = 0;
   o.model = MirrorModel::kConic;
-  const CalibrationResult conic = Calibrate(targets, o);
+  const CalibrationResult conic = Calibrate(targets, LoadTargetImages(targets), o);
   o.model = MirrorModel::kAsphere;
-  const CalibrationResult asphere = Calibrate(targets, o);
+  const CalibrationResult asphere = Calibrate(targets, LoadTargetImages(targets), o);
   const SensorParams<double>& p = asphere.calib.sensor.params;
   WARN("rendered non-conic mirror (sphere + a4 0.02, a6 0.03), known poses: conic RMS "
        << conic.rms_px << " px (k " << conic.calib.sensor.params.conic_constant << "), asphere RMS "
-       << asphere.rms_px << " px\n" << Summary(asphere));
+       << asphere.rms_px << " px\n" << CalibrationSummary(asphere));
   CHECK(asphere.rms_px < 0.5 * conic.rms_px);
   CheckWithin(asphere, "asphere_a4", 0.02);
   CheckWithin(asphere, "asphere_a6", 0.03);

@@ -14,6 +14,7 @@
 #include "panotrack/io/calibration.h"
 #include "panotrack/io/targets.h"
 #include "panotrack/render/targets_render.h"
+#include "panotrack/pipeline/target_input.h"
 #include "synthetic.h"
 #include "test_paths.h"
 
@@ -134,7 +135,7 @@ TEST_CASE("ChArUco boards past the mirror's limb calibrate from a folder of imag
   REQUIRE(from_folder.images.size() == 10);
   CalibrateOptions o;
   o.num_threads = 2;
-  const CalibrationResult r = Calibrate(from_folder, o);
+  const CalibrationResult r = Calibrate(from_folder, LoadTargetImages(from_folder), o);
 
   // The folder gives exactly the target file's input, and so its calibration
   // (to the last digits the thread schedule leaves, as in [concurrent]).
@@ -145,7 +146,7 @@ TEST_CASE("ChArUco boards past the mirror's limb calibrate from a folder of imag
     CHECK(from_folder.images[k].resolved == from_file.images[k].resolved);
   }
   CHECK(TargetsToYaml(from_folder) == TargetsToYaml(from_file));
-  const CalibrationResult from_yaml = Calibrate(from_file, o);
+  const CalibrationResult from_yaml = Calibrate(from_file, LoadTargetImages(from_file), o);
   REQUIRE(from_yaml.parameters.size() == r.parameters.size());
   for (size_t k = 0; k < r.parameters.size(); ++k)
     CHECK(from_yaml.parameters[k].value == Approx(r.parameters[k].value).epsilon(1e-9));

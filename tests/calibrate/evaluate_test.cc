@@ -15,6 +15,7 @@
 #include "panotrack/calibrate/evaluate.h"
 #include "panotrack/io/calibration.h"
 #include "panotrack/io/targets.h"
+#include "panotrack/pipeline/target_input.h"
 #include "rendered_targets.h"
 #include "test_paths.h"
 #include "test_rng.h"

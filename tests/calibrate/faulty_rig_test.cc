@@ -10,6 +10,7 @@
 #include "panotrack/core/error.h"
 #include "panotrack/io/targets.h"
 #include "panotrack/render/presets.h"
+#include "panotrack/pipeline/target_input.h"
 #include "rendered_targets.h"
 
 namespace pano {
@@ -23,8 +24,8 @@ using test::RenderTargets;
 Eigen::Vector3d SphereCentreInCamera(const Sensor& s) {
   const double pm[3] = {s.faults.mirror_offset[0], s.faults.mirror_offset[1], s.mirror_distance()};
   double R[9], pc[3];
-  detail::tilt_rotation(s.faults.camera_tilt, R);
-  detail::rotate_transposed(R, pm, pc);
+  detail::TiltRotation(s.faults.camera_tilt, R);
+  detail::RotateTransposed(R, pm, pc);
   return {pc[0], pc[1], pc[2]};
 }
 
@@ -49,7 +50,7 @@ TEST_CASE("faulty rig, rendered boards, unknown poses: faults recovered", "[faul
   CalibrateOptions o;
   o.free_faults_auto = true;  // the sphere's: decentre
   o.distortion_terms = 2;     // the preset's lens has k1, k2
-  const CalibrationResult r = Calibrate(targets, o);
+  const CalibrationResult r = Calibrate(targets, LoadTargetImages(targets), o);
   const Sensor& s = r.calib.sensor;
   const Eigen::Vector3d centre = SphereCentreInCamera(s), centre_truth = SphereCentreInCamera(truth.sensor);
   const double decentre_error = (centre - centre_truth).head<2>().norm();
@@ -92,7 +93,7 @@ TEST_CASE("faulty rig, rendered boards, known poses: decentre and tilt recovered
   o.distortion_terms = 2;
   o.free_faults_auto = false;
   o.free_faults = ParseFreeFaults("decentre,sensor-tilt", MirrorModel::kSphere);
-  const CalibrationResult r = Calibrate(targets, o);
+  const CalibrationResult r = Calibrate(targets, LoadTargetImages(targets), o);
   const Sensor& s = r.calib.sensor;
   const Eigen::Vector3d centre = SphereCentreInCamera(s), centre_truth = SphereCentreInCamera(truth.sensor);
   const double decentre_error = (centre - centre_truth).head<2>().norm();

@@ -17,6 +17,7 @@
 #include "panotrack/calibrate/calibrate.h"
 #include "panotrack/calibrate/corner_weights.h"
 #include "panotrack/io/calibration.h"
+#include "panotrack/pipeline/panocalib.h"
 #include "sensor/sensor_models.h"
 #include "synthetic.h"
 #include "test_paths.h"
@@ -221,7 +222,7 @@ TEST_CASE("conic: a hyperboloid with lens distortion, known and unknown poses", 
     REQUIRE(set.views.size() == 12);
     o.distortion_terms = 0;
     const CalibrationResult r = CalibrateViews(set.views, board, 752, 480, "cm", o);
-    WARN("conic known poses: " << Summary(r));
+    WARN("conic known poses: " << CalibrationSummary(r));
     CHECK(r.rms_px < 0.1);
     // The focal length's standard deviation is about 2 % here: a fixed 1 %
     // bound holds only for lucky draws of the noise.
@@ -254,7 +255,7 @@ TEST_CASE("conic: a hyperboloid with lens distortion, known and unknown poses", 
     const auto set = test::MakeSyntheticSet(truth, board, 12, 10.0, 30.0, -20.0, 15.0, 0.05, rng);
     REQUIRE(set.views.size() == 12);
     const CalibrationResult r = CalibrateViews(test::WithoutPoses(set.views), board, 752, 480, "cm", o);
-    WARN("conic unknown poses: " << Summary(r));
+    WARN("conic unknown poses: " << CalibrationSummary(r));
     CHECK(r.rms_px < 0.1);
     CHECK(Param(r, "cx") == Approx(376).margin(0.5));
     CHECK(Param(r, "cy") == Approx(240).margin(0.5));

@@ -12,6 +12,7 @@
 #include "expect_error.h"
 #include "panotrack/calibrate/calibrate.h"
 #include "panotrack/io/targets.h"
+#include "panotrack/pipeline/target_input.h"
 #include "test_paths.h"
 #include "test_skip.h"
 

@@ -16,6 +16,9 @@
 #include "panotrack/io/calibration.h"
 #include "panotrack/io/targets.h"
 #include "panotrack/lut/radius_table.h"
+#include "panotrack/pipeline/target_input.h"
+#include "panotrack/pipeline/panocalib.h"
+#include "panotrack/pipeline/calibration_report.h"
 #include "synthetic.h"
 #include "test_paths.h"
 #include "test_rng.h"
@@ -53,7 +56,7 @@ TEST_CASE("bad input: clear errors, non-zero exit, no calibration written", "[ba
     INFO(targets << ": expecting an error with '" << words << "'");
     try {
       const TargetSet t = ReadTargets(targets);
-      Calibrate(t, CalibrateOptions());
+      Calibrate(t, LoadTargetImages(t), CalibrateOptions());
       FAIL("no error");
     } catch (const Error& e) {
       INFO("message: " << e.what());
@@ -173,7 +176,7 @@ TEST_CASE("outputs: calibration YAML with standard deviations, LUT, report", "[o
   const RadiusTable t = RadiusTable::Load(c.lut_resolved, &c.sensor);
   CHECK_FALSE(t.empty());
   CHECK_FALSE(cv::imread(out.report).empty());
-  const std::string text = Summary(r);
+  const std::string text = CalibrationSummary(r);
   CHECK(text.find("focal_px") != std::string::npos);
   CHECK(text.find("RMS reprojection error") != std::string::npos);
   // A failure while preparing (an unwritable report) writes nothing.

@@ -8,6 +8,8 @@
 #include "panotrack/calibrate/limb.h"
 #include "panotrack/io/targets.h"
 #include "panotrack/render/presets.h"
+#include "panotrack/pipeline/target_input.h"
+#include "panotrack/pipeline/panocalib.h"
 #include "rendered_targets.h"
 
 namespace pano {
@@ -81,12 +83,12 @@ TEST_CASE("limb fitted with the corners on request", "[limb]") {
   o.distortion_terms = 2;
   o.num_threads = 2;
   o.use_limb = true;
-  const CalibrationResult r = Calibrate(targets, o);
+  const CalibrationResult r = Calibrate(targets, LoadTargetImages(targets), o);
   REQUIRE_FALSE(r.limb.Empty());
   CHECK(r.limb.points.size() >= 350);
   CHECK(r.limb_rms_px < 0.1);  // measured 0.069 px
   CHECK(r.rms_px < 0.12);      // measured 0.084 px
-  CHECK(Summary(r).find("mirror limb: ") != std::string::npos);
+  CHECK(CalibrationSummary(r).find("mirror limb: ") != std::string::npos);
 }
 
 }  // namespace

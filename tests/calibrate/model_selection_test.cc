@@ -12,6 +12,7 @@
 #include "panotrack/calibrate/calibrate.h"
 #include "panotrack/calibrate/model_selection.h"
 #include "panotrack/io/calibration.h"
+#include "panotrack/pipeline/target_input.h"
 #include "rendered_targets.h"
 #include "test_paths.h"
 
@@ -34,7 +35,7 @@ CalibrationResult CalibrateAuto(const std::string& name, const Calibration& trut
   o.select_model = true;
   if (lens_given) o.distortion_terms = 0;
   o.num_threads = 2;
-  const CalibrationResult r = Calibrate(targets, o);
+  const CalibrationResult r = Calibrate(targets, LoadTargetImages(targets), o);
   WARN(ModelSelectionTable(r.model_scores, r.model_chosen) << "chosen: " << r.model_reason);
   REQUIRE(r.model_scores.size() == (lens_given ? 7u : 9u));
   REQUIRE(r.model_chosen >= 0);
@@ -114,10 +115,11 @@ TEST_CASE("model selection: too few boards to hold any out", "[model_selection]"
   const TargetSet targets = ReadTargets(test::RenderTargets("model_selection_few", truth, 3, 5) + "/targets.yaml");
   CalibrateOptions o;
   o.select_model = true;
-  test::ExpectError([&] { Calibrate(targets, o); }, "model selection", {"3 boards found", "needs 4 at least"});
+  test::ExpectError([&] { Calibrate(targets, LoadTargetImages(targets), o); }, "model selection",
+                    {"3 boards found", "needs 4 at least"});
   // As `panocalib calibrate`'s default: the sphere fitted, and said so.
   o.selection_fallback = true;
-  const CalibrationResult r = Calibrate(targets, o);
+  const CalibrationResult r = Calibrate(targets, LoadTargetImages(targets), o);
   CHECK(r.calib.sensor.model == MirrorModel::kSphere);
   CHECK(r.model_scores.empty());
   CHECK(r.model_chosen == -1);

@@ -11,6 +11,8 @@
 #include "panotrack/calibrate/calibrate.h"
 #include "panotrack/calibrate/omnidir_peer.h"
 #include "panotrack/io/targets.h"
+#include "panotrack/pipeline/target_input.h"
+#include "panotrack/pipeline/panocalib.h"
 #include "test_paths.h"
 #include "test_skip.h"
 
@@ -29,7 +31,7 @@ TEST_CASE("real miniomni images: board in at least 14 of 15, the conic fits bett
   CalibrateOptions conic;
   conic.model = MirrorModel::kConic;
   const CalibrationResult full = Calibrate(t, images, conic);
-  WARN("miniomni, whole pipeline: " << Summary(full));
+  WARN("miniomni, whole pipeline: " << CalibrationSummary(full));
   CHECK(full.views.size() >= 14);
   CHECK(full.rms_px < 0.43);  // measured 0.415 px (docs/calibration.md)
 

@@ -15,6 +15,7 @@
 #include "panotrack/calibrate/refit.h"
 #include "panotrack/io/calibration.h"
 #include "panotrack/io/targets.h"
+#include "panotrack/pipeline/target_input.h"
 #include "rendered_targets.h"
 #include "synthetic.h"
 #include "test_paths.h"

@@ -7,6 +7,7 @@
 #include "panotrack/calibrate/calibrate.h"
 #include "panotrack/io/calibration.h"
 #include "panotrack/io/targets.h"
+#include "panotrack/pipeline/target_input.h"
 #include "rendered_targets.h"
 #include "test_paths.h"
 
@@ -52,7 +53,7 @@ TEST_CASE("rendered boards, unknown poses: parameters near the truth", "[rendere
   const TargetSet targets =
       ReadTargets(RenderTargets("calibrate_rendered_unknown", truth, 12, 3) + "/targets_unknown.yaml");
   REQUIRE_FALSE(targets.AllPosesKnown());
-  const CalibrationResult r = Calibrate(targets, CalibrateOptions());
+  const CalibrationResult r = Calibrate(targets, LoadTargetImages(targets), CalibrateOptions());
   const SensorParams<double>& p = r.calib.sensor.params;
   const double focal = p.focal_px / truth.sensor.params.focal_px - 1.0;
   const double radius = r.calib.sensor.mirror_radius() / truth.sensor.mirror_radius() - 1.0;

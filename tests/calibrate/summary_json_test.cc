@@ -8,9 +8,10 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "panotrack/calibrate/summary_json.h"
+#include "panotrack/pipeline/calibration_json.h"
 #include "panotrack/config.h"
 #include "panotrack/io/calibration.h"
+#include "panotrack/pipeline/panocalib.h"
 #include "synthetic.h"
 #include "test_paths.h"
 #include "test_rng.h"

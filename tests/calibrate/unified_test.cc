@@ -12,6 +12,7 @@
 #include "panotrack/calibrate/model_selection.h"
 #include "panotrack/io/calibration.h"
 #include "panotrack/lut/radius_table.h"
+#include "panotrack/pipeline/panocalib.h"
 #include "sensor/sensor_models.h"
 #include "synthetic.h"
 #include "test_paths.h"
@@ -68,7 +69,7 @@ TEST_CASE("unified: fitted to boards of a unified camera, unknown poses", "[unif
   CalibrateOptions o;
   o.model = MirrorModel::kUnified;
   const CalibrationResult r = CalibrateViews(test::WithoutPoses(set.views), set.board, 1280, 1024, "cm", o);
-  WARN("unified, unknown poses: " << Summary(r));
+  WARN("unified, unknown poses: " << CalibrationSummary(r));
   CHECK(r.calib.sensor.model == MirrorModel::kUnified);
   CHECK(r.rms_px < 0.16);  // 0.1 px of noise per axis: about 0.14 px Euclidean
   // Measured (seed 71): xi 1.19, f 178.8 px; xi and f trade along one

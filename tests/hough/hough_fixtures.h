@@ -17,11 +17,11 @@
 namespace pano::test {
 
 inline Sensor PaperSyntheticSensor() {
-  return make_sphere_sensor(500, 500, 590.0, 249.5, 249.5, 1.0, 4.9, 15.1);
+  return MakeSphereSensor(500, 500, 590.0, 249.5, 249.5, 1.0, 4.9, 15.1);
 }
 // Non-square pixels, shifted centre, camera turned about its axis.
 inline Sensor TurnedSensor() {
-  return make_sphere_sensor(500, 480, 590.0, 251.0, 238.5, 0.95, 4.9, 15.1, 0.3);
+  return MakeSphereSensor(500, 480, 590.0, 251.0, 238.5, 0.95, 4.9, 15.1, 0.3);
 }
 
 // Heights -35..95 cover a room 120 high seen from a pinhole 30 above the floor.

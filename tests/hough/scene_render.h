@@ -11,6 +11,7 @@
 #include <limits>
 #include <vector>
 
+#include "panotrack/pose/pose2.h"
 #include "panotrack/sensor/sensor.h"
 
 namespace pano::test {
@@ -121,8 +122,8 @@ inline cv::Mat RenderRoom(const Sensor& sensor, const RoomScene& s, int ss = 2) 
           Eigen::Vector3d o, d;
           ++n;
           if (!sensor.backproject(px, &o, &d)) continue;
-          const Eigen::Vector3d ow = world_from_sensor(s.pose, s.sensor_height, o);
-          const Eigen::Vector3d dw = world_direction(s.pose, d);
+          const Eigen::Vector3d ow = WorldFromSensor(s.pose, s.sensor_height, o);
+          const Eigen::Vector3d dw = WorldDirection(s.pose, d);
           sum += TraceShade(s, ow, dw);
         }
       img.at<uint8_t>(v, u) = static_cast<uint8_t>(std::lround(255.0 * sum / n));

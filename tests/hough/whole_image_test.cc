@@ -37,7 +37,7 @@ VisibleEdge Visible(const Sensor& s, const test::RoomScene& scene, const Eigen::
   for (int k = 0; k <= 800; ++k) {
     const Eigen::Vector3d pw = a + (b - a) * (k / 800.0);
     Eigen::Vector2d px;
-    bool ok = s.project(sensor_from_world(scene.pose, scene.sensor_height, pw), &px) &&
+    bool ok = s.project(SensorFromWorld(scene.pose, scene.sensor_height, pw), &px) &&
               s.inside_image(px, 2.0);
     double r = 0, az = 0;
     if (ok) {
@@ -130,7 +130,7 @@ TEST_CASE("whole-image mode finds every horizontal edge longer than 20 px", "[wh
   for (const auto& xy : verticals) {
     // Visible extent of the vertical edge (the rectangles' from z0 to z1 are
     // approximated by the room height: only the bearing is compared).
-    const Eigen::Vector3d ps = sensor_from_world(scene.pose, scene.sensor_height, {xy.x(), xy.y(), 0.0});
+    const Eigen::Vector3d ps = SensorFromWorld(scene.pose, scene.sensor_height, {xy.x(), xy.y(), 0.0});
     const double az = f.sensor.image_azimuth(std::atan2(ps.y(), ps.x()));
     ++n_vert;
     bool hit = false;

@@ -14,7 +14,7 @@ namespace {
 Calibration ConicCalibration() {
   Calibration c;
   Sensor& s = c.sensor;
-  s = make_sphere_sensor(752, 480, 300, 376, 240, 1.0, 1, 1);
+  s = MakeSphereSensor(752, 480, 300, 376, 240, 1.0, 1, 1);
   s.model = MirrorModel::kConic;
   s.params.curvature_radius = 2.0;
   s.params.conic_constant = -2.2;

@@ -191,11 +191,11 @@ TEST_CASE("pose CSV: a row's text is printf's (%.6f, %.4f, %.6g), whatever the v
   auto printf_row = [](const PoseRow& r) {
     char buf[1024];
     if (r.status == PoseStatus::kLost)
-      std::snprintf(buf, sizeof buf, "%d,%.6f,,,,%s,%d,", r.frame, r.time_s, pose_status_name(r.status),
+      std::snprintf(buf, sizeof buf, "%d,%.6f,,,,%s,%d,", r.frame, r.time_s, PoseStatusName(r.status),
                     r.n_landmarks);
     else
       std::snprintf(buf, sizeof buf, "%d,%.6f,%.4f,%.4f,%.6f,%s,%d,%.4f", r.frame, r.time_s, r.pose.x, r.pose.y,
-                    wrap_angle(r.pose.theta), pose_status_name(r.status), r.n_landmarks, r.residual);
+                    WrapAngle(r.pose.theta), PoseStatusName(r.status), r.n_landmarks, r.residual);
     std::string s = buf;
     for (double e : r.extra) {
       s += ',';

@@ -72,7 +72,7 @@ std::vector<OdometrySample> Circle() {
   std::vector<OdometrySample> s;
   for (int k = 0; k <= 300; ++k) {
     const double t = k / 10.0, a = 0.25 * t;
-    s.push_back({t, {2 * std::cos(a), 2 * std::sin(a), wrap_angle(a + M_PI / 2)}});
+    s.push_back({t, {2 * std::cos(a), 2 * std::sin(a), WrapAngle(a + M_PI / 2)}});
   }
   return s;
 }
@@ -113,11 +113,11 @@ TEST_CASE("odometry increments: known paths, unwrapped turns, noise that adds up
   const Pose2 mid = OdometryPoseAt(line, 0.25);
   CHECK(mid.x == 0.25);
   CHECK(mid.y == -0.5);
-  CHECK(mid.theta == Approx(wrap_angle(3.0 + 0.25 * (2 * M_PI - 6.0))).epsilon(1e-15));
+  CHECK(mid.theta == Approx(WrapAngle(3.0 + 0.25 * (2 * M_PI - 6.0))).epsilon(1e-15));
   const OdometryIncrement across = Between(line, 0.5, 1.5, options);
   CHECK(across.dtheta == Approx(0.5 * (2 * M_PI - 6.0)).epsilon(1e-13));
   // (1, -2) seen from a robot heading at 3.0 + 0.1416 (about pi): behind it, to its left.
-  const double h0 = wrap_angle(3.0 + 0.5 * (2 * M_PI - 6.0));
+  const double h0 = WrapAngle(3.0 + 0.5 * (2 * M_PI - 6.0));
   CHECK(across.dx == Approx(std::cos(h0) * 1 + std::sin(h0) * -2).epsilon(1e-14));
   CHECK(across.dy == Approx(-std::sin(h0) * 1 + std::cos(h0) * -2).epsilon(1e-14));
 

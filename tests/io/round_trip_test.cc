@@ -250,7 +250,7 @@ TEST_CASE("strings that YAML would misread are quoted; numbers stay plain", "[qu
   c.sensor.image_width = c.sensor.image_height = 500;
   c.sensor.params.focal_px = 590.0;
   c.sensor.params.cx = c.sensor.params.cy = 249.5;
-  set_sphere_mirror(&c.sensor.params, 4.9, 15.1);
+  SetSphereMirror(&c.sensor.params, 4.9, 15.1);
   c.units = "mm: really";
   c.lut = "tables/sensor #1.lut";
   c.extras["rms: px"] = 0.25;
@@ -327,7 +327,7 @@ Calibration RandomCalibration(Nasty& g) {
       const double radius = g.Positive();
       const double distance = radius + g.Positive();
       if (!(distance > radius)) continue;
-      set_sphere_mirror(&p, radius, distance);
+      SetSphereMirror(&p, radius, distance);
     } else {
       p.curvature_radius = g.Positive();
       p.conic_constant = g.Any();

@@ -13,7 +13,7 @@ namespace pano {
 namespace {
 
 Sensor AsphereSensor(double a4, double a6) {
-  Sensor s = make_sphere_sensor(640, 480, 590, 319.5, 239.5, 1.0, 4.9, 15.1);
+  Sensor s = MakeSphereSensor(640, 480, 590, 319.5, 239.5, 1.0, 4.9, 15.1);
   s.model = MirrorModel::kAsphere;
   s.params.asphere_a4 = a4;
   s.params.asphere_a6 = a6;

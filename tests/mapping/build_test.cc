@@ -1,7 +1,7 @@
 // Growing a map from video: a rendered run with only four seed rectangles
 // recovers the removed ones; bad inputs fail with one line, non-zero exit
 // and nothing written.
-#include "panotrack/mapping/build.h"
+#include "panotrack/pipeline/panomap.h"
 
 #include <algorithm>
 #include <catch2/catch.hpp>

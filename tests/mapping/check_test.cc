@@ -14,7 +14,7 @@
 
 #include "expect_error.h"
 #include "panotrack/io/map.h"
-#include "panotrack/mapping/check.h"
+#include "panotrack/pipeline/panomap.h"
 #include "panotrack/render/presets.h"
 #include "panotrack/render/sequence.h"
 #include "panotrack/render/writers.h"

@@ -11,10 +11,12 @@
 #include <string>
 
 #include "expect_error.h"
+#include "panotrack/core/atomic_file.h"
 #include "panotrack/io/map.h"
 #include "panotrack/io/pose_csv.h"
 #include "panotrack/lut/radius_table.h"
 #include "panotrack/mapping/refine.h"
+#include "panotrack/pipeline/panomap.h"
 #include "panotrack/render/presets.h"
 #include "panotrack/render/sequence.h"
 #include "panotrack/render/writers.h"
@@ -70,7 +72,7 @@ Projections Project(const MapCase& m, std::mt19937_64& rng) {
   for (size_t i = 0; i < m.c.poses.size(); i += 5) {
     const Pose2& truth = m.c.poses[i];
     for (const PredictedLandmark& l : PredictLandmarks(landmarks, m.truth, scene, sensor, table, truth, {})) {
-      const Eigen::Vector3d s = sensor_from_world(truth, m.truth.sensor_height, l.landmark->corner);
+      const Eigen::Vector3d s = SensorFromWorld(truth, m.truth.sensor_height, l.landmark->corner);
       double radius = 0.0;
       REQUIRE(sensor.image_radius(std::hypot(s.x(), s.y()), s.z(), &radius));
       p.obs.push_back({static_cast<int>(p.starts.size()), l.index,
@@ -406,6 +408,47 @@ TEST_CASE("bad inputs fail with one line naming the file", "[refine_bad_input]")
                                                   " -o " + dir + "/out.yaml --pose-sigma often");
   CHECK(sigma.code == 1);
   CHECK(sigma.out.find("--pose-sigma: expected auto or a number of 0 or more, got 'often'") != std::string::npos);
+}
+
+TEST_CASE("refine job: the map's own sigma, the refined map and report written, the survey kept",
+          "[refine_job]") {
+  SequenceCase c;
+  const std::string dir = RenderShort("paper-synthetic-map-error", 10, 8, &c);
+  const std::string map_before = ReadFile(dir + "/map.yaml");
+  const Map surveyed = ReadMap(dir + "/map.yaml");
+  REQUIRE(surveyed.survey_sigma > 0.0);
+  MapRefineJob job;
+  job.map_path = dir + "/map.yaml";
+  job.calib_path = dir + "/calib.yaml";
+  job.videos = {dir + "/frames/frame_%04d.png"};
+  job.poses = {dir + "/gt.csv"};
+  job.output = dir + "/refined.yaml";
+  job.report_csv = dir + "/refined.csv";
+  job.options.num_threads = job.options.tracking.num_threads = 2;
+  const MapRefineRun run = RunMapRefine(job);
+  // No --map-sigma: the map's statement; gt.csv is a reference trajectory
+  // (no standard deviations), so its positions are held (AutoPoseSigma).
+  CHECK(run.options.map_sigma == surveyed.survey_sigma);
+  CHECK(run.options.pose_sigma > 0.0);
+  CHECK(run.result.frames_used >= 7);  // measured 7 of the 8
+  CHECK(CornerRms(ReadMap(job.output), run.result.map) < 1e-4);  // as written: 4 decimals
+  CHECK(std::ifstream(job.report_csv).good());
+  CHECK(ReadFile(job.map_path) == map_before);
+
+  // Given sigmas are used as given.
+  job.map_sigma = 2.5;
+  job.pose_sigma = 0.0;
+  job.overwrite = true;
+  const MapRefineRun given = RunMapRefine(job);
+  CHECK(given.options.map_sigma == 2.5);
+  CHECK(given.options.pose_sigma == 0.0);
+
+  // One pose CSV per video, and the outputs kept unless overwriting.
+  job.poses.clear();
+  test::ExpectError([&] { RunMapRefine(job); }, "--poses", {"0 pose CSVs for 1 videos"});
+  job.poses = {dir + "/gt.csv"};
+  job.overwrite = false;
+  test::ExpectError([&] { RunMapRefine(job); }, job.output, {"exists"});
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "panotrack/pipeline/panoloc.h"
+#include "panotrack/pose/pose2.h"
 #include "panotrack/pose/pose_row.h"
 #include "panotrack/sensor/sensor.h"
 

@@ -259,7 +259,7 @@ TEST_CASE("tracking in the decoder's gaps: the same rows, the thread's normal pr
   // More than one thread per frame is refused: threads it started while idle
   // would keep the idle priority.
   run.localizer.num_threads = 2;
-  CHECK_FALSE(LocalizeVideo(job, res, run).ok);
+  CHECK_THROWS_AS(LocalizeVideo(job, res, run), Error);
 }
 
 // Whether this system lets a thread take SCHED_IDLE (a sandbox may refuse).

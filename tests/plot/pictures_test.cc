@@ -11,6 +11,7 @@
 #include "panotrack/io/calibration.h"
 #include "panotrack/pipeline/debug_draw.h"
 #include "panotrack/pipeline/plot.h"
+#include "panotrack/pipeline/calibration_report.h"
 #include "test_paths.h"
 
 namespace pano {

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "panotrack/core/angles.h"
+#include "panotrack/pose/pose2.h"
 #include "panotrack/pose/triangulate.h"
 
 namespace pano::test {
@@ -14,7 +15,7 @@ inline std::vector<BearingObservation> Observe(const Pose2& pose, const std::vec
   for (size_t i = 0; i < lms.size(); ++i) {
     BearingObservation o;
     o.landmark = lms[i];
-    o.bearing = wrap_angle(std::atan2(lms[i].y() - pose.y, lms[i].x() - pose.x) - pose.theta);
+    o.bearing = WrapAngle(std::atan2(lms[i].y() - pose.y, lms[i].x() - pose.x) - pose.theta);
     o.id = static_cast<int>(i);
     obs.push_back(o);
   }

@@ -24,7 +24,7 @@ constexpr double kDeg = M_PI / 180;
 using test::Observe;
 
 double PositionError(const Pose2& a, const Pose2& b) { return std::hypot(a.x - b.x, a.y - b.y); }
-double HeadingError(const Pose2& a, const Pose2& b) { return std::abs(wrap_angle(a.theta - b.theta)); }
+double HeadingError(const Pose2& a, const Pose2& b) { return std::abs(WrapAngle(a.theta - b.theta)); }
 
 // Random landmarks in a 200 x 200 room, at least 10 units from the camera.
 std::vector<Eigen::Vector2d> RandomLandmarks(std::mt19937_64& rng, const Pose2& pose, int n) {
@@ -112,7 +112,7 @@ TEST_CASE("the resection in float is exact to float precision", "[minimal]") {
   REQUIRE(SolvePoseFrom3BearingsT<float>(l, b, &p, 1e-5f) == 1);
   const float feps = std::numeric_limits<float>::epsilon();
   CHECK(std::hypot(p.x() - 100.0, p.y() - 80.0) < 1000 * feps * 200);
-  CHECK(std::abs(wrap_angle(p.z() - 2.0)) < 1000 * feps);
+  CHECK(std::abs(WrapAngle(p.z() - 2.0)) < 1000 * feps);
 }
 
 TEST_CASE("two bearings and a known heading give the exact position", "[minimal]") {
@@ -154,7 +154,7 @@ TEST_CASE("degenerate minimal configurations give no solution", "[minimal_degene
   // with every landmark in front.
   auto reversed = Observe(on_line, {{20, 180}, {180, 150}, {120, 10}});
   REQUIRE(SolvePoseFrom3Bearings(reversed.data()).size() == 1);
-  reversed[1].bearing = wrap_angle(reversed[1].bearing + M_PI);
+  reversed[1].bearing = WrapAngle(reversed[1].bearing + M_PI);
   CHECK(SolvePoseFrom3Bearings(reversed.data()).empty());
   // Two bearings: parallel lines, or a landmark behind.
   Pose2 pose;
@@ -200,7 +200,7 @@ std::vector<int> Corrupt(std::mt19937_64& rng, double sigma, int outliers,
   while (static_cast<int>(bad.size()) < outliers) {
     const int i = static_cast<int>(rng() % obs->size());
     if (std::find(bad.begin(), bad.end(), i) != bad.end()) continue;
-    (*obs)[i].bearing = wrap_angle((*obs)[i].bearing + (rng() % 2 ? 1 : -1) * gross(rng));
+    (*obs)[i].bearing = WrapAngle((*obs)[i].bearing + (rng() % 2 ? 1 : -1) * gross(rng));
     bad.push_back(i);
   }
   std::sort(bad.begin(), bad.end());

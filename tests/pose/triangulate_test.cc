@@ -34,7 +34,7 @@ TEST_CASE("noise-free bearings give the exact pose", "[exact]") {
     REQUIRE(r.ok);
     CHECK(std::abs(r.pose.x - truth.x) < kPositionTol);
     CHECK(std::abs(r.pose.y - truth.y) < kPositionTol);
-    CHECK(std::abs(wrap_angle(r.pose.theta - truth.theta)) < kHeadingTol);
+    CHECK(std::abs(WrapAngle(r.pose.theta - truth.theta)) < kHeadingTol);
     CHECK(r.residual < kPositionTol);
     CHECK(r.inliers.size() == kLandmarks.size());
     // The paper's solve alone (Eqns 1-2) is exact too.
@@ -71,7 +71,7 @@ TEST_CASE("noisy bearings: the error spread matches the first-order prediction",
     const TriangulationResult r = Triangulate(obs, truth, opt);
     REQUIRE(r.ok);
     const Eigen::Vector3d e(r.pose.x - truth.x, r.pose.y - truth.y,
-                            wrap_angle(r.pose.theta - truth.theta));
+                            WrapAngle(r.pose.theta - truth.theta));
     mean += e;
     scatter += e * e.transpose();
     predicted += r.covariance;

@@ -79,7 +79,7 @@ TEST_CASE("a blurred frame is the mean of the sharp renders at the sub-frame pos
   CHECK(mean.x == Approx(poses[1].x).margin(1e-9));
   CHECK(mean.y == Approx(poses[1].y).margin(1e-9));
   CHECK(mean.theta == Approx(poses[1].theta).margin(1e-9));
-  CHECK(std::abs(wrap_angle(subs.back().theta - subs.front().theta)) ==
+  CHECK(std::abs(WrapAngle(subs.back().theta - subs.front().theta)) ==
         Approx(0.5 * 5.0 * M_PI / 180.0 * (k - 1) / k).margin(1e-9));
   cv::Mat sum(c.calib.sensor.image_height, c.calib.sensor.image_width, CV_64FC1, cv::Scalar(0));
   for (size_t s = 0; s < subs.size(); ++s) {
@@ -107,7 +107,7 @@ TEST_CASE("sub-frame poses: shortest arc, ends and kidnaps extrapolated from one
   // Across +-pi along the shortest arc (0.083 rad per frame).
   const Pose2 a = PoseAtOffset(poses, 1, -0.5, kidnaps);
   CHECK(a.x == Approx(11.0));
-  CHECK(wrap_angle(a.theta - (-3.1)) == Approx(-0.5 * wrap_angle(-3.1 - 3.1)));
+  CHECK(WrapAngle(a.theta - (-3.1)) == Approx(-0.5 * WrapAngle(-3.1 - 3.1)));
   // Frame 1 has no next neighbour (the kidnap): its motion comes from frame 0.
   const Pose2 b = PoseAtOffset(poses, 1, 0.5, kidnaps);
   CHECK(b.x == Approx(13.0));
@@ -173,7 +173,7 @@ TEST_CASE("texture is fixed to the world: a floor point keeps its shade from two
       bool ok = true;
       for (int k = 0; k < 2 && ok; ++k) {
         Eigen::Vector2d px;
-        ok = c.calib.sensor.project(sensor_from_world(poses[k], c.map.sensor_height, w), &px) &&
+        ok = c.calib.sensor.project(SensorFromWorld(poses[k], c.map.sensor_height, w), &px) &&
              c.calib.sensor.inside_image(px, 2.0);
         // The ratio is smooth: interpolated between pixel centres (integer coordinates).
         if (ok) seen[k] = Bilinear(ratio[k], px);
@@ -303,7 +303,7 @@ TEST_CASE("the presets of real conditions: frames, speeds, turns and kidnaps", "
   CHECK(ft.options.exposure == 0.0);
   double max_turn = 0, min_step = 1e9, max_step = 0;
   for (size_t i = 1; i < ft.poses.size(); ++i) {
-    max_turn = std::max(max_turn, std::abs(wrap_angle(ft.poses[i].theta - ft.poses[i - 1].theta)));
+    max_turn = std::max(max_turn, std::abs(WrapAngle(ft.poses[i].theta - ft.poses[i - 1].theta)));
     const double step = std::hypot(ft.poses[i].x - ft.poses[i - 1].x, ft.poses[i].y - ft.poses[i - 1].y);
     min_step = std::min(min_step, step);
     max_step = std::max(max_step, step);
@@ -347,7 +347,7 @@ TEST_CASE("the presets of real conditions: frames, speeds, turns and kidnaps", "
     CHECK(lr.options.exposure == (name == "long-run" ? 0.0 : 0.5));
     double turn = 0, step = 0;
     for (size_t i = 1; i < lr.poses.size(); ++i) {
-      const double dt = std::abs(wrap_angle(lr.poses[i].theta - lr.poses[i - 1].theta));
+      const double dt = std::abs(WrapAngle(lr.poses[i].theta - lr.poses[i - 1].theta));
       const double ds = std::hypot(lr.poses[i].x - lr.poses[i - 1].x, lr.poses[i].y - lr.poses[i - 1].y);
       if (i == 1000 || i == 2000) {
         CHECK(ds > 40.0);

@@ -70,8 +70,8 @@ TEST_CASE("the tracer of a rig with faults sees what the general model's rays me
           CHECK(ids.at<int>(v, u) == -1);
           continue;
         }
-        const Eigen::Vector3d ow = world_from_sensor(pose, c.map.sensor_height, o);
-        const Eigen::Vector3d dw = world_direction(pose, d);
+        const Eigen::Vector3d ow = WorldFromSensor(pose, c.map.sensor_height, o);
+        const Eigen::Vector3d dw = WorldDirection(pose, d);
         const RayHit h = scene.Intersect(ow, dw);
         ++compared;
         if (h.surface >= 0) ++seen;

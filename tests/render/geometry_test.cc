@@ -108,7 +108,7 @@ void MeasureCase(const SequenceCase& c, const std::vector<int>& frames, EdgeStat
       const Eigen::Vector3d vdir(0, 0, (k <= 1) ? 1.0 : -1.0);
       const double hlen = hdir.norm(), vlen = rect->z1 - rect->z0;
       auto project = [&](const Eigen::Vector3d& w, Eigen::Vector2d* px) {
-        return s.project(sensor_from_world(pose, c.map.sensor_height, w), px);
+        return s.project(SensorFromWorld(pose, c.map.sensor_height, w), px);
       };
       // A point on each edge about 6 px from the corner in the image.
       auto along = [&](const Eigen::Vector3d& unit, double len, Eigen::Vector2d* px) {

@@ -96,14 +96,14 @@ TEST_CASE("presets: sizes, sensors, and at least 4 spread corners in view in eve
   const Pose2 before = kid.poses[static_cast<size_t>(kid.kidnap_frames[0] - 1)];
   const Pose2 after = kid.poses[static_cast<size_t>(kid.kidnap_frames[0])];
   CHECK(std::hypot(after.x - before.x, after.y - before.y) > 20.0);
-  CHECK(std::abs(wrap_angle(after.theta - before.theta)) > 1.0);
+  CHECK(std::abs(WrapAngle(after.theta - before.theta)) > 1.0);
   const SequenceCase clu = MakePreset("cluttered");
   CHECK_FALSE(clu.map.distractors.empty());
   CHECK_FALSE(clu.map.boxes.empty());
   double mean_step = 0, mean_turn = 0;
   for (size_t i = 1; i < clu.poses.size(); ++i) {
     mean_step += std::hypot(clu.poses[i].x - clu.poses[i - 1].x, clu.poses[i].y - clu.poses[i - 1].y);
-    mean_turn += std::abs(wrap_angle(clu.poses[i].theta - clu.poses[i - 1].theta));
+    mean_turn += std::abs(WrapAngle(clu.poses[i].theta - clu.poses[i - 1].theta));
   }
   mean_step /= clu.poses.size() - 1;
   mean_turn /= clu.poses.size() - 1;
@@ -133,10 +133,10 @@ TEST_CASE("presets: sizes, sensors, and at least 4 spread corners in view in eve
       size_t hidden = 0;
       for (const MapCorner& mc : MapCorners(c.map)) {
         Eigen::Vector2d px;
-        const Eigen::Vector3d ps = sensor_from_world(c.poses[i], c.map.sensor_height, mc.world);
+        const Eigen::Vector3d ps = SensorFromWorld(c.poses[i], c.map.sensor_height, mc.world);
         Eigen::Vector3d o, d;
         if (!c.calib.sensor.project(ps, &px) || !c.calib.sensor.backproject(px, &o, &d)) continue;
-        if (scene.Occluded(world_from_sensor(c.poses[i], c.map.sensor_height, o), mc.world, 1e-6)) ++hidden;
+        if (scene.Occluded(WorldFromSensor(c.poses[i], c.map.sensor_height, o), mc.world, 1e-6)) ++hidden;
       }
       if (hidden > 0) ++occluded_frames;
     }

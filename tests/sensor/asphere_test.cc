@@ -22,9 +22,9 @@ struct AsphereCase {
   Sensor sensor;
 };
 
-Sensor BaseSphere() { return make_sphere_sensor(640, 480, 590, 319.5, 239.5, 1.0, 4.9, 15.1); }
+Sensor BaseSphere() { return MakeSphereSensor(640, 480, 590, 319.5, 239.5, 1.0, 4.9, 15.1); }
 Sensor BaseHyperboloid() {
-  Sensor s = make_sphere_sensor(752, 480, 300, 376, 240, 1.0, 1, 1);
+  Sensor s = MakeSphereSensor(752, 480, 300, 376, 240, 1.0, 1, 1);
   s.model = MirrorModel::kConic;
   s.params.curvature_radius = 2.0;
   s.params.conic_constant = -2.2;
@@ -35,7 +35,7 @@ Sensor BaseHyperboloid() {
   return s;
 }
 Sensor BaseEllipsoid() {
-  Sensor s = make_sphere_sensor(640, 640, 500, 320, 320, 1.0, 1, 1);
+  Sensor s = MakeSphereSensor(640, 640, 500, 320, 320, 1.0, 1, 1);
   s.model = MirrorModel::kConic;
   s.params.curvature_radius = 3.0;
   s.params.conic_constant = -0.4;
@@ -80,10 +80,10 @@ TEST_CASE("asphere terms of 1e-300 take the iterative path and give the conic's 
     Sensor tiny = conic;
     tiny.model = MirrorModel::kAsphere;
     tiny.params.asphere_a4 = 1e-300;  // numerically nothing, but not a constant zero
-    REQUIRE(is_conic_profile(conic.params));
-    REQUIRE_FALSE(is_conic_profile(tiny.params));
+    REQUIRE(IsConicProfile(conic.params));
+    REQUIRE_FALSE(IsConicProfile(tiny.params));
     INFO(ns.name);
-    const double m_conic = max_normalized_radius(conic.params), m_tiny = max_normalized_radius(tiny.params);
+    const double m_conic = MaxNormalizedRadius(conic.params), m_tiny = MaxNormalizedRadius(tiny.params);
     CHECK(m_tiny == Approx(m_conic).epsilon(1e-13));
     double worst = 0.0;
     int n = 0;
@@ -113,9 +113,9 @@ TEST_CASE("asphere reflection matches a hand construction on the profile", "[asp
   // project it: the image radius must be f m with m = s / (zv + w(s)).
   for (const AsphereCase& c : AsphereGrid()) {
     const SensorParams<double>& p = c.sensor.params;
-    const double m_max = max_normalized_radius(p);
+    const double m_max = MaxNormalizedRadius(p);
     double s_edge, z_edge;
-    REQUIRE(mirror_hit(p, 0.98 * m_max, &s_edge, &z_edge));
+    REQUIRE(MirrorHit(p, 0.98 * m_max, &s_edge, &z_edge));
     for (double frac : {0.1, 0.5, 0.9}) {
       const double s = frac * s_edge;
       const double w = SagByHand(p, s);
@@ -129,8 +129,8 @@ TEST_CASE("asphere reflection matches a hand construction on the profile", "[asp
       const double m = s / (p.vertex_distance + w);
       double radius;
       INFO(c.name << " s " << s);
-      REQUIRE(image_radius(p, Xm.x(), Xm.y(), &radius));
-      CHECK(radius == Approx(p.focal_px * distort_radius(p, m)).epsilon(1e-9));
+      REQUIRE(ImageRadius(p, Xm.x(), Xm.y(), &radius));
+      CHECK(radius == Approx(p.focal_px * DistortRadius(p, m)).epsilon(1e-9));
     }
   }
 }
@@ -139,15 +139,15 @@ TEST_CASE("asphere limb: rays just inside meet the mirror, just outside miss", "
   for (const AsphereCase& c : AsphereGrid()) {
     SensorParams<double> p = c.sensor.params;
     p.rim_radius = 0.0;
-    const double m_max = max_normalized_radius(p);
+    const double m_max = MaxNormalizedRadius(p);
     INFO(c.name << " m_max " << m_max);
     if (!std::isfinite(m_max)) continue;
     double s, z;
-    REQUIRE(mirror_hit(p, m_max * (1.0 - 1e-9), &s, &z));
-    CHECK_FALSE(mirror_hit(p, m_max * (1.0 + 1e-9), &s, &z));
+    REQUIRE(MirrorHit(p, m_max * (1.0 - 1e-9), &s, &z));
+    CHECK_FALSE(MirrorHit(p, m_max * (1.0 + 1e-9), &s, &z));
     // At the limb the ray is tangent: slope of the profile = z / s... in the
     // sense (zv + w) = s w'.
-    REQUIRE(mirror_hit(p, m_max * (1.0 - 1e-12), &s, &z));
+    REQUIRE(MirrorHit(p, m_max * (1.0 - 1e-12), &s, &z));
     const double h = 1e-6 * s;
     const double slope = (SagByHand(p, s + h) - SagByHand(p, s - h)) / (2 * h);
     CHECK(z == Approx(s * slope).epsilon(1e-4));
@@ -198,7 +198,7 @@ TEST_CASE("asphere round trips over a grid of coefficients", "[asphere_round_tri
   }
 }
 
-TEST_CASE("asphere with rig faults: project_general and backproject_general agree", "[asphere_round_trip]") {
+TEST_CASE("asphere with rig faults: ProjectGeneral and BackprojectGeneral agree", "[asphere_round_trip]") {
   PANO_SEEDED_RNG(9);
   for (const AsphereCase& c : AsphereGrid()) {
     Sensor s = c.sensor;
@@ -255,7 +255,7 @@ template <typename T>
 bool ProjectFlat(const T* x, double rim, bool general, T* u, T* v) {
   GeneralSensorParams<T> g;
   Unflatten(x, &g, rim);
-  if (general) return project_general(g, x + kP + 2, u, v);
+  if (general) return ProjectGeneral(g, x + kP + 2, u, v);
   return project(g.aligned, x + kP + 2, u, v);
 }
 
@@ -320,7 +320,7 @@ TEST_CASE("asphere terms need model asphere and a convex visible profile", "[asp
   CHECK_NOTHROW(s.Check("x"));
   s.params.asphere_a4 = -0.6;  // the profile turns back before the limb
   CHECK_THROWS_WITH(s.Check("x"), Catch::Contains("not convex"));
-  CHECK(std::string(mirror_model_name(MirrorModel::kAsphere)) == "asphere");
+  CHECK(std::string(MirrorModelName(MirrorModel::kAsphere)) == "asphere");
 }
 
 }  // namespace

@@ -101,7 +101,7 @@ TEST_CASE("all faults zero: the general path equals the aligned model", "[genera
     for (const Eigen::Vector3d& X : ScenePoints(&rng, 400)) {
       double u0, v0, u1, v1;
       const bool ok0 = project(g.aligned, X.data(), &u0, &v0);
-      const bool ok1 = project_general(g, X.data(), &u1, &v1);
+      const bool ok1 = ProjectGeneral(g, X.data(), &u1, &v1);
       INFO(ns.name << " point " << X.transpose());
       // Visibility agrees except within rounding of the limb.
       if (ok0 != ok1) continue;
@@ -110,7 +110,7 @@ TEST_CASE("all faults zero: the general path equals the aligned model", "[genera
       worst_px = std::max(worst_px, std::hypot(u1 - u0, v1 - v0));
       double o0[3], d0[3], o1[3], d1[3];
       REQUIRE(backproject(g.aligned, u0, v0, o0, d0));
-      REQUIRE(backproject_general(g, u0, v0, o1, d1));
+      REQUIRE(BackprojectGeneral(g, u0, v0, o1, d1));
       for (int i = 0; i < 3; ++i)
         worst_ray = std::max({worst_ray, std::abs(o1[i] - o0[i]), std::abs(d1[i] - d0[i])});
     }
@@ -134,18 +134,18 @@ TEST_CASE("point -> pixel -> ray through the point over a grid of faults", "[gen
         double u, v;
         double ua, va;
         if (project(rig.params, X.data(), &ua, &va)) ++aligned_seen;
-        if (!project_rig(g, X.data(), &u, &v)) continue;
+        if (!ProjectRig(g, X.data(), &u, &v)) continue;
         ++n;
         Eigen::Vector3d o, d;
         INFO(rig.name << " point " << X.transpose() << " pixel " << u << ", " << v);
-        REQUIRE(backproject_rig(g, u, v, o.data(), d.data()));
+        REQUIRE(BackprojectRig(g, u, v, o.data(), d.data()));
         CHECK(std::abs(d.norm() - 1.0) < 1e-12);
         CHECK((X - o).dot(d) > 0.0);
         worst = std::max(worst, RelativeMiss(X, o, d));
         // And back: the point on the ray at X's distance lands on the pixel.
         const Eigen::Vector3d Y = o + (X - o).norm() * d;
         double u2, v2;
-        REQUIRE(project_rig(g, Y.data(), &u2, &v2));
+        REQUIRE(ProjectRig(g, Y.data(), &u2, &v2));
         worst_px = std::max(worst_px, std::hypot(u2 - u, v2 - v));
       }
     }
@@ -170,7 +170,7 @@ TEST_CASE("faults move the image: a decentred sphere is not the aligned one", "[
   const double X[3] = {100.0, 0.0, 10.0};
   double u0, v0, u1, v1;
   REQUIRE(project(g.aligned, X, &u0, &v0));
-  REQUIRE(project_general(g, X, &u1, &v1));
+  REQUIRE(ProjectGeneral(g, X, &u1, &v1));
   // The sphere moved towards +x: the point at bearing 0 appears further out.
   CHECK(std::abs(v1 - v0) < 1e-9);
   CHECK(u1 - u0 > 1.0);
@@ -196,14 +196,14 @@ bool ProjectFlat(const double* x, double* uv) {
   GeneralSensorParams<double> g;
   std::vector<double*> f = Fields(&g);
   for (int i = 0; i < kParams; ++i) *f[static_cast<size_t>(i)] = x[i];
-  return project_general(g, x + kParams, &uv[0], &uv[1]);
+  return ProjectGeneral(g, x + kParams, &uv[0], &uv[1]);
 }
 
 bool BackprojectFlat(const double* x, double* od) {
   GeneralSensorParams<double> g;
   std::vector<double*> f = Fields(&g);
   for (int i = 0; i < kParams; ++i) *f[static_cast<size_t>(i)] = x[i];
-  return backproject_general(g, x[kParams], x[kParams + 1], od, od + 3);
+  return BackprojectGeneral(g, x[kParams], x[kParams + 1], od, od + 3);
 }
 
 // Central differences with steps h_i = cbrt(eps) max(1, |x_i|): the error is
@@ -234,7 +234,7 @@ void CheckAgainstDifferences(const double* flat, const JetT* out, F fn, double* 
   }
 }
 
-TEST_CASE("project_general and backproject_general with ceres::Jet match finite differences", "[general_jet]") {
+TEST_CASE("ProjectGeneral and BackprojectGeneral with ceres::Jet match finite differences", "[general_jet]") {
   double worst_project = 0.0, worst_back = 0.0;
   int checked = 0;
   for (const Rig& rig : Rigs()) {
@@ -269,7 +269,7 @@ TEST_CASE("project_general and backproject_general with ceres::Jet match finite 
       double uv0[2];
       INFO(rig.name << " point " << X.transpose());
       REQUIRE(ProjectFlat(flat, uv0));
-      REQUIRE(project_general(gj, Xj, &uv[0], &uv[1]));
+      REQUIRE(ProjectGeneral(gj, Xj, &uv[0], &uv[1]));
       CHECK(uv[0].a == Approx(uv0[0]).epsilon(1e-14));
       CHECK(uv[1].a == Approx(uv0[1]).epsilon(1e-14));
       CheckAgainstDifferences<2>(flat, uv, ProjectFlat, &worst_project);
@@ -282,7 +282,7 @@ TEST_CASE("project_general and backproject_general with ceres::Jet match finite 
       flat_b[kParams + 2] = 0.0;
       const JetT uj(uv0[0], kParams), vj(uv0[1], kParams + 1);
       JetT od[6];
-      REQUIRE(backproject_general(gj, uj, vj, od, od + 3));
+      REQUIRE(BackprojectGeneral(gj, uj, vj, od, od + 3));
       CheckAgainstDifferences<6>(flat_b, od, BackprojectFlat, &worst_back);
       ++checked;
     }
@@ -295,7 +295,7 @@ TEST_CASE("project_general and backproject_general with ceres::Jet match finite 
                                                               << worst_back);
 }
 
-TEST_CASE("project_rig keeps the aligned fast path and Jets through it", "[general_jet]") {
+TEST_CASE("ProjectRig keeps the aligned fast path and Jets through it", "[general_jet]") {
   const Rig rig = Rigs().front();
   GeneralSensorParams<JetT> gj;
   gj.aligned = rig.params.cast<JetT>();
@@ -303,7 +303,7 @@ TEST_CASE("project_rig keeps the aligned fast path and Jets through it", "[gener
   REQUIRE(gj.IsAligned());
   const JetT X[3] = {JetT(90.0), JetT(20.0), JetT(5.0)};
   JetT u1, v1, u2, v2;
-  REQUIRE(project_rig(gj, X, &u1, &v1));
+  REQUIRE(ProjectRig(gj, X, &u1, &v1));
   REQUIRE(project(gj.aligned, X, &u2, &v2));
   CHECK(u1.a == u2.a);
   CHECK(u1.v[0] == u2.v[0]);

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "panotrack/pose/pose2.h"
 #include "sensor_models.h"
 
 namespace pano {
@@ -13,7 +14,7 @@ TEST_CASE("limb radius is f r sin(phi) / (d - r cos(phi)) with cos(phi) = r / d"
   // The paper's real sensor: f 590 px, r 4.9 cm, d 15.1 cm. The camera ray
   // grazing the sphere touches it where the radius is perpendicular to the
   // ray, i.e. cos(phi) = r / d (phi measured from the downward axis).
-  const Sensor s = make_sphere_sensor(640, 480, 590, 319.5, 239.5, 1.0, 4.9, 15.1);
+  const Sensor s = MakeSphereSensor(640, 480, 590, 319.5, 239.5, 1.0, 4.9, 15.1);
   const double c = 4.9 / 15.1, sn = std::sqrt(1.0 - c * c);
   const double expected = 590.0 * 4.9 * sn / (15.1 - 4.9 * c);
   CHECK(expected == Approx(202.4105).margin(1e-4));  // "about 202 px"
@@ -21,7 +22,7 @@ TEST_CASE("limb radius is f r sin(phi) / (d - r cos(phi)) with cos(phi) = r / d"
   WARN("paper sensor limb radius " << s.limb_radius() << " px");
   // Second case by hand: r = 1, d = 2, f = 100 gives phi = 60 degrees, the
   // grazing ray at 30 degrees from the axis: limb = 100 tan(30 deg).
-  const Sensor t = make_sphere_sensor(200, 200, 100, 99.5, 99.5, 1.0, 1.0, 2.0);
+  const Sensor t = MakeSphereSensor(200, 200, 100, 99.5, 99.5, 1.0, 1.0, 2.0);
   CHECK(t.limb_radius() == Approx(100.0 / std::sqrt(3.0)).epsilon(1e-12));
   // Pixels beyond the limb see no mirror.
   Eigen::Vector3d o, d;
@@ -50,7 +51,7 @@ TEST_CASE("E(D, Z) at a mirror point derived by hand", "[hand_value]") {
   CHECK(Z == Approx(0.0465633).margin(1e-6));
   CHECK(expected_radius == Approx(44.0927).margin(1e-4));
 
-  const Sensor s = make_sphere_sensor(200, 200, 100, 99.5, 99.5, 1.0, 1.0, 2.0);
+  const Sensor s = MakeSphereSensor(200, 200, 100, 99.5, 99.5, 1.0, 1.0, 2.0);
   double radius;
   REQUIRE(s.image_radius(D, Z, &radius));
   CHECK(radius == Approx(expected_radius).epsilon(500 * std::numeric_limits<double>::epsilon()));
@@ -66,7 +67,7 @@ TEST_CASE("E(D, Z) at a mirror point derived by hand", "[hand_value]") {
 }
 
 TEST_CASE("points the mirror cannot show are reported as not visible", "[visibility]") {
-  const Sensor s = make_sphere_sensor(640, 480, 590, 319.5, 239.5, 1.0, 4.9, 15.1);
+  const Sensor s = MakeSphereSensor(640, 480, 590, 319.5, 239.5, 1.0, 4.9, 15.1);
   Eigen::Vector2d px;
   // On the axis: hidden by the camera or by the mirror.
   CHECK_FALSE(s.project({0.0, 0.0, -50.0}, &px));
@@ -99,17 +100,17 @@ TEST_CASE("points the mirror cannot show are reported as not visible", "[visibil
 TEST_CASE("world and sensor frames, angles", "[frames]") {
   const Pose2 pose{100.0, 50.0, M_PI / 2};
   // The sensor's +x points along world +y.
-  const Eigen::Vector3d ps = sensor_from_world(pose, 30.0, {100.0, 80.0, 40.0});
+  const Eigen::Vector3d ps = SensorFromWorld(pose, 30.0, {100.0, 80.0, 40.0});
   CHECK(ps.x() == Approx(30.0));
   CHECK(ps.y() == Approx(0.0).margin(1e-12));
   CHECK(ps.z() == Approx(10.0));
-  const Eigen::Vector3d pw = world_from_sensor(pose, 30.0, ps);
+  const Eigen::Vector3d pw = WorldFromSensor(pose, 30.0, ps);
   CHECK((pw - Eigen::Vector3d(100.0, 80.0, 40.0)).norm() < 1e-12);
-  CHECK(wrap_angle(3 * M_PI) == Approx(M_PI));
-  CHECK(wrap_angle(-M_PI) == Approx(M_PI));
-  CHECK(wrap_angle(-0.25) == Approx(-0.25));
+  CHECK(WrapAngle(3 * M_PI) == Approx(M_PI));
+  CHECK(WrapAngle(-M_PI) == Approx(M_PI));
+  CHECK(WrapAngle(-0.25) == Approx(-0.25));
   // azimuth_offset turns the image: image azimuth = bearing + offset.
-  const Sensor s = make_sphere_sensor(640, 480, 590, 319.5, 239.5, 1.0, 4.9, 15.1, 0.3);
+  const Sensor s = MakeSphereSensor(640, 480, 590, 319.5, 239.5, 1.0, 4.9, 15.1, 0.3);
   Eigen::Vector2d px;
   REQUIRE(s.project({100.0, 0.0, 10.0}, &px));
   double r, az;

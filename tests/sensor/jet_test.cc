@@ -78,10 +78,10 @@ TEST_CASE("project with ceres::Jet at the limb (no room for a central difference
   // edge; the derivative of the reflection solve must not fail there.
   for (const auto& ns : test::AllSensorModels()) {
     const SensorParams<double>& p = ns.sensor.params;
-    const double m_max = max_normalized_radius(p);
+    const double m_max = MaxNormalizedRadius(p);
     if (!std::isfinite(m_max)) continue;
     double ps, pz, ds, dz;
-    REQUIRE(reflect_meridian(p, m_max * (1.0 - 1e-10), &ps, &pz, &ds, &dz));
+    REQUIRE(ReflectMeridian(p, m_max * (1.0 - 1e-10), &ps, &pz, &ds, &dz));
     const double t = 50.0 * p.vertex_distance;
     const Eigen::Vector3d X((ps + t * ds) * 0.6, (ps + t * ds) * 0.8, pz + t * dz);
     double ud, vd;

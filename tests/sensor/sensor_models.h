@@ -38,15 +38,15 @@ inline Sensor MeiParabolic(double xi = 1.28) {
 inline std::vector<NamedSensor> AllSensorModels() {
   std::vector<NamedSensor> out;
   // The paper's real sensor (f 590 px, r 4.9 cm, d 15.1 cm), 640 x 480.
-  out.push_back({"sphere/paper-real", make_sphere_sensor(640, 480, 590, 319.5, 239.5, 1.0, 4.9, 15.1)});
+  out.push_back({"sphere/paper-real", MakeSphereSensor(640, 480, 590, 319.5, 239.5, 1.0, 4.9, 15.1)});
   // The paper's synthetic sensor: 500 x 500 px, horizon radius about 157 px.
   out.push_back({"sphere/paper-synthetic",
-                 make_sphere_sensor(500, 500, 438.0, 249.5, 249.5, 1.0, 4.9, 15.1)});
+                 MakeSphereSensor(500, 500, 438.0, 249.5, 249.5, 1.0, 4.9, 15.1)});
   // Non-square pixels, a turned camera.
   out.push_back({"sphere/aspect-offset",
-                 make_sphere_sensor(752, 480, 400, 370.2, 241.7, 0.93, 3.0, 11.0, 0.4)});
+                 MakeSphereSensor(752, 480, 400, 370.2, 241.7, 0.93, 3.0, 11.0, 0.4)});
   // Hyperboloid with a rim, and lens distortion.
-  Sensor hyper = make_sphere_sensor(752, 480, 300, 376, 240, 1.0, 1, 1);
+  Sensor hyper = MakeSphereSensor(752, 480, 300, 376, 240, 1.0, 1, 1);
   hyper.model = MirrorModel::kConic;
   hyper.params.curvature_radius = 2.0;
   hyper.params.conic_constant = -2.2;
@@ -56,7 +56,7 @@ inline std::vector<NamedSensor> AllSensorModels() {
   hyper.params.k2 = 0.01;
   out.push_back({"conic/hyperboloid-distorted", hyper});
   // Prolate ellipsoid, no rim (limb-limited).
-  Sensor ell = make_sphere_sensor(640, 640, 500, 320, 320, 1.0, 1, 1);
+  Sensor ell = MakeSphereSensor(640, 640, 500, 320, 320, 1.0, 1, 1);
   ell.model = MirrorModel::kConic;
   ell.params.curvature_radius = 3.0;
   ell.params.conic_constant = -0.4;

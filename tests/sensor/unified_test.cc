@@ -96,7 +96,7 @@ TEST_CASE("unified: ceres::Jet derivatives match finite differences", "[unified_
     g.aligned.k1 = x[3];
     g.faults.p1 = 0.001;
     const double X[3] = {x[4], 40.0, x[5]};
-    return project_general(g, X, &uv[0], &uv[1]);
+    return ProjectGeneral(g, X, &uv[0], &uv[1]);
   };
   for (const Eigen::Vector2d& xz : {Eigen::Vector2d(120.0, 10.0), Eigen::Vector2d(-60.0, -45.0)}) {
     const double x0[6] = {s.params.focal_px, s.params.cx, s.params.xi, s.params.k1, xz.x(), xz.y()};
@@ -108,7 +108,7 @@ TEST_CASE("unified: ceres::Jet derivatives match finite differences", "[unified_
     gj.faults.p1 = JetT(0.001);
     const JetT Xj[3] = {JetT(x0[4], 4), JetT(40.0), JetT(x0[5], 5)};
     JetT u, v;
-    REQUIRE(project_general(gj, Xj, &u, &v));
+    REQUIRE(ProjectGeneral(gj, Xj, &u, &v));
     double uv0[2];
     REQUIRE(project_at(x0, uv0));
     CHECK(u.a == Approx(uv0[0]).epsilon(1e-14));
@@ -147,7 +147,7 @@ TEST_CASE("unified: what a calibration file may not say", "[unified_check]") {
   s = test::MeiParabolic(2.0);
   s.params.rim_radius = 0.0;
   REQUIRE_NOTHROW(s.Check("calib.yaml"));
-  CHECK(max_normalized_radius(s.params) == Approx(1.0 / std::sqrt(3.0)).epsilon(1e-15));
+  CHECK(MaxNormalizedRadius(s.params) == Approx(1.0 / std::sqrt(3.0)).epsilon(1e-15));
 }
 
 }  // namespace

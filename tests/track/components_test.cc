@@ -44,7 +44,7 @@ TEST_CASE("landmarks: ids, prediction geometry, polarity, box silhouettes, occlu
   CHECK(lms.size() == 4 + 8 * 2);
   CHECK(lms[0].id == "door/from-bottom");
   CHECK(lms[3].id == "door/to-top");
-  const Sensor s = make_sphere_sensor(500, 500, 590, 249.5, 249.5, 1.0, 4.9, 15.1);
+  const Sensor s = MakeSphereSensor(500, 500, 590, 249.5, 249.5, 1.0, 4.9, 15.1);
   const Scene scene = Scene::FromMap(m, false);
   const RadiusTable table = RadiusTable::Build(s, RangesForMap(m, s));
   const Pose2 pose{60, 110, 0.3};
@@ -54,7 +54,7 @@ TEST_CASE("landmarks: ids, prediction geometry, polarity, box silhouettes, occlu
     const Landmark& l = *p.landmark;
     // The corner's predicted pixel is its exact projection (table: measured 4.6e-5 px).
     Eigen::Vector2d px;
-    REQUIRE(s.project(sensor_from_world(pose, m.sensor_height, l.corner), &px));
+    REQUIRE(s.project(SensorFromWorld(pose, m.sensor_height, l.corner), &px));
     CHECK((px - p.corner_px).norm() < 1.5e-4);
     if (l.id.rfind("door/", 0) == 0) {
       ++doors;
@@ -92,7 +92,7 @@ TEST_CASE("landmarks: a door measured a little behind its wall is seen within th
   Map m = OneRoom();
   m.rectangles[0].from.x() = m.rectangles[0].to.x() = -1.0;  // 1 unit behind the wall x = 0
   const std::vector<Landmark> lms = LandmarksFromMap(m);
-  const Sensor s = make_sphere_sensor(500, 500, 590, 249.5, 249.5, 1.0, 4.9, 15.1);
+  const Sensor s = MakeSphereSensor(500, 500, 590, 249.5, 249.5, 1.0, 4.9, 15.1);
   const Scene scene = Scene::FromMap(m, false);
   const RadiusTable table = RadiusTable::Build(s, RangesForMap(m, s));
   const Pose2 pose{60, 110, 0.3};
@@ -116,7 +116,7 @@ TEST_CASE("landmarks: SpreadPrediction is SelectSpread(PredictLandmarks) in two 
   PANO_SEEDED_RNG(11);
   const Map m = OneRoom();
   const std::vector<Landmark> lms = LandmarksFromMap(m);
-  const Sensor s = make_sphere_sensor(500, 500, 590, 249.5, 249.5, 1.0, 4.9, 15.1);
+  const Sensor s = MakeSphereSensor(500, 500, 590, 249.5, 249.5, 1.0, 4.9, 15.1);
   const Scene scene = Scene::FromMap(m, false);
   const RadiusTable table = RadiusTable::Build(s, RangesForMap(m, s));
   std::uniform_real_distribution<double> xy(5.0, 195.0), heading(-M_PI, M_PI);
@@ -266,7 +266,7 @@ TEST_CASE("junction tracker: a landmark only where its edges meet at the junctio
   for (const PredictedLandmark& p : pred) {
     const LandmarkMeasurement m = tracker.Measure(p, 8.0);
     if (m.found && std::abs(p.v_radius - p.corner_radius) > 40 &&
-        std::abs(wrap_angle(m.azimuth - p.azimuth)) * p.corner_radius < 0.3) {
+        std::abs(WrapAngle(m.azimuth - p.azimuth)) * p.corner_radius < 0.3) {
       chosen = &p;
       break;
     }
@@ -437,7 +437,7 @@ TEST_CASE("localiser threads: identical trajectories for 1, 2 and 4 threads (and
   // (relocalised at once), tracking again: every parallel loop of the localiser.
   const test::RenderedCase r = test::RenderPreset("kidnap", 10, 27);
   for (TrackingMethod method : {TrackingMethod::kJunction, TrackingMethod::kVertex}) {
-    INFO("method " << tracking_method_name(method));
+    INFO("method " << TrackingMethodName(method));
     LocalizerOptions opt;
     opt.method = method;
     opt.num_threads = 1;

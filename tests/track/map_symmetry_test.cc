@@ -44,7 +44,7 @@ TEST_CASE("a point-symmetric room has the half turn about its centre", "[map_sym
   REQUIRE(landmarks.size() == 16);
   const std::vector<FloorMotion> found = LandmarkSymmetries(landmarks, All(landmarks), 0.5);
   REQUIRE(found.size() == 1);
-  CHECK_THAT(std::abs(wrap_angle(found[0].angle)), WithinAbs(M_PI, 1e-12));
+  CHECK_THAT(std::abs(WrapAngle(found[0].angle)), WithinAbs(M_PI, 1e-12));
   CHECK_THAT(found[0].translation.x(), WithinAbs(220, 1e-9));
   CHECK_THAT(found[0].translation.y(), WithinAbs(220, 1e-9));
   // The twin of a robot at (65, 35) heading 0 stands at (155, 185) heading pi.
@@ -90,7 +90,7 @@ TEST_CASE("a view of part of a room repeats where the map repeats it", "[map_sym
       ++in_corridor;
       CHECK_THAT(twin.x, WithinAbs(150, 1e-9));
       CHECK_THAT(twin.y, WithinAbs(80, 1e-9));
-      CHECK_THAT(std::abs(wrap_angle(twin.theta - 0.3 - M_PI)), WithinAbs(0, 1e-12));
+      CHECK_THAT(std::abs(WrapAngle(twin.theta - 0.3 - M_PI)), WithinAbs(0, 1e-12));
     }
   }
   CHECK(in_corridor == 1);

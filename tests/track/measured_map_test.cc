@@ -88,7 +88,7 @@ void CheckMeasuredMap(double sigma, double stated_sigma, const char* statement, 
   for (TrackingMethod method : {TrackingMethod::kJunction, TrackingMethod::kVertex}) {
     const MeasuredMapRun run = LocalizeOnMeasuredMap(method, stated_sigma, sigma);
     const AccuracySummary& a = run.accuracy;
-    INFO(statement << ", " << tracking_method_name(method) << ": " << FormatAccuracy(a, "cm") << ", inside 3 sigma "
+    INFO(statement << ", " << TrackingMethodName(method) << ": " << FormatAccuracy(a, "cm") << ", inside 3 sigma "
                    << run.inside_three_sigma);
     CHECK(a.tracked >= e.min_tracked);
     CHECK(a.outliers == 0);
@@ -140,7 +140,7 @@ TEST_CASE("a map measured to 2 cm that claims to be exact: no start on four bear
   const std::pair<TrackingMethod, uint64_t> cases[] = {{TrackingMethod::kJunction, 4}, {TrackingMethod::kVertex, 12}};
   for (const auto& [method, seed] : cases) {
     const MeasuredMapRun run = LocalizeOnMeasuredMap(method, 0.0, 2.0, seed);
-    INFO(tracking_method_name(method) << ", map seed " << seed << ": " << FormatAccuracy(run.accuracy, "cm")
+    INFO(TrackingMethodName(method) << ", map seed " << seed << ": " << FormatAccuracy(run.accuracy, "cm")
                                       << ", inside 3 sigma " << run.inside_three_sigma);
     CHECK(run.accuracy.tracked >= 56);
     CHECK(run.accuracy.outliers == 0);
@@ -244,7 +244,7 @@ TEST_CASE("a map measured to 2 cm that claims to be exact, no start: a search's 
     o.method = c.method;
     const std::vector<PoseRow> rows = LocalizeWithoutStart(r, o, 5.0);
     const AccuracySummary a = CompareToGroundTruth(rows, truth.truth, TypicalRange(truth.c.map, truth.truth));
-    INFO(tracking_method_name(c.method) << ", map seed " << c.seed << ": " << FormatAccuracy(a, "cm"));
+    INFO(TrackingMethodName(c.method) << ", map seed " << c.seed << ": " << FormatAccuracy(a, "cm"));
     CHECK(a.outliers == 0);
     CHECK(a.max <= 5.0);
     CHECK(a.tracked >= c.min_tracked);
@@ -344,7 +344,7 @@ TEST_CASE("a map measured to 2 cm that states nothing or claims to be exact, no 
         o.method = method;
         const std::vector<PoseRow> rows = LocalizeWithoutStart(r, o, 5.0);
         const AccuracySummary a = CompareToGroundTruth(rows, truth.truth, TypicalRange(truth.c.map, truth.truth));
-        INFO(tracking_method_name(method) << ", stated " << stated << ", map seed " << seed << ": "
+        INFO(TrackingMethodName(method) << ", stated " << stated << ", map seed " << seed << ": "
                                           << FormatAccuracy(a, "cm"));
         CHECK(a.tracked >= 52);
         CHECK(a.outliers <= 1);

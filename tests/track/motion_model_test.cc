@@ -27,7 +27,7 @@ Eigen::Matrix3d MeasurementCovariance() {
 }
 
 Eigen::Vector3d PoseError(const MotionVector& truth, const Pose2& estimate) {
-  return {estimate.x - truth(0), estimate.y - truth(1), wrap_angle(estimate.theta - truth(2))};
+  return {estimate.x - truth(0), estimate.y - truth(1), WrapAngle(estimate.theta - truth(2))};
 }
 
 struct Run {
@@ -51,7 +51,7 @@ void AddMeasurements(Rng& rng, Run* run) {
   for (const MotionVector& s : run->truth) {
     const Eigen::Vector3d e = Gaussian(rng, r);
     PoseMeasurement m;
-    m.pose = {s(0) + e(0), s(1) + e(1), wrap_angle(s(2) + e(2))};
+    m.pose = {s(0) + e(0), s(1) + e(1), WrapAngle(s(2) + e(2))};
     m.covariance = r;
     run->measurements.push_back(m);
   }
@@ -70,7 +70,7 @@ Run SampledRun(Rng& rng, const MotionModelOptions& options) {
     run.truth.push_back(s);
     s = PropagateConstantVelocity(s, kDt);
     s += Gaussian(rng, q);
-    s(2) = wrap_angle(s(2));
+    s(2) = WrapAngle(s(2));
   }
   AddMeasurements(rng, &run);
   return run;
@@ -85,7 +85,7 @@ Run CircleRun(Rng& rng) {
   for (int k = 0; k < kSteps; ++k) {
     const double t = k * kDt, a = rate * t;
     MotionVector s;
-    s << radius * std::cos(a), radius * std::sin(a), wrap_angle(a + M_PI / 2),
+    s << radius * std::cos(a), radius * std::sin(a), WrapAngle(a + M_PI / 2),
         -radius * rate * std::sin(a), radius * rate * std::cos(a), rate;
     run.times.push_back(t);
     run.truth.push_back(s);
@@ -214,7 +214,7 @@ Eigen::Matrix<double, 6, N> NumericJacobian(F f, const Eigen::Matrix<double, N, 
     a(i) += h;
     b(i) -= h;
     MotionVector d = f(a) - f(b);
-    d(2) = wrap_angle(d(2));
+    d(2) = WrapAngle(d(2));
     j.col(i) = d / (2 * h);
   }
   return j;
@@ -316,12 +316,12 @@ TEST_CASE("motion model: heading wraps across +-pi", "[motion_model]") {
   for (int k = 1; k <= 40; ++k) {
     const double t = 0.1 * k;
     model.Predict(t);
-    model.Update({{0, 0, wrap_angle(3.0 + 0.5 * t)}, cov});
+    model.Update({{0, 0, WrapAngle(3.0 + 0.5 * t)}, cov});
     const double theta = model.pose().theta;
     CHECK(theta > -M_PI);
     CHECK(theta <= M_PI);
     // Measured: 2.2e-5 at the first frame across the cut, below 1e-13 from frame 16.
-    const double error = std::abs(wrap_angle(theta - (3.0 + 0.5 * t)));
+    const double error = std::abs(WrapAngle(theta - (3.0 + 0.5 * t)));
     if (k >= 3) worst_after_cut = std::max(worst_after_cut, error);
     if (k > 20) worst_late = std::max(worst_late, error);
   }
@@ -391,7 +391,7 @@ TEST_CASE("motion model: odometry as the control input", "[motion_model]") {
     OdometryIncrement inc;
     inc.dx = c * (b(0) - a(0)) + s * (b(1) - a(1));
     inc.dy = -s * (b(0) - a(0)) + c * (b(1) - a(1));
-    inc.dtheta = wrap_angle(b(2) - a(2));
+    inc.dtheta = WrapAngle(b(2) - a(2));
     return inc;
   };
   // Exact odometry alone follows the circle and gives its velocity.

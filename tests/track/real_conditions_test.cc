@@ -47,7 +47,7 @@ void CheckMotionBlur(TrackingMethod method, double max_rms_cm, double max_headin
   o.method = method;
   const std::vector<PoseRow> rows = test::Localize(r, o, r.c.poses.front());
   const AccuracySummary a = CompareToGroundTruth(rows, r.truth);
-  INFO(tracking_method_name(method) << ": " << FormatAccuracy(a, "cm"));
+  INFO(TrackingMethodName(method) << ": " << FormatAccuracy(a, "cm"));
   CHECK(a.tracked == 40);
   CHECK(a.rms <= max_rms_cm);
   CHECK(a.heading_rms_deg <= max_heading_rms_deg);
@@ -154,7 +154,7 @@ TEST_CASE("kidnapped: relocalised at the jump itself (nothing predicted is there
     LocalizerOptions o;
     o.method = method;
     const std::vector<PoseRow> rows = test::Localize(r, o, r.c.poses.front());
-    INFO(tracking_method_name(method));
+    INFO(TrackingMethodName(method));
     CHECK(WrongOk(rows, r.truth, 0.5) == 0);
     // Every frame: the jump's own frame searches the room at once.
     CHECK(CompareToGroundTruth(rows, r.truth).tracked == 40);

@@ -5,6 +5,7 @@
 #include <optional>
 #include <vector>
 
+#include "panotrack/pose/pose2.h"
 #include "panotrack/render/presets.h"
 #include "panotrack/render/render.h"
 #include "panotrack/scene/scene.h"

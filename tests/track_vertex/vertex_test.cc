@@ -44,7 +44,7 @@ cv::Mat PolarPatch(const Sensor& s, double r_lo, double r_hi, double a_lo, doubl
       for (int i = 0; i < ss; ++i)
         for (int j = 0; j < ss; ++j) {
           s.to_polar(u - 0.5 + (i + 0.5) / ss, v - 0.5 + (j + 0.5) / ss, &r, &a);
-          const double da = wrap_angle(a - a_lo), span = wrap_angle(a_hi - a_lo);
+          const double da = WrapAngle(a - a_lo), span = WrapAngle(a_hi - a_lo);
           inside += r >= r_lo && r <= r_hi && da >= 0 && da <= span;
         }
       const double f = static_cast<double>(inside) / (ss * ss);
@@ -71,7 +71,7 @@ TEST_CASE("the view's geometry: horizon width, maps, round trips, padding", "[wa
     INFO("r " << r << " azimuth " << a << " -> x " << x << " y " << y);
     REQUIRE(x >= view.pad());
     REQUIRE(x < view.pad() + view.width());
-    CHECK(std::abs(wrap_angle(view.azimuth_of_x(x) - a)) < 1e-12);
+    CHECK(std::abs(WrapAngle(view.azimuth_of_x(x) - a)) < 1e-12);
     CHECK(view.radius_of_y(y) == Approx(r).margin(1e-12));
     // The maps, interpolated at the view position, give the pixel back.
     CHECK(std::abs(Bilinear(view.map_u(), x, y) - px.x()) < 0.003);
@@ -142,7 +142,7 @@ TEST_CASE("each of the 8 corner types is found at its sub-pixel position", "[cor
     for (int y_sign : {-1, 1})
       for (int lighter : {0, 1}) {
         // Spread the corners round the image, one across the azimuth wrap.
-        const double a_c = k == 5 ? M_PI - 0.05 : wrap_angle(-2.9 + 0.73 * k + 0.013);
+        const double a_c = k == 5 ? M_PI - 0.05 : WrapAngle(-2.9 + 0.73 * k + 0.013);
         ++k;
         const double len = 40.0, span = 0.3;
         const double r_lo = y_sign > 0 ? r_c : r_c - len, r_hi = y_sign > 0 ? r_c + len : r_c;
@@ -151,9 +151,9 @@ TEST_CASE("each of the 8 corner types is found at its sub-pixel position", "[cor
         tracker.BeginFrame(img);
         PredictedLandmark p;
         p.corner_radius = r_c + 1.6;             // predicted a little off
-        p.azimuth = wrap_angle(a_c - 2.2 / r_c);  // ~2 px tangentially
+        p.azimuth = WrapAngle(a_c - 2.2 / r_c);  // ~2 px tangentially
         p.v_radius = r_c + y_sign * len;
-        p.h_end_azimuth = wrap_angle(a_c + x_sign * span);
+        p.h_end_azimuth = WrapAngle(a_c + x_sign * span);
         p.inside_azimuth_sign = x_sign;
         p.inside_radius_sign = y_sign;
         p.v_polarity = p.h_polarity = lighter ? 1 : -1;
@@ -161,7 +161,7 @@ TEST_CASE("each of the 8 corner types is found at its sub-pixel position", "[cor
                                      << "; corner azimuth " << a_c);
         const LandmarkMeasurement m = tracker.Measure(p, 5.0);
         REQUIRE(m.found);
-        CHECK(std::abs(wrap_angle(m.azimuth - a_c)) * r_c < 0.3);
+        CHECK(std::abs(WrapAngle(m.azimuth - a_c)) * r_c < 0.3);
         CHECK(std::abs(m.radius - r_c) < 0.3);
         // The opposite shade is not this corner.
         p.v_polarity = p.h_polarity = lighter ? -1 : 1;
@@ -197,7 +197,7 @@ TEST_CASE("a straight edge or a flat patch is not a corner; a mixed corner is", 
   tracker.BeginFrame(img);
   m = tracker.Measure(p, 4.0);
   REQUIRE(m.found);
-  CHECK(std::abs(wrap_angle(m.azimuth - 0.5)) * 120.0 < 0.12);
+  CHECK(std::abs(WrapAngle(m.azimuth - 0.5)) * 120.0 < 0.12);
 }
 
 TEST_CASE("two like corners in one window: the best wins unless a margin is asked", "[corner_types]") {
@@ -221,7 +221,7 @@ TEST_CASE("two like corners in one window: the best wins unless a margin is aske
   plain.BeginFrame(img);
   const LandmarkMeasurement m = plain.Measure(p, 10.0);
   REQUIRE(m.found);
-  CHECK(std::abs(wrap_angle(m.azimuth - 0.50)) * 120.0 < 0.04);
+  CHECK(std::abs(WrapAngle(m.azimuth - 0.50)) * 120.0 < 0.04);
   VertexOptions o;
   o.min_peak_margin = 0.3;
   VertexTracker strict(s, o);
@@ -245,7 +245,7 @@ TEST_CASE("vertex options are checked", "[options]") {
   CHECK_THROWS_AS(lo.Check(), Error);
   lo = LocalizerOptions();
   lo.method = TrackingMethod::kVertex;
-  CHECK(std::string(tracking_method_name(lo.method)) == "vertex");
+  CHECK(std::string(TrackingMethodName(lo.method)) == "vertex");
   const Sensor s = SyntheticSensor();
   CHECK(dynamic_cast<VertexTracker*>(MakeTracker(lo.method, s, nullptr, lo).get()) != nullptr);
 }

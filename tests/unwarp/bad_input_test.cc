@@ -14,7 +14,7 @@
 #include "expect_error.h"
 #include "panotrack/io/calibration.h"
 #include "panotrack/render/presets.h"
-#include "panotrack/unwarp/unwarp.h"
+#include "panotrack/pipeline/unwarp_files.h"
 #include "run_command.h"
 #include "test_paths.h"
 

@@ -71,8 +71,8 @@ EdgeStats MeasurePanorama(const Sensor& sensor, const Map& map, const Pose2& pos
   for (const MapRectangle& rect : map.rectangles) {
     const int surface = SurfaceIndex(shot, rect.id);
     for (const Eigen::Vector2d& foot : {rect.from, rect.to}) {
-      const Eigen::Vector3d bottom = sensor_from_world(pose, map.sensor_height, {foot.x(), foot.y(), rect.z0});
-      const Eigen::Vector3d top = sensor_from_world(pose, map.sensor_height, {foot.x(), foot.y(), rect.z1});
+      const Eigen::Vector3d bottom = SensorFromWorld(pose, map.sensor_height, {foot.x(), foot.y(), rect.z0});
+      const Eigen::Vector3d top = SensorFromWorld(pose, map.sensor_height, {foot.x(), foot.y(), rect.z1});
       const double sign = options.clockwise ? -1.0 : 1.0;
       double expected = sign * std::atan2(bottom.y(), bottom.x()) * view.width() / (2 * M_PI);
       if (expected < 0) expected += view.width();
@@ -183,7 +183,7 @@ PanelFit MeasurePanel(const Sensor& sensor, const Map& map, const Pose2& pose, c
   const Eigen::Vector3d world[4] = {{r.from.x(), r.from.y(), r.z0}, {r.to.x(), r.to.y(), r.z0},
                                     {r.to.x(), r.to.y(), r.z1}, {r.from.x(), r.from.y(), r.z1}};
   Eigen::Vector2d px[4];
-  for (int k = 0; k < 4; ++k) REQUIRE(view.PixelOfPoint(sensor_from_world(pose, map.sensor_height, world[k]), &px[k]));
+  for (int k = 0; k < 4; ++k) REQUIRE(view.PixelOfPoint(SensorFromWorld(pose, map.sensor_height, world[k]), &px[k]));
   // Edges as corner pairs; search across them (x for the vertical ones).
   const int ends[4][2] = {{0, 3}, {1, 2}, {0, 1}, {3, 2}};
   PanelFit fit;
@@ -209,7 +209,7 @@ PanelFit MeasurePanel(const Sensor& sensor, const Map& map, const Pose2& pose, c
 
 TEST_CASE("perspective: a wall at the view's distance is rectified exactly", "[perspective]") {
   const Map map = PanelRoom();
-  Sensor sensor = make_sphere_sensor(500, 500, 590, 249.5, 249.5, 1.0, 4.9, 15.1, -0.4);
+  Sensor sensor = MakeSphereSensor(500, 500, 590, 249.5, 249.5, 1.0, 4.9, 15.1, -0.4);
   // Facing the north wall: bearing 90 deg - heading; the panel 70 units away.
   const Pose2 pose{100, 129.5, 0.35};
   const Shot shot = Render(sensor, map, pose, 4);

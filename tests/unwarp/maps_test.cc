@@ -20,7 +20,7 @@ Sensor PaperSensor(double azimuth_offset) {
 
 // A conic mirror seen through a distorting lens with non-square pixels.
 Sensor ConicSensor() {
-  Sensor s = make_sphere_sensor(752, 480, 400, 370.2, 242.7, 1.03, 3.0, 9.0, -2.0);
+  Sensor s = MakeSphereSensor(752, 480, 400, 370.2, 242.7, 1.03, 3.0, 9.0, -2.0);
   s.model = MirrorModel::kConic;
   s.params.conic_constant = -0.4;
   s.params.k1 = 0.02;
@@ -138,7 +138,7 @@ TEST_CASE("defaults come from the mirror", "[defaults]") {
   // A hyperbolic mirror with the pinhole at its outer focus has a single
   // viewpoint, its inner focus (2 a e above the pinhole): the eye lands there
   // and the views are exact at every distance.
-  Sensor hyper = make_sphere_sensor(600, 600, 300, 299.5, 299.5, 1.0, 2.0, 2.0);
+  Sensor hyper = MakeSphereSensor(600, 600, 300, 299.5, 299.5, 1.0, 2.0, 2.0);
   hyper.model = MirrorModel::kConic;
   const double ecc = 1.5, a = 2.0 / (ecc * ecc - 1.0);
   hyper.params.conic_constant = -ecc * ecc;

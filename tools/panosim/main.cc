@@ -1,6 +1,6 @@
 // panosim: catadioptric ray tracer for test sequences and calibration images
-// with exact ground truth. Thin front end over lib/panotrack/render: one function adds
-// each subcommand's options, one runs it.
+// with exact ground truth. Thin front end over pipeline/panosim.h: one
+// function adds each subcommand's options, one runs its job.
 #include <CLI/CLI.hpp>
 
 #include <opencv2/core/utils/logger.hpp>
@@ -20,14 +20,8 @@
 #include "cli_help.h"
 #include "panotrack/config.h"
 #include "panotrack/core/error.h"
-#include "panotrack/core/output_check.h"
 #include "panotrack/core/parallel.h"
-#include "panotrack/io/calibration.h"
-#include "panotrack/io/map.h"
-#include "panotrack/render/presets.h"
-#include "panotrack/render/render.h"
-#include "panotrack/render/targets_render.h"
-#include "panotrack/render/writers.h"
+#include "panotrack/pipeline/panosim.h"
 
 namespace {
 
@@ -294,43 +288,28 @@ CLI::App* AddStill(CLI::App* app, StillArgs* a) {
   return still;
 }
 
-// The still's sensor, map, pose and options: from a preset or from files.
-void StillScene(const StillArgs& a, pano::Sensor* sensor, pano::Map* map, pano::Pose2* pose,
-                pano::RenderOptions* ro) {
-  if (!a.preset.empty()) {
-    if (!a.map_path.empty() || !a.calib_path.empty() || !a.pose.empty())
-      throw pano::Error("--preset: give either --preset or --map/--calib/--pose, not both");
-    const pano::SequenceCase c = pano::MakePreset(a.preset);
-    if (a.frame_index < 0 || a.frame_index >= static_cast<int>(c.poses.size()))
-      throw pano::Error("--frame: " + std::to_string(a.frame_index) + " is outside 0.." +
-                        std::to_string(c.poses.size() - 1) + " of preset '" + a.preset + "'");
-    *sensor = c.calib.sensor;
-    *map = c.map;
-    *pose = c.poses[static_cast<size_t>(a.frame_index)];
-    *ro = c.options;
-    return;
-  }
-  if (a.map_path.empty()) throw pano::Error("--map: required (or give --preset)");
-  if (a.calib_path.empty()) throw pano::Error("--calib: required (or give --preset)");
-  if (a.pose.empty()) throw pano::Error("--pose: required: x,y,theta (map units, radians)");
-  *map = pano::ReadMap(a.map_path);
-  *sensor = pano::ReadCalibration(a.calib_path).sensor;
-  *pose = {a.pose[0], a.pose[1], a.pose[2]};
-  pano::CheckPose(*map, *pose, "--pose");
+// The flags over the scene: rig faults, rendering options (scene: a room,
+// not boards), threads.
+pano::RenderAdjustments AdjustmentsOf(const RenderFlags& flags, const RigFlags& rig, const CommonFlags& common,
+                                      bool scene) {
+  pano::RenderAdjustments adjust;
+  adjust.sensor = [&rig](pano::Sensor* s) { rig.Apply(s); };
+  adjust.options = [&flags, scene](pano::RenderOptions* o) { flags.Apply(o, scene); };
+  adjust.num_threads = common.jobs;
+  return adjust;
 }
 
 void RunStill(const StillArgs& a) {
-  pano::Sensor sensor;
-  pano::Map map;
-  pano::Pose2 pose;
-  pano::RenderOptions ro;
-  pano::CheckPlannedOutputs({{"--map", a.map_path}, {"--calib", a.calib_path}}, {{"-o", a.out}}, a.common.force);
-  StillScene(a, &sensor, &map, &pose, &ro);
-  a.rig.Apply(&sensor);
-  a.flags.Apply(&ro, true);
-  ro.num_threads = a.common.jobs;
-  ro.Check("options");
-  pano::WritePng(a.out, pano::RenderStill(sensor, map, pose, ro));
+  pano::StillJob job;
+  job.preset = a.preset;
+  job.frame = a.frame_index;
+  job.map_path = a.map_path;
+  job.calib_path = a.calib_path;
+  if (!a.pose.empty()) job.pose = pano::Pose2{a.pose[0], a.pose[1], a.pose[2]};
+  job.output = a.out;
+  job.overwrite = a.common.force;
+  job.adjust = AdjustmentsOf(a.flags, a.rig, a.common, true);
+  pano::RunStill(job);
 }
 
 struct SequenceArgs {
@@ -406,46 +385,26 @@ CLI::App* AddSequence(CLI::App* app, SequenceArgs* a) {
   return seq;
 }
 
-pano::SequenceCase SequenceCaseOf(const SequenceArgs& a) {
-  if (!a.preset.empty()) {
-    if (!a.map_path.empty() || !a.calib_path.empty() || !a.traj_path.empty())
-      throw pano::Error("--preset: give either --preset or --map/--calib/--trajectory, not both");
-    pano::SequenceCase c = pano::MakePreset(a.preset);
-    if (a.o_fps->count()) c.fps = a.fps;
-    return c;
-  }
-  if (a.map_path.empty()) throw pano::Error("--map: required (or give --preset)");
-  if (a.calib_path.empty()) throw pano::Error("--calib: required (or give --preset)");
-  if (a.traj_path.empty()) throw pano::Error("--trajectory: required (or give --preset)");
-  return pano::MakeCase(a.map_path, a.calib_path, a.traj_path, a.fps);
-}
-
 void RunSequence(const SequenceArgs& a) {
-  // The output folder is replaced as a whole, --force or not.
-  pano::CheckFolderOutputHoldsNoInput(
-      {{"--map", a.map_path}, {"--calib", a.calib_path}, {"--trajectory", a.traj_path}}, "-o", a.out);
-  pano::SequenceCase c = SequenceCaseOf(a);
-  // The video encoder's range of frame rates (x264 fails outside it with its own lines).
-  if (!(c.fps >= 0.01 && c.fps <= 1000))
-    throw pano::Error("--fps: expected a frame rate from 0.01 to 1000 frames/s, got " + Joined({c.fps}));
-  a.rig.Apply(&c.calib.sensor);
-  // A preset's survey error stays unless an option replaces it.
-  const pano::SurveyError preset = c.survey;
-  c.survey = a.survey;
-  if (!a.o_map_sigma->count()) c.survey.sigma = preset.sigma;
-  if (!a.o_map_seed->count()) c.survey.seed = preset.seed;
-  a.flags.Apply(&c.options, true);
-  c.options.num_threads = a.common.jobs;
-  c.options.Check("options");
-  pano::SequenceWriteOptions wo;
-  wo.frames = a.frames;
-  wo.video = !a.no_video;
-  wo.overwrite = a.common.force;
+  pano::SequenceJob job;
+  job.preset = a.preset;
+  job.map_path = a.map_path;
+  job.calib_path = a.calib_path;
+  job.trajectory_path = a.traj_path;
+  if (a.o_fps->count() || a.preset.empty()) job.fps = a.fps;
+  job.survey = a.survey;
+  if (a.o_map_sigma->count()) job.survey_sigma = a.survey.sigma;
+  if (a.o_map_seed->count()) job.survey_seed = a.survey.seed;
+  job.output = a.out;
+  job.write.frames = a.frames;
+  job.write.video = !a.no_video;
+  job.write.overwrite = a.common.force;
   if (!a.common.quiet) {
-    wo.on_progress = [](int done, int total) { std::cerr << "panosim: frame " << done << "/" << total << "\n"; };
-    wo.on_note = [](const std::string& note) { std::cerr << "panosim: " << note << "\n"; };
+    job.write.on_progress = [](int done, int total) { std::cerr << "panosim: frame " << done << "/" << total << "\n"; };
+    job.write.on_note = [](const std::string& note) { std::cerr << "panosim: " << note << "\n"; };
   }
-  const pano::SequenceWriteResult r = pano::WriteSequence(c, a.out, wo);
+  job.adjust = AdjustmentsOf(a.flags, a.rig, a.common, true);
+  const pano::SequenceWriteResult r = pano::RunSequence(job);
   if (!a.common.quiet)
     std::cerr << "panosim: wrote " << r.frames << " frames to " << a.out
               << (r.codec.empty() ? "" : " (video codec " + r.codec + ")") << "\n";
@@ -505,9 +464,6 @@ CLI::App* AddTargets(CLI::App* app, TargetsArgs* a) {
 }
 
 
-// Board images --auto renders at most (a calibration uses 20..50).
-constexpr int kMaxAutoImages = 1000;
-
 pano::TargetBoard BoardOf(const std::vector<double>& b) {
   pano::TargetBoard board;
   board.cols = static_cast<int>(b[0]);
@@ -520,48 +476,28 @@ pano::TargetBoard BoardOf(const std::vector<double>& b) {
   return board;
 }
 
-std::vector<pano::BoardPose> BoardPosesOf(const TargetsArgs& a, const pano::Sensor& sensor,
-                                          const pano::TargetBoard& board, unsigned long long seed) {
-  if (a.o_poses->count()) {
-    std::vector<pano::BoardPose> poses = pano::ReadBoardPoses(a.poses_path);
-    for (size_t i = 0; i < poses.size(); ++i)
-      if (!a.common.quiet && !pano::BoardFullyVisible(sensor, board, poses[i], 0.0, 1.0))
-        std::cerr << "panosim: warning: " << a.poses_path << ": line " << i + 2
-                  << ": not every inner corner of the board is in view\n";
-    return poses;
-  }
-  if (a.o_auto->count()) {
-    if (a.auto_n > kMaxAutoImages)  // (below 1: AutoBoardPoses says so)
-      throw pano::Error("--auto: expected at most " + std::to_string(kMaxAutoImages) + " images, got " +
-                        std::to_string(a.auto_n));
-    return pano::AutoBoardPoses(sensor, board, a.auto_n, seed, a.min_visible);
-  }
-  throw pano::Error("--poses or --auto: give the board poses file or the number of images to generate");
-}
-
 void RunTargets(const TargetsArgs& a) {
-  // The output folder is replaced as a whole, --force or not.
-  pano::CheckFolderOutputHoldsNoInput({{"--calib", a.calib_path}, {"--poses", a.poses_path}}, "-o", a.out);
-  if (a.calib_path.empty() && a.preset.empty()) throw pano::Error("--calib: required (or give --preset)");
-  pano::Calibration calib = a.preset.empty() ? pano::ReadCalibration(a.calib_path) : pano::MakePreset(a.preset).calib;
-  a.rig.Apply(&calib.sensor);
-  pano::TargetBoard board = BoardOf(a.board);
+  pano::TargetsJob job;
+  job.preset = a.preset;
+  job.calib_path = a.calib_path;
+  job.board = BoardOf(a.board);
   if (a.charuco_marker != 0.0) {
-    board.type = "charuco";
-    board.marker = a.charuco_marker;
-    board.dictionary = a.dictionary;
-    pano::CheckTargetBoard(board, pano::ArucoDictionaryId(board.dictionary) < 0 ? "--dictionary" : "--charuco");
+    job.board.type = "charuco";
+    job.board.marker = a.charuco_marker;
+    job.board.dictionary = a.dictionary;
+    pano::CheckTargetBoard(job.board, pano::ArucoDictionaryId(job.board.dictionary) < 0 ? "--dictionary" : "--charuco");
   }
-  pano::RenderOptions ro;
-  a.flags.Apply(&ro, false);
-  ro.num_threads = a.common.jobs;
-  ro.Check("options");
-  const std::vector<pano::BoardPose> poses = BoardPosesOf(a, calib.sensor, board, ro.seed);
-  pano::TargetsWriteOptions wo;
-  wo.overwrite = a.common.force;
-  if (!a.common.quiet)
-    wo.on_progress = [](int done, int total) { std::cerr << "panosim: image " << done << "/" << total << "\n"; };
-  pano::WriteTargetImages(a.out, calib, board, poses, ro, wo);
+  if (a.o_poses->count()) job.board_poses_path = a.poses_path;
+  if (a.o_auto->count()) job.auto_count = a.auto_n;
+  job.min_visible = a.min_visible;
+  job.output = a.out;
+  job.write.overwrite = a.common.force;
+  if (!a.common.quiet) {
+    job.write.on_progress = [](int done, int total) { std::cerr << "panosim: image " << done << "/" << total << "\n"; };
+    job.on_warning = [](const std::string& w) { std::cerr << "panosim: warning: " << w << "\n"; };
+  }
+  job.adjust = AdjustmentsOf(a.flags, a.rig, a.common, false);
+  pano::RunTargets(job);
 }
 
 void ListPresets() {

@@ -38,12 +38,6 @@ struct BatchProjection {
 BatchProjection ProjectPointsCsv(const Sensor& sensor, const std::string& csv, const std::string& source);
 BatchProjection BackprojectPixelsCsv(const Sensor& sensor, const std::string& csv, const std::string& source);
 
-// The file forms: reads `input` ("-": standard input), writes `output`
-// ("-" or empty: standard output) atomically, only after every line was read.
-// The caller checks existing outputs (--force) first.
-BatchProjection ProjectPointsFile(const Sensor& sensor, const std::string& input, const std::string& output);
-BatchProjection BackprojectPixelsFile(const Sensor& sensor, const std::string& input, const std::string& output);
-
 // "N points: K not visible (nan lines), M outside the image (nan lines)"
 // style note for stderr; empty when every input gave a result.
 std::string BatchNote(const BatchProjection& b, bool pixels);

@@ -19,7 +19,6 @@
 #include <sstream>
 
 #include "panotrack/calibrate/internal.h"
-#include "panotrack/calibrate/summary_json.h"
 #include "panotrack/core/atomic_file.h"
 #include "panotrack/core/error.h"
 #include "panotrack/core/parallel.h"
@@ -118,7 +117,7 @@ void CheckViewCount(size_t n_found, size_t n_total, bool poses_known, const Cali
   }
   if (n_found < need)
     throw Error("the board was found in only " + std::to_string(n_found) + " of " + std::to_string(n_total) +
-                " images; the " + mirror_model_name(o.model) + " fit with " +
+                " images; the " + MirrorModelName(o.model) + " fit with " +
                 (poses_known ? "known" : "unknown") + " board poses needs at least " +
                 std::to_string(need) + " (more images, boards at several distances and azimuths)");
 }
@@ -169,7 +168,7 @@ void Describe(CalibrationResult* result, bool poses_known, const std::string& un
   c.images_not_found = res.not_found_files;
   c.software = std::string("panotrack ") + PANO_VERSION;
   std::ostringstream cm;
-  cm << "panocalib calibrate: " << mirror_model_name(options.model) << " model, " << res.views.size()
+  cm << "panocalib calibrate: " << MirrorModelName(options.model) << " model, " << res.views.size()
      << " boards, " << (poses_known ? "known" : "unknown (estimated)") << " board poses, RMS "
      << res.rms_px << " px";
   if (std::isfinite(res.rms_raw_px)) cm << " (" << res.rms_raw_px << " px on the detector's corners)";
@@ -559,7 +558,7 @@ ModelSelection SelectModelAndRefit(Pipeline* p, const CalibrateOptions& options)
     p->options.select_model = false;
     p->carried.push_back(std::to_string(p->res.views.size()) +
                          " boards are too few to choose the model by cross-validation (4 at least): the " +
-                         mirror_model_name(options.model) + " model fitted");
+                         MirrorModelName(options.model) + " model fitted");
     p->res = CalibrateViews(p->res.views, p->targets.board, s.image_width, s.image_height, p->targets.units,
                             p->options);
     RefineThroughModel(p);
@@ -825,12 +824,6 @@ CalibrationResult CalibrateViews(const std::vector<BoardView>& views_in, const T
   return res;
 }
 
-CalibrationResult Calibrate(const TargetSet& targets, const CalibrateOptions& options) {
-  options.Check();
-  const std::vector<cv::Mat> images = LoadTargetImages(targets);
-  return Calibrate(targets, images, options);
-}
-
 CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>& images,
                             const CalibrateOptions& options) {
   options.Check();
@@ -880,95 +873,6 @@ CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>
   res.model_chosen = selection.chosen;
   res.model_reason = selection.reason;
   return res;
-}
-
-std::string Summary(const CalibrationResult& r) {
-  std::ostringstream o;
-  const Sensor& s = r.calib.sensor;
-  o << "model " << mirror_model_name(s.model) << ", " << s.image_width << "x" << s.image_height << " px, "
-    << r.views.size() << " boards used, board poses " << (r.poses_known ? "known" : "estimated") << "\n";
-  char line[256];
-  for (const ParameterEstimate& p : r.parameters) {
-    if (p.fixed)
-      std::snprintf(line, sizeof line, "  %-17s %14.6g   (fixed)\n", p.name.c_str(), p.value);
-    else if (std::isfinite(p.stddev))
-      std::snprintf(line, sizeof line, "  %-17s %14.6g +- %.3g\n", p.name.c_str(), p.value, p.stddev);
-    else
-      std::snprintf(line, sizeof line, "  %-17s %14.6g   (not determined)\n", p.name.c_str(), p.value);
-    o << line;
-  }
-  if (s.params.rim_radius > 0)
-    o << "  rim_radius        " << s.params.rim_radius << " (set to cover the image; not fitted)\n";
-  std::snprintf(line, sizeof line, "RMS reprojection error %.4f px over %zu boards (corners refined through the model)\n",
-                r.rms_px, r.views.size());
-  o << line;
-  if (std::isfinite(r.rms_raw_px)) {
-    std::snprintf(line, sizeof line,
-                  "RMS reprojection error %.4f px on the detector's corners over %d boards (poses refitted; "
-                  "`panocalib evaluate --no-refine` on these images)\n",
-                  r.rms_raw_px, r.raw_boards);
-    o << line;
-  }
-  if (!r.limb.Empty()) {
-    std::snprintf(line, sizeof line, "mirror limb: %zu points from %d images, RMS %.4f px (a point's sigma %.3f px)\n",
-                  r.limb.points.size(), r.limb.images_used, r.limb_rms_px, r.limb.point_sigma_px);
-    o << line;
-  }
-  for (size_t i = 0; i < r.views.size(); ++i) {
-    std::snprintf(line, sizeof line, "  %-24s %8.4f px  (%s)\n", r.views[i].file.c_str(), r.image_rms[i],
-                  r.views[i].method.c_str());
-    o << line;
-  }
-  if (!r.not_found_files.empty()) {
-    o << "no board found (skipped):";
-    for (const std::string& f : r.not_found_files) o << " " << f;
-    o << "\n";
-  }
-  if (!r.model_scores.empty()) {
-    o << ModelSelectionTable(r.model_scores, r.model_chosen);
-    if (!r.model_reason.empty()) o << "chosen: " << r.model_reason << "\n";
-  }
-  std::snprintf(line, sizeof line, "time: detection %.2f s, fit %.2f s\n", r.seconds_detect, r.seconds_fit);
-  o << line;
-  for (const std::string& w : r.warnings) o << "warning: " << w << "\n";
-  return o.str();
-}
-
-void WriteCalibrationOutputs(const CalibrationResult& result, const CalibrationOutputs& out,
-                             const cv::Mat& report_image) {
-  namespace fs = std::filesystem;
-  if (out.calibration.empty()) throw Error("-o: an output calibration file is required");
-  Calibration calib = result.calib;
-  calib.sensor.Check(out.calibration);
-  // Prepare everything before writing anything.
-  RadiusTable table;
-  if (!out.lut.empty()) {
-    table = RadiusTable::Build(calib.sensor, DefaultRanges(calib.sensor));
-    const fs::path cal_dir = fs::absolute(fs::path(out.calibration)).parent_path();
-    const fs::path lut_abs = fs::absolute(fs::path(out.lut));
-    calib.lut = lut_abs.lexically_relative(cal_dir).string();
-    if (calib.lut.empty()) calib.lut = lut_abs.string();
-  }
-  std::vector<uchar> png;
-  if (!out.report.empty()) {
-    if (report_image.empty()) throw Error(out.report + ": no report image to write");
-    if (!cv::imencode(".png", report_image, png)) throw Error(out.report + ": cannot encode the report PNG");
-  }
-  const std::string yaml = CalibrationToYaml(calib);
-  const std::string json = out.summary_json.empty() ? "" : CalibrationSummaryJson(result, out, out.command_line);
-  // The summary's folder exists (a file there is replaced atomically).
-  if (!out.summary_json.empty() && out.summary_json != "-") {
-    const fs::path dir = fs::absolute(fs::path(out.summary_json)).parent_path();
-    if (!fs::is_directory(dir)) throw Error(out.summary_json + ": no such folder " + dir.string());
-  }
-  if (!out.lut.empty()) table.Save(out.lut);
-  if (!out.report.empty()) {
-    AtomicFile f(out.report);
-    f.Write(png.data(), png.size());
-    f.Commit();
-  }
-  WriteFileAtomic(out.calibration, yaml);
-  if (!out.summary_json.empty()) WriteFileOrStdout(out.summary_json, json, "--summary-json");
 }
 
 }  // namespace pano

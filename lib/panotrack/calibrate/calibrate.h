@@ -134,7 +134,7 @@ struct CalibrateOptions {
   // certain there. <= 0: every corner counts the same in pixels.
   double full_weight_px = 10.0;
   int max_iterations = 200;
-  // Rig faults fitted (project_general in the fit when any is free);
+  // Rig faults fitted (ProjectGeneral in the fit when any is free);
   // free_faults_auto: DefaultFreeFaults(model) instead of free_faults. Off
   // (the aligned model) by default: with estimated board poses a free
   // decentre or camera tilt trades against the principal point, which an
@@ -282,31 +282,6 @@ struct CalibrationResult {
 // Board points (z = 0) in board order.
 std::vector<Eigen::Vector3d> BoardPoints(const TargetBoard& board);
 
-// Loads the images (grey; a video's frames read front to back) and checks
-// that they exist and share one size.
-std::vector<cv::Mat> LoadTargetImages(const TargetSet& targets);
-
-// The board and settings for an input without a target file.
-struct TargetInputBoard {
-  bool board_given = false;  // --board was given
-  TargetBoard board;
-  std::string units = "cm";  // the target file's default
-  int every = 0;             // a video's frame step; 0: about 30 frames
-};
-// The calibration input `path`: a target file (.yaml/.yml: the board comes
-// from it, so none may be given), a folder of images (natural order) or a
-// video (sampled every `every` frames), both with the board given (io/targets.h:
-// ClassifyTargetInput, TargetsFromFolder, TargetsFromVideoFrames). Throws
-// pano::Error naming --board or the path.
-TargetSet ReadTargetInput(const std::string& path, const TargetInputBoard& input);
-// The files a calibration input reads, for the output guard
-// (CheckOutputsDistinct): `path` itself under `option`, and each board image
-// or video that `targets` (read from `path`) names, as "a board image of
-// <path>".
-NamedPaths TargetInputReads(const std::string& path, const TargetSet& targets, const std::string& option = "");
-// Frames in a video, counted by reading it (containers' counts are estimates).
-int CountVideoFrames(const std::string& path);
-
 // Step 1: raw-image detection (in parallel over images, options.Threads()):
 // the quick search, then the exhaustive one where it fails. defer_to_unwarped
 // (the pipeline's choice): no exhaustive search when the quick one found half
@@ -379,33 +354,9 @@ CalibrationResult CalibrateViews(const std::vector<BoardView>& views, const Targ
 int RefineCornersThroughModel(const std::vector<cv::Mat>& images, const TargetBoard& board,
                               const Sensor& sensor, std::vector<BoardView>* views, int num_threads = 0);
 
-// The whole pipeline on a target file's images (steps 1-4).
-CalibrationResult Calibrate(const TargetSet& targets, const CalibrateOptions& options);
-// Same, with the images already loaded (one per target image).
+// The whole pipeline on a target file's images (steps 1-4), loaded one per
+// target image (pipeline/target_input.h: LoadTargetImages).
 CalibrationResult Calibrate(const TargetSet& targets, const std::vector<cv::Mat>& images,
                             const CalibrateOptions& options);
-
-// Report image: the corners of every view over `image` (faded; a grey canvas
-// when empty or of another size) with the mirror's limb and the annulus the
-// corners cover, the residuals of all corners (scatter, histogram), the RMS
-// per image with its file name (view_index, the worst view, in bold; views of
-// the unwarped retry marked) and the parameters with their standard deviations.
-cv::Mat DrawReport(const CalibrationResult& result, const cv::Mat& image, int view_index);
-// Text summary (parameters with standard deviations, RMS, per-image RMS,
-// warnings).
-std::string Summary(const CalibrationResult& result);
-
-// Output paths of `panocalib calibrate`; empty: not written.
-struct CalibrationOutputs {
-  std::string calibration;  // YAML (README, "Files and conventions")
-  std::string lut;          // E(D,Z) table, referenced from the YAML
-  std::string report;       // PNG
-  std::string summary_json; // the summary as JSON (CalibrationSummaryJson); "-": standard output
-  std::vector<std::string> command_line;  // recorded in the summary JSON
-};
-// Writes every output atomically; all are prepared (LUT built, PNG encoded)
-// before the first file is written, so a failure leaves no partial output.
-void WriteCalibrationOutputs(const CalibrationResult& result, const CalibrationOutputs& out,
-                             const cv::Mat& report_image);
 
 }  // namespace pano

@@ -40,7 +40,7 @@ struct PoseCornerCost {
     BoardPointInSensor(pose, X, Xs);
     T u, v;
     const GeneralSensorParams<T> gt = g.template cast<T>();
-    if (g.IsAligned() ? !project(gt.aligned, Xs, &u, &v) : !project_general(gt, Xs, &u, &v)) return false;
+    if (g.IsAligned() ? !project(gt.aligned, Xs, &u, &v) : !ProjectGeneral(gt, Xs, &u, &v)) return false;
     WhitenedResidual(L, u, v, obs, residual);
     return true;
   }
@@ -208,7 +208,7 @@ EvaluationResult EvaluateViews(const std::vector<BoardView>& views, const Target
   options.Check();
   const auto t0 = std::chrono::steady_clock::now();
   EvaluationResult r;
-  r.model = mirror_model_name(sensor.model);
+  r.model = MirrorModelName(sensor.model);
   for (const BoardView& v : views) {
     ImageEvaluation im;
     im.image_index = v.image_index;

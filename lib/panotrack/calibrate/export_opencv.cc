@@ -166,7 +166,7 @@ void WriteOpenCvCalibration(const std::string& path, const Calibration& calib, c
   fs << "camera_matrix"
      << (cv::Mat_<double>(3, 3) << p.focal_px, s.faults.skew, p.cx, 0, p.focal_px * p.aspect, p.cy, 0, 0, 1);
   fs << "distortion_coefficients" << (cv::Mat_<double>(1, 5) << p.k1, p.k2, 0, 0, 0);
-  fs << "mirror_model" << mirror_model_name(s.model);
+  fs << "mirror_model" << MirrorModelName(s.model);
   fs << "curvature_radius" << p.curvature_radius << "conic_constant" << p.conic_constant
      << "vertex_distance" << p.vertex_distance << "azimuth_offset" << p.azimuth_offset;
   if (s.model == MirrorModel::kAsphere) fs << "asphere_a4" << p.asphere_a4 << "asphere_a6" << p.asphere_a6;

@@ -183,9 +183,9 @@ struct ElevationCost {
     p.vertex_distance = T(1);
     if (!(x[0] > T(0)) || !(x[1] > T(0))) return false;
     const T m = T(rho_) / x[0];
-    if (!(m < max_normalized_radius(p))) return false;
+    if (!(m < MaxNormalizedRadius(p))) return false;
     T ps, pz, ds, dz;
-    if (!reflect_meridian(p, m, &ps, &pz, &ds, &dz)) return false;
+    if (!ReflectMeridian(p, m, &ps, &pz, &ds, &dz)) return false;
     using std::atan2;
     r[0] = atan2(dz, ds) - T(elev_);
     return true;
@@ -214,7 +214,7 @@ ShapeFit FitShape(const std::vector<double>& rho, const std::vector<double>& ele
       p.curvature_radius = R0;
       p.conic_constant = k0;
       p.vertex_distance = 1.0;
-      const double m_max = max_normalized_radius(p);
+      const double m_max = MaxNormalizedRadius(p);
       double x[3] = {std::isfinite(m_max) ? 1.15 * rho_max / m_max : rho_max / 0.8, R0, k0};
       ceres::Problem problem;
       problem.AddParameterBlock(x, 3);
@@ -251,7 +251,7 @@ ShapeFit FitShape(const std::vector<double>& rho, const std::vector<double>& ele
     int n = 0;
     for (double r : rho) {
       double ps, pz, ds, dz;
-      if (reflect_meridian(p, r / best.f, &ps, &pz, &ds, &dz) && std::abs(ds) > 1e-9) {
+      if (ReflectMeridian(p, r / best.f, &ps, &pz, &ds, &dz) && std::abs(ds) > 1e-9) {
         sum += pz - ps * dz / ds;
         ++n;
       }
@@ -571,8 +571,8 @@ bool CentralWithKnownPoses(const InitInput& in, CentralFit* fit, std::ostringstr
     ceres::AngleAxisToRotationMatrix(v.rvec.data(), R.data());
     for (size_t j = 0; j < v.corners.size(); ++j) {
       const Eigen::Vector3d X = R * in.pts[v.PointId(j)] + v.tvec;
-      const double d = wrap_angle(std::atan2(v.corners[j].y() - cm.cy, v.corners[j].x() - cm.cx) -
-                                  std::atan2(X.y(), X.x()));
+      const double d = WrapAngle(std::atan2(v.corners[j].y() - cm.cy, v.corners[j].x() - cm.cx) -
+                                 std::atan2(X.y(), X.x()));
       sx += std::cos(d);
       sy += std::sin(d);
     }
@@ -693,7 +693,7 @@ struct UnifiedElevationCost {
     p.focal_px = x[0];
     p.xi = x[1];
     T ds, dz;
-    if (!unified_direction(p, T(rho_) / x[0], &ds, &dz)) return false;
+    if (!UnifiedDirection(p, T(rho_) / x[0], &ds, &dz)) return false;
     using std::atan2;
     r[0] = atan2(dz, ds) - T(elev_);
     return true;

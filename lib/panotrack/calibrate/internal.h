@@ -50,7 +50,7 @@ SensorParams<T> ParamsFromBlock(const T* s) {
   p.conic_constant = s[kConic];
   p.vertex_distance = s[kVertex];
   p.xi = s[kXi];
-  p.unified = scalar_value(s[kUnified]) != 0.0;
+  p.unified = ScalarValue(s[kUnified]) != 0.0;
   p.rim_radius = T(0);
   return p;
 }
@@ -172,14 +172,14 @@ inline std::vector<int> ImagesWithout(const std::vector<int>& images, const std:
 // lies beyond it (a hyperboloid has none: its rays would run off to infinity).
 inline double RimForRadius(SensorParams<double> p, double m_cap) {
   p.rim_radius = 0.0;
-  const double m_limb = max_normalized_radius(p);
+  const double m_limb = MaxNormalizedRadius(p);
   if (!(m_cap > 0.0) || (std::isfinite(m_limb) && m_limb <= m_cap)) return 0.0;
   if (p.unified) return m_cap;  // its rim is a normalised radius
   // Rays steeper than a hyperboloid's asymptote never meet it.
   if (p.conic_constant < -1.0) m_cap = std::min(m_cap, 0.999 * std::sqrt(-(1.0 + p.conic_constant)));
   double s, z;
   for (int i = 0; i < 100; ++i, m_cap *= 0.95)
-    if (mirror_hit(p, m_cap, &s, &z)) return s;
+    if (MirrorHit(p, m_cap, &s, &z)) return s;
   return 0.0;
 }
 
@@ -216,7 +216,7 @@ struct CornerCost {
     if (!PlausibleParams(p)) return false;
     p.asphere_a4 = T(asphere_a4);
     p.asphere_a6 = T(asphere_a6);
-    p.rim_radius = T(RimForRadius(p.template cast<double>(), cap / scalar_value(p.focal_px)));
+    p.rim_radius = T(RimForRadius(p.template cast<double>(), cap / ScalarValue(p.focal_px)));
     T Xs[3];
     BoardPointInSensor(pose, X, Xs);
     T u, v;
@@ -238,9 +238,9 @@ struct CornerCost {
   double asphere_a4 = 0.0, asphere_a6 = 0.0;
 };
 
-// CornerCost through the general model (project_general): sensor block,
+// CornerCost through the general model (ProjectGeneral): sensor block,
 // fault block, pose block. Used whenever a fault is free or non-zero, since
-// with Jets only project_general carries derivatives in the faults.
+// with Jets only ProjectGeneral carries derivatives in the faults.
 struct GeneralCornerCost {
   GeneralCornerCost(const Eigen::Vector3d& board_point, const Eigen::Vector2d& pixel, double cap_px,
                     const Eigen::Matrix2d& sqrt_info = Eigen::Matrix2d::Identity())
@@ -250,13 +250,13 @@ struct GeneralCornerCost {
     GeneralSensorParams<T> g;
     g.aligned = ParamsFromBlock(sensor);
     if (!PlausibleParams(g.aligned)) return false;
-    g.aligned.rim_radius = T(RimForRadius(g.aligned.template cast<double>(), cap / scalar_value(g.aligned.focal_px)));
+    g.aligned.rim_radius = T(RimForRadius(g.aligned.template cast<double>(), cap / ScalarValue(g.aligned.focal_px)));
     g.faults = FaultsFromBlock(faults);
     if (!PlausibleFaults(g)) return false;
     T Xs[3];
     BoardPointInSensor(pose, X, Xs);
     T u, v;
-    if (!project_general(g, Xs, &u, &v)) return false;
+    if (!ProjectGeneral(g, Xs, &u, &v)) return false;
     WhitenedResidual(L, u, v, obs, residual);
     return true;
   }
@@ -291,14 +291,14 @@ struct AsphereCornerCost {
     if (!PlausibleParams(g.aligned)) return false;
     g.aligned.asphere_a4 = asphere[kA4];
     g.aligned.asphere_a6 = asphere[kA6];
-    g.aligned.rim_radius = T(RimForRadius(g.aligned.template cast<double>(), cap / scalar_value(g.aligned.focal_px)));
+    g.aligned.rim_radius = T(RimForRadius(g.aligned.template cast<double>(), cap / ScalarValue(g.aligned.focal_px)));
     T Xs[3];
     BoardPointInSensor(pose, X, Xs);
     T u, v;
     if (general) {
       g.faults = FaultsFromBlock(faults);
       if (!PlausibleFaults(g)) return false;
-      if (!project_general(g, Xs, &u, &v)) return false;
+      if (!ProjectGeneral(g, Xs, &u, &v)) return false;
     } else if (!project(g.aligned, Xs, &u, &v)) {
       return false;
     }

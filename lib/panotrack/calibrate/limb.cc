@@ -32,16 +32,16 @@ bool PixelOfMirrorFrameRay(const Sensor& s, const double* m, Eigen::Vector2d* px
   const SensorParams<double>& p = s.params;
   const RigFaults<double>& f = s.faults;
   double Rc[9], c[3];
-  detail::tilt_rotation(f.camera_tilt, Rc);
-  detail::rotate_transposed(Rc, m, c);
+  detail::TiltRotation(f.camera_tilt, Rc);
+  detail::RotateTransposed(Rc, m, c);
   if (!(c[2] > 0.0)) return false;
   const double xn = c[0] / c[2], yn = c[1] / c[2];
   const double co = std::cos(p.azimuth_offset), so = std::sin(p.azimuth_offset);
   const double xi = xn * co - yn * so, yi = xn * so + yn * co;
   double xd, yd;
-  detail::brown_distort(p, f, xi, yi, &xd, &yd);
+  detail::BrownDistort(p, f, xi, yi, &xd, &yd);
   double u, v;
-  detail::pixel_of_distorted(p, f, xd, yd, &u, &v);
+  detail::PixelOfDistorted(p, f, xd, yd, &u, &v);
   *px = {u, v};
   return std::isfinite(px->x()) && std::isfinite(px->y());
 }
@@ -79,12 +79,12 @@ struct LimbCost {
     const SensorParams<T> p = ParamsFromBlock(s);
     const RigFaults<T> f = FaultsFromBlock(fb);
     T xd, yd, xi, yi;
-    detail::distorted_of_pixel(p, f, T(px_.x()), T(px_.y()), &xd, &yd);
-    if (!detail::brown_undistort(p, f, xd, yd, &xi, &yi)) return false;
+    detail::DistortedOfPixel(p, f, T(px_.x()), T(px_.y()), &xd, &yd);
+    if (!detail::BrownUndistort(p, f, xd, yd, &xi, &yi)) return false;
     const T co = cos(p.azimuth_offset), so = sin(p.azimuth_offset);
     const T c[3] = {xi * co + yi * so, -xi * so + yi * co, T(1)};
     T Rc[9], m[3], C[3];
-    detail::tilt_rotation(f.camera_tilt, Rc);
+    detail::TiltRotation(f.camera_tilt, Rc);
     detail::rotate(Rc, c, m);
     SphereCentre(p, f, C);
     const T cr[3] = {m[1] * C[2] - m[2] * C[1], m[2] * C[0] - m[0] * C[2], m[0] * C[1] - m[1] * C[0]};

@@ -14,7 +14,7 @@ namespace pano {
 namespace {
 
 std::string CandidateName(const CalibrateOptions& o) {
-  if (o.model != MirrorModel::kAsphere) return mirror_model_name(o.model);
+  if (o.model != MirrorModel::kAsphere) return MirrorModelName(o.model);
   return o.asphere_terms == 1 ? "asphere (a4)" : "asphere (a4, a6)";
 }
 
@@ -187,7 +187,7 @@ std::vector<SelectionCandidate> SelectionCandidates(const CalibrateOptions& opti
       if (SameModel(o.options, c.options)) return;
     const FreeFaults f = c.options.Faults();
     const int nd = c.options.DistortionTerms();
-    c.name = model == MirrorModel::kAsphere ? CandidateName(c.options) : mirror_model_name(model);
+    c.name = model == MirrorModel::kAsphere ? CandidateName(c.options) : MirrorModelName(model);
     if (nd > 0) c.name += nd == 1 ? " + k1" : " + k1 k2";
     if (f.Any()) c.name += " + " + FaultNames(f);
     c.parameters = (model != MirrorModel::kSphere ? 1 : 0) +

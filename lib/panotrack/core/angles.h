@@ -8,7 +8,7 @@
 namespace pano {
 
 // Wraps an angle to (-pi, pi].
-inline double wrap_angle(double a) {
+inline double WrapAngle(double a) {
   if (a > -M_PI && a <= M_PI) return a;  // the common case, without a division
   a = std::remainder(a, 2.0 * M_PI);
   if (a <= -M_PI) a += 2.0 * M_PI;
@@ -18,7 +18,7 @@ inline double wrap_angle(double a) {
 // The same for any scalar type (ceres::Jet among them: the derivative
 // passes through unchanged).
 template <typename T>
-T wrap_angle(T a) {
+T WrapAngle(T a) {
   using std::remainder;
   const T two_pi = T(2.0 * M_PI);
   a = remainder(a, two_pi);
@@ -27,7 +27,7 @@ T wrap_angle(T a) {
 }
 
 // Wraps an angle to [0, 2 pi).
-inline double wrap_angle_positive(double a) {
+inline double WrapAnglePositive(double a) {
   a = std::fmod(a, 2.0 * M_PI);
   if (a < 0.0) a += 2.0 * M_PI;
   return a >= 2.0 * M_PI ? 0.0 : a;
@@ -48,7 +48,7 @@ inline constexpr double kAtanSixteenths[17] = {
 // c the nearest sixteenth to t, u = (t - c) / (1 + t c), |u| < 1/32, whose
 // series to u^11 is exact to 2e-19. Non-finite arguments and (0, 0) go to
 // std::atan2.
-inline double fast_atan2(double y, double x) {
+inline double FastAtan2(double y, double x) {
   const double ax = std::abs(x), ay = std::abs(y);
   const bool steep = ay > ax;
   const double num = steep ? ax : ay, den = steep ? ay : ax;

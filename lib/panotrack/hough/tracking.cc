@@ -54,7 +54,7 @@ bool RefineRobust(const PhTable& table, const TrackingVote* pts, const PointRow*
     double a11 = 0, a12 = 0, a22 = 0, b1 = 0, b2 = 0, se = 0;
     int used = 0;
     for (size_t k = 0; k < n; ++k) {
-      const double dt = wrap_angle(t - pts[k].azimuth);
+      const double dt = WrapAngle(t - pts[k].azimuth);
       if (!(std::abs(dt) + h < dt_cap)) continue;
       // A point needs PH at dt - h and dt + h only when its residual is
       // within the scale (it is skipped otherwise either way).
@@ -137,9 +137,9 @@ WindowGrid GridOf(const PhTable& table, const TrackingWindow& w) {
   thread_local std::vector<unsigned char> col_ok;
   col_ok.assign(g.nt, 1);
   if (std::isfinite(w.theta_min) && std::isfinite(w.theta_max)) {
-    const double span = wrap_angle_positive(w.theta_max - w.theta_min);
+    const double span = WrapAnglePositive(w.theta_max - w.theta_min);
     for (int c = 0; c < g.nt; ++c) {
-      const double off = wrap_angle_positive(g.t_lo + c * w.theta_bin - w.theta_min);
+      const double off = WrapAnglePositive(g.t_lo + c * w.theta_bin - w.theta_min);
       col_ok[c] = off > 0.0 && off < span;
     }
   }
@@ -174,7 +174,7 @@ double VoteInWindow(const PhTable& table, const TrackingWindow& w, const WindowG
     pr.ok = table.RowAt(p.radius, &pr.row);  // Eqn 7 along R_i
     if (!pr.ok) continue;
     const float wt = static_cast<float>(p.weight);
-    const double dt0 = wrap_angle(g.t_lo - p.azimuth);  // dtheta of column 0 (Eqn 8)
+    const double dt0 = WrapAngle(g.t_lo - p.azimuth);  // dtheta of column 0 (Eqn 8)
     int c_first = -1, c_last = -1, i_lo = nr, i_hi = -1;
     for (int c = 0; c < nt; ++c) {
       const double dt = dt0 + c * w.theta_bin;
@@ -232,7 +232,7 @@ void RefinePeak(const PhTable& table, const TrackingWindow& w, const WindowGrid&
   double R = res->r_main, T = res->theta_main;
   double sr = 0, st = 0;
   // theta unwrapped next to the window's prediction.
-  T = w.theta_main + wrap_angle(T - w.theta_main);
+  T = w.theta_main + WrapAngle(T - w.theta_main);
   int c_first = 0, c_last = nt - 1;
   while (c_first < nt - 1 && !col_ok[c_first]) ++c_first;
   while (c_last > 0 && !col_ok[c_last]) --c_last;
@@ -241,7 +241,7 @@ void RefinePeak(const PhTable& table, const TrackingWindow& w, const WindowGrid&
                    g.t_lo + (c_first - 0.5) * w.theta_bin, g.t_lo + (c_last + 0.5) * w.theta_bin,
                    w.refine_scale_bins * w.r_bin, w.refine_iterations, 1e-3 * w.r_bin, &R, &T, &sr, &st)) {
     res->r_main = R;
-    res->theta_main = wrap_angle(T);
+    res->theta_main = WrapAngle(T);
     res->r_sigma = sr;
     res->theta_sigma = st;
   }
@@ -254,7 +254,7 @@ double InlierWeight(const PhTable& table, const TrackingWindow& w, const WindowG
   const double tol = w.inlier_r_bins * w.r_bin;
   for (size_t i = 0; i < n_points; ++i) {
     const TrackingVote& p = points[i];
-    const double dt = wrap_angle(res->theta_main - p.azimuth);
+    const double dt = WrapAngle(res->theta_main - p.azimuth);
     double rm;
     if (!(std::abs(dt) < g.dt_cap) || !rows[i].ok || !table.MainOnRow(rows[i].row, dt, &rm)) continue;
     if (std::abs(rm - res->r_main) <= tol) {
@@ -287,7 +287,7 @@ TrackingResult TrackHorizontalLine(const PhTable& table, const TrackingWindow& w
   res.peak = fit.value;
   res.at_border = fit.at_border;
   res.r_main = g.r_lo + fit.x * w.r_bin;
-  res.theta_main = wrap_angle(g.t_lo + fit.y * w.theta_bin);
+  res.theta_main = WrapAngle(g.t_lo + fit.y * w.theta_bin);
   if (w.refine_iterations > 0) RefinePeak(table, w, g, points, rows.data(), n_points, &res);
   // Score: inlier weight fraction at the refined peak.
   res.score = InlierWeight(table, w, g, points, rows.data(), n_points, &res) / total_weight;

@@ -102,7 +102,7 @@ void PhWholeImage::SetGeometry(const Sensor& sensor, const WholeImageOptions& op
 PhWholeImage::PolarPixel PhWholeImage::Polar(int u, int v) const {
   const double du = u - cx_, dv = (v - cy_) / aspect_;
   const double r = std::sqrt(du * du + dv * dv);
-  const double t = wrap_angle_positive(std::atan2(dv, du));
+  const double t = WrapAnglePositive(std::atan2(dv, du));
   return {static_cast<float>(r), static_cast<float>(t), static_cast<float>(r > 0 ? du / r : 1.0),
           static_cast<float>(r > 0 ? dv / r : 0.0)};
 }
@@ -689,7 +689,7 @@ HorizontalPeak PhWholeImage::RefinedPeak(const T* g, int cols, int n, int j0, in
   pk.plane = p;
   pk.height = options_.heights[p];
   pk.r_main = (j0 + j + 0.5 + ox) * options_.r_bin;
-  pk.theta_main = wrap_angle((k + 0.5 + oy) * theta_bin_);
+  pk.theta_main = WrapAngle((k + 0.5 + oy) * theta_bin_);
   pk.votes = v;
   return pk;
 }
@@ -869,7 +869,7 @@ VerticalPeak PhWholeImage::VerticalPeakAt(const WholeImageResult& res, const std
   const double den = m - 2 * z + pl;
   const double off = den < 0 ? std::clamp(0.5 * (m - pl) / den, -0.5, 0.5) : 0.0;
   VerticalPeak vp;
-  vp.theta = wrap_angle((k + 0.5 + off) * theta_bin_);
+  vp.theta = WrapAngle((k + 0.5 + off) * theta_bin_);
   vp.votes = h[(k + NT - 1) % NT] + h[k] + h[(k + 1) % NT];
   vp.r_min = std::numeric_limits<double>::infinity();
   vp.r_max = 0.0;
@@ -932,7 +932,7 @@ PhWholeImage::VoterIndex PhWholeImage::BucketVoters(const WholeImageResult& res)
 
 void PhWholeImage::PeakCurve(const HorizontalPeak& pk, CurveRows* rows) const {
   const int S = sub_steps_, W = width_, M = half_width_;
-  const double t0 = wrap_angle_positive(pk.theta_main);
+  const double t0 = WrapAnglePositive(pk.theta_main);
   // Bin edges (kc + d) theta_bin - theta_main = (d - frac) theta_bin.
   const double x = t0 / theta_bin_;
   int kc = static_cast<int>(std::floor(x));

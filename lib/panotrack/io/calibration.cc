@@ -126,7 +126,7 @@ Calibration ParseCalibration(const std::string& path, const YAML::Node& n) {
     if (!(distance > radius))
       r.Fail("mirror_distance", "expected mirror_distance > mirror_radius (got " +
                                     YamlDouble(distance) + " <= " + YamlDouble(radius) + ")");
-    set_sphere_mirror(&p, radius, distance);
+    SetSphereMirror(&p, radius, distance);
   } else if (s.model == MirrorModel::kUnified) {
     for (const char* key : {"curvature_radius", "conic_constant", "vertex_distance", "mirror_radius", "mirror_distance"})
       if (r.Has(n, key)) r.Fail(key, "not a parameter of the unified model (it has xi instead)");
@@ -216,7 +216,7 @@ std::string CalibrationToYaml(const Calibration& c) {
   YamlWriter w;
   if (!c.comment.empty()) w.Comment(c.comment);
   w.BeginMap();
-  w.Key("model").String(mirror_model_name(s.model));
+  w.Key("model").String(MirrorModelName(s.model));
   w.Key("units").String(c.units);
   w.Key("image_width").Int(s.image_width);
   w.Key("image_height").Int(s.image_height);

@@ -5,6 +5,7 @@
 #include <optional>
 #include <string>
 
+#include "panotrack/pose/pose2.h"
 #include "panotrack/sensor/sensor.h"
 
 namespace pano {

@@ -50,7 +50,7 @@ Pose2 Interpolate(const std::vector<OdometrySample>& samples, size_t i, double t
   const OdometrySample& b = samples[i + 1];
   const double s = (t - a.time_s) / (b.time_s - a.time_s);
   return {a.pose.x + s * (b.pose.x - a.pose.x), a.pose.y + s * (b.pose.y - a.pose.y),
-          wrap_angle(a.pose.theta + s * wrap_angle(b.pose.theta - a.pose.theta))};
+          WrapAngle(a.pose.theta + s * WrapAngle(b.pose.theta - a.pose.theta))};
 }
 
 }  // namespace
@@ -117,7 +117,7 @@ OdometryIncrement Between(const std::vector<OdometrySample>& samples, double t0,
   Pose2 prev = start;
   auto walk_to = [&](const Pose2& p) {
     distance += std::hypot(p.x - prev.x, p.y - prev.y);
-    const double d = wrap_angle(p.theta - prev.theta);
+    const double d = WrapAngle(p.theta - prev.theta);
     dtheta += d;
     turned += std::abs(d);
     prev = p;

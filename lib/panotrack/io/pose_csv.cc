@@ -106,7 +106,7 @@ std::string FormatPoseRow(const PoseRow& r) {
   AppendNumber(&s, r.time_s, std::chars_format::fixed, 6);
   if (r.status == PoseStatus::kLost) {
     s += ",,,,";
-    s += pose_status_name(r.status);
+    s += PoseStatusName(r.status);
     s += ',';
     AppendInt(&s, r.n_landmarks);
     s += ',';
@@ -116,9 +116,9 @@ std::string FormatPoseRow(const PoseRow& r) {
       AppendNumber(&s, v, std::chars_format::fixed, 4);
     }
     s += ',';
-    AppendNumber(&s, wrap_angle(r.pose.theta), std::chars_format::fixed, 6);
+    AppendNumber(&s, WrapAngle(r.pose.theta), std::chars_format::fixed, 6);
     s += ',';
-    s += pose_status_name(r.status);
+    s += PoseStatusName(r.status);
     s += ',';
     AppendInt(&s, r.n_landmarks);
     s += ',';

@@ -24,9 +24,9 @@ TumConversion TumConversionForMap(const Map& map, double metres_per_unit) {
 std::string FormatTumLine(const PoseRow& row, const TumConversion& c) {
   if (row.status != PoseStatus::kOk)
     throw Error("TUM line of frame " + std::to_string(row.frame) + ": only ok rows have a pose to write, not " +
-                pose_status_name(row.status));
+                PoseStatusName(row.status));
   // The yaw about z as a quaternion: half the angle, qw >= 0 for theta in (-pi, pi].
-  const double half = 0.5 * wrap_angle(row.pose.theta);
+  const double half = 0.5 * WrapAngle(row.pose.theta);
   char buf[256];
   std::snprintf(buf, sizeof buf, "%.6f %.9f %.9f %.9f %.9f %.9f %.9f %.9f", row.time_s,
                 row.pose.x * c.metres_per_unit, row.pose.y * c.metres_per_unit, c.z_metres, 0.0, 0.0,

@@ -179,16 +179,16 @@ RadiusTable RadiusTable::Build(const Sensor& sensor, const LutRanges& ranges, co
   // the ray runs parallel to the plane z = Z (D -> infinity) and turns
   // negative beyond: bilinear interpolation of D itself would fail there.
   const SensorParams<double>& p = sensor.params;
-  const double m_limb = max_normalized_radius(p) * (1.0 - 1e-12);
+  const double m_limb = MaxNormalizedRadius(p) * (1.0 - 1e-12);
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (int j = 0; j < nz; ++j) {
     const double Z = ranges.z_min + j * t.z_step_;
     for (int i = 0; i < nr; ++i) {
       double m, ps, pz, ds, dz;
       const double x = 1.0 - static_cast<double>(i) / (nr - 1);
-      if (!undistort_radius(p, t.r_max_ * (1.0 - x * x) / p.focal_px, &m)) continue;
+      if (!UndistortRadius(p, t.r_max_ * (1.0 - x * x) / p.focal_px, &m)) continue;
       m = std::min(m, m_limb);  // the last node sits on the limb
-      if (!reflect_meridian(p, m, &ps, &pz, &ds, &dz)) continue;
+      if (!ReflectMeridian(p, m, &ps, &pz, &ds, &dz)) continue;
       // 1 / D with D = ps + (Z - pz) ds / dz.
       const double den = ps * dz + (Z - pz) * ds;
       if (den == 0.0) continue;
@@ -201,7 +201,7 @@ RadiusTable RadiusTable::Build(const Sensor& sensor, const LutRanges& ranges, co
 bool RadiusTable::radius(double D, double Z, double* R) const {
   if (!(D > 0.0)) return false;
   const double fx = (std::log(D) - log_d_min_) / log_d_step_;
-  const double fy = (fast_atan2(Z, D) - elev_min_) / elev_step_;
+  const double fy = (FastAtan2(Z, D) - elev_min_) / elev_step_;
   return Bilinear(forward_, size_.n_distance, size_.n_elevation, fx, fy, R);
 }
 

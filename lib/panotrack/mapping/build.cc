@@ -40,7 +40,7 @@ double RobustSigma(const std::vector<double>& v) {
 bool PolarOf(const Sensor& sensor, const Pose2& pose, double sensor_height, const Eigen::Vector3d& world,
              double* radius, double* azimuth, Eigen::Vector2d* pixel = nullptr) {
   Eigen::Vector2d px;
-  if (!sensor.project(sensor_from_world(pose, sensor_height, world), &px)) return false;
+  if (!sensor.project(SensorFromWorld(pose, sensor_height, world), &px)) return false;
   sensor.to_polar(px.x(), px.y(), radius, azimuth);
   if (pixel) *pixel = px;
   return true;
@@ -60,7 +60,7 @@ bool GreyAt(const cv::Mat& grey, const Eigen::Vector2d& p, double* value) {
 
 }  // namespace
 
-const char* edge_verdict_name(EdgeVerdict v) {
+const char* EdgeVerdictName(EdgeVerdict v) {
   switch (v) {
     case EdgeVerdict::kAccepted:
       return "accepted";
@@ -205,7 +205,7 @@ std::vector<VerticalEdgeDetection> DetectVerticalEdges(const cv::Mat& grey, cons
       }
       const double refined = at.size() >= 5 ? Median(at) : offset;
       VerticalEdgeDetection e;
-      e.azimuth = wrap_angle((k + 0.5 + refined) * 2 * M_PI / n_az);
+      e.azimuth = WrapAngle((k + 0.5 + refined) * 2 * M_PI / n_az);
       e.polarity = sign;
       e.r_lo = r0 + best_lo;
       e.r_hi = r0 + best_hi;
@@ -246,7 +246,7 @@ void MapBuilder::AddFrame(const cv::Mat& grey, const Pose2& pose) {
   for (const VerticalEdgeDetection& d : all) {
     bool explained = false;
     for (const PredictedLandmark& p : predicted)
-      if (std::abs(wrap_angle(d.azimuth - p.azimuth)) < opt_.seed_exclusion_deg * kDeg) explained = true;
+      if (std::abs(WrapAngle(d.azimuth - p.azimuth)) < opt_.seed_exclusion_deg * kDeg) explained = true;
     if (!explained) f.edges.push_back(d);
   }
   unexplained_ += static_cast<int>(f.edges.size());
@@ -279,7 +279,7 @@ double BearingNormalEquations(const std::vector<Ray>& rays, const Eigen::Vector2
   for (const Ray& r : rays) {
     const Eigen::Vector2d d = x - r.origin;
     const double d2 = d.squaredNorm();
-    const double res = wrap_angle(r.world_angle - std::atan2(d.y(), d.x()));
+    const double res = WrapAngle(r.world_angle - std::atan2(d.y(), d.x()));
     const Eigen::Vector2d J(d.y() / d2, -d.x() / d2);
     const double w = huber <= 0 || std::abs(res) <= huber ? 1.0 : huber / std::abs(res);
     *H += w * J * J.transpose();
@@ -359,7 +359,7 @@ cv::Mat RayVotes(const BuildInputs& in, const FloorGrid& g, std::vector<std::vec
     mask.setTo(0);
     const Eigen::Vector2d o(pose.x, pose.y);
     for (const VerticalEdgeDetection& d : *in.edges[fi]) {
-      const double a = wrap_angle(pose.theta + in.sensor.bearing_of_azimuth(d.azimuth));
+      const double a = WrapAngle(pose.theta + in.sensor.bearing_of_azimuth(d.azimuth));
       (*rays)[fi].push_back({o, a});
       const cv::Point2d p0 = g.ToGrid(o), p1 = g.ToGrid(o + 3 * in.scale * Eigen::Vector2d(std::cos(a), std::sin(a)));
       cv::line(mask, cv::Point(int(p0.x * (1 << shift)), int(p0.y * (1 << shift))),
@@ -414,7 +414,7 @@ class RayClaims {
       double best_err = tol;
       for (size_t k = 0; k < rays_[fi].size(); ++k) {
         if (used_[fi][k]) continue;
-        const double e = std::abs(wrap_angle(rays_[fi][k].world_angle - a));
+        const double e = std::abs(WrapAngle(rays_[fi][k].world_angle - a));
         if (e < best_err) {
           best_err = e;
           best = static_cast<int>(k);
@@ -443,7 +443,7 @@ double ParallaxDeg(const std::vector<Ray>& r) {
   double amin = 1e9, amax = -1e9;
   const double a0 = r.front().world_angle;
   for (const Ray& ray : r) {
-    const double a = wrap_angle(ray.world_angle - a0);
+    const double a = WrapAngle(ray.world_angle - a0);
     amin = std::min(amin, a);
     amax = std::max(amax, a);
   }
@@ -768,7 +768,7 @@ std::string FormatMapBuildReport(const MapBuildResult& r) {
   out += line;
   for (const auto& kv : by_verdict)
     if (kv.first != EdgeVerdict::kAccepted) {
-      std::snprintf(line, sizeof line, ", %s: %d", edge_verdict_name(kv.first), kv.second);
+      std::snprintf(line, sizeof line, ", %s: %d", EdgeVerdictName(kv.first), kv.second);
       out += line;
     }
   std::snprintf(line, sizeof line,
@@ -780,7 +780,7 @@ std::string FormatMapBuildReport(const MapBuildResult& r) {
   out += "\nedge           x         y   std  views parallax  rms_deg     z0     z1  verdict\n";
   for (size_t i = 0; i < r.edges.size(); ++i) {
     const BuiltEdge& e = r.edges[i];
-    std::string verdict = edge_verdict_name(e.verdict);
+    std::string verdict = EdgeVerdictName(e.verdict);
     if (e.rectangle >= 0) verdict += " -> " + r.rectangles[static_cast<size_t>(e.rectangle)].rectangle.id;
     std::snprintf(line, sizeof line, "e%-4zu %9.2f %9.2f %5.2f %6d %8.1f %8.3f %6.1f %6.1f  %s\n", i, e.position.x(),
                   e.position.y(), e.std_major, e.views, e.parallax_deg, e.rms_bearing_deg, e.z0, e.z1, verdict.c_str());

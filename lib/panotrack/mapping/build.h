@@ -36,6 +36,7 @@
 #include <vector>
 
 #include "panotrack/lut/radius_table.h"
+#include "panotrack/pose/pose2.h"
 #include "panotrack/pose/pose_row.h"
 #include "panotrack/scene/map.h"
 #include "panotrack/scene/scene.h"
@@ -84,7 +85,7 @@ std::vector<VerticalEdgeDetection> DetectVerticalEdges(const cv::Mat& grey, cons
                                                        const MapBuildOptions& options);
 
 enum class EdgeVerdict { kAccepted, kTooFewViews, kLowParallax, kPoorlyConditioned, kNoHeight, kRoomCorner };
-const char* edge_verdict_name(EdgeVerdict v);
+const char* EdgeVerdictName(EdgeVerdict v);
 
 struct BuiltEdge {
   Eigen::Vector2d position{0, 0};
@@ -145,26 +146,8 @@ class MapBuilder {
   int frames_ = 0, frames_with_seed_ = 0, detections_ = 0, unexplained_ = 0;
 };
 
-// The whole command.
-struct MapBuildJob {
-  std::string map_path, calib_path, input;
-  std::string poses_path;  // pose CSV, one row per frame; empty: localise with the seed
-  bool has_start = false;
-  Pose2 start;  // the first frame's pose when localising
-  std::string output, report_csv;
-  MapBuildOptions options;
-  bool overwrite = false;
-  void Check() const;
-};
-
-// Runs the build. Throws pano::Error (nothing written) for bad inputs, a
-// poses CSV that does not match the input's frames, and a seed map none of
-// whose landmarks is in view in any frame.
-MapBuildResult RunMapBuild(const MapBuildJob& job);
-
 // What panomap build prints: counts, each candidate edge and its verdict,
 // each new rectangle with its std.
 std::string FormatMapBuildReport(const MapBuildResult& r);
-void WriteMapBuildCsv(const std::string& path, const MapBuildResult& r);
 
 }  // namespace pano

@@ -31,7 +31,7 @@ void MapCheckOptions::Check() const {
   unmapped.Check();
 }
 
-const char* map_finding_name(MapFinding f) {
+const char* MapFindingName(MapFinding f) {
   switch (f) {
     case MapFinding::kNeverFound: return "never found";
     case MapFinding::kWrongPolarity: return "wrong polarity";
@@ -166,7 +166,7 @@ double FrameChecker::WindowPx(const PredictedLandmark& p, const std::vector<Pred
   for (const PredictedLandmark& q : predicted) {
     if (edge_of_landmark_[q.index] == e) continue;
     if (std::max(q.corner_radius, q.v_radius) < lo || std::min(q.corner_radius, q.v_radius) > hi) continue;
-    half = std::min(half, 0.45 * std::abs(wrap_angle(q.azimuth - p.azimuth)) * p.corner_radius);
+    half = std::min(half, 0.45 * std::abs(WrapAngle(q.azimuth - p.azimuth)) * p.corner_radius);
   }
   return half;
 }
@@ -179,7 +179,7 @@ bool FrameChecker::MeasureVerticalEdge(const cv::Mat& grey, const Pose2& pose, c
   const Sensor& s = calib_.sensor;
   const Landmark& l = *p.landmark;
   const Eigen::Vector3d eye(pose.x, pose.y, map_.sensor_height + s.params.vertex_distance);
-  const Eigen::Vector3d c = sensor_from_world(pose, map_.sensor_height, l.corner);
+  const Eigen::Vector3d c = SensorFromWorld(pose, map_.sensor_height, l.corner);
   const double len = std::abs(p.v_radius - p.corner_radius);
   const double spacing = std::max(opt_.sample_spacing_px, (len - 2 * opt_.corner_gap_px) / opt_.max_samples);
   const double cs = std::cos(p.azimuth), sn = std::sin(p.azimuth), a = s.params.aspect;
@@ -189,7 +189,7 @@ bool FrameChecker::MeasureVerticalEdge(const cv::Mat& grey, const Pose2& pose, c
   // Points of the edge in the world, `spacing` apart in the image, on
   // the part of it the map leaves in sight (a nearer surface may hide
   // part of an edge whose corner is seen).
-  const Eigen::Vector3d v = sensor_from_world(pose, map_.sensor_height, l.v_end);
+  const Eigen::Vector3d v = SensorFromWorld(pose, map_.sensor_height, l.v_end);
   double last_r = p.corner_radius;
   constexpr int kHeights = 400;
   for (int k = 1; k < kHeights && attempted < opt_.max_samples; ++k) {
@@ -217,9 +217,9 @@ bool FrameChecker::MeasureVerticalEdge(const cv::Mat& grey, const Pose2& pose, c
   for (int i : in) {
     double r, az;
     s.to_polar(steps[i].px.x(), steps[i].px.y(), &r, &az);
-    sum += wrap_angle(az - p.azimuth);
+    sum += WrapAngle(az - p.azimuth);
   }
-  m->measured_azimuth = wrap_angle(p.azimuth + sum / in.size());
+  m->measured_azimuth = WrapAngle(p.azimuth + sum / in.size());
   // The face's brightness against what lies beyond, at both ends of
   // the samples (increasing azimuth is "after").
   std::vector<double> ratios;
@@ -240,8 +240,8 @@ bool FrameChecker::MeasureHorizontalEdge(const cv::Mat& grey, const Pose2& pose,
   const Sensor& s = calib_.sensor;
   const Landmark& l = *p.landmark;
   const Eigen::Vector3d eye(pose.x, pose.y, map_.sensor_height + s.params.vertex_distance);
-  const Eigen::Vector3d c = sensor_from_world(pose, map_.sensor_height, l.corner);
-  const Eigen::Vector3d h = sensor_from_world(pose, map_.sensor_height, l.h_end);
+  const Eigen::Vector3d c = SensorFromWorld(pose, map_.sensor_height, l.corner);
+  const Eigen::Vector3d h = SensorFromWorld(pose, map_.sensor_height, l.h_end);
   const Eigen::Vector3d dir = h - c;
   std::vector<Eigen::Vector2d> curve;
   for (int k = 0; k <= 16; ++k) {
@@ -251,13 +251,13 @@ bool FrameChecker::MeasureHorizontalEdge(const cv::Mat& grey, const Pose2& pose,
       curve.push_back(s.from_polar(r, s.image_azimuth(std::atan2(q.y(), q.x()))));
   }
   m->h_curves.push_back(curve);
-  const double span = wrap_angle(p.h_end_azimuth - p.azimuth);
+  const double span = WrapAngle(p.h_end_azimuth - p.azimuth);
   const double step_angle = opt_.sample_spacing_px / p.corner_radius;
   const double gap_angle = opt_.corner_gap_px / p.corner_radius;
   std::vector<Step> steps;
   int attempted = 0;
   for (double da = gap_angle; da < 0.5 * std::abs(span) && attempted < opt_.max_samples; da += step_angle) {
-    const double az = wrap_angle(p.azimuth + (span > 0 ? da : -da));
+    const double az = WrapAngle(p.azimuth + (span > 0 ? da : -da));
     const double b = s.bearing_of_azimuth(az);
     // The point of the edge's line on this bearing.
     const double den = dir.x() * std::sin(b) - dir.y() * std::cos(b);
@@ -339,7 +339,7 @@ void FrameChecker::SetResiduals(FrameCheck* fc) const {
   for (EdgeFrameMeasurement& m : fc->edges)
     if (m.found) {
       m.has_residual = true;
-      m.bearing_residual = wrap_angle(m.measured_azimuth - m.predicted_azimuth);
+      m.bearing_residual = WrapAngle(m.measured_azimuth - m.predicted_azimuth);
     }
 }
 
@@ -373,11 +373,11 @@ void FrameChecker::SetHeldOutResiduals(FrameCheck* fc) const {
     }
     if (!solved_ok[object]) continue;
     const Eigen::Vector3d c =
-        sensor_from_world(solved[object], map_.sensor_height,
-                          Eigen::Vector3d(edges_[m.edge].position.x(), edges_[m.edge].position.y(), 0.0));
+        SensorFromWorld(solved[object], map_.sensor_height,
+                        Eigen::Vector3d(edges_[m.edge].position.x(), edges_[m.edge].position.y(), 0.0));
     const double predicted = s.image_azimuth(std::atan2(c.y(), c.x()));
     m.has_residual = true;
-    m.bearing_residual = wrap_angle(m.measured_azimuth - predicted);
+    m.bearing_residual = WrapAngle(m.measured_azimuth - predicted);
   }
 }
 
@@ -631,7 +631,7 @@ std::string EdgeStatus(const EdgeCheck& e, int min_visible) {
   if (e.visible < min_visible) return "too few frames";
   if (e.findings.empty()) return "ok";
   std::string s;
-  for (MapFinding f : e.findings) s += (s.empty() ? "" : ", ") + std::string(map_finding_name(f));
+  for (MapFinding f : e.findings) s += (s.empty() ? "" : ", ") + std::string(MapFindingName(f));
   return s;
 }
 

@@ -29,6 +29,7 @@
 
 #include "panotrack/lut/radius_table.h"
 #include "panotrack/mapping/build.h"
+#include "panotrack/pose/pose2.h"
 #include "panotrack/scene/map.h"
 #include "panotrack/scene/scene.h"
 #include "panotrack/sensor/calibration.h"
@@ -112,7 +113,7 @@ struct FrameCheck {
 };
 
 enum class MapFinding { kNeverFound, kWrongPolarity, kBiased, kNotInMap };
-const char* map_finding_name(MapFinding f);
+const char* MapFindingName(MapFinding f);
 
 // One vertical edge of the map over the run.
 struct EdgeCheck {
@@ -218,31 +219,5 @@ void AddUnmappedFindings(const Map& map, const MapBuildResult& built, MapCheckRe
 
 // The table panomap check prints (one row per edge), and its findings.
 std::string FormatMapCheckTable(const MapCheckReport& report);
-// The per-edge CSV (--report).
-void WriteMapCheckCsv(const std::string& path, const MapCheckReport& report);
-
-// The frame with the predicted edges drawn, coloured by their edge's
-// status: green fine, red never found, magenta wrong polarity, orange
-// biased, grey not judged; a cross where found this frame.
-cv::Mat DrawMapCheck(const cv::Mat& grey, const FrameCheck& fc, const MapCheckReport& report,
-                     const Sensor& sensor);
-
-// The whole command.
-struct MapCheckJob {
-  std::string map_path, calib_path, input;
-  std::optional<Pose2> pose;  // one pose for every frame
-  std::string poses_path;     // pose CSV, one row per frame; empty: none
-  // .png/.jpg (the frame with the most edges in view) or a video (every
-  // frame); empty: none.
-  std::string overlay;
-  std::string report_csv;     // empty: none
-  MapCheckOptions options;
-  bool overwrite = false;     // replace existing outputs (--force)
-  void Check() const;
-};
-
-// Runs the check. Throws pano::Error for bad inputs, a poses CSV that does
-// not match the input's frames, and when no landmark is in view in any frame.
-MapCheckReport RunMapCheck(const MapCheckJob& job);
 
 }  // namespace pano

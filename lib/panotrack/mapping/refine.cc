@@ -80,13 +80,13 @@ bool PredictMeasurement(const SensorParams<double>& sensor, const T* pose, const
     return true;
   }
   const T D = sqrt(xs * xs + ys * ys);
-  return image_radius(sensor.cast<T>(), D, T(X[2] - h), out);
+  return ImageRadius(sensor.cast<T>(), D, T(X[2] - h), out);
 }
 
 template <typename T>
 T Residual(const T& predicted, double measured, bool radius, double sigma) {
   T d = predicted - T(measured);
-  if (!radius) d -= T(2.0 * M_PI * std::round(scalar_value(d) / (2.0 * M_PI)));
+  if (!radius) d -= T(2.0 * M_PI * std::round(ScalarValue(d) / (2.0 * M_PI)));
   return d / T(sigma);
 }
 
@@ -213,7 +213,7 @@ void RawResiduals(const SensorParams<double>& sensor, const std::vector<Landmark
     const double* pose = u.pose(static_cast<size_t>(o.frame));
     double a, r;
     PredictMeasurement(sensor, pose, X, u.height_value(), false, &a);
-    az->push_back(wrap_angle(a - o.azimuth));
+    az->push_back(WrapAngle(a - o.azimuth));
     rad->push_back(PredictMeasurement(sensor, pose, X, u.height_value(), true, &r) ? r - o.radius : std::nan(""));
   }
 }
@@ -513,7 +513,7 @@ void CollectRefinement(const Map& surveyed, const std::vector<CornerObservation>
   StateRefinedSurveySigma(surveyed, res);
   for (size_t f = 0; f < u.n_poses(); ++f) {
     const double* p = u.pose(f);
-    res->poses.push_back({p[0], p[1], wrap_angle(p[2])});
+    res->poses.push_back({p[0], p[1], WrapAngle(p[2])});
   }
   for (char used : in.frame_used) res->frames_used += used;
 }
@@ -610,7 +610,7 @@ int DropCrowded(double gap_px, std::vector<PredictedLandmark>* predicted) {
       const auto [b0, b1] = span(pb);
       if (a1 + gap_px < b0 || b1 + gap_px < a0) continue;
       const double across =
-          std::abs(wrap_angle(pa.azimuth - pb.azimuth)) * std::min(pa.corner_radius, pb.corner_radius);
+          std::abs(WrapAngle(pa.azimuth - pb.azimuth)) * std::min(pa.corner_radius, pb.corner_radius);
       if (across < gap_px) crowded[a] = crowded[b] = 1;
     }
   std::vector<PredictedLandmark> kept;
@@ -778,21 +778,6 @@ std::string RefineReportTable(const RefineResult& r, const Map& surveyed, double
   }
   if (!r.covariance_ok) out << "note: the covariance could not be computed (std shown as nan)\n";
   return out.str();
-}
-
-void WriteRefineReportCsv(const std::string& path, const RefineResult& r) {
-  std::ostringstream out;
-  out << "landmark,parameter,observations,surveyed,refined,correction,std,flagged\n";
-  char line[256];
-  for (const LandmarkCorrection& l : r.landmarks)
-    for (int i = 0; i < kRectangleParams; ++i) {
-      const size_t ii = static_cast<size_t>(i);
-      std::snprintf(line, sizeof line, "%s,%s,%d,%.6f,%.6f,%.6f,%.6f,%d\n", l.id.c_str(), kRectangleParamNames[ii],
-                    l.observations, l.surveyed[ii], l.refined[ii], l.refined[ii] - l.surveyed[ii], l.std[ii],
-                    l.flagged ? 1 : 0);
-      out << line;
-    }
-  WriteFileAtomic(path, out.str());
 }
 
 namespace {

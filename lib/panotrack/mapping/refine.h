@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "panotrack/pose/pose2.h"
 #include "panotrack/pose/pose_row.h"
 #include "panotrack/scene/map.h"
 #include "panotrack/sensor/calibration.h"
@@ -155,11 +156,8 @@ double AutoPoseSigma(const std::vector<RefineVideo>& videos, double map_sigma);
 RefineResult RefineMap(const Calibration& calib, const Map& surveyed, const std::vector<RefineVideo>& videos,
                        const RefineOptions& options);
 
-// The per-landmark report: a table for people, and CSV (one row per
-// rectangle parameter: landmark, parameter, surveyed, refined, correction,
-// std, flagged).
+// The per-landmark report for people.
 std::string RefineReportTable(const RefineResult& r, const Map& surveyed, double map_sigma);
-void WriteRefineReportCsv(const std::string& path, const RefineResult& r);
 
 // RMS over every rectangle corner of the distance between two maps with the
 // same rectangles (matched by id); throws if they differ.

@@ -25,7 +25,7 @@ AccuracySummary CompareToGroundTruth(const std::vector<PoseRow>& est, const std:
     auto it = by_frame.find(g.frame);
     if (it == by_frame.end()) continue;
     errors.emplace_back(it->second->pose.x - g.pose.x, it->second->pose.y - g.pose.y);
-    heading.push_back(wrap_angle(it->second->pose.theta - g.pose.theta));
+    heading.push_back(WrapAngle(it->second->pose.theta - g.pose.theta));
   }
   a.tracked = static_cast<int>(by_frame.size());
   a.compared = static_cast<int>(errors.size());

@@ -21,7 +21,7 @@
 
 namespace pano {
 
-const char* video_end_name(VideoEnd end) {
+const char* VideoEndName(VideoEnd end) {
   switch (end) {
     case VideoEnd::kDone: return "done";
     case VideoEnd::kFailed: return "failed";
@@ -433,12 +433,10 @@ VideoSummary LocalizeVideo(const VideoJob& job, const SharedResources& shared, c
   const auto t0 = std::chrono::steady_clock::now();
   try {
     LocalizeInto(job, shared, options, &sum);
-  } catch (const Error& e) {
-    sum.end = VideoEnd::kFailed;
-    sum.error = e.what();
+  } catch (const Error&) {
+    throw;
   } catch (const std::exception& e) {  // OpenCV, the file system: name the input
-    sum.end = VideoEnd::kFailed;
-    sum.error = job.input + ": " + e.what();
+    throw Error(job.input + ": " + e.what());
   }
   sum.ok = sum.end == VideoEnd::kDone;
   sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -12,6 +12,7 @@
 #include "panotrack/io/odometry.h"
 #include "panotrack/io/tum.h"
 #include "panotrack/pipeline/accuracy.h"
+#include "panotrack/pose/pose2.h"
 #include "panotrack/sensor/calibration.h"
 #include "panotrack/scene/map.h"
 #include "panotrack/track/localizer.h"
@@ -113,7 +114,7 @@ enum class VideoEnd {
   kInterrupted,  // stopped by the cancel flag: the rows up to there are written
   kNotTracked,   // every frame read, too few tracked (error suggests causes)
 };
-const char* video_end_name(VideoEnd end);
+const char* VideoEndName(VideoEnd end);
 
 struct VideoSummary {
   std::string input, output;
@@ -132,7 +133,10 @@ struct VideoSummary {
   bool hardware_decoding = false;   // decoded on NVDEC
 };
 
-// Localises one input. Never throws: failures are in the summary.
+// Localises one input. An input that breaks off, is interrupted or is not
+// tracked enough ends in the summary (its rows written). Throws pano::Error,
+// leaving no output, when nothing could be done: the input or an output
+// could not be used.
 VideoSummary LocalizeVideo(const VideoJob& job, const SharedResources& shared, const VideoRunOptions& options);
 
 }  // namespace pano

@@ -389,6 +389,8 @@ std::vector<VideoSummary> RunPanoloc(const PanolocOptions& opt) {
         if (!p.error.empty()) out[i] = Unstarted(p.job, VideoEnd::kFailed, p.error);
         else if (opt.cancel && opt.cancel->load()) out[i] = Unstarted(p.job, VideoEnd::kInterrupted, "");
         else out[i] = LocalizeVideo(p.job, res, run);
+      } catch (const Error& e) {
+        out[i] = Unstarted(p.job, VideoEnd::kFailed, e.what());
       } catch (const std::exception& e) {
         out[i] = Unstarted(p.job, VideoEnd::kFailed, p.job.input + ": " + e.what());
       }

@@ -15,6 +15,7 @@
 #include "panotrack/lut/table_cache.h"
 #include "panotrack/pipeline/accuracy.h"
 #include "panotrack/pipeline/localize_video.h"
+#include "panotrack/pose/pose2.h"
 #include "panotrack/track/localizer.h"
 
 namespace pano {

@@ -411,7 +411,7 @@ std::vector<ErrorSample> ErrorSamples(const std::vector<PoseRow>& est, const std
     s.t = axis.When(r);
     s.e[0] = r.pose.x - it->second->pose.x;
     s.e[1] = r.pose.y - it->second->pose.y;
-    s.e[2] = wrap_angle(r.pose.theta - it->second->pose.theta) * 180 / M_PI;
+    s.e[2] = WrapAngle(r.pose.theta - it->second->pose.theta) * 180 / M_PI;
     for (int k = 0; k < 3; ++k) {
       const double sd = k < static_cast<int>(r.extra.size()) ? r.extra[k] : std::nan("");
       s.sigma[k] = 3.0 * (k == 2 ? sd * 180 / M_PI : sd);

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "panotrack/io/calibration.h"
+#include "panotrack/pose/pose2.h"
 #include "panotrack/scene/map.h"
 #include "panotrack/sensor/sensor.h"
 #include "panotrack/track/localizer.h"

@@ -39,7 +39,7 @@ json InputJson(const VideoSummary& s, const PanolocOptions& options) {
   if (started && !options.debug_video.empty()) outputs["debug_video"] = options.debug_video;
   if (started && !options.plot.empty()) outputs["plot"] = options.plot;
   json j = {{"input", s.input},
-            {"end", video_end_name(s.end)},
+            {"end", VideoEndName(s.end)},
             {"done", s.ok},
             {"error", s.error.empty() ? json(nullptr) : json(s.error)},
             {"frames", s.frames},

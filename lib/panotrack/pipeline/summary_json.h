@@ -13,7 +13,7 @@ namespace pano {
 
 // A JSON object:
 //   {"tool": "panoloc", "version": "X.Y.Z", "command_line": [argv...],
-//    "inputs": [{"input", "end" (video_end_name), "done" (bool), "error"
+//    "inputs": [{"input", "end" (VideoEndName), "done" (bool), "error"
 //      (string or null), "frames", "ok", "lost", "seconds", "frames_per_s",
 //      "outputs": {"poses", "smoothed", "tum", "debug_video", "plot"} (those
 //      written), "accuracy" and "smoothed_accuracy" (with ground truth)}]}

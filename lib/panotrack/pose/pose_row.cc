@@ -2,7 +2,7 @@
 
 namespace pano {
 
-const char* pose_status_name(PoseStatus s) {
+const char* PoseStatusName(PoseStatus s) {
   switch (s) {
     case PoseStatus::kOk: return "ok";
     case PoseStatus::kLost: return "lost";

@@ -4,12 +4,13 @@
 
 #include <vector>
 
+#include "panotrack/pose/pose2.h"
 #include "panotrack/sensor/sensor.h"
 
 namespace pano {
 
 enum class PoseStatus { kOk, kLost, kInit };
-const char* pose_status_name(PoseStatus s);
+const char* PoseStatusName(PoseStatus s);
 
 struct PoseRow {
   int frame = 0;

@@ -39,7 +39,7 @@ double BearingResidual(const BearingObservation& o, const Pose2& pose, Eigen::Ve
     const double r2 = dx * dx + dy * dy;
     *jacobian = Eigen::Vector3d(dy / r2, -dx / r2, -1.0);
   }
-  return wrap_angle(fast_atan2(dy, dx) - pose.theta - o.bearing);
+  return WrapAngle(FastAtan2(dy, dx) - pose.theta - o.bearing);
 }
 
 std::vector<double> BearingLeverages(const std::vector<BearingObservation>& obs, const TriangulationResult& tri) {
@@ -557,7 +557,7 @@ IntegrityReport IntegrityCheck(const TriangulationResult& result,
 
 double PoseMahalanobis2(const Pose2& pose, const Pose2& predicted, const Eigen::Matrix3d& covariance) {
   const Eigen::Vector3d e(pose.x - predicted.x, pose.y - predicted.y,
-                          wrap_angle(pose.theta - predicted.theta));
+                          WrapAngle(pose.theta - predicted.theta));
   const Eigen::LLT<Eigen::Matrix3d> llt(covariance);
   if (llt.info() != Eigen::Success || !covariance.allFinite())
     return std::numeric_limits<double>::infinity();

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "panotrack/core/angles.h"
+#include "panotrack/pose/pose2.h"
 #include "panotrack/pose/triangulate.h"
 #include "panotrack/sensor/sensor.h"
 
@@ -324,7 +325,7 @@ bool SolvePoseFrom2BearingsT(const Eigen::Matrix<T, 2, 1> landmarks[2], const T 
   const T lambda1 = (d0.x() * rhs.y() - d0.y() * rhs.x()) / det;
   if (!(lambda0 > T(0)) || !(lambda1 > T(0))) return false;
   const Vec2 p = landmarks[0] - lambda0 * d0;
-  *pose << p.x(), p.y(), wrap_angle(heading);
+  *pose << p.x(), p.y(), WrapAngle(heading);
   return true;
 }
 

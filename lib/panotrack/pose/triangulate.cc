@@ -91,7 +91,7 @@ bool HeadingNewtonRaphson(const std::vector<BearingObservation>& obs, double hea
     h = hn;
     if (std::abs(step) < 1e-12) break;
   }
-  *heading = wrap_angle(h);
+  *heading = WrapAngle(h);
   return true;
 }
 
@@ -111,7 +111,7 @@ bool RefineOnBearings(const std::vector<BearingObservation>& obs, const std::vec
       const double dx = o.landmark.x() - pose->x, dy = o.landmark.y() - pose->y;
       const double r2 = dx * dx + dy * dy;
       if (!(r2 > 0)) return false;
-      const double r = wrap_angle(fast_atan2(dy, dx) - pose->theta - o.bearing);
+      const double r = WrapAngle(FastAtan2(dy, dx) - pose->theta - o.bearing);
       // d atan2(dy, dx) / d(x, y) = (dy, -dx) / r2
       const Eigen::Vector3d J(dy / r2, -dx / r2, -1.0);
       const double rn = std::abs(r) / o.spread;
@@ -131,7 +131,7 @@ bool RefineOnBearings(const std::vector<BearingObservation>& obs, const std::vec
     if (!delta.allFinite()) return false;
     pose->x += delta.x();
     pose->y += delta.y();
-    pose->theta = wrap_angle(pose->theta + delta.z());
+    pose->theta = WrapAngle(pose->theta + delta.z());
     *info = H_plain;
     if (delta.head<2>().norm() < 1e-10 && std::abs(delta.z()) < 1e-12) break;
   }
@@ -196,8 +196,8 @@ TriangulationResult Triangulate(const std::vector<BearingObservation>& obs, cons
       double worst_r = opt.outlier_threshold;
       for (size_t k = 0; k < use.size(); ++k) {
         const BearingObservation& o = obs[use[k]];
-        const double r = std::abs(wrap_angle(
-            fast_atan2(o.landmark.y() - pose.y, o.landmark.x() - pose.x) - pose.theta - o.bearing)) / o.spread;
+        const double r = std::abs(WrapAngle(
+            FastAtan2(o.landmark.y() - pose.y, o.landmark.x() - pose.x) - pose.theta - o.bearing)) / o.spread;
         if (r > worst_r) {
           worst_r = r;
           worst = static_cast<int>(k);
@@ -238,8 +238,8 @@ TriangulationResult Triangulate(const std::vector<BearingObservation>& obs, cons
   double sum_d2 = 0.0, sum_r2 = 0.0, sum_w = 0.0;
   for (size_t i = 0; i < obs.size(); ++i) {
     const BearingObservation& o = obs[i];
-    res.bearing_residuals[i] = wrap_angle(
-        fast_atan2(o.landmark.y() - pose.y, o.landmark.x() - pose.x) - pose.theta - o.bearing);
+    res.bearing_residuals[i] = WrapAngle(
+        FastAtan2(o.landmark.y() - pose.y, o.landmark.x() - pose.x) - pose.theta - o.bearing);
   }
   for (int i : use) {
     double a, b, c;

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "panotrack/pose/pose2.h"
 #include "panotrack/sensor/sensor.h"
 
 namespace pano {

@@ -19,7 +19,7 @@ namespace {
 Calibration MakeCalibration(int w, int h, double cx, double cy, const std::string& units,
                             const std::string& comment) {
   Calibration c;
-  c.sensor = make_sphere_sensor(w, h, 590.0, cx, cy, 1.0, 4.9, 15.1);
+  c.sensor = MakeSphereSensor(w, h, 590.0, cx, cy, 1.0, 4.9, 15.1);
   c.units = units;
   c.comment = comment;
   return c;
@@ -208,7 +208,7 @@ SequenceCase Cluttered() {
     const double a = -0.5 * M_PI + 2.0 * M_PI * i / n;
     const double x = 130 + 80 * std::cos(a), y = 110 + 62 * std::sin(a);
     const double heading = std::atan2(62 * std::cos(a), -80 * std::sin(a));
-    c.poses.push_back({x, y, wrap_angle(heading)});
+    c.poses.push_back({x, y, WrapAngle(heading)});
   }
   c.fps = 10.0;
   c.options.supersample = 3;
@@ -243,7 +243,7 @@ double MaxTurn(const std::vector<Pose2>& poses, const std::vector<int>& skip = {
   double m = 0.0;
   for (size_t i = 1; i < poses.size(); ++i)
     if (std::find(skip.begin(), skip.end(), static_cast<int>(i)) == skip.end())
-      m = std::max(m, std::abs(wrap_angle(poses[i].theta - poses[i - 1].theta)));
+      m = std::max(m, std::abs(WrapAngle(poses[i].theta - poses[i - 1].theta)));
   return m;
 }
 
@@ -289,7 +289,7 @@ SequenceCase FastTurns() {
       const double envelope = 0.5 - 0.5 * std::cos(2.0 * M_PI * i / 150.0);
       const double offset = amplitude * envelope * std::sin(2.0 * M_PI * i / 40.0);
       out.push_back({pos[static_cast<size_t>(i)].x(), pos[static_cast<size_t>(i)].y(),
-                     wrap_angle(direction[static_cast<size_t>(i)] + offset)});
+                     WrapAngle(direction[static_cast<size_t>(i)] + offset)});
     }
     return out;
   };
@@ -372,7 +372,7 @@ SequenceCase LongRun() {
       // the compiler's choice.
       const double side = uniform(rng) < 0.5 ? -1.0 : 1.0;
       const double turn_deg = 90.0 + 20.0 * uniform(rng);
-      theta = wrap_angle(theta + side * turn_deg * M_PI / 180.0);
+      theta = WrapAngle(theta + side * turn_deg * M_PI / 180.0);
       turn = 0.0;
     } else if (i > 0) {
       // A smoothly varying turn rate, clamped to the maximum.
@@ -382,11 +382,11 @@ SequenceCase LongRun() {
       const Eigen::Vector2d next = p + speed * Eigen::Vector2d(std::cos(heading), std::sin(heading));
       if (valid(next)) {
         p = next;
-        theta = wrap_angle(heading);
+        theta = WrapAngle(heading);
         if (turn != 0.0) bounce = turn > 0.0 ? 1.0 : -1.0;
       } else {
         // The way ahead is blocked: turn on the spot, keeping the sense of turning.
-        theta = wrap_angle(theta + bounce * max_turn);
+        theta = WrapAngle(theta + bounce * max_turn);
         turn = bounce * max_turn;
       }
     }
@@ -455,7 +455,7 @@ std::vector<Pose2> EllipseLoop(Eigen::Vector2d c, double a, double b, double wig
     const double u = 2.0 * M_PI * 1.6 * i / n;
     const double heading = std::atan2(b * std::cos(u), -a * std::sin(u));
     out.push_back({c.x() + a * std::cos(u), c.y() + b * std::sin(u),
-                   wrap_angle(heading + wiggle * std::sin(2.0 * M_PI * i / 75.0))});
+                   WrapAngle(heading + wiggle * std::sin(2.0 * M_PI * i / 75.0))});
   }
   return out;
 }
@@ -577,7 +577,7 @@ std::vector<Pose2> SmoothPath(const std::vector<Eigen::Vector2d>& wp, int n, dou
     const Eigen::Vector2d p = dense[j] + f * (dense[j + 1] - dense[j]);
     const size_t a = j > 0 ? j - 1 : j, b = std::min(j + 2, dense.size() - 1);
     const Eigen::Vector2d d = dense[b] - dense[a];
-    out.push_back({p.x(), p.y(), wrap_angle(std::atan2(d.y(), d.x()) + heading_offset)});
+    out.push_back({p.x(), p.y(), WrapAngle(std::atan2(d.y(), d.x()) + heading_offset)});
   }
   return out;
 }

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "panotrack/pose/pose2.h"
 #include "panotrack/sensor/calibration.h"
 #include "panotrack/scene/map.h"
 #include "panotrack/render/render.h"

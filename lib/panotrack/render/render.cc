@@ -128,7 +128,7 @@ RayTable::RayTable(const Sensor& sensor, int supersample, double camera_radius_p
         const double mid = 0.5 * (lo + hi);
         double o[3], d[3];
         const Eigen::Vector2d px = sensor.from_polar(mid, az);
-        if (pano::backproject_general(general, px.x(), px.y(), o, d)) lo = mid; else hi = mid;
+        if (pano::BackprojectGeneral(general, px.x(), px.y(), o, d)) lo = mid; else hi = mid;
       }
       reject = std::max(reject, hi);
     }
@@ -149,7 +149,7 @@ RayTable::RayTable(const Sensor& sensor, int supersample, double camera_radius_p
           const double r = std::hypot(su - p.cx, (sv - p.cy) / p.aspect);
           if (r < camera_radius_px) continue;
           double o[3], d[3];
-          if (aligned ? !pano::backproject(p, su, sv, o, d) : !pano::backproject_general(general, su, sv, o, d))
+          if (aligned ? !pano::backproject(p, su, sv, o, d) : !pano::BackprojectGeneral(general, su, sv, o, d))
             continue;
           const double hd = std::hypot(d[0], d[1]);
           const double phi = hd > 0.0 ? std::atan2(d[1], d[0]) : std::atan2(o[1], o[0]);
@@ -277,7 +277,7 @@ void AngularInterval(const Eigen::Vector2d& P, const std::vector<Eigen::Vector2d
   const double ref = std::atan2(mean.y(), mean.x());
   double lo = 0, hi = 0;
   for (const auto& q : pts) {
-    const double a = wrap_angle(std::atan2(q.y() - P.y(), q.x() - P.x()) - ref);
+    const double a = WrapAngle(std::atan2(q.y() - P.y(), q.x() - P.x()) - ref);
     lo = std::min(lo, a);
     hi = std::max(hi, a);
   }
@@ -367,7 +367,7 @@ void Renderer::BuildFrame(const Pose2& pose, const std::vector<Surface>& extra, 
   f->pose = pose;
   f->ct = std::cos(pose.theta);
   f->st = std::sin(pose.theta);
-  f->theta_off = wrap_angle(pose.theta) + 4.0 * M_PI;
+  f->theta_off = WrapAngle(pose.theta) + 4.0 * M_PI;
   const Eigen::Vector2d P(pose.x, pose.y);
   AzimuthBins bins;
   bins.axis_miss = axis_miss_;
@@ -629,7 +629,7 @@ std::vector<CornerView> VisibleCorners(const Sensor& sensor, const Map& map, con
   std::vector<CornerView> out;
   const double limb = sensor.limb_radius();
   for (const MapCorner& c : MapCorners(map)) {
-    const Eigen::Vector3d ps = sensor_from_world(pose, map.sensor_height, c.world);
+    const Eigen::Vector3d ps = SensorFromWorld(pose, map.sensor_height, c.world);
     Eigen::Vector2d px;
     if (!sensor.project(ps, &px) || !sensor.inside_image(px, margin_px)) continue;
     double r, az;
@@ -644,7 +644,7 @@ std::vector<CornerView> VisibleCorners(const Sensor& sensor, const Map& map, con
       if (!sensor.backproject(further, &o, &d)) continue;
     }
     if (!sensor.backproject(px, &o, &d)) continue;
-    const Eigen::Vector3d ow = world_from_sensor(pose, map.sensor_height, o);
+    const Eigen::Vector3d ow = WorldFromSensor(pose, map.sensor_height, o);
     if (scene.Occluded(ow, c.world, 1e-6 + 1e-9 * (c.world - ow).norm())) continue;
     out.push_back({c, px, std::atan2(ps.y(), ps.x())});
   }

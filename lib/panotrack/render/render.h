@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "panotrack/pose/pose2.h"
 #include "panotrack/scene/map.h"
 #include "panotrack/scene/scene.h"
 #include "panotrack/sensor/sensor.h"

@@ -107,14 +107,14 @@ Pose2 PoseAtOffset(const std::vector<Pose2>& poses, int i, double offset,
     const Pose2& q = poses[static_cast<size_t>(i + 1)];
     dx = q.x - p.x;
     dy = q.y - p.y;
-    dt = wrap_angle(q.theta - p.theta);
+    dt = WrapAngle(q.theta - p.theta);
   } else if (has_prev) {
     const Pose2& q = poses[static_cast<size_t>(i - 1)];
     dx = p.x - q.x;
     dy = p.y - q.y;
-    dt = wrap_angle(p.theta - q.theta);
+    dt = WrapAngle(p.theta - q.theta);
   }
-  return {p.x + offset * dx, p.y + offset * dy, wrap_angle(p.theta + offset * dt)};
+  return {p.x + offset * dx, p.y + offset * dy, WrapAngle(p.theta + offset * dt)};
 }
 
 std::vector<Person> MakePeople(const Map& map, int count, uint64_t seed) {
@@ -260,7 +260,7 @@ Map OffsetMap(const Map& map, double sigma, uint64_t seed) {
   return out;
 }
 
-const char* map_fault_name(MapFaultKind kind) {
+const char* MapFaultName(MapFaultKind kind) {
   switch (kind) {
     case MapFaultKind::kMoved: return "moved";
     case MapFaultKind::kNotInRoom: return "not-in-room";
@@ -369,7 +369,7 @@ int SequenceRenderer::BlurSamples(int i) const {
   double motion = 0.0;
   for (double side : {-1.0, 1.0}) {
     const Pose2 q = PoseAtOffset(case_.poses, i, side, case_.kidnap_frames);
-    const double turn = std::abs(wrap_angle(q.theta - p.theta));
+    const double turn = std::abs(WrapAngle(q.theta - p.theta));
     const double shift = std::hypot(q.x - p.x, q.y - p.y) / std::max(1e-9, case_.map.sensor_height);
     motion = std::max(motion, turn + shift);
   }
@@ -415,7 +415,7 @@ cv::Mat SequenceRenderer::RenderFrame(int i) const {
     for (int v = 0; v < sum.rows; ++v) {
       float* row = sum.ptr<float>(v);
       for (int u = 0; u < sum.cols; ++u) {
-        const double a = wrap_angle_positive(std::atan2(v - cy, u - cx) - start);
+        const double a = WrapAnglePositive(std::atan2(v - cy, u - cx) - start);
         if (a <= width && mask_.at<uint8_t>(v, u)) row[u] = dark;
       }
     }

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "panotrack/pose/pose2.h"
 #include "panotrack/render/presets.h"
 #include "panotrack/render/render.h"
 #include "panotrack/scene/scene.h"
@@ -86,7 +87,7 @@ enum class MapFaultKind {
   kNotInRoom, // in the map, but not in the room (taken down since)
   kNotInMap,  // in the room, but left out of the map
 };
-const char* map_fault_name(MapFaultKind kind);  // "moved", "not-in-room", "not-in-map"
+const char* MapFaultName(MapFaultKind kind);  // "moved", "not-in-room", "not-in-map"
 
 struct MapFault {
   MapFaultKind kind = MapFaultKind::kMoved;

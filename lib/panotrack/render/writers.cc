@@ -171,7 +171,7 @@ std::string MapFaultsYaml(const std::vector<MapFault>& faults, const std::string
   for (const MapFault& f : faults) {
     w.BeginMap();
     w.Key("id").String(f.id);
-    w.Key("kind").String(map_fault_name(f.kind));
+    w.Key("kind").String(MapFaultName(f.kind));
     if (f.kind == MapFaultKind::kMoved) w.Key("offset").Numbers({f.offset.x(), f.offset.y()});
     w.EndMap();
   }
@@ -241,7 +241,7 @@ SequenceWriteResult WriteSequence(const SequenceCase& c, const std::string& dir,
     // that evo's statistics are panoloc's.
     row.time_s = row.frame / c.fps;
     row.pose = {AsWritten(pose.x, "%.4f"), AsWritten(pose.y, "%.4f"),
-                AsWritten(wrap_angle(pose.theta), "%.6f")};
+                AsWritten(WrapAngle(pose.theta), "%.6f")};
     gt_tum.Write(row);
     if (wo.on_progress && ((i + 1) % 10 == 0 || i + 1 == n)) wo.on_progress(i + 1, n);
   }

@@ -8,7 +8,7 @@
 
 namespace pano {
 
-const char* surface_kind_name(SurfaceKind k) {
+const char* SurfaceKindName(SurfaceKind k) {
   switch (k) {
     case SurfaceKind::kWall: return "wall";
     case SurfaceKind::kFloor: return "floor";

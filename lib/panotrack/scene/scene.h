@@ -14,7 +14,7 @@
 namespace pano {
 
 enum class SurfaceKind { kWall, kFloor, kCeiling, kRectangle, kBoxFace, kDistractor };
-const char* surface_kind_name(SurfaceKind k);
+const char* SurfaceKindName(SurfaceKind k);
 
 // A planar parallelogram (a rectangle for everything built from a map):
 // points corner + a * edge_a + b * edge_b with a, b in [0, 1].

@@ -27,11 +27,11 @@ namespace pano {
 
 // Scalar value of a double, or of a ceres::Jet (anything with a member `a`),
 // without making this header depend on Ceres.
-inline double scalar_value(double x) { return x; }
-inline double scalar_value(float x) { return x; }
+inline double ScalarValue(double x) { return x; }
+inline double ScalarValue(float x) { return x; }
 template <typename T>
-auto scalar_value(const T& x) -> decltype(scalar_value(x.a)) {
-  return scalar_value(x.a);
+auto ScalarValue(const T& x) -> decltype(ScalarValue(x.a)) {
+  return ScalarValue(x.a);
 }
 
 // Mirror: a quadric of revolution with its vertex (lowest point) on the axis.
@@ -81,20 +81,20 @@ struct SensorParams {
   template <typename U>
   SensorParams<U> cast() const {
     SensorParams<U> p;
-    p.focal_px = U(scalar_value(focal_px));
-    p.cx = U(scalar_value(cx));
-    p.cy = U(scalar_value(cy));
-    p.aspect = U(scalar_value(aspect));
-    p.azimuth_offset = U(scalar_value(azimuth_offset));
-    p.k1 = U(scalar_value(k1));
-    p.k2 = U(scalar_value(k2));
-    p.curvature_radius = U(scalar_value(curvature_radius));
-    p.conic_constant = U(scalar_value(conic_constant));
-    p.vertex_distance = U(scalar_value(vertex_distance));
-    p.rim_radius = U(scalar_value(rim_radius));
-    p.asphere_a4 = U(scalar_value(asphere_a4));
-    p.asphere_a6 = U(scalar_value(asphere_a6));
-    p.xi = U(scalar_value(xi));
+    p.focal_px = U(ScalarValue(focal_px));
+    p.cx = U(ScalarValue(cx));
+    p.cy = U(ScalarValue(cy));
+    p.aspect = U(ScalarValue(aspect));
+    p.azimuth_offset = U(ScalarValue(azimuth_offset));
+    p.k1 = U(ScalarValue(k1));
+    p.k2 = U(ScalarValue(k2));
+    p.curvature_radius = U(ScalarValue(curvature_radius));
+    p.conic_constant = U(ScalarValue(conic_constant));
+    p.vertex_distance = U(ScalarValue(vertex_distance));
+    p.rim_radius = U(ScalarValue(rim_radius));
+    p.asphere_a4 = U(ScalarValue(asphere_a4));
+    p.asphere_a6 = U(ScalarValue(asphere_a6));
+    p.xi = U(ScalarValue(xi));
     p.unified = unified;
     return p;
   }
@@ -102,7 +102,7 @@ struct SensorParams {
 
 // Sphere of radius r whose centre is d above the pinhole (README, "Files and conventions").
 template <typename T>
-void set_sphere_mirror(SensorParams<T>* p, const T& mirror_radius, const T& mirror_distance) {
+void SetSphereMirror(SensorParams<T>* p, const T& mirror_radius, const T& mirror_distance) {
   p->curvature_radius = mirror_radius;
   p->conic_constant = T(0);
   p->vertex_distance = mirror_distance - mirror_radius;
@@ -112,15 +112,15 @@ namespace detail {
 // True when x is exactly zero and carries no derivative (a ceres::Jet's or a
 // dual number's derivative part is zero too): such a term can be left out of
 // the computation without losing derivatives with respect to it.
-inline bool is_constant_zero(double x) { return x == 0.0; }
-inline bool is_constant_zero(float x) { return x == 0.0f; }
+inline bool IsConstantZero(double x) { return x == 0.0; }
+inline bool IsConstantZero(float x) { return x == 0.0f; }
 template <typename V>
-auto is_constant_zero(const V& v) -> decltype(bool((v.array() == 0).all())) {
+auto IsConstantZero(const V& v) -> decltype(bool((v.array() == 0).all())) {
   return bool((v.array() == 0).all());
 }
 template <typename T>
-auto is_constant_zero(const T& x) -> decltype(is_constant_zero(x.a) && is_constant_zero(x.v)) {
-  return is_constant_zero(x.a) && is_constant_zero(x.v);
+auto IsConstantZero(const T& x) -> decltype(IsConstantZero(x.a) && IsConstantZero(x.v)) {
+  return IsConstantZero(x.a) && IsConstantZero(x.v);
 }
 
 // The even-asphere profile as a function of u = s^2 (every term is even in s,
@@ -128,7 +128,7 @@ auto is_constant_zero(const T& x) -> decltype(is_constant_zero(x.a) && is_consta
 // the sag w and sigma = (dw/ds) / s. False outside the conic part's domain
 // ((1+k) s^2 < R^2).
 template <typename T>
-bool asphere_sag(const SensorParams<T>& p, const T& u, T* w, T* sigma) {
+bool AsphereSag(const SensorParams<T>& p, const T& u, T* w, T* sigma) {
   using std::sqrt;
   const T& R = p.curvature_radius;
   const T inner = R * R - (T(1) + p.conic_constant) * u;
@@ -141,7 +141,7 @@ bool asphere_sag(const SensorParams<T>& p, const T& u, T* w, T* sigma) {
 }
 
 // d sigma / d u in double (the limb's Newton solve).
-inline double asphere_dsigma_du(const SensorParams<double>& p, double u) {
+inline double AsphereDsigmaDu(const SensorParams<double>& p, double u) {
   const double R = p.curvature_radius;
   const double q = std::sqrt(R * R - (1.0 + p.conic_constant) * u);
   return (1.0 + p.conic_constant) / (2.0 * q * q * q) + (4.0 * p.asphere_a4 + 12.0 * p.asphere_a6 * u / (R * R)) / (R * R * R);
@@ -154,7 +154,7 @@ inline double asphere_dsigma_du(const SensorParams<double>& p, double u) {
 // the pinhole approaches that first root from below without overshooting it
 // on a convex profile; a bracket and bisection guard the rest. False when the
 // ray passes beyond the limb.
-inline bool asphere_ray_hit(const SensorParams<double>& p, double dx, double dy, double a, double b, double* t_out) {
+inline bool AsphereRayHit(const SensorParams<double>& p, double dx, double dy, double a, double b, double* t_out) {
   const double zv = p.vertex_distance;
   double lo = 0.0, hi = std::numeric_limits<double>::infinity();
   double t = 0.0;
@@ -171,14 +171,14 @@ inline bool asphere_ray_hit(const SensorParams<double>& p, double dx, double dy,
     // start from the pinhole then.
     const double ex0 = t * a - dx, ey0 = t * b - dy;
     double w = 0.0, sigma = 0.0;
-    if (!asphere_sag(p, ex0 * ex0 + ey0 * ey0, &w, &sigma) ||
+    if (!AsphereSag(p, ex0 * ex0 + ey0 * ey0, &w, &sigma) ||
         (zv + w - t > 0.0 && !(sigma * (ex0 * a + ey0 * b) - 1.0 < 0.0)))
       t = 0.0;
   }
   for (int it = 0; it < 200; ++it) {
     const double ex = t * a - dx, ey = t * b - dy;
     double w = 0.0, sigma = 0.0, t_next;
-    if (!asphere_sag(p, ex * ex + ey * ey, &w, &sigma)) {
+    if (!AsphereSag(p, ex * ex + ey * ey, &w, &sigma)) {
       hi = t;  // beyond the conic's domain: the root, if any, is nearer
       t_next = 0.5 * (lo + hi);
     } else {
@@ -207,17 +207,17 @@ inline bool asphere_ray_hit(const SensorParams<double>& p, double dx, double dy,
 // Largest normalised radius s / (zv + w(s)) that sees the even-asphere mirror
 // (the limb: zv + w = s w', where L(u) = zv + w - u sigma changes sign) or its
 // rim, whichever is nearer the axis; infinity when neither limits.
-inline double asphere_max_normalized_radius(const SensorParams<double>& p) {
+inline double AsphereMaxNormalizedRadius(const SensorParams<double>& p) {
   const double R = p.curvature_radius, zv = p.vertex_distance, one_k = 1.0 + p.conic_constant;
   auto L = [&](double u, double* val) {
     double w = 0.0, sigma = 0.0;
-    if (!asphere_sag(p, u, &w, &sigma)) return false;
+    if (!AsphereSag(p, u, &w, &sigma)) return false;
     *val = zv + w - u * sigma;
     return true;
   };
   auto phi = [&](double u) {
     double w = 0.0;
-    asphere_sag(p, u, &w, static_cast<double*>(nullptr));
+    AsphereSag(p, u, &w, static_cast<double*>(nullptr));
     return std::sqrt(u) / (zv + w);
   };
   // The visible part ends at the rim, or at the conic's domain edge (where
@@ -246,8 +246,8 @@ inline double asphere_max_normalized_radius(const SensorParams<double>& p) {
     }
     if (v > 0.0) lo = u; else hi = u;
     double w = 0.0, sigma = 0.0;
-    asphere_sag(p, u, &w, &sigma);
-    const double dL = -0.5 * sigma - u * asphere_dsigma_du(p, u);
+    AsphereSag(p, u, &w, &sigma);
+    const double dL = -0.5 * sigma - u * AsphereDsigmaDu(p, u);
     double u_next = u - v / dL;
     if (!(u_next > lo && u_next < hi)) u_next = 0.5 * (lo + hi);
     const bool done = std::abs(u_next - u) < 1e-16 * u || hi - lo < 1e-16 * hi;
@@ -263,8 +263,8 @@ inline double asphere_max_normalized_radius(const SensorParams<double>& p) {
 // derivative with respect to one (a Jet whose asphere terms are free takes the
 // asphere path even where they are zero).
 template <typename T>
-bool is_conic_profile(const SensorParams<T>& p) {
-  return detail::is_constant_zero(p.asphere_a4) && detail::is_constant_zero(p.asphere_a6);
+bool IsConicProfile(const SensorParams<T>& p) {
+  return detail::IsConstantZero(p.asphere_a4) && detail::IsConstantZero(p.asphere_a6);
 }
 
 // Largest normalised image radius m that sees the mirror: the limb (where the
@@ -273,7 +273,7 @@ bool is_conic_profile(const SensorParams<T>& p) {
 // pinhole, with no rim given). With asphere terms it is computed in double
 // (callers only compare against it).
 template <typename T>
-T max_normalized_radius(const SensorParams<T>& p) {
+T MaxNormalizedRadius(const SensorParams<T>& p) {
   using std::sqrt;
   if (p.unified) {
     // Beyond xi > 1 the viewing sphere's silhouette: m^2 (xi^2 - 1) < 1.
@@ -282,7 +282,7 @@ T max_normalized_radius(const SensorParams<T>& p) {
     if (p.rim_radius > T(0) && p.rim_radius < m_max) m_max = p.rim_radius;
     return m_max;
   }
-  if (!is_conic_profile(p)) return T(detail::asphere_max_normalized_radius(p.template cast<double>()));
+  if (!IsConicProfile(p)) return T(detail::AsphereMaxNormalizedRadius(p.template cast<double>()));
   const T& R = p.curvature_radius;
   const T& zv = p.vertex_distance;
   const T one_k = T(1) + p.conic_constant;
@@ -306,31 +306,31 @@ namespace detail {
 // Outward normal (not unit) of an even asphere at distance s from its axis:
 // the gradient of w(s) - w, (s sigma, -1).
 template <typename T>
-bool asphere_normal(const SensorParams<T>& p, const T& s, T* ns, T* nz) {
+bool AsphereNormal(const SensorParams<T>& p, const T& s, T* ns, T* nz) {
   T w, sigma;
-  if (!asphere_sag(p, s * s, &w, &sigma)) return false;
+  if (!AsphereSag(p, s * s, &w, &sigma)) return false;
   *ns = s * sigma;
   *nz = T(-1);
   return true;
 }
 
-// mirror_hit for an even asphere (kept out of the conic's inlined path).
+// MirrorHit for an even asphere (kept out of the conic's inlined path).
 template <typename T>
-bool asphere_mirror_hit(const SensorParams<T>& p, const T& m, T* s, T* z) {
+bool AsphereMirrorHit(const SensorParams<T>& p, const T& m, T* s, T* z) {
   // Even asphere: the hit in double, then one Newton step in T so that Jet
   // derivatives follow the implicit function theorem.
   const SensorParams<double> pd = p.template cast<double>();
-  const double md = scalar_value(m);
+  const double md = ScalarValue(m);
   double t0;
-  if (!detail::asphere_ray_hit(pd, 0.0, 0.0, md, 0.0, &t0)) return false;
+  if (!detail::AsphereRayHit(pd, 0.0, 0.0, md, 0.0, &t0)) return false;
   T t = T(t0);
   if constexpr (!std::is_same<T, double>::value) {
     double wd = 0.0, sigma_d = 0.0;
-    if (!detail::asphere_sag(pd, t0 * t0 * md * md, &wd, &sigma_d)) return false;
+    if (!detail::AsphereSag(pd, t0 * t0 * md * md, &wd, &sigma_d)) return false;
     const double dH = sigma_d * t0 * md * md - 1.0;
     const T st = T(t0) * m;
     T w;
-    if (!detail::asphere_sag(p, st * st, &w, static_cast<T*>(nullptr))) return false;
+    if (!detail::AsphereSag(p, st * st, &w, static_cast<T*>(nullptr))) return false;
     t = T(t0) - (p.vertex_distance + w - T(t0)) / T(dH);
   }
   *s = t * m;
@@ -343,7 +343,7 @@ bool asphere_mirror_hit(const SensorParams<T>& p, const T& m, T* s, T* z) {
 // the viewing sphere: the point (lambda m, xi - lambda) in the meridian plane
 // is the unit direction it sees.
 template <typename T>
-bool unified_lift(const SensorParams<T>& p, const T& m2, T* lambda) {
+bool UnifiedLift(const SensorParams<T>& p, const T& m2, T* lambda) {
   using std::sqrt;
   const T under = T(1) + (T(1) - p.xi * p.xi) * m2;
   if (!(under >= T(0))) return false;
@@ -354,9 +354,9 @@ bool unified_lift(const SensorParams<T>& p, const T& m2, T* lambda) {
 // Unified profile: the unit direction (ds, dz) seen at normalised radius m
 // (meridian plane).
 template <typename T>
-bool unified_direction(const SensorParams<T>& p, const T& m, T* ds, T* dz) {
+bool UnifiedDirection(const SensorParams<T>& p, const T& m, T* ds, T* dz) {
   T lambda;
-  if (!unified_lift(p, m * m, &lambda)) return false;
+  if (!UnifiedLift(p, m * m, &lambda)) return false;
   *ds = lambda * m;
   *dz = p.xi - lambda;
   return true;
@@ -368,18 +368,18 @@ bool unified_direction(const SensorParams<T>& p, const T& m, T* ds, T* dz) {
 // the lift (xi rho > Z), on the viewing sphere's near side beyond xi = 1
 // (xi Z < rho; its silhouette is where m reaches 1 / sqrt(xi^2 - 1)) and
 // within the rim.
-inline bool unified_sees(const SensorParams<double>& p, double D, double Z) {
+inline bool UnifiedSees(const SensorParams<double>& p, double D, double Z) {
   const double rho = std::sqrt(D * D + Z * Z);
   const double den = p.xi * rho - Z;
-  return den > 0.0 && p.xi * Z < rho && D / den < max_normalized_radius(p);
+  return den > 0.0 && p.xi * Z < rho && D / den < MaxNormalizedRadius(p);
 }
 
 // Unified profile: the normalised radius that sees the point at horizontal
 // distance D and height Z; false where it is not visible.
 template <typename T>
-bool unified_radius(const SensorParams<T>& p, const T& D, const T& Z, T* m) {
+bool UnifiedRadius(const SensorParams<T>& p, const T& D, const T& Z, T* m) {
   using std::sqrt;
-  if (!unified_sees(p.template cast<double>(), scalar_value(D), scalar_value(Z))) return false;
+  if (!UnifiedSees(p.template cast<double>(), ScalarValue(D), ScalarValue(Z))) return false;
   *m = D / (p.xi * sqrt(D * D + Z * Z) - Z);
   return true;
 }
@@ -387,14 +387,14 @@ bool unified_radius(const SensorParams<T>& p, const T& D, const T& Z, T* m) {
 // Camera ray t (m, 1) against the mirror: the first hit, from below.
 // Returns false when the ray misses (beyond the limb).
 template <typename T>
-bool mirror_hit(const SensorParams<T>& p, const T& m, T* s, T* z) {
+bool MirrorHit(const SensorParams<T>& p, const T& m, T* s, T* z) {
   using std::sqrt;
   if (p.unified) {  // the single viewpoint
     *s = T(0);
     *z = T(0);
-    return m < max_normalized_radius(p);
+    return m < MaxNormalizedRadius(p);
   }
-  if (!is_conic_profile(p)) return detail::asphere_mirror_hit(p, m, s, z);
+  if (!IsConicProfile(p)) return detail::AsphereMirrorHit(p, m, s, z);
   const T& R = p.curvature_radius;
   const T& zv = p.vertex_distance;
   const T m2 = m * m;
@@ -416,22 +416,22 @@ bool mirror_hit(const SensorParams<T>& p, const T& m, T* s, T* z) {
 // Reflection in the meridian plane of the camera ray of normalised radius m:
 // the point on the mirror (ps, pz) and the reflected unit direction (ds, dz).
 template <typename T>
-bool reflect_meridian(const SensorParams<T>& p, const T& m, T* ps, T* pz, T* ds, T* dz) {
+bool ReflectMeridian(const SensorParams<T>& p, const T& m, T* ps, T* pz, T* ds, T* dz) {
   using std::sqrt;
   if (p.unified) {
     // Every ray leaves the single viewpoint.
     *ps = T(0);
     *pz = T(0);
-    return unified_direction(p, m, ds, dz);
+    return UnifiedDirection(p, m, ds, dz);
   }
-  if (!mirror_hit(p, m, ps, pz)) return false;
+  if (!MirrorHit(p, m, ps, pz)) return false;
   T ns, nz;
-  if (is_conic_profile(p)) {
+  if (IsConicProfile(p)) {
     const T w = *pz - p.vertex_distance;
     // Outward (downward-facing) normal: gradient of s^2 - 2 R w + (1+k) w^2.
     ns = *ps;
     nz = (T(1) + p.conic_constant) * w - p.curvature_radius;
-  } else if (!detail::asphere_normal(p, *ps, &ns, &nz)) {
+  } else if (!detail::AsphereNormal(p, *ps, &ns, &nz)) {
     return false;
   }
   const T nn = sqrt(ns * ns + nz * nz);
@@ -447,14 +447,14 @@ bool reflect_meridian(const SensorParams<T>& p, const T& m, T* ps, T* pz, T* ds,
 
 // Lens distortion on the normalised radius.
 template <typename T>
-T distort_radius(const SensorParams<T>& p, const T& m) {
+T DistortRadius(const SensorParams<T>& p, const T& m) {
   const T m2 = m * m;
   return m * (T(1) + p.k1 * m2 + p.k2 * m2 * m2);
 }
 
-// Inverse of distort_radius by Newton's method (monotone for sensible k1, k2).
+// Inverse of DistortRadius by Newton's method (monotone for sensible k1, k2).
 template <typename T>
-bool undistort_radius(const SensorParams<T>& p, const T& md, T* m) {
+bool UndistortRadius(const SensorParams<T>& p, const T& md, T* m) {
   using std::abs;
   T x = md;
   for (int i = 0; i < 30; ++i) {
@@ -464,7 +464,7 @@ bool undistort_radius(const SensorParams<T>& p, const T& md, T* m) {
     if (!(df > T(0))) return false;
     const T step = f / df;
     x -= step;
-    if (abs(scalar_value(step)) < 1e-15 * (1.0 + abs(scalar_value(x)))) {
+    if (abs(ScalarValue(step)) < 1e-15 * (1.0 + abs(ScalarValue(x)))) {
       // One more step so that Jet derivatives are those of the converged root.
       const T x2b = x * x;
       x -= (x * (T(1) + p.k1 * x2b + p.k2 * x2b * x2b) - md) /
@@ -482,10 +482,10 @@ namespace detail {
 // Positive while the target lies above the reflected ray; it falls through
 // zero as m grows (the reflected ray turns upwards).
 template <typename T>
-bool meridian_residual(const SensorParams<T>& p, const T& m, const T& D, const T& Z, T* g,
-                       T* along) {
+bool MeridianResidual(const SensorParams<T>& p, const T& m, const T& D, const T& Z, T* g,
+                      T* along) {
   T ps, pz, ds, dz;
-  if (!reflect_meridian(p, m, &ps, &pz, &ds, &dz)) return false;
+  if (!ReflectMeridian(p, m, &ps, &pz, &ds, &dz)) return false;
   const T qs = D - ps, qz = Z - pz;
   *g = ds * qz - dz * qs;
   if (along) *along = ds * qs + dz * qz;
@@ -516,10 +516,10 @@ inline Dual sqrt(const Dual& x) {
 }
 
 // The meridian residual g(m) and its slope dg/dm. False where g is undefined.
-inline bool meridian_residual_slope(const SensorParams<Dual>& pd, double m, double D, double Z, double* g,
-                                    double* slope) {
+inline bool MeridianResidualSlope(const SensorParams<Dual>& pd, double m, double D, double Z, double* g,
+                                  double* slope) {
   Dual gd;
-  if (!meridian_residual(pd, Dual(m, 1.0), Dual(D), Dual(Z), &gd, static_cast<Dual*>(nullptr))) return false;
+  if (!MeridianResidual(pd, Dual(m, 1.0), Dual(D), Dual(Z), &gd, static_cast<Dual*>(nullptr))) return false;
   *g = gd.a;
   *slope = gd.v;
   return std::isfinite(gd.v) && gd.v != 0.0;
@@ -528,22 +528,22 @@ inline bool meridian_residual_slope(const SensorParams<Dual>& pd, double m, doub
 // Root of the meridian residual in double precision: bracketing bisection
 // safeguarding Newton steps (exact slope from a dual number).
 // Returns false when the point is not visible.
-inline bool solve_meridian_double(const SensorParams<double>& p, double D, double Z, double* m_out) {
+inline bool SolveMeridianDouble(const SensorParams<double>& p, double D, double Z, double* m_out) {
   if (!(D > 0.0) || !std::isfinite(D) || !std::isfinite(Z)) return false;
-  if (p.unified) return unified_radius(p, D, Z, m_out);
-  const double m_max = max_normalized_radius(p);
+  if (p.unified) return UnifiedRadius(p, D, Z, m_out);
+  const double m_max = MaxNormalizedRadius(p);
   double lo = 0.0;
   double hi = std::isfinite(m_max) ? m_max * (1.0 - 1e-12) : 1e3;
   double g_lo, g_hi;
-  if (!meridian_residual(p, lo, D, Z, &g_lo, static_cast<double*>(nullptr))) return false;
-  if (!meridian_residual(p, hi, D, Z, &g_hi, static_cast<double*>(nullptr))) return false;
+  if (!MeridianResidual(p, lo, D, Z, &g_lo, static_cast<double*>(nullptr))) return false;
+  if (!MeridianResidual(p, hi, D, Z, &g_hi, static_cast<double*>(nullptr))) return false;
   if (!(g_lo > 0.0) || !(g_hi < 0.0)) return false;  // outside the visible cap
   double m = 0.5 * (lo + hi);
   const SensorParams<Dual> pd = p.cast<Dual>();
   for (int it = 0; it < 200; ++it) {
     double g, slope;
     double m_next;
-    if (meridian_residual_slope(pd, m, D, Z, &g, &slope)) {
+    if (MeridianResidualSlope(pd, m, D, Z, &g, &slope)) {
       if (g > 0.0) lo = m; else hi = m;
       m_next = m - g / slope;
       // Converged: the Newton step may land on the bracket's end it just set.
@@ -553,7 +553,7 @@ inline bool solve_meridian_double(const SensorParams<double>& p, double D, doubl
       }
       if (!(m_next > lo && m_next < hi)) m_next = 0.5 * (lo + hi);
     } else {
-      if (!meridian_residual(p, m, D, Z, &g, static_cast<double*>(nullptr))) return false;
+      if (!MeridianResidual(p, m, D, Z, &g, static_cast<double*>(nullptr))) return false;
       if (g > 0.0) lo = m; else hi = m;
       m_next = 0.5 * (lo + hi);
     }
@@ -563,7 +563,7 @@ inline bool solve_meridian_double(const SensorParams<double>& p, double D, doubl
   }
   double along;
   double g;
-  if (!meridian_residual(p, m, D, Z, &g, &along)) return false;
+  if (!MeridianResidual(p, m, D, Z, &g, &along)) return false;
   if (!(along > 0.0)) return false;  // the point is behind the reflected ray
   *m_out = m;
   return true;
@@ -576,20 +576,20 @@ inline bool solve_meridian_double(const SensorParams<double>& p, double D, doubl
 // one Newton step in T so that Jet derivatives follow the implicit function
 // theorem exactly.
 template <typename T>
-bool solve_meridian(const SensorParams<T>& p, const T& D, const T& Z, T* m) {
-  if (p.unified) return unified_radius(p, D, Z, m);
+bool SolveMeridian(const SensorParams<T>& p, const T& D, const T& Z, T* m) {
+  if (p.unified) return UnifiedRadius(p, D, Z, m);
   const SensorParams<double> pd = p.template cast<double>();
   double m0;
-  if (!detail::solve_meridian_double(pd, scalar_value(D), scalar_value(Z), &m0)) return false;
+  if (!detail::SolveMeridianDouble(pd, ScalarValue(D), ScalarValue(Z), &m0)) return false;
   if constexpr (std::is_same<T, double>::value) {
     *m = m0;
   } else {
     double g0, dg_dm;
-    if (!detail::meridian_residual_slope(pd.template cast<detail::Dual>(), m0, scalar_value(D), scalar_value(Z),
-                                         &g0, &dg_dm))
+    if (!detail::MeridianResidualSlope(pd.template cast<detail::Dual>(), m0, ScalarValue(D), ScalarValue(Z),
+                                       &g0, &dg_dm))
       return false;
     T g;
-    if (!detail::meridian_residual(p, T(m0), D, Z, &g, static_cast<T*>(nullptr))) return false;
+    if (!detail::MeridianResidual(p, T(m0), D, Z, &g, static_cast<T*>(nullptr))) return false;
     *m = T(m0) - g / T(dg_dm);
   }
   return true;
@@ -598,10 +598,10 @@ bool solve_meridian(const SensorParams<T>& p, const T& D, const T& Z, T* m) {
 // E(D, Z): image radius (in u pixels, aspect removed) of a point at
 // horizontal distance D from the axis and height Z above the pinhole.
 template <typename T>
-bool image_radius(const SensorParams<T>& p, const T& D, const T& Z, T* radius) {
+bool ImageRadius(const SensorParams<T>& p, const T& D, const T& Z, T* radius) {
   T m;
-  if (!solve_meridian(p, D, Z, &m)) return false;
-  *radius = p.focal_px * distort_radius(p, m);
+  if (!SolveMeridian(p, D, Z, &m)) return false;
+  *radius = p.focal_px * DistortRadius(p, m);
   return true;
 }
 
@@ -609,12 +609,12 @@ bool image_radius(const SensorParams<T>& p, const T& D, const T& Z, T* radius) {
 // height Z appears at image radius `radius`. Closed form: back-project the
 // pixel ray and cut it with the plane z = Z.
 template <typename T>
-bool inverse_image_radius(const SensorParams<T>& p, const T& radius, const T& Z, T* D) {
+bool InverseImageRadius(const SensorParams<T>& p, const T& radius, const T& Z, T* D) {
   T m;
-  if (!undistort_radius(p, radius / p.focal_px, &m)) return false;
-  if (!(m >= T(0)) || !(m < max_normalized_radius(p))) return false;
+  if (!UndistortRadius(p, radius / p.focal_px, &m)) return false;
+  if (!(m >= T(0)) || !(m < MaxNormalizedRadius(p))) return false;
   T ps, pz, ds, dz;
-  if (!reflect_meridian(p, m, &ps, &pz, &ds, &dz)) return false;
+  if (!ReflectMeridian(p, m, &ps, &pz, &ds, &dz)) return false;
   if (dz == T(0)) return false;
   const T t = (Z - pz) / dz;
   if (!(t > T(0))) return false;
@@ -636,7 +636,7 @@ bool project(const SensorParams<T>& p, const T* point_sensor, T* u, T* v) {
   if (!(D2 > T(0))) return false;  // on the axis: hidden by the camera or the mirror
   const T D = sqrt(D2);
   T radius;
-  if (!image_radius(p, D, z, &radius)) return false;
+  if (!ImageRadius(p, D, z, &radius)) return false;
   // cos/sin of the image azimuth, bearing + azimuth_offset, without atan2 at
   // the common zero offset.
   const T cb = x / D, sb = y / D;
@@ -660,10 +660,10 @@ bool backproject(const SensorParams<T>& p, const T& u, const T& v, T* origin, T*
   const T dv = (v - p.cy) / p.aspect;
   const T radius = sqrt(du * du + dv * dv);
   T m;
-  if (!undistort_radius(p, radius / p.focal_px, &m)) return false;
-  if (!(m < max_normalized_radius(p))) return false;
+  if (!UndistortRadius(p, radius / p.focal_px, &m)) return false;
+  if (!(m < MaxNormalizedRadius(p))) return false;
   T ps, pz, ds, dz;
-  if (!reflect_meridian(p, m, &ps, &pz, &ds, &dz)) return false;
+  if (!ReflectMeridian(p, m, &ps, &pz, &ds, &dz)) return false;
   // On the axis the azimuth is undefined; any will do (ps = ds_horizontal = 0).
   T ca = T(1), sa = T(0);
   if (radius > T(0)) {
@@ -684,8 +684,8 @@ bool backproject(const SensorParams<T>& p, const T& u, const T& v, T* origin, T*
 
 // Image radius of the mirror's visible edge (limb or rim) in pixels.
 template <typename T>
-T limb_radius_px(const SensorParams<T>& p) {
-  return p.focal_px * distort_radius(p, max_normalized_radius(p));
+T LimbRadiusPx(const SensorParams<T>& p) {
+  return p.focal_px * DistortRadius(p, MaxNormalizedRadius(p));
 }
 
 }  // namespace pano

@@ -56,7 +56,7 @@ struct RigFaults {
     const T* v[] = {&mirror_offset[0], &mirror_offset[1], &camera_tilt[0], &camera_tilt[1], &p1, &p2, &k3,
                     &sensor_tilt[0], &sensor_tilt[1], &skew};
     for (const T* x : v)
-      if (scalar_value(*x) != 0.0) return false;
+      if (ScalarValue(*x) != 0.0) return false;
     return true;
   }
 
@@ -64,14 +64,14 @@ struct RigFaults {
   RigFaults<U> cast() const {
     RigFaults<U> f;
     for (int i = 0; i < 2; ++i) {
-      f.mirror_offset[i] = U(scalar_value(mirror_offset[i]));
-      f.camera_tilt[i] = U(scalar_value(camera_tilt[i]));
-      f.sensor_tilt[i] = U(scalar_value(sensor_tilt[i]));
+      f.mirror_offset[i] = U(ScalarValue(mirror_offset[i]));
+      f.camera_tilt[i] = U(ScalarValue(camera_tilt[i]));
+      f.sensor_tilt[i] = U(ScalarValue(sensor_tilt[i]));
     }
-    f.p1 = U(scalar_value(p1));
-    f.p2 = U(scalar_value(p2));
-    f.k3 = U(scalar_value(k3));
-    f.skew = U(scalar_value(skew));
+    f.p1 = U(ScalarValue(p1));
+    f.p2 = U(ScalarValue(p2));
+    f.k3 = U(ScalarValue(k3));
+    f.skew = U(ScalarValue(skew));
     return f;
   }
 };
@@ -97,7 +97,7 @@ namespace detail {
 
 // Row-major 3 x 3 rotation Ry(a[1]) Rx(a[0]).
 template <typename T>
-void tilt_rotation(const T* a, T* R) {
+void TiltRotation(const T* a, T* R) {
   using std::cos;
   using std::sin;
   const T cx = cos(a[0]), sx = sin(a[0]), cy = cos(a[1]), sy = sin(a[1]);
@@ -113,7 +113,7 @@ void rotate(const T* R, const T* x, T* y) {
 }
 
 template <typename T>
-void rotate_transposed(const T* R, const T* x, T* y) {
+void RotateTransposed(const T* R, const T* x, T* y) {
   for (int i = 0; i < 3; ++i) y[i] = R[i] * x[0] + R[3 + i] * x[1] + R[6 + i] * x[2];
 }
 
@@ -121,7 +121,7 @@ void rotate_transposed(const T* R, const T* x, T* y) {
 // mirror: the first hit Q. False when it misses (beyond the limb) or meets the
 // mirror outside its rim.
 template <typename T>
-bool general_mirror_hit(const SensorParams<T>& p, const T& dx, const T& dy, const T& a, const T& b, T* Q) {
+bool GeneralMirrorHit(const SensorParams<T>& p, const T& dx, const T& dy, const T& a, const T& b, T* Q) {
   using std::sqrt;
   // The hit at ray parameter t, if it lies within the mirror's rim.
   const auto hit_at = [&](const T& t) {
@@ -132,22 +132,22 @@ bool general_mirror_hit(const SensorParams<T>& p, const T& dx, const T& dy, cons
     const T sx = Q[0] - dx, sy = Q[1] - dy;
     return !(sx * sx + sy * sy > p.rim_radius * p.rim_radius);
   };
-  if (!is_conic_profile(p)) {
+  if (!IsConicProfile(p)) {
     // Even asphere: the hit in double, then one Newton step in T on
     // H(t) = zv + w(u(t)) - t (Jet derivatives by the implicit function theorem).
     const SensorParams<double> pd = p.template cast<double>();
-    const double ad = scalar_value(a), bd = scalar_value(b), dxd = scalar_value(dx), dyd = scalar_value(dy);
+    const double ad = ScalarValue(a), bd = ScalarValue(b), dxd = ScalarValue(dx), dyd = ScalarValue(dy);
     double t0;
-    if (!asphere_ray_hit(pd, dxd, dyd, ad, bd, &t0)) return false;
+    if (!AsphereRayHit(pd, dxd, dyd, ad, bd, &t0)) return false;
     T t = T(t0);
     if constexpr (!std::is_same<T, double>::value) {
       const double exd = t0 * ad - dxd, eyd = t0 * bd - dyd;
       double wd = 0.0, sigma_d = 0.0;
-      if (!asphere_sag(pd, exd * exd + eyd * eyd, &wd, &sigma_d)) return false;
+      if (!AsphereSag(pd, exd * exd + eyd * eyd, &wd, &sigma_d)) return false;
       const double dH = sigma_d * (exd * ad + eyd * bd) - 1.0;
       const T ex = T(t0) * a - dx, ey = T(t0) * b - dy;
       T w;
-      if (!asphere_sag(p, ex * ex + ey * ey, &w, static_cast<T*>(nullptr))) return false;
+      if (!AsphereSag(p, ex * ex + ey * ey, &w, static_cast<T*>(nullptr))) return false;
       t = T(t0) - (p.vertex_distance + w - T(t0)) / T(dH);
     }
     return hit_at(t);
@@ -170,15 +170,15 @@ bool general_mirror_hit(const SensorParams<T>& p, const T& dx, const T& dy, cons
 
 // Hit and reflected unit direction r of the camera ray (a, b, 1), M frame.
 template <typename T>
-bool general_reflect(const SensorParams<T>& p, const T& dx, const T& dy, const T& a, const T& b, T* Q, T* r) {
+bool GeneralReflect(const SensorParams<T>& p, const T& dx, const T& dy, const T& a, const T& b, T* Q, T* r) {
   using std::sqrt;
-  if (!general_mirror_hit(p, dx, dy, a, b, Q)) return false;
+  if (!GeneralMirrorHit(p, dx, dy, a, b, Q)) return false;
   // Outward (downward-facing) normal: gradient of s^2 - 2 R w + (1+k) w^2,
   // or of w(s) - w for an even asphere.
   T n[3] = {Q[0] - dx, Q[1] - dy, (T(1) + p.conic_constant) * (Q[2] - p.vertex_distance) - p.curvature_radius};
-  if (!is_conic_profile(p)) {
+  if (!IsConicProfile(p)) {
     T w, sigma;
-    if (!asphere_sag(p, n[0] * n[0] + n[1] * n[1], &w, &sigma)) return false;
+    if (!AsphereSag(p, n[0] * n[0] + n[1] * n[1], &w, &sigma)) return false;
     n[0] = n[0] * sigma;
     n[1] = n[1] * sigma;
     n[2] = T(-1);
@@ -194,11 +194,11 @@ bool general_reflect(const SensorParams<T>& p, const T& dx, const T& dy, const T
 // Residual of the reflection solve: r x (X - Q) / |X - Q| (zero when the
 // reflected ray passes through X) and the point's distance along the ray.
 template <typename T>
-bool reflection_residual(const SensorParams<T>& p, const T& dx, const T& dy, const T& a, const T& b, const T* X,
-                         T* res, T* along) {
+bool ReflectionResidual(const SensorParams<T>& p, const T& dx, const T& dy, const T& a, const T& b, const T* X,
+                        T* res, T* along) {
   using std::sqrt;
   T Q[3], r[3];
-  if (!general_reflect(p, dx, dy, a, b, Q, r)) return false;
+  if (!GeneralReflect(p, dx, dy, a, b, Q, r)) return false;
   const T q[3] = {X[0] - Q[0], X[1] - Q[1], X[2] - Q[2]};
   const T ql = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
   res[0] = (r[1] * q[2] - r[2] * q[1]) / ql;
@@ -209,13 +209,13 @@ bool reflection_residual(const SensorParams<T>& p, const T& dx, const T& dy, con
 }
 
 // Residual and its 3 x 2 Jacobian in (a, b) (exact, by dual numbers).
-inline bool reflection_residual_jacobian(const SensorParams<Dual>& pd, double dx, double dy, double a, double b,
-                                         const double* X, double* res, double* J) {
+inline bool ReflectionResidualJacobian(const SensorParams<Dual>& pd, double dx, double dy, double a, double b,
+                                       const double* X, double* res, double* J) {
   const Dual Xd[3] = {Dual(X[0]), Dual(X[1]), Dual(X[2])};
   Dual ra[3], rb[3];
-  if (!reflection_residual(pd, Dual(dx), Dual(dy), Dual(a, 1.0), Dual(b), Xd, ra, static_cast<Dual*>(nullptr)))
+  if (!ReflectionResidual(pd, Dual(dx), Dual(dy), Dual(a, 1.0), Dual(b), Xd, ra, static_cast<Dual*>(nullptr)))
     return false;
-  if (!reflection_residual(pd, Dual(dx), Dual(dy), Dual(a), Dual(b, 1.0), Xd, rb, static_cast<Dual*>(nullptr)))
+  if (!ReflectionResidual(pd, Dual(dx), Dual(dy), Dual(a), Dual(b, 1.0), Xd, rb, static_cast<Dual*>(nullptr)))
     return false;
   for (int i = 0; i < 3; ++i) {
     res[i] = ra[i].a;
@@ -227,7 +227,7 @@ inline bool reflection_residual_jacobian(const SensorParams<Dual>& pd, double dx
 }
 
 // Pseudo-inverse (J^T J)^-1 J^T of a 3 x 2 Jacobian, row-major 2 x 3.
-inline bool pseudo_inverse_3x2(const double* J, double* P) {
+inline bool PseudoInverse3x2(const double* J, double* P) {
   double a = 0, b = 0, c = 0;  // J^T J = [a b; b c]
   for (int i = 0; i < 3; ++i) {
     a += J[2 * i] * J[2 * i];
@@ -245,8 +245,8 @@ inline bool pseudo_inverse_3x2(const double* J, double* P) {
 
 // The camera ray (a, b, 1), M frame, that sees the M-frame point X: double
 // precision. False when the point is not visible.
-inline bool solve_reflection_double(const SensorParams<double>& p, double dx, double dy, const double* X,
-                                    double* a_out, double* b_out) {
+inline bool SolveReflectionDouble(const SensorParams<double>& p, double dx, double dy, const double* X,
+                                  double* a_out, double* b_out) {
   for (int i = 0; i < 3; ++i)
     if (!std::isfinite(X[i])) return false;
   // Start: the aligned solution about the decentred axis, seen from the pinhole.
@@ -254,18 +254,18 @@ inline bool solve_reflection_double(const SensorParams<double>& p, double dx, do
   const double D = std::hypot(rx, ry);
   if (!(D > 0.0)) return false;
   double m0;
-  if (!solve_meridian_double(p, D, X[2], &m0)) return false;
+  if (!SolveMeridianDouble(p, D, X[2], &m0)) return false;
   double ps, pz;
-  if (!mirror_hit(p, m0, &ps, &pz)) return false;
+  if (!MirrorHit(p, m0, &ps, &pz)) return false;
   double a = (ps * rx / D + dx) / pz, b = (ps * ry / D + dy) / pz;
   const SensorParams<Dual> pd = p.cast<Dual>();
   double res[3], J[6];
-  if (!reflection_residual_jacobian(pd, dx, dy, a, b, X, res, J)) return false;
+  if (!ReflectionResidualJacobian(pd, dx, dy, a, b, X, res, J)) return false;
   double cost = res[0] * res[0] + res[1] * res[1] + res[2] * res[2];
   bool converged = false;
   for (int it = 0; it < 60 && !converged; ++it) {
     double P[6];
-    if (!pseudo_inverse_3x2(J, P)) return false;
+    if (!PseudoInverse3x2(J, P)) return false;
     const double sa = -(P[0] * res[0] + P[1] * res[1] + P[2] * res[2]);
     const double sb = -(P[3] * res[0] + P[4] * res[1] + P[5] * res[2]);
     // Step halving keeps the iterate on the mirror and the cost falling.
@@ -274,7 +274,7 @@ inline bool solve_reflection_double(const SensorParams<double>& p, double dx, do
     for (int h = 0; h < 40; ++h, scale *= 0.5) {
       const double an = a + scale * sa, bn = b + scale * sb;
       double rn[3], Jn[6];
-      if (!reflection_residual_jacobian(pd, dx, dy, an, bn, X, rn, Jn)) continue;
+      if (!ReflectionResidualJacobian(pd, dx, dy, an, bn, X, rn, Jn)) continue;
       const double cn = rn[0] * rn[0] + rn[1] * rn[1] + rn[2] * rn[2];
       if (cn > cost && cn > 1e-28) continue;
       a = an;
@@ -289,7 +289,7 @@ inline bool solve_reflection_double(const SensorParams<double>& p, double dx, do
     if (std::abs(scale * sa) + std::abs(scale * sb) < 1e-15 * (1.0 + std::abs(a) + std::abs(b))) converged = true;
   }
   double along;
-  if (!reflection_residual(p, dx, dy, a, b, X, res, &along)) return false;
+  if (!ReflectionResidual(p, dx, dy, a, b, X, res, &along)) return false;
   if (!(along > 0.0)) return false;  // the point is behind the reflected ray
   if (!(res[0] * res[0] + res[1] * res[1] + res[2] * res[2] < 1e-20)) return false;
   *a_out = a;
@@ -299,7 +299,7 @@ inline bool solve_reflection_double(const SensorParams<double>& p, double dx, do
 
 // Brown distortion of normalised image coordinates (after the azimuth turn).
 template <typename T>
-void brown_distort(const SensorParams<T>& p, const RigFaults<T>& f, const T& x, const T& y, T* xd, T* yd) {
+void BrownDistort(const SensorParams<T>& p, const RigFaults<T>& f, const T& x, const T& y, T* xd, T* yd) {
   const T r2 = x * x + y * y;
   const T radial = T(1) + r2 * (p.k1 + r2 * (p.k2 + r2 * f.k3));
   *xd = x * radial + T(2) * f.p1 * x * y + f.p2 * (r2 + T(2) * x * x);
@@ -308,22 +308,22 @@ void brown_distort(const SensorParams<T>& p, const RigFaults<T>& f, const T& x, 
 
 // Pixel of distorted normalised image coordinates (xd, yd), and back.
 template <typename T>
-void pixel_of_distorted(const SensorParams<T>& p, const RigFaults<T>& f, const T& xd, const T& yd, T* u, T* v) {
+void PixelOfDistorted(const SensorParams<T>& p, const RigFaults<T>& f, const T& xd, const T& yd, T* u, T* v) {
   *u = p.cx + p.focal_px * xd + f.skew * yd;
   *v = p.cy + p.focal_px * p.aspect * yd;
 }
 
 template <typename T>
-void distorted_of_pixel(const SensorParams<T>& p, const RigFaults<T>& f, const T& u, const T& v, T* xd, T* yd) {
+void DistortedOfPixel(const SensorParams<T>& p, const RigFaults<T>& f, const T& u, const T& v, T* xd, T* yd) {
   *yd = (v - p.cy) / (p.focal_px * p.aspect);
   *xd = (u - p.cx - f.skew * *yd) / p.focal_px;
 }
 
-// Inverse of brown_distort by Newton's method in T (one extra step after
+// Inverse of BrownDistort by Newton's method in T (one extra step after
 // convergence so that Jet derivatives are those of the root).
 template <typename T>
-bool brown_undistort(const SensorParams<T>& p, const RigFaults<T>& f, const T& xd, const T& yd, T* x_out,
-                     T* y_out) {
+bool BrownUndistort(const SensorParams<T>& p, const RigFaults<T>& f, const T& xd, const T& yd, T* x_out,
+                    T* y_out) {
   using std::abs;
   T x = xd, y = yd;
   bool converged = false;
@@ -332,7 +332,7 @@ bool brown_undistort(const SensorParams<T>& p, const RigFaults<T>& f, const T& x
     const T radial = T(1) + r2 * (p.k1 + r2 * (p.k2 + r2 * f.k3));
     const T dradial = p.k1 + r2 * (T(2) * p.k2 + T(3) * r2 * f.k3);  // d radial / d r2
     T ex, ey;
-    brown_distort(p, f, x, y, &ex, &ey);
+    BrownDistort(p, f, x, y, &ex, &ey);
     ex -= xd;
     ey -= yd;
     const T jxx = radial + T(2) * x * x * dradial + T(2) * f.p1 * y + T(6) * f.p2 * x;
@@ -348,8 +348,8 @@ bool brown_undistort(const SensorParams<T>& p, const RigFaults<T>& f, const T& x
       *y_out = y;
       return true;
     }
-    const double step = abs(scalar_value(sx)) + abs(scalar_value(sy));
-    converged = step < 1e-15 * (1.0 + abs(scalar_value(x)) + abs(scalar_value(y)));
+    const double step = abs(ScalarValue(sx)) + abs(ScalarValue(sy));
+    converged = step < 1e-15 * (1.0 + abs(ScalarValue(x)) + abs(ScalarValue(y)));
   }
   return false;
 }
@@ -358,23 +358,23 @@ bool brown_undistort(const SensorParams<T>& p, const RigFaults<T>& f, const T& x
 // mirror (the 3-D reflection solve in double, then one Gauss-Newton step in
 // T: the value stays, Jet derivatives follow the implicit function theorem).
 template <typename T>
-bool mirror_camera_ray(const SensorParams<T>& p, const RigFaults<T>& f, const T* X, T* ray) {
+bool MirrorCameraRay(const SensorParams<T>& p, const RigFaults<T>& f, const T* X, T* ray) {
   const SensorParams<double> pd = p.template cast<double>();
-  const double dx = scalar_value(f.mirror_offset[0]), dy = scalar_value(f.mirror_offset[1]);
-  const double Xd[3] = {scalar_value(X[0]), scalar_value(X[1]), scalar_value(X[2])};
+  const double dx = ScalarValue(f.mirror_offset[0]), dy = ScalarValue(f.mirror_offset[1]);
+  const double Xd[3] = {ScalarValue(X[0]), ScalarValue(X[1]), ScalarValue(X[2])};
   double a0, b0;
-  if (!detail::solve_reflection_double(pd, dx, dy, Xd, &a0, &b0)) return false;
+  if (!detail::SolveReflectionDouble(pd, dx, dy, Xd, &a0, &b0)) return false;
   ray[0] = T(a0);
   ray[1] = T(b0);
   ray[2] = T(1);
   if constexpr (!std::is_same<T, double>::value) {
     double res[3], J[6], P[6];
-    if (!detail::reflection_residual_jacobian(pd.template cast<detail::Dual>(), dx, dy, a0, b0, Xd, res, J))
+    if (!detail::ReflectionResidualJacobian(pd.template cast<detail::Dual>(), dx, dy, a0, b0, Xd, res, J))
       return false;
-    if (!detail::pseudo_inverse_3x2(J, P)) return false;
+    if (!detail::PseudoInverse3x2(J, P)) return false;
     T rt[3];
-    if (!detail::reflection_residual(p, f.mirror_offset[0], f.mirror_offset[1], T(a0), T(b0), X, rt,
-                                     static_cast<T*>(nullptr)))
+    if (!detail::ReflectionResidual(p, f.mirror_offset[0], f.mirror_offset[1], T(a0), T(b0), X, rt,
+                                    static_cast<T*>(nullptr)))
       return false;
     ray[0] = T(a0) - (T(P[0]) * rt[0] + T(P[1]) * rt[1] + T(P[2]) * rt[2]);
     ray[1] = T(b0) - (T(P[3]) * rt[0] + T(P[4]) * rt[1] + T(P[5]) * rt[2]);
@@ -385,11 +385,11 @@ bool mirror_camera_ray(const SensorParams<T>& p, const RigFaults<T>& f, const T*
 // The same for the unified profile, closed form: the viewpoint sits at
 // mirror_offset (in the mirror frame's z = 0 plane).
 template <typename T>
-bool unified_camera_ray(const SensorParams<T>& p, const RigFaults<T>& f, const T* X, T* ray) {
+bool UnifiedCameraRay(const SensorParams<T>& p, const RigFaults<T>& f, const T* X, T* ray) {
   using std::sqrt;
   const T x = X[0] - f.mirror_offset[0], y = X[1] - f.mirror_offset[1], z = X[2];
-  const double xd = scalar_value(x), yd = scalar_value(y);
-  if (!unified_sees(p.template cast<double>(), std::sqrt(xd * xd + yd * yd), scalar_value(z))) return false;
+  const double xd = ScalarValue(x), yd = ScalarValue(y);
+  if (!UnifiedSees(p.template cast<double>(), std::sqrt(xd * xd + yd * yd), ScalarValue(z))) return false;
   const T den = p.xi * sqrt(x * x + y * y + z * z) - z;
   ray[0] = x / den;
   ray[1] = y / den;
@@ -400,12 +400,12 @@ bool unified_camera_ray(const SensorParams<T>& p, const RigFaults<T>& f, const T
 // Unified profile: the ray of the camera ray (a, b, 1), M frame: its origin
 // (the viewpoint, at mirror_offset) and unit direction.
 template <typename T>
-bool unified_backproject(const SensorParams<T>& p, const RigFaults<T>& f, const T& a, const T& b, T* Q, T* r) {
+bool UnifiedBackproject(const SensorParams<T>& p, const RigFaults<T>& f, const T& a, const T& b, T* Q, T* r) {
   const T m2 = a * a + b * b;
-  const double m_max = max_normalized_radius(p.template cast<double>());  // in double, as unified_sees
-  if (!(scalar_value(m2) < m_max * m_max)) return false;
+  const double m_max = MaxNormalizedRadius(p.template cast<double>());  // in double, as UnifiedSees
+  if (!(ScalarValue(m2) < m_max * m_max)) return false;
   T lambda;
-  if (!unified_lift(p, m2, &lambda)) return false;
+  if (!UnifiedLift(p, m2, &lambda)) return false;
   Q[0] = f.mirror_offset[0];
   Q[1] = f.mirror_offset[1];
   Q[2] = T(0);
@@ -422,59 +422,59 @@ bool unified_backproject(const SensorParams<T>& p, const RigFaults<T>& f, const 
 // whatever the faults (use it when faults are free parameters of a fit: the
 // derivatives with respect to them exist at zero too).
 template <typename T>
-bool project_general(const GeneralSensorParams<T>& g, const T* point_robot, T* u, T* v) {
+bool ProjectGeneral(const GeneralSensorParams<T>& g, const T* point_robot, T* u, T* v) {
   using std::cos;
   using std::sin;
   const SensorParams<T>& p = g.aligned;
   const RigFaults<T>& f = g.faults;
   T Rs[9], Rc[9], X[3];
-  detail::tilt_rotation(f.sensor_tilt, Rs);
-  detail::rotate_transposed(Rs, point_robot, X);
+  detail::TiltRotation(f.sensor_tilt, Rs);
+  detail::RotateTransposed(Rs, point_robot, X);
   T ray[3];
   if (p.unified) {
-    if (!detail::unified_camera_ray(p, f, X, ray)) return false;
-  } else if (!detail::mirror_camera_ray(p, f, X, ray)) {
+    if (!detail::UnifiedCameraRay(p, f, X, ray)) return false;
+  } else if (!detail::MirrorCameraRay(p, f, X, ray)) {
     return false;
   }
-  detail::tilt_rotation(f.camera_tilt, Rc);
+  detail::TiltRotation(f.camera_tilt, Rc);
   T c[3];
-  detail::rotate_transposed(Rc, ray, c);
+  detail::RotateTransposed(Rc, ray, c);
   if (!(c[2] > T(0))) return false;
   const T xn = c[0] / c[2], yn = c[1] / c[2];
   const T co = cos(p.azimuth_offset), so = sin(p.azimuth_offset);
   const T xi = xn * co - yn * so, yi = xn * so + yn * co;
   T xd, yd;
-  detail::brown_distort(p, f, xi, yi, &xd, &yd);
-  detail::pixel_of_distorted(p, f, xd, yd, u, v);
+  detail::BrownDistort(p, f, xi, yi, &xd, &yd);
+  detail::PixelOfDistorted(p, f, xd, yd, u, v);
   return true;
 }
 
 // Back-projects pixel (u, v) to the reflected ray, origin on the mirror and
 // unit direction, in the robot frame, whatever the faults.
 template <typename T>
-bool backproject_general(const GeneralSensorParams<T>& g, const T& u, const T& v, T* origin, T* direction) {
+bool BackprojectGeneral(const GeneralSensorParams<T>& g, const T& u, const T& v, T* origin, T* direction) {
   using std::cos;
   using std::sin;
   const SensorParams<T>& p = g.aligned;
   const RigFaults<T>& f = g.faults;
   T xd, yd, xi, yi;
-  detail::distorted_of_pixel(p, f, u, v, &xd, &yd);
-  if (!detail::brown_undistort(p, f, xd, yd, &xi, &yi)) return false;
+  detail::DistortedOfPixel(p, f, u, v, &xd, &yd);
+  if (!detail::BrownUndistort(p, f, xd, yd, &xi, &yi)) return false;
   const T co = cos(p.azimuth_offset), so = sin(p.azimuth_offset);
   const T c[3] = {xi * co + yi * so, -xi * so + yi * co, T(1)};
   T Rc[9], m[3];
-  detail::tilt_rotation(f.camera_tilt, Rc);
+  detail::TiltRotation(f.camera_tilt, Rc);
   detail::rotate(Rc, c, m);
   if (!(m[2] > T(0))) return false;
   T Q[3], r[3];
   if (p.unified) {
-    if (!detail::unified_backproject(p, f, m[0] / m[2], m[1] / m[2], Q, r)) return false;
-  } else if (!detail::general_reflect(p, f.mirror_offset[0], f.mirror_offset[1], m[0] / m[2], m[1] / m[2], Q,
-                                      r)) {
+    if (!detail::UnifiedBackproject(p, f, m[0] / m[2], m[1] / m[2], Q, r)) return false;
+  } else if (!detail::GeneralReflect(p, f.mirror_offset[0], f.mirror_offset[1], m[0] / m[2], m[1] / m[2], Q,
+                                     r)) {
     return false;
   }
   T Rs[9];
-  detail::tilt_rotation(f.sensor_tilt, Rs);
+  detail::TiltRotation(f.sensor_tilt, Rs);
   detail::rotate(Rs, Q, origin);
   detail::rotate(Rs, r, direction);
   return true;
@@ -482,17 +482,17 @@ bool backproject_general(const GeneralSensorParams<T>& g, const T& u, const T& v
 
 // The fast path for aligned rigs, the general one otherwise. Values are equal
 // either way; with Jets, derivatives with respect to faults that are zero
-// exist only through project_general.
+// exist only through ProjectGeneral.
 template <typename T>
-bool project_rig(const GeneralSensorParams<T>& g, const T* point_robot, T* u, T* v) {
+bool ProjectRig(const GeneralSensorParams<T>& g, const T* point_robot, T* u, T* v) {
   if (g.IsAligned()) return project(g.aligned, point_robot, u, v);
-  return project_general(g, point_robot, u, v);
+  return ProjectGeneral(g, point_robot, u, v);
 }
 
 template <typename T>
-bool backproject_rig(const GeneralSensorParams<T>& g, const T& u, const T& v, T* origin, T* direction) {
+bool BackprojectRig(const GeneralSensorParams<T>& g, const T& u, const T& v, T* origin, T* direction) {
   if (g.IsAligned()) return backproject(g.aligned, u, v, origin, direction);
-  return backproject_general(g, u, v, origin, direction);
+  return BackprojectGeneral(g, u, v, origin, direction);
 }
 
 }  // namespace pano

@@ -9,31 +9,7 @@
 
 namespace pano {
 
-Eigen::Vector3d sensor_from_world(const Pose2& pose, double sensor_height,
-                                  const Eigen::Vector3d& pw) {
-  return sensor_from_world(pose, Eigen::Vector2d(std::cos(pose.theta), std::sin(pose.theta)), sensor_height, pw);
-}
-
-Eigen::Vector3d sensor_from_world(const Pose2& pose, const Eigen::Vector2d& cos_sin, double sensor_height,
-                                  const Eigen::Vector3d& pw) {
-  const double c = cos_sin.x(), s = cos_sin.y();
-  const double dx = pw.x() - pose.x, dy = pw.y() - pose.y;
-  return {c * dx + s * dy, -s * dx + c * dy, pw.z() - sensor_height};
-}
-
-Eigen::Vector3d world_from_sensor(const Pose2& pose, double sensor_height,
-                                  const Eigen::Vector3d& ps) {
-  const double c = std::cos(pose.theta), s = std::sin(pose.theta);
-  return {pose.x + c * ps.x() - s * ps.y(), pose.y + s * ps.x() + c * ps.y(),
-          ps.z() + sensor_height};
-}
-
-Eigen::Vector3d world_direction(const Pose2& pose, const Eigen::Vector3d& d) {
-  const double c = std::cos(pose.theta), s = std::sin(pose.theta);
-  return {c * d.x() - s * d.y(), s * d.x() + c * d.y(), d.z()};
-}
-
-const char* mirror_model_name(MirrorModel m) {
+const char* MirrorModelName(MirrorModel m) {
   switch (m) {
     case MirrorModel::kSphere: return "sphere";
     case MirrorModel::kConic: return "conic";
@@ -50,13 +26,13 @@ namespace {
 // assume: sampled from the axis to the point seen at m_max.
 bool ConvexProfile(const SensorParams<double>& p, double m_max) {
   double s_edge, z_edge;
-  if (!mirror_hit(p, m_max * (1.0 - 1e-9), &s_edge, &z_edge)) return false;
+  if (!MirrorHit(p, m_max * (1.0 - 1e-9), &s_edge, &z_edge)) return false;
   const int n = 200;
   for (int i = 0; i <= n; ++i) {
     const double s = s_edge * i / n, u = s * s;
     double w = 0.0, sigma = 0.0;
-    if (!detail::asphere_sag(p, u, &w, &sigma)) return false;
-    if (!(sigma + 2.0 * u * detail::asphere_dsigma_du(p, u) > 0.0) || !(w >= 0.0)) return false;
+    if (!detail::AsphereSag(p, u, &w, &sigma)) return false;
+    if (!(sigma + 2.0 * u * detail::AsphereDsigmaDu(p, u) > 0.0) || !(w >= 0.0)) return false;
   }
   return true;
 }
@@ -132,11 +108,11 @@ void Sensor::Check(const std::string& what) const {
   if (p.rim_radius < 0.0) fail("rim_radius", "expected a non-negative rim radius");
   if (model != MirrorModel::kAsphere && (p.asphere_a4 != 0.0 || p.asphere_a6 != 0.0))
     fail("asphere_a4/asphere_a6", "even-asphere terms need model asphere");
-  const double m_max = max_normalized_radius(p);
+  const double m_max = MaxNormalizedRadius(p);
   if (!std::isfinite(m_max) || !(m_max > 0.0))
     fail("rim_radius", p.unified ? "the unified profile sees to infinity; give its rim_radius (a normalised radius)"
                                  : "the mirror has no limb; give its rim_radius");
-  if (!is_conic_profile(p) && !ConvexProfile(p, m_max))
+  if (!IsConicProfile(p) && !ConvexProfile(p, m_max))
     fail("asphere_a4/asphere_a6", "the mirror's profile is not convex where the camera sees it");
 }
 
@@ -144,7 +120,7 @@ bool Sensor::project(const Eigen::Vector3d& ps, Eigen::Vector2d* pixel) const {
   double u, v;
   if (aligned()) {
     if (!pano::project(params, ps.data(), &u, &v)) return false;
-  } else if (!pano::project_general(general(), ps.data(), &u, &v)) {
+  } else if (!pano::ProjectGeneral(general(), ps.data(), &u, &v)) {
     return false;
   }
   *pixel = {u, v};
@@ -154,21 +130,21 @@ bool Sensor::project(const Eigen::Vector3d& ps, Eigen::Vector2d* pixel) const {
 bool Sensor::backproject(const Eigen::Vector2d& pixel, Eigen::Vector3d* origin,
                          Eigen::Vector3d* direction) const {
   if (aligned()) return pano::backproject(params, pixel.x(), pixel.y(), origin->data(), direction->data());
-  return pano::backproject_general(general(), pixel.x(), pixel.y(), origin->data(), direction->data());
+  return pano::BackprojectGeneral(general(), pixel.x(), pixel.y(), origin->data(), direction->data());
 }
 
 bool Sensor::image_radius(double D, double Z, double* radius) const {
-  return pano::image_radius(params, D, Z, radius);
+  return pano::ImageRadius(params, D, Z, radius);
 }
 
 bool Sensor::inverse_image_radius(double radius, double Z, double* D) const {
-  return pano::inverse_image_radius(params, radius, Z, D);
+  return pano::InverseImageRadius(params, radius, Z, D);
 }
 
 void Sensor::to_polar(double u, double v, double* radius, double* azimuth) const {
   const double du = u - params.cx, dv = (v - params.cy) / params.aspect;
   *radius = std::sqrt(du * du + dv * dv);
-  *azimuth = fast_atan2(dv, du);
+  *azimuth = FastAtan2(dv, du);
 }
 
 Eigen::Vector2d Sensor::from_polar(double radius, double azimuth) const {
@@ -181,9 +157,9 @@ bool Sensor::inside_image(const Eigen::Vector2d& px, double margin) const {
          px.x() <= image_width - 0.5 - margin && px.y() <= image_height - 0.5 - margin;
 }
 
-Sensor make_sphere_sensor(int width, int height, double focal_px, double cx, double cy,
-                          double aspect, double mirror_radius, double mirror_distance,
-                          double azimuth_offset) {
+Sensor MakeSphereSensor(int width, int height, double focal_px, double cx, double cy,
+                        double aspect, double mirror_radius, double mirror_distance,
+                        double azimuth_offset) {
   Sensor s;
   s.model = MirrorModel::kSphere;
   s.image_width = width;
@@ -193,7 +169,7 @@ Sensor make_sphere_sensor(int width, int height, double focal_px, double cx, dou
   s.params.cy = cy;
   s.params.aspect = aspect;
   s.params.azimuth_offset = azimuth_offset;
-  set_sphere_mirror(&s.params, mirror_radius, mirror_distance);
+  SetSphereMirror(&s.params, mirror_radius, mirror_distance);
   return s;
 }
 

@@ -11,32 +11,12 @@
 
 namespace pano {
 
-// Robot pose on the floor: the pinhole's world (x, y) and the angle from world
-// +x to sensor +x, counter-clockwise (README, "Files and conventions").
-struct Pose2 {
-  double x = 0.0;
-  double y = 0.0;
-  double theta = 0.0;
-};
-
-// sensor_from_world for a robot at `pose` whose pinhole is `sensor_height`
-// above the floor.
-Eigen::Vector3d sensor_from_world(const Pose2& pose, double sensor_height,
-                                  const Eigen::Vector3d& point_world);
-// ... for many points seen from one pose: cos_sin = (cos, sin) of pose.theta.
-Eigen::Vector3d sensor_from_world(const Pose2& pose, const Eigen::Vector2d& cos_sin, double sensor_height,
-                                  const Eigen::Vector3d& point_world);
-Eigen::Vector3d world_from_sensor(const Pose2& pose, double sensor_height,
-                                  const Eigen::Vector3d& point_sensor);
-// Rotates a sensor-frame direction into the world frame.
-Eigen::Vector3d world_direction(const Pose2& pose, const Eigen::Vector3d& dir_sensor);
-
 // kAsphere: the conic with its even-asphere terms (SensorParams::asphere_a4,
 // asphere_a6), which only it may have non-zero. kUnified: Mei's unified
 // central model (SensorParams::unified and xi; catadioptric.h), no mirror
 // geometry.
 enum class MirrorModel { kSphere, kConic, kAsphere, kUnified };
-const char* mirror_model_name(MirrorModel m);
+const char* MirrorModelName(MirrorModel m);
 
 struct Sensor {
   MirrorModel model = MirrorModel::kSphere;
@@ -66,10 +46,10 @@ struct Sensor {
   bool image_radius(double horizontal_distance, double height, double* radius) const;
   bool inverse_image_radius(double radius, double height, double* horizontal_distance) const;
   // Image radius (pixels) of the mirror's visible edge.
-  double limb_radius() const { return limb_radius_px(params); }
+  double limb_radius() const { return LimbRadiusPx(params); }
   // Image azimuth of a sensor-frame bearing, and back.
-  double image_azimuth(double bearing) const { return wrap_angle(bearing + params.azimuth_offset); }
-  double bearing_of_azimuth(double azimuth) const { return wrap_angle(azimuth - params.azimuth_offset); }
+  double image_azimuth(double bearing) const { return WrapAngle(bearing + params.azimuth_offset); }
+  double bearing_of_azimuth(double azimuth) const { return WrapAngle(azimuth - params.azimuth_offset); }
   // Polar image coordinates (radius with aspect removed, azimuth) of a pixel and back.
   void to_polar(double u, double v, double* radius, double* azimuth) const;
   Eigen::Vector2d from_polar(double radius, double azimuth) const;
@@ -84,8 +64,8 @@ struct Sensor {
 Sensor ScaledSensor(const Sensor& sensor, double scale);
 
 // The sphere model from its named parameters.
-Sensor make_sphere_sensor(int width, int height, double focal_px, double cx, double cy,
-                          double aspect, double mirror_radius, double mirror_distance,
-                          double azimuth_offset = 0.0);
+Sensor MakeSphereSensor(int width, int height, double focal_px, double cx, double cy,
+                        double aspect, double mirror_radius, double mirror_distance,
+                        double azimuth_offset = 0.0);
 
 }  // namespace pano

@@ -44,7 +44,7 @@ AlignedView::AlignedView(const Sensor& rig, double exact_distance, int grid_step
   const RigFaults<double>& f = rig.faults;
   const double centre_height = rig.params.vertex_distance + rig.params.curvature_radius;
   double tilt[9];
-  detail::tilt_rotation(f.sensor_tilt, tilt);
+  detail::TiltRotation(f.sensor_tilt, tilt);
   const double centre_mirror[3] = {f.mirror_offset[0], f.mirror_offset[1], centre_height};
   double centre_robot[3];
   detail::rotate(tilt, centre_mirror, centre_robot);

@@ -27,6 +27,7 @@
 #include <opencv2/core.hpp>
 #include <vector>
 
+#include "panotrack/pose/pose2.h"
 #include "panotrack/sensor/sensor.h"
 
 namespace pano {

@@ -163,7 +163,7 @@ bool JunctionTracker::FindVerticalEdge(const PredictedLandmark& p, double half, 
   // Truncated median: the contiguous steps near the median azimuth.
   std::vector<double>& offsets = scratch.offsets;  // tangential offsets from the prediction, px
   offsets.clear();
-  for (const Step& st : v_steps) offsets.push_back(wrap_angle(st.azimuth - p.azimuth) * st.radius);
+  for (const Step& st : v_steps) offsets.push_back(WrapAngle(st.azimuth - p.azimuth) * st.radius);
   std::vector<double>& sorted = scratch.sorted;
   sorted = offsets;
   const double median = Median(&sorted);
@@ -176,7 +176,7 @@ bool JunctionTracker::FindVerticalEdge(const PredictedLandmark& p, double half, 
   const double truncation = o.truncation_px + 0.1 * edge->ramp_px;
   for (size_t k = 0; k < v_steps.size(); ++k) {
     if (std::abs(offsets[k] - median) > truncation) continue;
-    sum_dtheta += wrap_angle(v_steps[k].azimuth - p.azimuth);
+    sum_dtheta += WrapAngle(v_steps[k].azimuth - p.azimuth);
     strengths.push_back(v_steps[k].strength);
     if (n_in++ == 0) edge->nearest_radius = v_steps[k].radius;
     m->edge_points.push_back(v_steps[k].px);
@@ -185,7 +185,7 @@ bool JunctionTracker::FindVerticalEdge(const PredictedLandmark& p, double half, 
     m->why = "vertical edge not contiguous";
     return false;
   }
-  edge->azimuth = wrap_angle(p.azimuth + sum_dtheta / n_in);
+  edge->azimuth = WrapAngle(p.azimuth + sum_dtheta / n_in);
   edge->n_points = n_in;
   edge->contrast = Median(&strengths);
   std::vector<double>& widths = scratch.values;
@@ -201,8 +201,8 @@ namespace {
 double RadialSlope(const PhTable& ph, const PredictedLandmark& p, double theta) {
   const double dt = 0.25 / p.corner_radius;
   double ra, rb;
-  if (!ph.Curve(p.r_main, wrap_angle(theta - dt - p.theta_main), &ra) ||
-      !ph.Curve(p.r_main, wrap_angle(theta + dt - p.theta_main), &rb))
+  if (!ph.Curve(p.r_main, WrapAngle(theta - dt - p.theta_main), &ra) ||
+      !ph.Curve(p.r_main, WrapAngle(theta + dt - p.theta_main), &rb))
     return 0.0;
   return std::abs(rb - ra) / (2.0 * dt * p.corner_radius);
 }
@@ -217,7 +217,7 @@ bool JunctionTracker::FindHorizontalEdge(const PredictedLandmark& p, double half
   edge->side = p.inside_azimuth_sign;
   edge->polarity = polarity * p.inside_radius_sign;
   edge->along_blur_px = RampAllowance(p.tangential_motion_px);
-  const double arc = std::abs(wrap_angle(p.h_end_azimuth - p.azimuth));
+  const double arc = std::abs(WrapAngle(p.h_end_azimuth - p.azimuth));
   const double gap = o.corner_gap_px / p.corner_radius;
   const double h_spacing =
       std::max(o.sample_spacing_px / p.corner_radius, (arc - 2 * gap) / o.max_horizontal_samples);
@@ -231,9 +231,9 @@ bool JunctionTracker::FindHorizontalEdge(const PredictedLandmark& p, double half
   for (double dt = gap; dt < arc - gap && static_cast<int>(votes.size()) < o.max_horizontal_samples;
        dt += h_spacing, ++position) {
     if (static_cast<int>(votes.size()) + n_positions - position < o.min_horizontal_points) break;
-    const double theta = wrap_angle(p.azimuth + edge->side * dt);
+    const double theta = WrapAngle(p.azimuth + edge->side * dt);
     double r_pred;
-    if (!ph.Curve(p.r_main, wrap_angle(theta - p.theta_main), &r_pred)) continue;
+    if (!ph.Curve(p.r_main, WrapAngle(theta - p.theta_main), &r_pred)) continue;
     // A tangential smear moves a curved edge radially by its slope (no
     // smear: no slope needed).
     const double along = edge->along_blur_px > 0.0 ? RadialSlope(ph, p, theta) * edge->along_blur_px : 0.0;
@@ -334,22 +334,22 @@ bool JunctionTracker::HorizontalEnd(const PhTable& ph, const HorizontalEdge& h, 
   auto has_step = [&](double theta) {
     double r;
     Step st;
-    return ph.Curve(h.fit.r_main, wrap_angle(theta - h.fit.theta_main), &r) &&
+    return ph.Curve(h.fit.r_main, WrapAngle(theta - h.fit.theta_main), &r) &&
            LinearStep(grey_, sensor_, opt_, step_baseline_, r, Heading(theta), kProbeHalfPx, h.polarity, true, &st,
                       h.ramp_px);
   };
   // Motion blur smears the edge's end past the junction by up to half the
   // tangential motion.
   const double t_out =
-      wrap_angle(theta_v - h.side * (opt_.corner_gap_px + 1.5 + 0.5 * h.along_blur_px) / r_junction);
+      WrapAngle(theta_v - h.side * (opt_.corner_gap_px + 1.5 + 0.5 * h.along_blur_px) / r_junction);
   if (has_step(t_out)) {
     m->why = "horizontal edge runs past the junction";
     return false;
   }
   *meets = needed && EndWithinTolerance(
                          h.nearest_azimuth, t_out, opt_.bisection_steps, tolerance, has_step,
-                         [](double a, double b) { return wrap_angle(a + 0.5 * wrap_angle(b - a)); },
-                         [&](double theta) { return wrap_angle(theta - theta_v) * r_junction; });
+                         [](double a, double b) { return WrapAngle(a + 0.5 * WrapAngle(b - a)); },
+                         [&](double theta) { return WrapAngle(theta - theta_v) * r_junction; });
   return true;
 }
 
@@ -357,7 +357,7 @@ bool JunctionTracker::LocateJunction(const PhTable& ph, const VerticalEdge& v, c
                                      LandmarkMeasurement* m) const {
   // The junction: the horizontal curve at the vertical edge's azimuth.
   double r_junction;
-  if (!ph.Curve(h.fit.r_main, wrap_angle(v.azimuth - h.fit.theta_main), &r_junction)) {
+  if (!ph.Curve(h.fit.r_main, WrapAngle(v.azimuth - h.fit.theta_main), &r_junction)) {
     m->why = "junction off the PH table";
     return false;
   }
@@ -403,7 +403,7 @@ LandmarkMeasurement JunctionTracker::MeasureAzimuth(const PredictedLandmark& p, 
     // Edges of either sign at different places: which is the landmark's
     // only the junction could tell.
     if (m.found) {
-      if (std::abs(wrap_angle(edge.azimuth - best.azimuth)) * p.corner_radius > opt_.junction_tolerance_px) {
+      if (std::abs(WrapAngle(edge.azimuth - best.azimuth)) * p.corner_radius > opt_.junction_tolerance_px) {
         LandmarkMeasurement none;
         none.why = "ambiguous: vertical edges of either polarity";
         return none;
@@ -485,7 +485,7 @@ LandmarkMeasurement JunctionTracker::Measure(const PredictedLandmark& p, double 
       }
       if (have) {
         if (v.sign != m.v_polarity &&
-            std::abs(wrap_angle(trial.azimuth - m.azimuth)) * trial.radius > opt_.junction_tolerance_px) {
+            std::abs(WrapAngle(trial.azimuth - m.azimuth)) * trial.radius > opt_.junction_tolerance_px) {
           LandmarkMeasurement none;
           none.why = "ambiguous: junctions of either polarity";
           return none;

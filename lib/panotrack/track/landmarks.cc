@@ -114,10 +114,10 @@ bool PredictPlacement(const Landmark& l, int idx, const Map& map, const Sensor& 
   PredictedLandmark& p = *out;
   p.index = idx;
   p.landmark = &l;
-  const Eigen::Vector3d c = sensor_from_world(pose, ctx.cos_sin, map.sensor_height, l.corner);
+  const Eigen::Vector3d c = SensorFromWorld(pose, ctx.cos_sin, map.sensor_height, l.corner);
   p.distance = c.head<2>().norm();
   if (!(p.distance > 0.0)) return false;
-  p.azimuth = sensor.image_azimuth(fast_atan2(c.y(), c.x()));
+  p.azimuth = sensor.image_azimuth(FastAtan2(c.y(), c.x()));
   return true;
 }
 
@@ -127,9 +127,9 @@ bool PredictImage(const Map& map, const Sensor& sensor, const RadiusTable& table
                   const PredictionOptions& opt, const PredictionContext& ctx, PredictedLandmark* out) {
   PredictedLandmark& p = *out;
   const Landmark& l = *p.landmark;
-  const Eigen::Vector3d c = sensor_from_world(pose, ctx.cos_sin, map.sensor_height, l.corner);
-  const Eigen::Vector3d h = sensor_from_world(pose, ctx.cos_sin, map.sensor_height, l.h_end);
-  const Eigen::Vector3d v = sensor_from_world(pose, ctx.cos_sin, map.sensor_height, l.v_end);
+  const Eigen::Vector3d c = SensorFromWorld(pose, ctx.cos_sin, map.sensor_height, l.corner);
+  const Eigen::Vector3d h = SensorFromWorld(pose, ctx.cos_sin, map.sensor_height, l.h_end);
+  const Eigen::Vector3d v = SensorFromWorld(pose, ctx.cos_sin, map.sensor_height, l.v_end);
   if (!table.radius(p.distance, c.z(), &p.corner_radius)) return false;
   if (p.corner_radius < ctx.r_lo || p.corner_radius > ctx.r_hi) return false;
   p.corner_px = sensor.from_polar(p.corner_radius, p.azimuth);
@@ -148,9 +148,9 @@ bool PredictImage(const Map& map, const Sensor& sensor, const RadiusTable& table
   const double d_main = foot.norm();
   p.h_height = c.z();
   if (!(d_main > 0.0) || !table.radius(d_main, p.h_height, &p.r_main)) return false;
-  p.theta_main = sensor.image_azimuth(fast_atan2(foot.y(), foot.x()));
-  p.h_end_azimuth = sensor.image_azimuth(fast_atan2(h.y(), h.x()));
-  const double dtheta_edge = wrap_angle(p.h_end_azimuth - p.azimuth);
+  p.theta_main = sensor.image_azimuth(FastAtan2(foot.y(), foot.x()));
+  p.h_end_azimuth = sensor.image_azimuth(FastAtan2(h.y(), h.x()));
+  const double dtheta_edge = WrapAngle(p.h_end_azimuth - p.azimuth);
   if (std::abs(dtheta_edge) * p.corner_radius < opt.min_edge_px) return false;
   p.inside_azimuth_sign = dtheta_edge > 0 ? 1 : -1;
   p.inside_radius_sign = v.z() > c.z() ? 1 : -1;
@@ -298,11 +298,11 @@ std::vector<PredictedLandmark> SpreadPrediction::Rest() {
 void SetImageMotion(const Map& map, const Sensor& sensor, const RadiusTable& table,
                     const Pose2& previous, double fraction, std::vector<PredictedLandmark>* predicted) {
   for (PredictedLandmark& p : *predicted) {
-    const Eigen::Vector3d c = sensor_from_world(previous, map.sensor_height, p.landmark->corner);
-    const double azimuth = sensor.image_azimuth(fast_atan2(c.y(), c.x()));
+    const Eigen::Vector3d c = SensorFromWorld(previous, map.sensor_height, p.landmark->corner);
+    const double azimuth = sensor.image_azimuth(FastAtan2(c.y(), c.x()));
     double radius;
     if (!table.radius(c.head<2>().norm(), c.z(), &radius)) radius = p.corner_radius;
-    p.full_tangential_motion_px = std::abs(wrap_angle(p.azimuth - azimuth)) * p.corner_radius;
+    p.full_tangential_motion_px = std::abs(WrapAngle(p.azimuth - azimuth)) * p.corner_radius;
     p.tangential_motion_px = fraction * p.full_tangential_motion_px;
     p.radial_motion_px = fraction * std::abs(p.corner_radius - radius);
   }

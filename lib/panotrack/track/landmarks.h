@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "panotrack/pose/pose2.h"
 #include "panotrack/scene/map.h"
 #include "panotrack/lut/radius_table.h"
 #include "panotrack/scene/scene.h"
@@ -131,7 +132,7 @@ struct PredictionContext {
   PredictionContext(const Map& map, const Sensor& sensor, const Pose2& pose, const PredictionOptions& opt);
   Eigen::Vector3d eye;      // the mirror's vertex: where the scene is seen from, nearly
   Eigen::Vector2d cam;      // the robot's position
-  Eigen::Vector2d cos_sin;  // of the pose's heading, for sensor_from_world
+  Eigen::Vector2d cos_sin;  // of the pose's heading, for SensorFromWorld
   double r_lo, r_hi;        // the annulus that predictions keep to (px)
 };
 }  // namespace internal

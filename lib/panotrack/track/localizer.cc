@@ -15,7 +15,7 @@
 
 namespace pano {
 
-const char* tracking_method_name(TrackingMethod m) {
+const char* TrackingMethodName(TrackingMethod m) {
   return m == TrackingMethod::kJunction ? "junction" : "vertex";
 }
 
@@ -168,79 +168,81 @@ Localizer::Localizer(const Calibration& calib, const Map& map,
     compass_ = AzimuthCompass(calib_.sensor);
   }
   const double typical = TypicalLandmarkDistance(map_);
-  typical_distance_ = typical > 0 ? typical : 1.0;
-  survey_ = SurveyErrorEstimate(opt_.survey, typical_distance_);
+  errors_.typical_distance = typical > 0 ? typical : 1.0;
+  errors_.survey = SurveyErrorEstimate(opt_.survey, errors_.typical_distance);
   {
     Eigen::Vector2d lo, hi;
     double top;
     map_.Extent(&lo, &hi, &top);
-    room_size_ = (hi - lo).maxCoeff();
+    errors_.room_size = (hi - lo).maxCoeff();
   }
   UpdateLandmarkBudget();
-  index_prediction_ = prediction_;
+  errors_.index_prediction = errors_.prediction;
   motion_options_ = opt_.motion.Scaled(map_.UnitsPerMetre());
   motion_ = MotionModel(motion_options_);
   tracker_ = MakeTracker(opt_.method, calib_.sensor, table_, opt_, std::move(ph_tables));
-  for (const Landmark& l : landmarks_) any_known_shade_ = any_known_shade_ || !std::isnan(l.shade);
+  for (const Landmark& l : landmarks_) shades_.any_known = shades_.any_known || !std::isnan(l.shade);
 }
 
 void Localizer::Reset(const Pose2& robot_initial, bool hint) {
   const Pose2 initial = view_ ? view_->ViewPose(robot_initial) : robot_initial;
-  initial_ = last_ = initial;
-  frame_motion_ = Pose2{0, 0, 0};
-  blur_fraction_ = opt_.exposure_fraction;
-  recentre_rate_ = 0.0;
-  n_good_ = 0;
-  n_lost_ = 0;
-  started_ = true;
-  known_start_ = true;
-  start_is_hint_ = hint;
-  ever_tracked_ = false;
+  track_.initial = track_.last = initial;
+  track_.frame_motion = Pose2{0, 0, 0};
+  images_.blur_fraction = opt_.exposure_fraction;
+  images_.recentre_rate = 0.0;
+  track_.n_good = 0;
+  track_.n_lost = 0;
+  track_.started = true;
+  track_.known_start = true;
+  track_.start_is_hint = hint;
+  track_.ever_tracked = false;
   motion_ = MotionModel(motion_options_);
-  last_dt_ = 0.0;
-  next_relocalize_frame_ = 0;
-  relocalize_failures_ = 0;
-  held_ = held_jump_ = false;
-  held_frame_.reset();
-  confirmed_hold_.reset();
-  last_known_.reset();
-  bearing_sigma_ = 0.0;
-  survey_.Reset();
-  survey_before_search_.reset();
-  residual_memory_.assign(landmarks_.size(), 0.0);
-  residual_frame_.assign(landmarks_.size(), -2);
+  track_.last_dt = 0.0;
+  reloc_.next_frame = 0;
+  reloc_.failures = 0;
+  reloc_.held = reloc_.held_jump = false;
+  reloc_.held_frame.reset();
+  reloc_.confirmed_hold.reset();
+  track_.last_known.reset();
+  errors_.bearing_sigma = 0.0;
+  errors_.survey.Reset();
+  errors_.survey_before_search.reset();
+  errors_.residual_memory.assign(landmarks_.size(), 0.0);
+  errors_.residual_frame.assign(landmarks_.size(), -2);
   UpdateLandmarkBudget();
-  motion_updates_ = 0;
-  frame_pose_ = initial;
+  track_.motion_updates = 0;
+  track_.frame_pose = initial;
   ForgetCompassHistory();
-  polarity_.assign(landmarks_.size(), LandmarkPolarity{});
-  object_contradicted_.assign(landmarks_.empty() ? 0 : static_cast<size_t>(landmarks_.back().object) + 1, 0);
-  map_contradicted_ = map_confirmed_ = false;
+  shades_.polarity.assign(landmarks_.size(), LandmarkPolarity{});
+  shades_.object_contradicted.assign(landmarks_.empty() ? 0 : static_cast<size_t>(landmarks_.back().object) + 1, 0);
+  shades_.map_contradicted = shades_.map_confirmed = false;
 }
 
 void Localizer::ResetUnknown() {
   Reset(Pose2{0, 0, 0}, true);
-  known_start_ = false;
+  track_.known_start = false;
 }
 
 int Localizer::SearchPolarity(const EdgePolarityEvidence& e, int map_polarity, int object, bool either) const {
   if (e.flips > opt_.polarity_max_flips) return 0;
   // A few contradictions among many confirmations are wrong edges, not a
   // wrong shade.
-  const bool map_trusted = map_polarity != 0 && !map_contradicted_ &&
-                           !object_contradicted_[static_cast<size_t>(object)] &&
+  const bool map_trusted = map_polarity != 0 && !shades_.map_contradicted &&
+                           !shades_.object_contradicted[static_cast<size_t>(object)] &&
                            (e.disagree == 0 || e.agree > 2 * e.disagree);
   if (map_trusted) return either && e.agree == 0 ? 0 : map_polarity;
   return e.learned;
 }
 
-bool Localizer::EitherFallbackUseful() const { return any_known_shade_ && !map_confirmed_ && !map_contradicted_; }
+bool Localizer::EitherFallbackUseful() const {
+  return shades_.any_known && !shades_.map_confirmed && !shades_.map_contradicted;
+}
 
 std::vector<std::string> Localizer::ContradictedShades() const {
   std::vector<std::string> out;
   for (size_t i = 0; i < landmarks_.size(); ++i) {
     const std::string id = landmarks_[i].id.substr(0, landmarks_[i].id.find('/'));
-    for (const EdgePolarityEvidence* e : {&polarity_[i].v, &polarity_[i].h})
+    for (const EdgePolarityEvidence* e : {&shades_.polarity[i].v, &shades_.polarity[i].h})
       if (e->disagree >= opt_.polarity_learn_frames && e->disagree > e->agree &&
           std::find(out.begin(), out.end(), id) == out.end())
         out.push_back(id);
@@ -276,7 +278,7 @@ void Localizer::LearnPolarity(const FrameResult& fr, const TriangulationResult& 
   for (size_t i = 0; i < fr.predicted.size() && i < fr.measurements.size(); ++i) {
     const PredictedLandmark& p = fr.predicted[i];
     const LandmarkMeasurement& m = fr.measurements[i];
-    LandmarkPolarity& lp = polarity_[static_cast<size_t>(p.index)];
+    LandmarkPolarity& lp = shades_.polarity[static_cast<size_t>(p.index)];
     if (m.found && inlier[i]) {
       observe(&lp.v, m.v_polarity, p.map_v_polarity, m.v_contrast);
       observe(&lp.h, m.h_polarity, p.map_h_polarity, m.h_contrast);
@@ -288,22 +290,22 @@ void Localizer::LearnPolarity(const FrameResult& fr, const TriangulationResult& 
   // Per map object and over the map: contradicted where more of its edges'
   // measurements disagree with the map than agree; confirmed where a few
   // edges agree.
-  std::vector<int> agree(object_contradicted_.size(), 0), disagree(object_contradicted_.size(), 0);
+  std::vector<int> agree(shades_.object_contradicted.size(), 0), disagree(shades_.object_contradicted.size(), 0);
   int confirmed_edges = 0;
   for (size_t i = 0; i < landmarks_.size(); ++i)
-    for (const EdgePolarityEvidence* e : {&polarity_[i].v, &polarity_[i].h}) {
+    for (const EdgePolarityEvidence* e : {&shades_.polarity[i].v, &shades_.polarity[i].h}) {
       agree[static_cast<size_t>(landmarks_[i].object)] += e->agree;
       disagree[static_cast<size_t>(landmarks_[i].object)] += e->disagree;
       confirmed_edges += e->agree >= opt_.polarity_learn_frames && e->agree > 2 * e->disagree;
     }
   int contradicted = 0, trusted = 0;
-  for (size_t k = 0; k < object_contradicted_.size(); ++k) {
-    object_contradicted_[k] = disagree[k] > agree[k];
-    contradicted += object_contradicted_[k];
+  for (size_t k = 0; k < shades_.object_contradicted.size(); ++k) {
+    shades_.object_contradicted[k] = disagree[k] > agree[k];
+    contradicted += shades_.object_contradicted[k];
     trusted += agree[k] > disagree[k];
   }
-  map_contradicted_ = contradicted > trusted;
-  map_confirmed_ = map_confirmed_ || confirmed_edges >= 3;
+  shades_.map_contradicted = contradicted > trusted;
+  shades_.map_confirmed = shades_.map_confirmed || confirmed_edges >= 3;
 }
 
 void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, const Pose2* solved_motion,
@@ -311,21 +313,23 @@ void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, c
   out->either_polarity = either;
   out->blur_turn = solved_motion ? std::optional<double>(solved_motion->theta) : std::nullopt;
   // The motion over the last frame interval; unknown: the fastest turn.
-  const bool known = motion_updates_ >= 2 || solved_motion;
-  const Pose2 motion = solved_motion ? *solved_motion : known ? frame_motion_ : Pose2{0, 0, opt_.unknown_turn_per_frame};
+  const bool known = track_.motion_updates >= 2 || solved_motion;
+  const Pose2 motion = solved_motion ? *solved_motion
+                       : known       ? track_.frame_motion
+                                     : Pose2{0, 0, opt_.unknown_turn_per_frame};
   const Pose2 before{pose.x - motion.x, pose.y - motion.y, pose.theta - motion.theta};
   // Edges may be blurred a little more than the estimate says.
-  const double fraction = known ? std::min(opt_.exposure_fraction, 1.3 * blur_fraction_ + 0.05)
+  const double fraction = known ? std::min(opt_.exposure_fraction, 1.3 * images_.blur_fraction + 0.05)
                                 : opt_.exposure_fraction;
   // The landmarks to track, spread in azimuth (SelectSpread): the chosen
   // ones first, the others only when they are needed.
-  SpreadPrediction prediction(landmarks_, map_, scene_, calib_.sensor, *table_, pose, prediction_,
+  SpreadPrediction prediction(landmarks_, map_, scene_, calib_.sensor, *table_, pose, errors_.prediction,
                               azimuth_only ? CoarseLandmarks(opt_, MaxLandmarks()) : MaxLandmarks());
   // The polarities to search for (the map's, or what the images showed),
   // and the expected motion blur.
   auto prepare = [&](std::vector<PredictedLandmark>* batch) {
     for (PredictedLandmark& p : *batch) {
-      const LandmarkPolarity& lp = polarity_[static_cast<size_t>(p.index)];
+      const LandmarkPolarity& lp = shades_.polarity[static_cast<size_t>(p.index)];
       const int object = p.landmark->object;
       p.v_polarity = SearchPolarity(lp.v, p.map_v_polarity, object, either);
       p.h_polarity = SearchPolarity(lp.h, p.map_h_polarity, object, either);
@@ -340,7 +344,7 @@ void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, c
     return polarity == 0 && e.last_learned == 0 && e.misses >= opt_.polarity_forget_misses;
   };
   auto seen = [&](const PredictedLandmark& p) {
-    const LandmarkPolarity& lp = polarity_[static_cast<size_t>(p.index)];
+    const LandmarkPolarity& lp = shades_.polarity[static_cast<size_t>(p.index)];
     return !(never_seen(lp.v, p.v_polarity) || never_seen(lp.h, p.h_polarity));
   };
   std::vector<PredictedLandmark> ordered = prediction.First();
@@ -413,13 +417,14 @@ std::vector<int> Localizer::InlierPredictions(const FrameResult& fr, const Trian
 }
 
 double Localizer::InlierThreshold() const {
-  return bearing_sigma_ > 0
-             ? std::clamp(3.0 * bearing_sigma_, opt_.min_inlier_threshold, opt_.robust.inlier_threshold)
+  return errors_.bearing_sigma > 0
+             ? std::clamp(3.0 * errors_.bearing_sigma, opt_.min_inlier_threshold, opt_.robust.inlier_threshold)
              : opt_.robust.inlier_threshold;
 }
 
 double Localizer::SurveySigma(const Landmark& l) const {
-  return std::max(survey_.Sigma(std::isnan(opt_.survey_sigma) ? l.survey_sigma : opt_.survey_sigma), probe_sigma_);
+  return std::max(errors_.survey.Sigma(std::isnan(opt_.survey_sigma) ? l.survey_sigma : opt_.survey_sigma),
+                  reloc_.probe_sigma);
 }
 
 double Localizer::MeanSurveySigma() const {
@@ -437,18 +442,18 @@ double Localizer::LargestSurveySigma() const {
 void Localizer::UpdateLandmarkBudget() {
   // It changes only with the noise and survey estimates: computed when they
   // change, not on every call in a frame (the mean runs over the whole map).
-  max_landmarks_ = opt_.max_landmarks;
+  errors_.max_landmarks = opt_.max_landmarks;
   UpdatePrediction();
-  if (opt_.max_landmarks != 0 && MeanSurveySigma() / typical_distance_ > ReferenceSigma())
-    max_landmarks_ =
+  if (opt_.max_landmarks != 0 && MeanSurveySigma() / errors_.typical_distance > ReferenceSigma())
+    errors_.max_landmarks =
         opt_.max_landmarks_uncertain_map == 0 ? 0 : std::max(opt_.max_landmarks, opt_.max_landmarks_uncertain_map);
 }
 
 void Localizer::UpdatePrediction() {
   // A corner within three survey sigmas of a wall (behind it, as measured)
   // is not hidden by it.
-  prediction_ = opt_.prediction;
-  prediction_.surface_tolerance = std::max(opt_.prediction.surface_tolerance, 3.0 * LargestSurveySigma());
+  errors_.prediction = opt_.prediction;
+  errors_.prediction.surface_tolerance = std::max(opt_.prediction.surface_tolerance, 3.0 * LargestSurveySigma());
 }
 
 double Localizer::SearchWidth(const PredictedLandmark& p, double search_px) const {
@@ -513,7 +518,7 @@ TriangulationResult Localizer::Solve(const FrameResult& fr, const Pose2& prior) 
   // is never scaled below the noise of recent frames. (Where the survey
   // error dominates, that noise also holds what the survey estimate has not
   // caught up with yet, and the covariance is the map's anyway.)
-  const double floor2 = bearing_sigma_ * bearing_sigma_;
+  const double floor2 = errors_.bearing_sigma * errors_.bearing_sigma;
   if (!SurveyLimits() && out.variance_factor > 0 && out.variance_factor < floor2) {
     out.covariance *= floor2 / out.variance_factor;
     out.variance_factor = floor2;
@@ -531,9 +536,9 @@ std::vector<int> Localizer::SuddenResiduals(const FrameResult& fr, const std::ve
   for (int i : tri.inliers) {
     const BearingObservation& o = obs[static_cast<size_t>(i)];
     const size_t index = static_cast<size_t>(fr.predicted[static_cast<size_t>(o.id)].index);
-    if (residual_frame_[index] != frame_ - 1) continue;
+    if (errors_.residual_frame[index] != track_.frame - 1) continue;
     BearingObservation c = o;
-    c.bearing = wrap_angle(o.bearing + residual_memory_[index]);
+    c.bearing = WrapAngle(o.bearing + errors_.residual_memory[index]);
     c.weight = o.weight * o.spread * o.spread;
     c.spread = 1.0;
     corrected.push_back(c);
@@ -634,7 +639,7 @@ TriangulationResult Localizer::SolveBearings(const std::vector<BearingObservatio
   for (size_t i = 0; all_agree && i < obs.size(); ++i)
     all_agree = std::abs(plain.bearing_residuals[i]) <= robust.inlier_threshold * obs[i].spread;
   if (!all_agree) out = RobustTriangulate(obs, prior, robust, opt_.triangulation);
-  if (bearing_sigma_ > 0 || !out.ok || obs.size() < 6) return out;
+  if (errors_.bearing_sigma > 0 || !out.ok || obs.size() < 6) return out;
   // No noise seen yet (the first frame): the widest threshold admits an edge
   // a few tenths of a degree off (a corner of unknown polarity matched by a
   // wrong template, a half-hidden edge). This frame's own residuals (their
@@ -671,7 +676,7 @@ bool Localizer::Relocalize(const cv::Mat& grey, bool near_last, FrameResult* fr,
   if (!relocalization_index_) {
     const auto build = [this] {
       return std::make_unique<const RelocalizationIndex>(calib_.sensor, *table_, map_, scene_, landmarks_,
-                                                         index_prediction_, opt_.relocalize,
+                                                         errors_.index_prediction, opt_.relocalize,
                                                          SearchThreadCount(opt_));
     };
     relocalization_index_ = shared_index_ ? shared_index_->Get(build) : build();
@@ -738,7 +743,8 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
   // (a pose with fewer inliers that passes it is no better: few bearings
   // fit a wrong pose easily).
   if (!Consistent(&best->fr, best->tri)) {
-    if (!survey_.confident() && SurveyEvidence(best->fr, best->tri)) survey_evidence_.emplace(best->fr, best->tri);
+    if (!errors_.survey.confident() && SurveyEvidence(best->fr, best->tri))
+      reloc_.survey_evidence.emplace(best->fr, best->tri);
     return false;
   }
   if (!ChooseAmongTwins(either, near_last, &best->fr, &best->tri)) return false;
@@ -751,7 +757,7 @@ bool Localizer::ChooseAmongTwins(bool either, bool near_last, FrameResult* fr, T
   std::vector<int> seen;
   for (int i : InlierPredictions(*fr, *tri)) seen.push_back(fr->predicted[static_cast<size_t>(i)].index);
   const std::vector<FloorMotion> motions =
-      LandmarkSymmetries(landmarks_, seen, opt_.relocalize_symmetry_tolerance * room_size_);
+      LandmarkSymmetries(landmarks_, seen, opt_.relocalize_symmetry_tolerance * errors_.room_size);
   std::vector<Pose2> poses{tri->pose};
   for (const FloorMotion& m : motions) {
     const Pose2 twin = m.Apply(tri->pose);
@@ -761,8 +767,8 @@ bool Localizer::ChooseAmongTwins(bool either, bool near_last, FrameResult* fr, T
   // Which twin is nearest the last pose tells only while the robot is
   // likely still near it: after a jump of the view (a kidnap) the twins
   // stay ambiguous until a view breaks the symmetry.
-  if ((!ever_tracked_ && !known_start_) || !near_last) return false;
-  auto from_last = [this](const Pose2& p) { return std::hypot(p.x - last_.x, p.y - last_.y); };
+  if ((!track_.ever_tracked && !track_.known_start) || !near_last) return false;
+  auto from_last = [this](const Pose2& p) { return std::hypot(p.x - track_.last.x, p.y - track_.last.y); };
   std::stable_sort(poses.begin(), poses.end(),
                    [&](const Pose2& a, const Pose2& b) { return from_last(a) < from_last(b); });
   // Clearly nearest: the others at least twice as far.
@@ -826,8 +832,8 @@ PoseMeasurement MeasurementOf(const TriangulationResult& tri, const std::vector<
 double Localizer::IntegritySigma() const {
   // Three times the recent noise: the residuals' spread varies from frame
   // to frame with blur and geometry; a wrong junction is off by far more.
-  return std::clamp(bearing_sigma_ > 0 ? 3.0 * bearing_sigma_ : opt_.initial_bearing_sigma, opt_.min_bearing_sigma,
-                    opt_.max_bearing_sigma);
+  return std::clamp(errors_.bearing_sigma > 0 ? 3.0 * errors_.bearing_sigma : opt_.initial_bearing_sigma,
+                    opt_.min_bearing_sigma, opt_.max_bearing_sigma);
 }
 
 bool Localizer::Consistent(FrameResult* fr, const TriangulationResult& tri) const {
@@ -860,7 +866,7 @@ bool Localizer::Consistent(FrameResult* fr, const TriangulationResult& tri) cons
   // The factor on a survey error the map states, or that the residuals
   // have shown for long enough: not on a probe's provisional level (a
   // wrong guess of the start agrees with the map under some error).
-  const bool survey_known = survey_.confident() || StatedSurveySigma() > 0.0;
+  const bool survey_known = errors_.survey.confident() || StatedSurveySigma() > 0.0;
   io.alert_margin = opt_.protection_sigmas * std::max((survey_known ? opt_.alert_survey_factor : 1.0) * survey, shown);
   io.reference_position_std += survey;
   fr->integrity = IntegrityCheck(tri, obs, io);
@@ -892,9 +898,9 @@ double Localizer::StatedSurveySigma() const {
 
 double Localizer::ShownSurveySigma() const {
   const double stated = StatedSurveySigma();
-  const double used = survey_.Sigma(stated);
-  if (std::isnan(stated)) return survey_.confident() ? survey_.estimated() : std::nan("");
-  return used > 1.5 * stated ? survey_.estimated() : std::nan("");
+  const double used = errors_.survey.Sigma(stated);
+  if (std::isnan(stated)) return errors_.survey.confident() ? errors_.survey.estimated() : std::nan("");
+  return used > 1.5 * stated ? errors_.survey.estimated() : std::nan("");
 }
 
 bool Localizer::ProbeSurveyError(const Pose2& pred) {
@@ -909,9 +915,9 @@ bool Localizer::ProbeSurveyError(const Pose2& pred) {
   const double current = LargestSurveySigma();
   std::vector<std::pair<double, size_t>> agreeing;  // level, inliers
   for (double fraction : {0.0025, 0.005, 0.01, 0.02, opt_.survey.max_fraction}) {
-    const double level = fraction * typical_distance_;
+    const double level = fraction * errors_.typical_distance;
     if (level <= 1.5 * current) continue;
-    probe_sigma_ = level;
+    reloc_.probe_sigma = level;
     // The walls of that error (corners behind them in view), but the
     // landmarks of the error assumed: a longer list under a wide tolerance
     // lets a wrong pose gather the evidence of a right one.
@@ -926,12 +932,12 @@ bool Localizer::ProbeSurveyError(const Pose2& pred) {
     const bool agree = SurveyEvidence(fr, tri) && Consistent(&fr, tri) && 3 * tri.inliers.size() >= 2 * n_found;
     if (agree) agreeing.emplace_back(level, tri.inliers.size());
   }
-  probe_sigma_ = 0.0;
+  reloc_.probe_sigma = 0.0;
   size_t most = 0;
   for (const auto& [level, inliers] : agreeing) most = std::max(most, inliers);
   for (const auto& [level, inliers] : agreeing)
     if (static_cast<double>(inliers) >= kProbeSaturation * static_cast<double>(most)) {
-      survey_.Provisional(level);
+      errors_.survey.Provisional(level);
       break;
     }
   UpdateLandmarkBudget();
@@ -943,7 +949,7 @@ Eigen::Matrix3d Localizer::ReportedCovariance(const FrameResult& fr, const std::
   // The image's share: the recent noise with a margin (a tracker's bias
   // on an edge lasts for frames, which the frame's residuals do not show;
   // the consensus's reference before there is any noise seen).
-  const double reference = bearing_sigma_ > 0 ? kReportedNoiseMargin * bearing_sigma_ : ReferenceSigma();
+  const double reference = errors_.bearing_sigma > 0 ? kReportedNoiseMargin * errors_.bearing_sigma : ReferenceSigma();
   Eigen::Matrix3d info = Eigen::Matrix3d::Zero();
   for (int i : tri.inliers) {
     const BearingObservation& o = obs[static_cast<size_t>(i)];
@@ -953,7 +959,7 @@ Eigen::Matrix3d Localizer::ReportedCovariance(const FrameResult& fr, const std::
     // takes it, with the estimate's margin where only the estimate
     // decides), never below the one weighed by.
     const double statement = std::isnan(opt_.survey_sigma) ? l.survey_sigma : opt_.survey_sigma;
-    const double survey = std::max(SurveySigma(l), survey_.ReportedSigma(statement));
+    const double survey = std::max(SurveySigma(l), errors_.survey.ReportedSigma(statement));
     // The weight without its spread (Observations), over the full variance.
     const double weight = o.weight * o.spread * o.spread;
     Eigen::Vector3d j;
@@ -971,7 +977,7 @@ Eigen::Matrix3d Localizer::ReportedCovariance(const FrameResult& fr, const std::
 }
 
 bool Localizer::PartialFirstFrame(const FrameResult& fr, const TriangulationResult& tri) const {
-  if (ever_tracked_ || !start_is_hint_ || !opt_.survey.check || survey_.confident()) return false;
+  if (track_.ever_tracked || !track_.start_is_hint || !opt_.survey.check || errors_.survey.confident()) return false;
   int n_found = 0;
   for (const auto& m : fr.measurements) n_found += m.found;
   return 2 * static_cast<int>(tri.inliers.size()) < n_found;
@@ -980,16 +986,16 @@ bool Localizer::PartialFirstFrame(const FrameResult& fr, const TriangulationResu
 bool Localizer::RetrackUnderShownSurvey(FrameResult* fr, TriangulationResult* tri) {
   // What this frame would teach, learned once only, from the solution reported.
   const double assumed = MeanSurveySigma();
-  const SurveyErrorEstimate survey_before = survey_;
-  const double bearing_sigma_before = bearing_sigma_;
+  const SurveyErrorEstimate survey_before = errors_.survey;
+  const double bearing_sigma_before = errors_.bearing_sigma;
   UpdateBearingNoise(Observations(*fr), *tri);
   UpdateSurveyEstimate(*fr, *tri);
-  const double level = survey_.Early();
-  survey_ = survey_before;
-  bearing_sigma_ = bearing_sigma_before;
+  const double level = errors_.survey.Early();
+  errors_.survey = survey_before;
+  errors_.bearing_sigma = bearing_sigma_before;
   UpdateLandmarkBudget();
   if (!(level > 1.5 * assumed)) return false;
-  survey_.Provisional(level);
+  errors_.survey.Provisional(level);
   UpdateLandmarkBudget();
   // (Never a relocalised frame: Process does not call this for one.)
   FrameResult again = FrameToMeasure(fr->row, fr->predicted_pose);
@@ -1005,7 +1011,7 @@ bool Localizer::RetrackUnderShownSurvey(FrameResult* fr, TriangulationResult* tr
 }
 
 void Localizer::CheckFrame(const cv::Mat& grey, int frame) const {
-  if (!started_) throw Error("localiser: Process() before Reset()");
+  if (!track_.started) throw Error("localiser: Process() before Reset()");
   if (grey.type() != CV_8UC1 || grey.cols != calib_.sensor.image_width ||
       grey.rows != calib_.sensor.image_height)
     throw Error("frame " + std::to_string(frame) + ": expected an 8-bit grey image of " +
@@ -1014,64 +1020,65 @@ void Localizer::CheckFrame(const cv::Mat& grey, int frame) const {
 }
 
 Pose2 Localizer::PredictMotion(double time_s, const OdometryIncrement* odometry) {
-  if (!motion_.initialized()) return last_;  // the start pose, or the last one before a loss
-  const double t = std::isfinite(time_s) ? std::max(time_s, motion_.time()) : motion_.time() + last_dt_;
+  if (!motion_.initialized()) return track_.last;  // the start pose, or the last one before a loss
+  const double t = std::isfinite(time_s) ? std::max(time_s, motion_.time()) : motion_.time() + track_.last_dt;
   const double dt = t - motion_.time();
   // The frame interval: the shortest recent step (a dropped frame is longer).
-  if (dt > 0) last_dt_ = last_dt_ > 0 && dt > last_dt_ ? 0.95 * last_dt_ + 0.05 * dt : dt;
+  if (dt > 0) track_.last_dt = track_.last_dt > 0 && dt > track_.last_dt ? 0.95 * track_.last_dt + 0.05 * dt : dt;
   if (odometry)
     motion_.PredictWithOdometry(t, *odometry);
   else
     motion_.Predict(t);
-  motion_stepped_ = true;
+  track_.motion_stepped = true;
   const Eigen::Vector2d v = motion_.PredictedVelocity();
-  frame_motion_ = Pose2{v.x() * last_dt_, v.y() * last_dt_, motion_.PredictedHeadingRate() * last_dt_};
+  track_.frame_motion =
+      Pose2{v.x() * track_.last_dt, v.y() * track_.last_dt, motion_.PredictedHeadingRate() * track_.last_dt};
   // The velocity is known after two poses, and stays so over short losses.
-  return (opt_.constant_velocity && motion_updates_ >= 2) || odometry ? motion_.pose() : last_;
+  return (opt_.constant_velocity && track_.motion_updates >= 2) || odometry ? motion_.pose() : track_.last;
 }
 
 std::optional<double> Localizer::CompassHeading(const std::vector<float>& signature) const {
-  if (!opt_.compass || last_signature_.empty() || !ever_tracked_) return std::nullopt;
+  if (!opt_.compass || heading_.last_signature.empty() || !track_.ever_tracked) return std::nullopt;
   double score;
-  const double turn = compass_.Rotation(last_signature_, signature, opt_.compass_max_rotation, &score);
+  const double turn = compass_.Rotation(heading_.last_signature, signature, opt_.compass_max_rotation, &score);
   if (score < opt_.compass_min_score) return std::nullopt;
-  return wrap_angle(frame_pose_.theta + turn);
+  return WrapAngle(track_.frame_pose.theta + turn);
 }
 
 std::optional<Pose2> Localizer::CompassPose(const Pose2& pred) const {
-  if (!compass_heading_ || std::abs(wrap_angle(*compass_heading_ - pred.theta)) <= 0.5 * M_PI / 180)
+  if (!heading_.compass_heading || std::abs(WrapAngle(*heading_.compass_heading - pred.theta)) <= 0.5 * M_PI / 180)
     return std::nullopt;
   Pose2 by_compass = pred;
-  by_compass.theta = *compass_heading_;
+  by_compass.theta = *heading_.compass_heading;
   return by_compass;
 }
 
 void Localizer::ForgetCompassHistory() {
-  last_signature_.clear();
-  model_heading_error_ = compass_heading_error_ = -1.0;
-  prediction_error_frames_ = 0;
+  heading_.last_signature.clear();
+  heading_.model_error = heading_.compass_error = -1.0;
+  heading_.error_frames = 0;
 }
 
 bool Localizer::CompassFirst(const Pose2& pred, const Pose2& by_compass) const {
   // Translation biases the compass by a few degrees in a small room: it
   // goes first only where it has been the better guide.
-  return prediction_error_frames_ >= 10 && compass_heading_error_ < 0.5 * model_heading_error_ &&
-         std::abs(wrap_angle(by_compass.theta - pred.theta)) > opt_.compass_first_turn;
+  return heading_.error_frames >= 10 && heading_.compass_error < 0.5 * heading_.model_error &&
+         std::abs(WrapAngle(by_compass.theta - pred.theta)) > opt_.compass_first_turn;
 }
 
 void Localizer::UpdatePredictionErrors(const Pose2& model_pred, const FrameResult& fr,
                                        const TriangulationResult& tri) {
-  if (!compass_heading_ || fr.relocalized) return;
+  if (!heading_.compass_heading || fr.relocalized) return;
   auto update = [](double* mean, double error) { *mean = *mean < 0 ? error : 0.9 * *mean + 0.1 * error; };
-  update(&model_heading_error_, std::abs(wrap_angle(tri.pose.theta - model_pred.theta)));
-  update(&compass_heading_error_, std::abs(wrap_angle(tri.pose.theta - *compass_heading_)));
-  ++prediction_error_frames_;
+  update(&heading_.model_error, std::abs(WrapAngle(tri.pose.theta - model_pred.theta)));
+  update(&heading_.compass_error, std::abs(WrapAngle(tri.pose.theta - *heading_.compass_heading)));
+  ++heading_.error_frames;
 }
 
 void Localizer::TrackPredictions(const Pose2 pred, FrameResult* fr, TriangulationResult* tri) const {
   // `pred` by value: the caller passes fr->predicted_pose, which this sets.
   const double search =
-      std::min(opt_.max_search_px, opt_.search_px * std::pow(opt_.lost_search_growth, std::min(n_lost_, 8)));
+      std::min(opt_.max_search_px, opt_.search_px * std::pow(opt_.lost_search_growth, std::min(track_.n_lost, 8)));
   // The visual compass measures the turn since the last frame from the
   // images. Translation biases it by a few degrees in a small room, so the
   // motion model's prediction goes first and the compass's heading is
@@ -1092,7 +1099,7 @@ void Localizer::TrackPredictions(const Pose2 pred, FrameResult* fr, Triangulatio
     if (!Acceptable(*fr, *tri)) continue;
     fr->predicted_pose = p;
     if (compass_first && &p == &predictions.front() &&
-        std::abs(wrap_angle(tri->pose.theta - p.theta)) > std::abs(wrap_angle(tri->pose.theta - pred.theta))) {
+        std::abs(WrapAngle(tri->pose.theta - p.theta)) > std::abs(WrapAngle(tri->pose.theta - pred.theta))) {
       misled.emplace(*fr, *tri);
       continue;
     }
@@ -1128,22 +1135,23 @@ void Localizer::TrackPredictions(const Pose2 pred, FrameResult* fr, Triangulatio
 }
 
 std::optional<Pose2> Localizer::SolvedMotion(const Pose2& pose) const {
-  if (!ever_tracked_ || n_lost_ > 0) return std::nullopt;
-  return Pose2{pose.x - frame_pose_.x, pose.y - frame_pose_.y, wrap_angle(pose.theta - frame_pose_.theta)};
+  if (!track_.ever_tracked || track_.n_lost > 0) return std::nullopt;
+  return Pose2{pose.x - track_.frame_pose.x, pose.y - track_.frame_pose.y,
+               WrapAngle(pose.theta - track_.frame_pose.theta)};
 }
 
 double Localizer::MaxShiftPx(const FrameResult& fr) {
   double max_shift = 0.0;
   for (size_t i = 0; i < fr.predicted.size(); ++i)
     if (fr.measurements[i].found)
-      max_shift = std::max(max_shift, std::abs(wrap_angle(fr.measurements[i].azimuth - fr.predicted[i].azimuth)) *
+      max_shift = std::max(max_shift, std::abs(WrapAngle(fr.measurements[i].azimuth - fr.predicted[i].azimuth)) *
                                           fr.predicted[i].corner_radius);
   return max_shift;
 }
 
 bool Localizer::CoarseToFineUseful() const {
-  return tracker_->MeasuresAzimuthCheaply() && opt_.refine_passes > 0 && n_lost_ == 0 &&
-         recentre_rate_ > opt_.coarse_to_fine_rate;
+  return tracker_->MeasuresAzimuthCheaply() && opt_.refine_passes > 0 && track_.n_lost == 0 &&
+         images_.recentre_rate > opt_.coarse_to_fine_rate;
 }
 
 bool Localizer::TrackCoarseToFine(const Pose2 pred, FrameResult* fr, TriangulationResult* tri,
@@ -1175,9 +1183,9 @@ bool Localizer::RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) 
   // model's, or a first pass's) blurs the edges more or less than the
   // search allowed for: measure again with the solved motion.
   std::optional<Pose2> solved = SolvedMotion(tri->pose);
-  const double assumed_turn = fr->blur_turn.value_or(frame_motion_.theta);
-  const double turn_error = solved ? std::abs(wrap_angle(solved->theta - assumed_turn)) : 0.0;
-  const bool blur_mispredicted = turn_error * max_radius * blur_fraction_ > opt_.refine_threshold_px;
+  const double assumed_turn = fr->blur_turn.value_or(track_.frame_motion.theta);
+  const double turn_error = solved ? std::abs(WrapAngle(solved->theta - assumed_turn)) : 0.0;
+  const bool blur_mispredicted = turn_error * max_radius * images_.blur_fraction > opt_.refine_threshold_px;
   const bool off_centre = max_shift > opt_.refine_threshold_px || blur_mispredicted;
   for (int pass = 0; pass < opt_.refine_passes && off_centre && Acceptable(*fr, *tri); ++pass) {
     FrameResult again;
@@ -1213,20 +1221,22 @@ bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, F
   // at once; later after relocalize_after lost frames (at once when the
   // view is not the predicted one), then less and less often while it
   // keeps failing.
-  const bool due = ever_tracked_ ? opt_.relocalize_after > 0 && (n_lost_ + 1 >= opt_.relocalize_after || at_once)
-                                 : opt_.relocalize_after > 0 || !known_start_ || start_is_hint_;
-  if (!due || frame < next_relocalize_frame_) return false;
+  const bool due = track_.ever_tracked
+                       ? opt_.relocalize_after > 0 && (track_.n_lost + 1 >= opt_.relocalize_after || at_once)
+                       : opt_.relocalize_after > 0 || !track_.known_start || track_.start_is_hint;
+  if (!due || frame < reloc_.next_frame) return false;
   FrameResult found;
   TriangulationResult t;
-  survey_evidence_.reset();
+  reloc_.survey_evidence.reset();
   bool relocalized = Relocalize(grey, !at_once, &found, &t);
-  if (survey_evidence_) UpdateSurveyEstimate(survey_evidence_->first, survey_evidence_->second);
-  survey_evidence_.reset();
-  if (!relocalized && !ever_tracked_ && opt_.relocalize_survey_probe && opt_.survey.check && !survey_.confident())
+  if (reloc_.survey_evidence) UpdateSurveyEstimate(reloc_.survey_evidence->first, reloc_.survey_evidence->second);
+  reloc_.survey_evidence.reset();
+  if (!relocalized && !track_.ever_tracked && opt_.relocalize_survey_probe && opt_.survey.check &&
+      !errors_.survey.confident())
     relocalized = *under_probe = RelocalizeUnderProbe(grey, !at_once, &found, &t);
   if (!relocalized) {
-    ++relocalize_failures_;
-    next_relocalize_frame_ = BackedOffRelocalizeFrame(frame);
+    ++reloc_.failures;
+    reloc_.next_frame = BackedOffRelocalizeFrame(frame);
     return false;
   }
   AdoptSearchResult({std::move(found), t}, fr, tri);
@@ -1239,20 +1249,20 @@ bool Localizer::RelocalizeUnderProbe(const cv::Mat& grey, bool near_last, FrameR
   const double current = LargestSurveySigma();
   bool found = false;
   for (double fraction : kSearchProbeFractions) {
-    const double level = fraction * typical_distance_;
+    const double level = fraction * errors_.typical_distance;
     if (level <= 1.5 * current) continue;
-    probe_sigma_ = level;
+    reloc_.probe_sigma = level;
     UpdatePrediction();
     found = Relocalize(grey, near_last, fr, tri);
-    probe_sigma_ = 0.0;
+    reloc_.probe_sigma = 0.0;
     UpdatePrediction();
     if (found) {
-      survey_.Provisional(level);
+      errors_.survey.Provisional(level);
       UpdateLandmarkBudget();
       break;
     }
   }
-  survey_evidence_.reset();
+  reloc_.survey_evidence.reset();
   return found;
 }
 
@@ -1263,7 +1273,7 @@ void Localizer::AdoptSearchResult(SearchResult&& found, FrameResult* fr, Triangu
   fr->innovation = -1.0;
   fr->relocalized = true;
   *tri = found.second;
-  n_good_ = 0;  // no velocity across the jump
+  track_.n_good = 0;  // no velocity across the jump
 }
 
 namespace {
@@ -1281,7 +1291,7 @@ double Localizer::ChosenLandmarks(const FrameResult& fr) const {
 }
 
 int Localizer::BackedOffRelocalizeFrame(int frame) const {
-  return frame + std::min(opt_.relocalize_max_interval, 1 << std::clamp(relocalize_failures_ - 2, 0, 16));
+  return frame + std::min(opt_.relocalize_max_interval, 1 << std::clamp(reloc_.failures - 2, 0, 16));
 }
 
 bool Localizer::EnoughForRelocalized(const FrameResult& fr, const TriangulationResult& tri) const {
@@ -1341,7 +1351,7 @@ bool Localizer::RoomSearchAgrees(const cv::Mat& grey, const TriangulationResult&
 }
 
 bool Localizer::DistinctPlaces(const Pose2& a, const Pose2& b) const {
-  return std::hypot(a.x - b.x, a.y - b.y) > opt_.relocalize_distinct * room_size_;
+  return std::hypot(a.x - b.x, a.y - b.y) > opt_.relocalize_distinct * errors_.room_size;
 }
 
 bool Localizer::ClearlyBetterSupported(int a, int b) const {
@@ -1351,39 +1361,39 @@ bool Localizer::ClearlyBetterSupported(int a, int b) const {
 bool Localizer::FitsClearlyBetter(int a, double a_residual, int b, double b_residual) const {
   // Residuals of the image noise alone at the typical distance count as a
   // perfect fit: below that no pose fits better than another.
-  const double floor = ReferenceSigma() * typical_distance_;
+  const double floor = ReferenceSigma() * errors_.typical_distance;
   return std::min(a, b) >= std::max(opt_.relocalize_min_landmarks, kFitComparedBearings) &&
          a >= opt_.relocalize_ambiguity * b && b_residual > kClearlyBetterFit * std::max(a_residual, floor);
 }
 
 bool Localizer::BeyondReach(const Pose2& pose, double time_s) const {
-  if (!last_known_) return false;
-  const auto& [known, known_time] = *last_known_;
+  if (!track_.last_known) return false;
+  const auto& [known, known_time] = *track_.last_known;
   const double reach = motion_options_.max_speed * std::max(0.0, time_s - known_time) +
-                       opt_.relocalize_distinct * room_size_;
+                       opt_.relocalize_distinct * errors_.room_size;
   return std::hypot(pose.x - known.x, pose.y - known.y) > reach;
 }
 
 bool Localizer::ConfirmsJump(const FrameResult& fr, const TriangulationResult& tri) const {
-  return !held_jump_ || !SurveyLimits() || Corroborated(fr, tri, opt_.relocalize_jump_fraction);
+  return !reloc_.held_jump || !SurveyLimits() || Corroborated(fr, tri, opt_.relocalize_jump_fraction);
 }
 
 void Localizer::HoldForConfirmation(const Pose2& pose, int frame, bool jump) {
   // As from a start pose given as a hint: no velocity, any turn, and a new
   // room-wide search at once if the next frame does not track.
-  last_ = frame_pose_ = pose;
-  frame_motion_ = Pose2{0, 0, 0};
-  known_start_ = start_is_hint_ = true;
-  ever_tracked_ = false;
+  track_.last = track_.frame_pose = pose;
+  track_.frame_motion = Pose2{0, 0, 0};
+  track_.known_start = track_.start_is_hint = true;
+  track_.ever_tracked = false;
   motion_ = MotionModel(motion_options_);
-  motion_updates_ = 0;
-  n_good_ = 0;
-  n_lost_ = 0;  // the confirming frame searches as narrowly as a tracked one
+  track_.motion_updates = 0;
+  track_.n_good = 0;
+  track_.n_lost = 0;  // the confirming frame searches as narrowly as a tracked one
   ForgetCompassHistory();
-  held_ = true;
-  held_jump_ = jump;
+  reloc_.held = true;
+  reloc_.held_jump = jump;
   // Held poses that keep failing to confirm back off like failed searches.
-  next_relocalize_frame_ = relocalize_failures_ >= 3 ? BackedOffRelocalizeFrame(frame) : 0;
+  reloc_.next_frame = reloc_.failures >= 3 ? BackedOffRelocalizeFrame(frame) : 0;
 }
 
 void Localizer::UpdateBlurEstimate(const FrameResult& fr) {
@@ -1396,16 +1406,17 @@ void Localizer::UpdateBlurEstimate(const FrameResult& fr) {
     if (!m.found || m.edge_width_px < 0) continue;
     if (motion < 1.0) still.push_back(m.edge_width_px);
     if (motion < 4.0) continue;
-    const double w2 = m.edge_width_px * m.edge_width_px - still_edge_width_px_ * still_edge_width_px_;
+    const double w2 = m.edge_width_px * m.edge_width_px - images_.still_edge_width_px * images_.still_edge_width_px;
     fractions.push_back(std::sqrt(std::max(0.0, w2)) / (0.7 * motion));
   }
   auto median = [](std::vector<double> v) {
     std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
     return v[v.size() / 2];
   };
-  if (still.size() >= 3) still_edge_width_px_ = 0.8 * still_edge_width_px_ + 0.2 * median(still);
+  if (still.size() >= 3) images_.still_edge_width_px = 0.8 * images_.still_edge_width_px + 0.2 * median(still);
   if (fractions.size() >= 3)
-    blur_fraction_ = std::clamp(0.5 * blur_fraction_ + 0.5 * median(fractions), 0.0, opt_.exposure_fraction);
+    images_.blur_fraction =
+        std::clamp(0.5 * images_.blur_fraction + 0.5 * median(fractions), 0.0, opt_.exposure_fraction);
 }
 
 void Localizer::UpdateNoiseEstimates(const FrameResult& fr, const TriangulationResult& tri) {
@@ -1414,8 +1425,8 @@ void Localizer::UpdateNoiseEstimates(const FrameResult& fr, const TriangulationR
   UpdateSurveyEstimate(fr, tri);
   for (int i : tri.inliers) {
     const size_t index = static_cast<size_t>(fr.predicted[static_cast<size_t>(obs[static_cast<size_t>(i)].id)].index);
-    residual_memory_[index] = tri.bearing_residuals[static_cast<size_t>(i)];
-    residual_frame_[index] = frame_;
+    errors_.residual_memory[index] = tri.bearing_residuals[static_cast<size_t>(i)];
+    errors_.residual_frame[index] = track_.frame;
   }
 }
 
@@ -1427,7 +1438,7 @@ void Localizer::UpdateBearingNoise(const std::vector<BearingObservation>& obs, c
   // edges as right ones, which would set every later threshold far too
   // wide.
   std::vector<double> abs_residuals;
-  if (bearing_sigma_ > 0) {
+  if (errors_.bearing_sigma > 0) {
     for (size_t i = 0; i < obs.size() && i < tri.bearing_residuals.size(); ++i)
       abs_residuals.push_back(std::abs(tri.bearing_residuals[i]) / obs[i].spread);
   } else {
@@ -1437,7 +1448,7 @@ void Localizer::UpdateBearingNoise(const std::vector<BearingObservation>& obs, c
   if (!abs_residuals.empty()) {
     std::nth_element(abs_residuals.begin(), abs_residuals.begin() + abs_residuals.size() / 2, abs_residuals.end());
     const double scale = 1.4826 * abs_residuals[abs_residuals.size() / 2];
-    bearing_sigma_ = bearing_sigma_ > 0 ? 0.9 * bearing_sigma_ + 0.1 * scale : scale;
+    errors_.bearing_sigma = errors_.bearing_sigma > 0 ? 0.9 * errors_.bearing_sigma + 0.1 * scale : scale;
   }
 }
 
@@ -1450,12 +1461,14 @@ void Localizer::UpdateSurveyEstimate(const FrameResult& fr, const TriangulationR
   // (Not once a map taken as exact has shown nothing for a while: the
   // second solve of every frame would only confirm it.)
   const double assumed = MeanSurveySigma();
-  const bool settled_exact = survey_.confident() && assumed == 0.0 &&
-                             survey_.estimated() < 0.5 * opt_.survey.exact_doubt_fraction * typical_distance_;
-  probe_sigma_ = settled_exact ? 0.0 : std::max(opt_.survey.unstated_fraction * typical_distance_, 2.0 * assumed);
+  const bool settled_exact =
+      errors_.survey.confident() && assumed == 0.0 &&
+      errors_.survey.estimated() < 0.5 * opt_.survey.exact_doubt_fraction * errors_.typical_distance;
+  reloc_.probe_sigma =
+      settled_exact ? 0.0 : std::max(opt_.survey.unstated_fraction * errors_.typical_distance, 2.0 * assumed);
   const std::vector<BearingObservation> obs = Observations(fr);
   TriangulationResult shadowed = settled_exact ? TriangulationResult() : SolveBearings(obs, tri.pose);
-  probe_sigma_ = 0.0;
+  reloc_.probe_sigma = 0.0;
   const TriangulationResult* used = shadowed.ok ? &shadowed : &tri;
   // The survey error the inliers show, one bearing per vertical edge; the
   // image noise alone, from the edges whose two corners were both found.
@@ -1484,7 +1497,7 @@ void Localizer::UpdateSurveyEstimate(const FrameResult& fr, const TriangulationR
     distances.push_back((o.landmark - Eigen::Vector2d(used->pose.x, used->pose.y)).norm());
     leverages.push_back(leverage[k]);
   }
-  survey_.Update(residuals, distances, pairs, 3, leverages);
+  errors_.survey.Update(residuals, distances, pairs, 3, leverages);
   UpdateLandmarkBudget();
 }
 
@@ -1496,31 +1509,31 @@ void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, b
     const PoseMeasurement m = MeasurementOf(tri, obs, opt_.gate_position_fraction, opt_.gate_heading_sigma);
     if (!motion_.initialized()) {
       motion_.Reset(row->time_s, tri.pose, m.covariance, motion_options_.max_speed, motion_options_.max_turn_rate);
-      motion_updates_ = 1;
+      track_.motion_updates = 1;
     } else if (fr->relocalized || fr->innovation > opt_.gate_chi2) {
       motion_.Reinitialize(std::max(row->time_s, motion_.time()), tri.pose, m.covariance);
-      motion_updates_ = 1;
-      n_good_ = 0;  // no velocity across the jump
+      track_.motion_updates = 1;
+      track_.n_good = 0;  // no velocity across the jump
     } else {
       motion_.Update(m);
-      ++motion_updates_;
+      ++track_.motion_updates;
     }
-    frame_pose_ = tri.pose;
-    motion_stepped_ = true;
+    track_.frame_pose = tri.pose;
+    track_.motion_stepped = true;
     UpdateNoiseEstimates(*fr, tri);
-    last_ = tri.pose;
-    last_known_.emplace(tri.pose, row->time_s);
-    held_jump_ = false;
+    track_.last = tri.pose;
+    track_.last_known.emplace(tri.pose, row->time_s);
+    reloc_.held_jump = false;
     UpdateBlurEstimate(*fr);
-    ever_tracked_ = true;
-    ++n_good_;
-    n_lost_ = 0;
+    track_.ever_tracked = true;
+    ++track_.n_good;
+    track_.n_lost = 0;
     return;
   }
-  if (!ever_tracked_ && known_start_ && row->frame == 0) {
+  if (!track_.ever_tracked && track_.known_start && row->frame == 0) {
     // No measurement yet: report the user's initial pose as such.
     row->status = PoseStatus::kInit;
-    row->pose = initial_;
+    row->pose = track_.initial;
   } else {
     // Lost: tracking goes on from the motion model's prediction.
     row->status = PoseStatus::kLost;
@@ -1531,16 +1544,16 @@ void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, b
     // Not reported, but the robot is there: the motion follows it (a turn
     // through a few such frames would otherwise leave the windows behind).
     motion_.Update(MeasurementOf(tri, Observations(*fr), opt_.gate_position_fraction, opt_.gate_heading_sigma));
-    ++motion_updates_;
-    motion_stepped_ = true;
-    frame_pose_ = last_ = tri.pose;
-    last_known_.emplace(tri.pose, row->time_s);
-    n_lost_ = 0;
+    ++track_.motion_updates;
+    track_.motion_stepped = true;
+    track_.frame_pose = track_.last = tri.pose;
+    track_.last_known.emplace(tri.pose, row->time_s);
+    track_.n_lost = 0;
     return;
   }
-  frame_pose_ = fr->predicted_pose;
-  n_good_ = 0;
-  ++n_lost_;
+  track_.frame_pose = fr->predicted_pose;
+  track_.n_good = 0;
+  ++track_.n_lost;
 }
 
 void Localizer::FillReportedRow(FrameResult* fr, const std::vector<BearingObservation>& obs,
@@ -1591,7 +1604,7 @@ void Localizer::TrackFromPrediction(double time_s, const OdometryIncrement* odom
   FrameResult& fr = w->fr;
   TriangulationResult& tri = w->tri;
   fr.predicted_pose = w->model_pred = PredictMotion(time_s, odometry);
-  compass_heading_ = CompassHeading(signature);
+  heading_.compass_heading = CompassHeading(signature);
   auto acceptable = [&] {
     return Acceptable(fr, tri) && Consistent(&fr, tri) && (AgreesWithMotion(&fr, tri) || Corroborated(fr, tri));
   };
@@ -1599,7 +1612,7 @@ void Localizer::TrackFromPrediction(double time_s, const OdometryIncrement* odom
   // A held hypothesis is confirmed on its bearings as they are: leaving
   // out those a wrong pose fits worst would help it pass.
   const auto drop_pulled = [&] {
-    if (!held_) DropPulledBearings(fr, &tri);
+    if (!reloc_.held) DropPulledBearings(fr, &tri);
   };
   if (CoarseToFineUseful() && TrackCoarseToFine(pred, &fr, &tri, &w->recentred)) {
     RefineAroundSolution(&fr, &tri);
@@ -1615,14 +1628,14 @@ void Localizer::TrackFromPrediction(double time_s, const OdometryIncrement* odom
   }
   // A held relocalised pose is confirmed only on as much evidence as a
   // relocalised pose needs (the frame is nearly the same image).
-  if (held_) w->accepted = w->accepted && EnoughForRelocalized(fr, tri);
+  if (reloc_.held) w->accepted = w->accepted && EnoughForRelocalized(fr, tri);
   // One beyond the robot's reach, where the map's survey error widens
   // every tolerance, stands on its own evidence, on this frame and on
   // every frame tracked from it until one does: a partial twin of the
   // room then tracks as well as the true pose from one frame to the next.
   w->accepted = w->accepted && ConfirmsJump(fr, tri);
   w->accepted = w->accepted && !PartialFirstFrame(fr, tri);
-  if (held_ && !w->accepted) ++relocalize_failures_;
+  if (reloc_.held && !w->accepted) ++reloc_.failures;
 }
 
 // Until the residuals have shown how well the map was measured, a frame
@@ -1652,7 +1665,7 @@ void Localizer::LearnSurveyFromRejected(FrameWork* w) {
 // survey error widens every tolerance: the place a kidnapped robot was
 // carried from fits a few of them under the motion model's prediction.
 void Localizer::CheckAgainstRoomSearch(const cv::Mat& grey, FrameWork* w) {
-  w->after_search = survey_before_search_ && opt_.survey.check && !survey_.confident();
+  w->after_search = errors_.survey_before_search && opt_.survey.check && !errors_.survey.confident();
   const bool weakly_supported = SurveyLimits() && !w->fr.relocalized && !Corroborated(w->fr, w->tri);
   if (!w->accepted || w->was_held || !(w->after_search || weakly_supported)) return;
   RoomSearch search = SearchRoomAgainst(grey, w->tri);
@@ -1676,7 +1689,8 @@ void Localizer::RelocalizeWhenLost(const cv::Mat& grey, int frame, FrameWork* w)
   std::optional<std::pair<FrameResult, TriangulationResult>> near;
   if (near_consistent) near.emplace(fr, tri);
   bool under_probe = false;
-  if (!RelocalizeIfLost(grey, frame, ever_tracked_ && ViewUnlikePrediction(fr, tri), &fr, &tri, &under_probe)) return;
+  if (!RelocalizeIfLost(grey, frame, track_.ever_tracked && ViewUnlikePrediction(fr, tri), &fr, &tri, &under_probe))
+    return;
   if (near && DistinctPlaces(tri.pose, near->second.pose) &&
       !ClearlyBetterSupported(static_cast<int>(tri.inliers.size()), static_cast<int>(near->second.inliers.size()))) {
     // The pose near the prediction is only a hypothesis (the robot may
@@ -1690,7 +1704,7 @@ void Localizer::RelocalizeWhenLost(const cv::Mat& grey, int frame, FrameWork* w)
   // resting on extra landmarks (tracked because few of those chosen were
   // found) before the residuals have shown the map's error: a map stated
   // exact but centimetres off lets a wrong pose fit a few anywhere.
-  const bool on_extras = opt_.survey.check && !survey_.confident() &&
+  const bool on_extras = opt_.survey.check && !errors_.survey.confident() &&
                          ChosenInliers(fr, tri) < opt_.relocalize_confirmed_fraction * ChosenToTrack(fr);
   w->accepted = Corroborated(fr, tri) && !under_probe && !on_extras;
   fr.unconfirmed = !w->accepted;
@@ -1707,78 +1721,91 @@ void Localizer::FinishFrame(const cv::Mat& grey, int frame, double time_s, std::
   TriangulationResult& tri = w->tri;
   const bool accepted = w->accepted;
   // A relocalised pose has its own evidence: its verification.
-  if (accepted && !fr.relocalized && opt_.survey.check && !survey_.confident()) RetrackUnderShownSurvey(&fr, &tri);
+  if (accepted && !fr.relocalized && opt_.survey.check && !errors_.survey.confident())
+    RetrackUnderShownSurvey(&fr, &tri);
   fr.triangulation = tri;
-  if (opt_.compass) last_signature_ = std::move(signature);
-  if (accepted && (fr.relocalized || w->was_held) && opt_.survey.check && !survey_.confident())
-    survey_before_search_ = w->was_held ? *w->survey_before_hold : survey_;
+  if (opt_.compass) heading_.last_signature = std::move(signature);
+  if (accepted && (fr.relocalized || w->was_held) && opt_.survey.check && !errors_.survey.confident())
+    errors_.survey_before_search = w->was_held ? *w->survey_before_hold : errors_.survey;
   if (accepted) UpdatePredictionErrors(w->model_pred, fr, tri);
-  if (accepted && !fr.relocalized) recentre_rate_ = 0.9 * recentre_rate_ + 0.1 * w->recentred;
+  if (accepted && !fr.relocalized) images_.recentre_rate = 0.9 * images_.recentre_rate + 0.1 * w->recentred;
   RecordOutcome(&fr, tri, accepted, w->n_found);
   if (accepted) LearnPolarity(fr, tri);
   if (accepted) {
-    relocalize_failures_ = 0;
-    next_relocalize_frame_ = 0;
+    reloc_.failures = 0;
+    reloc_.next_frame = 0;
   }
   // The step of the model that tracked up to this frame (a hold starts a new one).
-  fr.has_motion_step = motion_stepped_;
+  fr.has_motion_step = track_.motion_stepped;
   if (fr.has_motion_step) fr.motion_step = motion_.step();
   // The held frame's pose is the one this frame tracked from and accepted
   // (not a pose the search found elsewhere): the held frame is reported.
-  if (w->was_held && accepted && !fr.relocalized && held_frame_) confirmed_hold_ = ReportConfirmedHold(*held_frame_);
-  held_frame_.reset();
+  if (w->was_held && accepted && !fr.relocalized && reloc_.held_frame)
+    reloc_.confirmed_hold = ReportConfirmedHold(*reloc_.held_frame);
+  reloc_.held_frame.reset();
   if (fr.unconfirmed) {
-    held_frame_ = HeldFrame{grey.clone(), fr.row, tri.pose};
+    reloc_.held_frame = HeldFrame{grey.clone(), fr.row, tri.pose};
     HoldForConfirmation(tri.pose, frame, BeyondReach(tri.pose, time_s));
   } else if (w->was_held && !accepted) {
     // A search's hypothesis that its next frame did not confirm is no
     // start (tracking from it lets a wrong pose be accepted once the survey
     // probe has widened the tolerances far enough), and what its frame
     // taught the survey estimate is forgotten. The room is searched again.
-    known_start_ = false;
-    survey_ = *w->survey_before_hold;
+    track_.known_start = false;
+    errors_.survey = *w->survey_before_hold;
     UpdateLandmarkBudget();
   } else if (w->gave_way && !w->searched && w->after_search) {
     // The room is searched again from the next frame, and what the
     // given-way pose's frames taught the survey estimate goes with it.
-    known_start_ = ever_tracked_ = false;
-    survey_ = *survey_before_search_;
+    track_.known_start = track_.ever_tracked = false;
+    errors_.survey = *errors_.survey_before_search;
     UpdateLandmarkBudget();
   }
-  if (survey_.confident()) survey_before_search_.reset();
+  if (errors_.survey.confident()) errors_.survey_before_search.reset();
   if (view_ && fr.row.status != PoseStatus::kLost) fr.row.pose = view_->RobotPose(fr.row.pose);
 }
 
-FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double time_s,
-                               const OdometryIncrement* odometry) {
+// The frame in the view tracked in (a rig's aligned view), the tracker and
+// the compass started on it; this frame's state reset.
+const cv::Mat& Localizer::BeginFrame(const cv::Mat& frame_image, int frame, double time_s, FrameWork* w) {
   CheckFrame(frame_image, frame);
-  frame_ = frame;
-  confirmed_hold_.reset();  // the previous frame's, not taken
+  track_.frame = frame;
+  reloc_.confirmed_hold.reset();  // the previous frame's, not taken
   if (view_) view_->Resample(frame_image, &view_frame_);
   const cv::Mat& grey = view_ ? view_frame_ : frame_image;
-  motion_stepped_ = false;
-  FrameWork w;
-  w.fr.row.frame = frame;
-  w.fr.row.time_s = time_s;
+  track_.motion_stepped = false;
+  w->fr.row.frame = frame;
+  w->fr.row.time_s = time_s;
   tracker_->BeginFrame(grey);
-  std::vector<float> signature;  // the compass's, of this frame (for the next one too)
-  if (opt_.compass) signature = compass_.Signature(grey);
-  compass_heading_.reset();
-  w.model_pred = last_;
-  if (known_start_ || ever_tracked_) TrackFromPrediction(time_s, odometry, signature, &w);
-  w.was_held = held_;
-  held_ = false;
-  if (w.was_held) w.survey_before_hold = survey_;
-  if (!w.accepted && opt_.survey.check && !survey_.confident() && (known_start_ || ever_tracked_))
-    LearnSurveyFromRejected(&w);
+  if (opt_.compass) w->signature = compass_.Signature(grey);
+  heading_.compass_heading.reset();
+  w->model_pred = track_.last;
+  return grey;
+}
+
+void Localizer::ConfirmHeldPose(const cv::Mat& grey, FrameWork* w) {
+  w->was_held = reloc_.held;
+  reloc_.held = false;
+  if (w->was_held) w->survey_before_hold = errors_.survey;
+  if (!w->accepted && opt_.survey.check && !errors_.survey.confident() && (track_.known_start || track_.ever_tracked))
+    LearnSurveyFromRejected(w);
   // A search's hypothesis confirmed before the residuals have shown how well
   // the map was measured: within a map error's tolerances (the probe's, or
   // a map stated exact but centimetres off) a wrong pose fits most of what
   // it finds too. It stands only where the room-wide search under the same
   // tolerances finds no rival about as well supported (the true pose fits
   // many more bearings there than a twin); else the search below runs.
-  if (w.accepted && w.was_held && opt_.survey.check && !survey_.confident())
-    w.accepted = RoomSearchAgrees(grey, w.tri);
+  if (w->accepted && w->was_held && opt_.survey.check && !errors_.survey.confident())
+    w->accepted = RoomSearchAgrees(grey, w->tri);
+}
+
+FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double time_s,
+                               const OdometryIncrement* odometry) {
+  FrameWork w;
+  const cv::Mat& grey = BeginFrame(frame_image, frame, time_s, &w);
+  // Predict, measure, solve and check the pose (paper sections 2-4).
+  if (track_.known_start || track_.ever_tracked) TrackFromPrediction(time_s, odometry, w.signature, &w);
+  ConfirmHeldPose(grey, &w);
   CheckAgainstRoomSearch(grey, &w);
   for (const auto& m : w.fr.measurements) w.n_found += m.found;  // before any relocalisation
   if (w.gave_way && w.searched) {
@@ -1787,7 +1814,7 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
     w.fr.unconfirmed = !w.accepted;
   }
   if (!w.accepted && !w.gave_way) RelocalizeWhenLost(grey, frame, &w);
-  FinishFrame(grey, frame, time_s, std::move(signature), &w);
+  FinishFrame(grey, frame, time_s, std::move(w.signature), &w);
   return w.fr;
 }
 

@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "panotrack/pose/pose2.h"
 #include "panotrack/sensor/calibration.h"
 #include "panotrack/scene/map.h"
 #include "panotrack/pose/pose_row.h"
@@ -33,7 +34,7 @@
 namespace pano {
 
 enum class TrackingMethod { kJunction, kVertex };
-const char* tracking_method_name(TrackingMethod m);
+const char* TrackingMethodName(TrackingMethod m);
 
 struct LocalizerOptions {
   TrackingMethod method = TrackingMethod::kJunction;
@@ -311,7 +312,7 @@ class Localizer {
   // frame's result with its row ok, once; else nothing. A caller that writes
   // rows as they come writes an unconfirmed frame's row after the next
   // Process: this one where given, else the lost one.
-  std::optional<FrameResult> TakeConfirmedHold() { return std::exchange(confirmed_hold_, std::nullopt); }
+  std::optional<FrameResult> TakeConfirmedHold() { return std::exchange(reloc_.confirmed_hold, std::nullopt); }
 
   const Map& map() const { return map_; }
   // The sensor the tracking works with: the calibration's, or for a rig
@@ -332,7 +333,7 @@ class Localizer {
   }
   // Per landmark (as landmarks()): what the tracked frames showed of its
   // edges' polarities.
-  const std::vector<LandmarkPolarity>& polarity() const { return polarity_; }
+  const std::vector<LandmarkPolarity>& polarity() const { return shades_.polarity; }
   // The ids of the map's rectangles and boxes whose shade the images
   // contradict (an edge's polarity learned against the map's over
   // polarity_learn_frames or more tracked frames): "map shade looks inverted".
@@ -345,7 +346,7 @@ class Localizer {
   // The survey sigma the reported covariances hold now (map units): the
   // statement, or what the residuals show with its margin
   // (SurveyErrorOptions::estimate_margin).
-  double ReportedSurveySigma() const { return survey_.ReportedSigma(StatedSurveySigma()); }
+  double ReportedSurveySigma() const { return errors_.survey.ReportedSigma(StatedSurveySigma()); }
   // The map's statement as the localiser takes it (--survey-sigma, else the
   // map's survey_sigma; NaN: none).
   double StatedSurveySigma() const;
@@ -424,17 +425,17 @@ class Localizer {
   double LargestSurveySigma() const;
   // Landmarks to track per frame (0: all): max_landmarks, or more where
   // the survey error dominates (max_landmarks_uncertain_map).
-  int MaxLandmarks() const { return max_landmarks_; }
+  int MaxLandmarks() const { return errors_.max_landmarks; }
   // Whether the map's survey error limits the bearings (more landmarks
   // are tracked for it).
-  bool SurveyLimits() const { return max_landmarks_ != opt_.max_landmarks; }
-  // Sets max_landmarks_ and prediction_ from the noise and survey estimates.
+  bool SurveyLimits() const { return errors_.max_landmarks != opt_.max_landmarks; }
+  // Sets errors_.max_landmarks and errors_.prediction from the noise and survey estimates.
   void UpdateLandmarkBudget();
-  // Sets prediction_'s surface tolerance from the survey error assumed.
+  // Sets errors_.prediction's surface tolerance from the survey error assumed.
   void UpdatePrediction();
   // The recent bearing noise and the survey estimate, from an accepted frame.
   void UpdateNoiseEstimates(const FrameResult& fr, const TriangulationResult& tri);
-  // Its first part: the recent bearing noise (bearing_sigma_).
+  // Its first part: the recent bearing noise (errors_.bearing_sigma).
   void UpdateBearingNoise(const std::vector<BearingObservation>& obs, const TriangulationResult& tri);
   // The survey estimate from the inlier bearings of a solution.
   void UpdateSurveyEstimate(const FrameResult& fr, const TriangulationResult& tri);
@@ -603,7 +604,7 @@ class Localizer {
   // since its last accepted pose (the motion model's largest speed over the
   // time since, plus the search's distinct-pose tolerance): a jump;
   bool BeyondReach(const Pose2& pose, double time_s) const;
-  // whether a frame tracked from a relocalised pose BeyondReach (held_jump_)
+  // whether a frame tracked from a relocalised pose BeyondReach (reloc_.held_jump)
   // carries it: where the survey error limits the bearings, with
   // relocalize_jump_fraction of its chosen landmarks as inliers;
   bool ConfirmsJump(const FrameResult& fr, const TriangulationResult& tri) const;
@@ -643,11 +644,15 @@ class Localizer {
     bool gave_way = false;      // the tracked pose gave way to the room-wide search
     std::optional<SearchResult> searched;
     int n_found = 0;  // what tracking from the prediction found
+    std::vector<float> signature;  // the compass's, of this frame (for the next one too)
   };
-  // Process's steps, in order: track from the prediction (motion model,
-  // compass, coarse to fine, integrity); learn the survey error from a
-  // rejected frame; check a pose against the room-wide search; relocalise
-  // when lost; record the outcome and the hold.
+  // Process's steps, in order: begin the frame; track from the prediction
+  // (motion model, compass, coarse to fine, integrity); confirm a held pose
+  // (learning the survey error from a rejected frame); check a pose against
+  // the room-wide search; relocalise when lost; record the outcome and the
+  // hold.
+  const cv::Mat& BeginFrame(const cv::Mat& frame_image, int frame, double time_s, FrameWork* w);
+  void ConfirmHeldPose(const cv::Mat& grey, FrameWork* w);
   void TrackFromPrediction(double time_s, const OdometryIncrement* odometry, const std::vector<float>& signature,
                            FrameWork* w);
   void LearnSurveyFromRejected(FrameWork* w);
@@ -667,91 +672,126 @@ class Localizer {
   // Built on the first room-wide search (a tracked run never needs it).
   mutable std::shared_ptr<const RelocalizationIndex> relocalization_index_;
   std::shared_ptr<SharedRelocalizationIndex> shared_index_;  // null: the localiser's own
-  AzimuthCompass compass_;
-  std::vector<float> last_signature_;
-  Pose2 initial_;
-  Pose2 last_;  // the last good pose
-  // The camera's motion over the last frame interval (world frame), for the
-  // landmarks' expected motion blur; kept while lost.
-  Pose2 frame_motion_;
-  // The exposure as a fraction of the frame interval, estimated from the
-  // widths of the tracked edges against their image motion; and the width
-  // of an edge the camera does not move across (the optics' blur, px).
-  double blur_fraction_ = 1.0;
-  double still_edge_width_px_ = 1.5;
-  // Running mean over the tracked frames of whether the landmarks lay off
-  // their predictions (a second pass was due): CoarseToFineUseful.
-  double recentre_rate_ = 0.0;
-  void UpdateBlurEstimate(const FrameResult& fr);
-  int n_good_ = 0;   // consecutive good frames (for the velocity model)
-  int n_lost_ = 0;   // consecutive lost frames
-  bool started_ = false;
-  bool known_start_ = true;   // initial_ is a pose to track from (not unknown)
-  bool start_is_hint_ = false;  // ... but only a guess
-  bool ever_tracked_ = false;
-  bool held_ = false;  // this frame must confirm a relocalised pose (HoldForConfirmation)
-  // The pose tracked from is a relocalised one beyond the robot's reach
-  // (BeyondReach) that no frame has corroborated yet.
-  bool held_jump_ = false;
-  // The last accepted pose and its time (never a held one): where the
-  // robot was last known to be, for BeyondReach.
-  std::optional<std::pair<Pose2, double>> last_known_;
   MotionModel motion_;
   MotionModelOptions motion_options_;  // in map units
-  double last_dt_ = 0.0;               // seconds between the last two frames
-  int motion_updates_ = 0;             // poses fused since the model (re)started
-  bool motion_stepped_ = false;        // the model took a step at this frame
-  Pose2 frame_pose_;                   // the estimate at the previous frame (for the compass)
-  std::optional<double> compass_heading_;  // this frame's (CompassHeading)
-  double model_heading_error_ = -1.0;      // UpdatePredictionErrors
-  double compass_heading_error_ = -1.0;
-  int prediction_error_frames_ = 0;        // accepted frames in those means
-  int next_relocalize_frame_ = 0;
-  int relocalize_failures_ = 0;
-  // The bearing noise of recent good frames (radians, in units of each
-  // bearing's spread), for the integrity test.
-  double bearing_sigma_ = 0.0;
-  // The map's survey error as the residuals show it, and the landmarks'
-  // typical distance it is scaled by.
-  double typical_distance_ = 1.0;
-  // The map's larger floor extent (map units): the scale of the
-  // relocalisation's distinct-pose and symmetry tolerances.
-  double room_size_ = 1.0;
-  SurveyErrorEstimate survey_;
-  // The survey estimate before the pose tracked from was found by a
-  // room-wide search that the residuals had not yet shown the map's error
-  // to: that pose is checked against the search on every frame until they
-  // have, and what its frames taught is forgotten if it gives way.
-  std::optional<SurveyErrorEstimate> survey_before_search_;
-  int max_landmarks_ = 0;  // MaxLandmarks
-  // opt_.prediction, with the surface tolerance of the survey error now
-  // assumed (tracking) and of the map's statement (the relocalisation
-  // index, built once and shared between inputs).
-  PredictionOptions prediction_, index_prediction_;
-  // Per landmark: its bearing residual on the last accepted frame that had
-  // it as an inlier, and that frame (SuddenResiduals).
-  std::vector<double> residual_memory_;
-  std::vector<int> residual_frame_;
-  int frame_ = -1;  // the frame being processed
-  // A room-wide search's best pose, unambiguous but inconsistent with the
-  // survey error assumed: evidence of it while the estimate is not yet
-  // confident (Relocalize is const; RelocalizeIfLost learns from it).
-  mutable std::optional<std::pair<FrameResult, TriangulationResult>> survey_evidence_;
-  // The frame held for confirmation; its report once the next frame
-  // confirmed it (TakeConfirmedHold).
-  std::optional<HeldFrame> held_frame_;
-  std::optional<FrameResult> confirmed_hold_;
-  // The survey sigma a probe assumes (ProbeSurveyError; 0 otherwise).
-  double probe_sigma_ = 0.0;
+  AzimuthCompass compass_;
+  void UpdateBlurEstimate(const FrameResult& fr);
+
+  // The state that outlives a frame, by what it is about.
+
+  // Where the robot is and how the sequence started.
+  struct Track {
+    Pose2 initial;
+    Pose2 last;  // the last good pose
+    // The camera's motion over the last frame interval (world frame), for
+    // the landmarks' expected motion blur; kept while lost.
+    Pose2 frame_motion;
+    Pose2 frame_pose;  // the estimate at the previous frame (for the compass)
+    int n_good = 0;    // consecutive good frames (for the velocity model)
+    int n_lost = 0;    // consecutive lost frames
+    bool started = false;
+    bool known_start = true;     // initial is a pose to track from (not unknown)
+    bool start_is_hint = false;  // ... but only a guess
+    bool ever_tracked = false;
+    // The last accepted pose and its time (never a held one): where the
+    // robot was last known to be, for BeyondReach.
+    std::optional<std::pair<Pose2, double>> last_known;
+    double last_dt = 0.0;         // seconds between the last two frames
+    int motion_updates = 0;       // poses fused since the motion model (re)started
+    bool motion_stepped = false;  // the motion model took a step at this frame
+    int frame = -1;               // the frame being processed
+  };
+  Track track_;
+
+  // The heading from the panorama's azimuth signature, and how well it and
+  // the motion model predicted the headings found (UpdatePredictionErrors).
+  struct Heading {
+    std::vector<float> last_signature;
+    std::optional<double> compass_heading;  // this frame's (CompassHeading)
+    double model_error = -1.0;
+    double compass_error = -1.0;
+    int error_frames = 0;  // accepted frames in those means
+  };
+  Heading heading_;
+
+  // What the tracked edges showed of the images: the exposure as a fraction
+  // of the frame interval, estimated from the widths of the tracked edges
+  // against their image motion; the width of an edge the camera does not
+  // move across (the optics' blur, px); and the running mean over the
+  // tracked frames of whether the landmarks lay off their predictions (a
+  // second pass was due): CoarseToFineUseful.
+  struct ImageEvidence {
+    double blur_fraction = 1.0;
+    double still_edge_width_px = 1.5;
+    double recentre_rate = 0.0;
+  };
+  ImageEvidence images_;
+
+  // What the measurements' errors are taken to be.
+  struct ErrorModel {
+    // The bearing noise of recent good frames (radians, in units of each
+    // bearing's spread), for the integrity test.
+    double bearing_sigma = 0.0;
+    // The landmarks' typical distance the survey error is scaled by.
+    double typical_distance = 1.0;
+    // The map's larger floor extent (map units): the scale of the
+    // relocalisation's distinct-pose and symmetry tolerances.
+    double room_size = 1.0;
+    // The map's survey error as the residuals show it.
+    SurveyErrorEstimate survey;
+    // The survey estimate before the pose tracked from was found by a
+    // room-wide search that the residuals had not yet shown the map's error
+    // to: that pose is checked against the search on every frame until they
+    // have, and what its frames taught is forgotten if it gives way.
+    std::optional<SurveyErrorEstimate> survey_before_search;
+    int max_landmarks = 0;  // MaxLandmarks
+    // opt_.prediction, with the surface tolerance of the survey error now
+    // assumed (tracking) and of the map's statement (the relocalisation
+    // index, built once and shared between inputs).
+    PredictionOptions prediction, index_prediction;
+    // Per landmark: its bearing residual on the last accepted frame that
+    // had it as an inlier, and that frame (SuddenResiduals).
+    std::vector<double> residual_memory;
+    std::vector<int> residual_frame;
+  };
+  ErrorModel errors_;
+
+  // Relocalised poses held until a frame confirms them, and the room-wide
+  // search's schedule.
+  struct Relocalization {
+    bool held = false;  // this frame must confirm a relocalised pose (HoldForConfirmation)
+    // The pose tracked from is a relocalised one beyond the robot's reach
+    // (BeyondReach) that no frame has corroborated yet.
+    bool held_jump = false;
+    // The frame held for confirmation; its report once the next frame
+    // confirmed it (TakeConfirmedHold).
+    std::optional<HeldFrame> held_frame;
+    std::optional<FrameResult> confirmed_hold;
+    int next_frame = 0;  // no room-wide search before this frame
+    // Searches (and held poses) that failed since the last accepted frame:
+    // the searches back off after two.
+    int failures = 0;
+    // A room-wide search's best pose, unambiguous but inconsistent with the
+    // survey error assumed: evidence of it while the estimate is not yet
+    // confident (Relocalize is const; RelocalizeIfLost learns from it).
+    mutable std::optional<std::pair<FrameResult, TriangulationResult>> survey_evidence;
+    // The survey sigma a probe assumes (ProbeSurveyError; 0 otherwise).
+    double probe_sigma = 0.0;
+  };
+  Relocalization reloc_;
+
   // Polarities learned from the images, per landmark; per map object
   // (rectangle, box) whether the images contradict its shade; whether they
   // contradict most of the map (then no map polarity is trusted) or have
   // confirmed it (then no frame is retried with either polarity).
-  std::vector<LandmarkPolarity> polarity_;
-  std::vector<char> object_contradicted_;
-  bool map_contradicted_ = false;
-  bool map_confirmed_ = false;
-  bool any_known_shade_ = false;
+  struct Shades {
+    std::vector<LandmarkPolarity> polarity;
+    std::vector<char> object_contradicted;
+    bool map_contradicted = false;
+    bool map_confirmed = false;
+    bool any_known = false;
+  };
+  Shades shades_;
 };
 
 }  // namespace pano

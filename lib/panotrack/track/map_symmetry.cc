@@ -13,7 +13,7 @@ Eigen::Vector2d FloorMotion::Apply(const Eigen::Vector2d& p) const {
 
 Pose2 FloorMotion::Apply(const Pose2& pose) const {
   const Eigen::Vector2d p = Apply(Eigen::Vector2d(pose.x, pose.y));
-  return Pose2{p.x(), p.y(), wrap_angle(pose.theta + angle)};
+  return Pose2{p.x(), p.y(), WrapAngle(pose.theta + angle)};
 }
 
 namespace {
@@ -74,10 +74,10 @@ std::vector<FloorMotion> LandmarkSymmetries(const std::vector<Landmark>& landmar
   const Eigen::Vector2d b2 = use_edge ? Eigen::Vector2d(a.h_end.head<2>()) : Eigen::Vector2d(b->corner.head<2>());
   const double separation = (b2 - a2).norm();
   auto consider = [&](const FloorMotion& m) {
-    const bool identity = std::abs(wrap_angle(m.angle)) * separation <= tolerance && m.translation.norm() <= tolerance;
+    const bool identity = std::abs(WrapAngle(m.angle)) * separation <= tolerance && m.translation.norm() <= tolerance;
     if (identity || !CarriesAll(m, landmarks, seen, tolerance)) return;
     for (const FloorMotion& o : out)
-      if (std::abs(wrap_angle(o.angle - m.angle)) * separation <= tolerance &&
+      if (std::abs(WrapAngle(o.angle - m.angle)) * separation <= tolerance &&
           (o.translation - m.translation).norm() <= tolerance)
         return;
     out.push_back(m);

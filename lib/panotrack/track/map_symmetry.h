@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 #include <vector>
 
+#include "panotrack/pose/pose2.h"
 #include "panotrack/sensor/sensor.h"
 #include "panotrack/track/landmarks.h"
 

@@ -73,7 +73,7 @@ void MotionModelOptions::Check() const {
 MotionVector PropagateConstantVelocity(const MotionVector& s, double dt) {
   MotionVector out = s;
   out.head<3>() += dt * s.tail<3>();
-  out(2) = wrap_angle(out(2));
+  out(2) = WrapAngle(out(2));
   return out;
 }
 
@@ -105,7 +105,7 @@ MotionVector PropagateOdometry(const MotionVector& s, double dt, const OdometryI
   MotionVector out = s;
   out(0) += wx;
   out(1) += wy;
-  out(2) = wrap_angle(s(2) + inc.dtheta);
+  out(2) = WrapAngle(s(2) + inc.dtheta);
   if (dt > 0.0) out.tail<3>() << wx / dt, wy / dt, inc.dtheta / dt;
   return out;
 }
@@ -150,7 +150,7 @@ void MotionModel::Reset(double t, const Pose2& pose, const Eigen::Matrix3d& pose
     throw Error("motion model: Reset with a velocity standard deviation that is not a finite number >= 0");
   MotionState s;
   s.time_s = t;
-  s.mean << pose.x, pose.y, wrap_angle(pose.theta), 0.0, 0.0, 0.0;
+  s.mean << pose.x, pose.y, WrapAngle(pose.theta), 0.0, 0.0, 0.0;
   s.covariance.topLeftCorner<3, 3>() = 0.5 * (pose_covariance + pose_covariance.transpose());
   s.covariance(3, 3) = s.covariance(4, 4) = speed_sigma * speed_sigma;
   s.covariance(5, 5) = turn_rate_sigma * turn_rate_sigma;
@@ -229,7 +229,7 @@ const MotionState& MotionModel::MarkLost(double t) {
 namespace {
 
 Eigen::Vector3d PoseResidual(const PoseMeasurement& m, const MotionVector& mean) {
-  return {m.pose.x - mean(0), m.pose.y - mean(1), wrap_angle(m.pose.theta - mean(2))};
+  return {m.pose.x - mean(0), m.pose.y - mean(1), WrapAngle(m.pose.theta - mean(2))};
 }
 
 void CheckMeasurement(const PoseMeasurement& m) {
@@ -263,7 +263,7 @@ double MotionModel::Innovation(const PoseMeasurement& m) const {
 double MotionModel::HeadingInnovation(double theta, double sigma) const {
   if (!initialized_) throw Error("motion model: HeadingInnovation before Reset");
   CheckHeading(theta, sigma);
-  const double r = wrap_angle(theta - state().mean(2));
+  const double r = WrapAngle(theta - state().mean(2));
   const double s = state().covariance(2, 2) + sigma * sigma;
   return r * r / s;
 }
@@ -281,7 +281,7 @@ void MotionModel::UpdateRows(const int (&rows)[N], const Eigen::Matrix<double, N
     throw Error("motion model: the innovation covariance is not positive definite");
   const Eigen::Matrix<double, 6, N> k = llt.solve(ph.transpose()).transpose();
   x.mean += k * residual;
-  x.mean(2) = wrap_angle(x.mean(2));
+  x.mean(2) = WrapAngle(x.mean(2));
   // Joseph form: stays symmetric positive semi-definite with rounding.
   const MotionMatrix a = MotionMatrix::Identity() - k * h;
   x.covariance = Symmetric(a * x.covariance * a.transpose() + k * noise * k.transpose());
@@ -302,7 +302,7 @@ void MotionModel::UpdateHeading(double theta, double sigma) {
   CheckHeading(theta, sigma);
   const int rows[1] = {2};
   Eigen::Matrix<double, 1, 1> r, noise;
-  r << wrap_angle(theta - state().mean(2));
+  r << WrapAngle(theta - state().mean(2));
   noise << sigma * sigma;
   UpdateRows<1>(rows, r, noise);
   step_.heading_measured = true;
@@ -354,9 +354,9 @@ std::vector<SmoothedState> FixedLagSmoother::SmoothWindow() const {
     const MotionMatrix fp = next.transition * step.filtered.covariance;
     const MotionMatrix c = p_pred.ldlt().solve(fp).transpose();
     MotionVector diff = out[k + 1].state.mean - next.predicted.mean;
-    diff(2) = wrap_angle(diff(2));
+    diff(2) = WrapAngle(diff(2));
     sm.state.mean += c * diff;
-    sm.state.mean(2) = wrap_angle(sm.state.mean(2));
+    sm.state.mean(2) = WrapAngle(sm.state.mean(2));
     sm.state.covariance =
         Symmetric(step.filtered.covariance + c * (out[k + 1].state.covariance - p_pred) * c.transpose());
   }

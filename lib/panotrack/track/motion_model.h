@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "panotrack/pose/odometry_increment.h"
+#include "panotrack/pose/pose2.h"
 #include "panotrack/sensor/sensor.h"
 
 namespace pano {

@@ -161,7 +161,7 @@ PoseHypothesis BestHeadingAt(const Eigen::Vector2d& position, const std::vector<
   PoseHypothesis best{Pose2{position.x(), position.y(), 0.0}, 0.0};
   if (edge_bins.size() < 3) return best;
   const int t = search.Best(edge_bins, &best.score);
-  if (t >= 0) best.pose.theta = wrap_angle((t + 0.5) * 2 * M_PI / bins);
+  if (t >= 0) best.pose.theta = WrapAngle((t + 0.5) * 2 * M_PI / bins);
   return best;
 }
 
@@ -255,7 +255,7 @@ std::vector<PoseHypothesis> RelocalizationIndex::Hypotheses(const cv::Mat& grey,
     bool distinct = true;
     for (const PoseHypothesis& o : out)
       if (std::hypot(h.pose.x - o.pose.x, h.pose.y - o.pose.y) < 2 * step_ &&
-          std::abs(wrap_angle(h.pose.theta - o.pose.theta)) < 20 * M_PI / 180)
+          std::abs(WrapAngle(h.pose.theta - o.pose.theta)) < 20 * M_PI / 180)
         distinct = false;
     if (distinct) out.push_back(h);
     if (static_cast<int>(out.size()) >= opt_.hypotheses) break;

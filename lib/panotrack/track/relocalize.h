@@ -12,6 +12,7 @@
 #include <mutex>
 #include <vector>
 
+#include "panotrack/pose/pose2.h"
 #include "panotrack/scene/map.h"
 #include "panotrack/scene/scene.h"
 #include "panotrack/sensor/sensor.h"

@@ -75,7 +75,7 @@ QuasiCylindricalView::QuasiCylindricalView(const Sensor& sensor, double inner_ra
 }
 
 double QuasiCylindricalView::x_of_azimuth(double azimuth) const {
-  double x = wrap_angle_positive(azimuth) * width_ / (2.0 * M_PI);
+  double x = WrapAnglePositive(azimuth) * width_ / (2.0 * M_PI);
   if (x >= width_) x -= width_;
   return pad_ + x;
 }
@@ -314,7 +314,7 @@ LandmarkMeasurement VertexTracker::Measure(const PredictedLandmark& p, double se
   const double sy = s;
   // Template quadrants: as large as the predicted face allows.
   const double v_len = std::abs(p.v_radius - p.corner_radius);
-  const double h_len = std::abs(wrap_angle(p.h_end_azimuth - p.azimuth)) * px_per_rad;
+  const double h_len = std::abs(WrapAngle(p.h_end_azimuth - p.azimuth)) * px_per_rad;
   auto half = [&](double len) {
     return std::clamp(static_cast<int>(std::floor(opt_.face_fraction * len)), opt_.min_half_px,
                       opt_.max_half_px);
@@ -377,7 +377,7 @@ LandmarkMeasurement VertexTracker::Measure(const PredictedLandmark& p, double se
       located = true;
     if (k == 0) {  // what is reported when none passes
       m.weight = 1.0;
-      m.azimuth = wrap_angle(view_.azimuth_of_x(peak.x));
+      m.azimuth = WrapAngle(view_.azimuth_of_x(peak.x));
       m.radius = view_.radius_of_y(peak.y);
       if (why) m.why = why;
     }
@@ -385,7 +385,7 @@ LandmarkMeasurement VertexTracker::Measure(const PredictedLandmark& p, double se
   if (!located) return m;
   m.why = "";
   m.radius = view_.radius_of_y(peak.y);
-  m.azimuth = wrap_angle(view_.azimuth_of_x(peak.x));
+  m.azimuth = WrapAngle(view_.azimuth_of_x(peak.x));
   m.edge_width_px = width_cols * p.corner_radius / px_per_rad;
   m.found = true;
   m.v_polarity = type.v_polarity;

@@ -32,15 +32,15 @@ std::string Num(double x) {
 
 // Normalised camera-ray radius m of an image radius (px), or false.
 bool NormalizedRadius(const Sensor& sensor, double radius_px, double* m) {
-  return undistort_radius(sensor.params, radius_px / sensor.params.focal_px, m) && *m >= 0.0 &&
-         *m < max_normalized_radius(sensor.params);
+  return UndistortRadius(sensor.params, radius_px / sensor.params.focal_px, m) && *m >= 0.0 &&
+         *m < MaxNormalizedRadius(sensor.params);
 }
 
 // Elevation of the reflected ray of normalised radius m, and where that ray,
 // extended backwards, crosses the axis.
 bool RayOfNormalizedRadius(const Sensor& sensor, double m, double* elevation, double* axis_height) {
   double ps, pz, ds, dz;
-  if (!reflect_meridian(sensor.params, m, &ps, &pz, &ds, &dz)) return false;
+  if (!ReflectMeridian(sensor.params, m, &ps, &pz, &ds, &dz)) return false;
   *elevation = std::atan2(dz, ds);
   if (axis_height) *axis_height = ds > 1e-12 ? pz - ps * dz / ds : pz;
   return true;
@@ -68,7 +68,7 @@ double SensorScale(const Sensor& sensor) {
 
 }  // namespace
 
-const char* unwarp_kind_name(UnwarpKind kind) {
+const char* UnwarpKindName(UnwarpKind kind) {
   return kind == UnwarpKind::kPanorama ? "panorama" : "perspective";
 }
 

@@ -41,7 +41,7 @@
 namespace pano {
 
 enum class UnwarpKind { kPanorama, kPerspective };
-const char* unwarp_kind_name(UnwarpKind kind);
+const char* UnwarpKindName(UnwarpKind kind);
 
 struct UnwarpOptions {
   UnwarpKind kind = UnwarpKind::kPanorama;
@@ -156,24 +156,5 @@ double HorizonEyeHeight(const Sensor& sensor);
 // Image radius of the outermost full ring the view can use: the mirror's limb
 // (or rim), or the farthest image corner from the centre when that is nearer.
 double OuterImageRadius(const Sensor& sensor);
-
-// panocalib unwarp: reads the calibration and the image (any depth, grey or
-// colour), writes the view atomically to `out_path` (refusing to replace an
-// existing file unless `overwrite`). Returns the view for a summary.
-UnwarpView UnwarpImageFile(const std::string& calib_path, const std::string& image_path,
-                           const std::string& out_path, const UnwarpOptions& options, bool overwrite);
-
-// True when `path` names a video by its extension (.mp4, .avi, .mkv, .mov).
-bool IsVideoPath(const std::string& path);
-
-// The same for every frame of a video (or anything FrameSource reads: an
-// image folder, a printf pattern), as 8-bit grey, written as an MPEG-4 video
-// at the input's frame rate (10 fps when it has none). Video codecs need even
-// sizes: a default side that comes out odd is made one pixel larger, a given
-// odd side is refused. Returns
-// the view; `frames` (optional) receives the number of frames written.
-UnwarpView UnwarpVideoFile(const std::string& calib_path, const std::string& input_path,
-                           const std::string& out_path, const UnwarpOptions& options, bool overwrite,
-                           int* frames = nullptr);
 
 }  // namespace pano

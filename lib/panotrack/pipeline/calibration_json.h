@@ -1,11 +1,11 @@
 // panocalib calibrate's summary in machine-readable form (--summary-json):
-// the figures Summary() prints, the tool's version and its command line.
+// the figures CalibrationSummary() prints, the tool's version and its command line.
 #pragma once
 
 #include <string>
 #include <vector>
 
-#include "panotrack/calibrate/calibrate.h"
+#include "panotrack/pipeline/panocalib.h"
 
 namespace pano {
 

@@ -14,8 +14,8 @@
 #include "panotrack/io/calibration.h"
 #include "panotrack/io/map.h"
 #include "panotrack/io/pose_csv.h"
-#include "panotrack/mapping/check.h"
-#include "panotrack/mapping/run_inputs.h"
+#include "panotrack/pipeline/panomap.h"
+#include "panotrack/pipeline/map_inputs.h"
 #include "panotrack/track/localizer.h"
 #include "panotrack/video/frame_source.h"
 
@@ -145,7 +145,7 @@ void WriteMapCheckCsv(const std::string& path, const MapCheckReport& report) {
   char line[512];
   for (const EdgeCheck& e : report.edges) {
     std::string findings;
-    for (MapFinding f : e.findings) findings += (findings.empty() ? "" : ";") + std::string(map_finding_name(f));
+    for (MapFinding f : e.findings) findings += (findings.empty() ? "" : ";") + std::string(MapFindingName(f));
     std::snprintf(line, sizeof line, "%s,%s,%.6g,%.6g,%d,%d,%.4f,%.4f,%d,%.4f,%.4f,%.3f,%.3f,%.2f,%.3f,%.3f,%s\n",
                   e.id.c_str(), e.object.c_str(), e.position.x(), e.position.y(), e.visible, e.found,
                   e.found_fraction, e.polarity_fraction, e.residual_frames, e.mean_residual_deg, e.std_residual_deg,

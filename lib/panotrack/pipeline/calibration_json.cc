@@ -1,4 +1,4 @@
-#include "panotrack/calibrate/summary_json.h"
+#include "panotrack/pipeline/calibration_json.h"
 
 #include <cmath>
 #include <cstdio>
@@ -47,7 +47,7 @@ std::string CalibrationSummaryJson(const CalibrationResult& r, const Calibration
   const json j = {{"tool", "panocalib calibrate"},
                   {"version", PANO_VERSION},
                   {"command_line", command_line},
-                  {"model", mirror_model_name(s.model)},
+                  {"model", MirrorModelName(s.model)},
                   {"model_selection", selection},
                   {"image_width", s.image_width},
                   {"image_height", s.image_height},

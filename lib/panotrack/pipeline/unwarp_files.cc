@@ -1,12 +1,13 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include <filesystem>
+#include <utility>
 
 #include "panotrack/core/atomic_file.h"
 #include "panotrack/core/error.h"
 #include "panotrack/core/output_check.h"
 #include "panotrack/io/calibration.h"
-#include "panotrack/unwarp/unwarp.h"
+#include "panotrack/pipeline/unwarp_files.h"
 #include "panotrack/video/frame_source.h"
 
 namespace pano {
@@ -46,6 +47,14 @@ UnwarpView UnwarpImageFile(const std::string& calib_path, const std::string& ima
   if (!written) throw Error(out_path + ": cannot write the image (is the folder writable, the extension an image format's?)");
   file.Commit();
   return view;
+}
+
+UnwarpResult RunUnwarp(const UnwarpJob& job) {
+  int frames = -1;
+  UnwarpView view = IsVideoPath(job.output)
+                        ? UnwarpVideoFile(job.calibration, job.input, job.output, job.options, job.overwrite, &frames)
+                        : UnwarpImageFile(job.calibration, job.input, job.output, job.options, job.overwrite);
+  return {std::move(view), frames};
 }
 
 }  // namespace pano

@@ -9,7 +9,7 @@
 #include "panotrack/core/error.h"
 #include "panotrack/core/output_check.h"
 #include "panotrack/io/calibration.h"
-#include "panotrack/unwarp/unwarp.h"
+#include "panotrack/pipeline/unwarp_files.h"
 #include "panotrack/video/frame_source.h"
 
 namespace pano {

@@ -10,8 +10,8 @@
 #include "panotrack/io/calibration.h"
 #include "panotrack/io/map.h"
 #include "panotrack/io/pose_csv.h"
-#include "panotrack/mapping/build.h"
-#include "panotrack/mapping/run_inputs.h"
+#include "panotrack/pipeline/panomap.h"
+#include "panotrack/pipeline/map_inputs.h"
 #include "panotrack/track/localizer.h"
 #include "panotrack/video/frame_source.h"
 
@@ -40,7 +40,7 @@ void WriteMapBuildCsv(const std::string& path, const MapBuildResult& r) {
     const BuiltEdge& e = r.edges[i];
     std::snprintf(line, sizeof line, "e%zu,%.4f,%.4f,%.4f,%d,%.3f,%.4f,%.3f,%.3f,%.3f,%.3f,%s,%s\n", i, e.position.x(),
                   e.position.y(), e.std_major, e.views, e.parallax_deg, e.rms_bearing_deg, e.z0, e.z0_std, e.z1,
-                  e.z1_std, edge_verdict_name(e.verdict),
+                  e.z1_std, EdgeVerdictName(e.verdict),
                   e.rectangle >= 0 ? r.rectangles[static_cast<size_t>(e.rectangle)].rectangle.id.c_str() : "");
     text += line;
   }

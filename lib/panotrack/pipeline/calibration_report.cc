@@ -7,7 +7,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "panotrack/calibrate/calibrate.h"
+#include "panotrack/pipeline/calibration_report.h"
 #include "panotrack/plot/figure.h"
 
 namespace pano {
@@ -139,7 +139,7 @@ ReportLayout LayoutOf(const CalibrationResult& r, int W, int H) {
 
 void DrawReportTitle(const CalibrationResult& r, int W, int H, cv::Mat* canvas) {
   const int n = static_cast<int>(r.views.size()), n_unwarped = UnwarpedCount(r);
-  std::string title = "Calibration report: " + std::string(mirror_model_name(r.calib.sensor.model)) + " mirror, " +
+  std::string title = "Calibration report: " + std::string(MirrorModelName(r.calib.sensor.model)) + " mirror, " +
                       std::to_string(W) + " x " + std::to_string(H) + " px, " + std::to_string(n) + " of " +
                       std::to_string(n + static_cast<int>(r.not_found.size())) + " images used";
   if (n_unwarped > 0) title += " (" + std::to_string(n_unwarped) + " by the unwarped retry)";
@@ -470,6 +470,13 @@ void DrawParameterTable(const CalibrationResult& r, const ReportLayout& l, int y
 }
 
 }  // namespace
+
+int WorstView(const CalibrationResult& r) {
+  int worst = 0;
+  for (size_t i = 1; i < r.image_rms.size(); ++i)
+    if (r.image_rms[i] > r.image_rms[worst]) worst = static_cast<int>(i);
+  return worst;
+}
 
 cv::Mat DrawReport(const CalibrationResult& r, const cv::Mat& image, int view_index) {
   const Sensor& s = r.calib.sensor;

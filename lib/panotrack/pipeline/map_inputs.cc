@@ -1,4 +1,4 @@
-#include "panotrack/mapping/run_inputs.h"
+#include "panotrack/pipeline/map_inputs.h"
 
 #include "panotrack/core/error.h"
 #include "panotrack/io/pose_csv.h"
