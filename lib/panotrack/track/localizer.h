@@ -289,6 +289,22 @@ std::unique_ptr<LandmarkTracker> MakeTracker(TrackingMethod method, const Sensor
                                              const LocalizerOptions& options,
                                              std::shared_ptr<PhTableCache> ph_tables = nullptr);
 
+// The localiser of one input: Reset (or ResetUnknown) once, then Process
+// each frame in order. A frame goes through the paper's steps (Process):
+//   1. predict: the motion model (or the odometry, or the compass's
+//      heading) gives the pose, and the map the landmarks in view from it,
+//      as many as the expected error pays for (MaxLandmarks);
+//   2. measure: each landmark's edge or junction found near its prediction
+//      by the tracker (junctions with the PH transform, or vertices), coarse
+//      to fine;
+//   3. solve: the pose from their azimuths (Eqns 1-2), a consensus keeping
+//      out the outliers;
+//   4. check integrity: the residuals against the image noise and the
+//      map's survey error; a pose that fails is not reported;
+//   5. relocalise: when lost, or where the room-wide search outranks the
+//      tracked pose, a pose from the search, held until a frame confirms it.
+// The state a frame leaves for the next is in the named objects below
+// (Track, Heading, ImageEvidence, ErrorModel, Relocalization, Shades).
 class Localizer {
  public:
   Localizer(const Calibration& calib, const Map& map, std::shared_ptr<const RadiusTable> table,
