@@ -163,13 +163,7 @@ void CalibrateAndPrint(const Opts& o, const BoardOpts& bo, const RunOpts& run, c
                        const NamedPaths& outputs) {
   CalibrateJob job;
   job.targets = o.targets;
-  job.board.board_given = !bo.board.empty();
-  if (job.board.board_given) {
-    if (!(bo.square > 0.0)) throw Error("--square: required with --board (the square side, map units)");
-    job.board.board = ParseBoardSpec(bo.board, bo.square, bo.marker, bo.dictionary);
-    job.board.units = bo.units;
-    job.board.every = bo.every;
-  }
+  job.board = BoardInputOf(bo.board, bo.square, bo.marker, bo.dictionary, bo.units, bo.every, "map units");
   job.options = opt;
   job.outputs = {o.out, o.lut, o.report, run.summary_json, CommandLine()};
   job.names.outputs = outputs;
@@ -184,6 +178,18 @@ void CalibrateAndPrint(const Opts& o, const BoardOpts& bo, const RunOpts& run, c
 }
 
 }  // namespace
+
+TargetInputBoard BoardInputOf(const std::string& board, double square, double marker, const std::string& dictionary,
+                              const std::string& units, int every, const std::string& square_units) {
+  TargetInputBoard input;
+  input.board_given = !board.empty();
+  if (!input.board_given) return input;
+  if (!(square > 0.0)) throw Error("--square: required with --board (the square side, " + square_units + ")");
+  input.board = ParseBoardSpec(board, square, marker, dictionary);
+  input.units = units;
+  input.every = every;
+  return input;
+}
 
 void AddCalibrateCommand(CLI::App& app) {
   auto o = std::make_shared<Opts>();

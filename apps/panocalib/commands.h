@@ -4,6 +4,9 @@
 
 #include <CLI/CLI.hpp>
 
+#include <string>
+
+#include "panotrack/pipeline/target_input.h"
 #include "subcommand_main.h"
 
 namespace pano::app {
@@ -22,5 +25,12 @@ void AddUnwarpCommand(CLI::App& app);
 void AddTiltCommand(CLI::App& app);
 // export: the calibration in OpenCV's terms (camera matrix, cv::omnidir model).
 void AddExportCommand(CLI::App& app);
+
+// The board of a folder or video input (calibrate, evaluate) from --board,
+// --square, --marker, --dictionary, --units and --every; none when --board
+// was not given. `square_units` says what --square is measured in, for its
+// error.
+TargetInputBoard BoardInputOf(const std::string& board, double square, double marker, const std::string& dictionary,
+                              const std::string& units, int every, const std::string& square_units);
 
 }  // namespace pano::app

@@ -70,13 +70,7 @@ void AddEvaluateCommand(CLI::App& app) {
     EvaluateJob job;
     job.calibration = o->calib;
     job.targets = o->targets;
-    job.board.board_given = !o->board.empty();
-    if (job.board.board_given) {
-      if (!(o->square > 0.0)) throw Error("--square: required with --board (the square side, calibration units)");
-      job.board.board = ParseBoardSpec(o->board, o->square, o->marker, o->dictionary);
-      job.board.units = o->units;
-      job.board.every = o->every;
-    }
+    job.board = BoardInputOf(o->board, o->square, o->marker, o->dictionary, o->units, o->every, "calibration units");
     job.options = opt;
     job.summary_json = o->summary_json;
     job.command_line = CommandLine();

@@ -16,7 +16,7 @@ struct Opts {
   std::string map, calib, out, report;
   std::string pose_sigma = "auto";
   std::vector<std::string> poses, videos;
-  double map_sigma = 1.0, reject_sigmas = 4.0, edge_gap = 10.0, radius_systematic = 0.04;
+  double map_sigma = RefineOptions().map_sigma, reject_sigmas = 4.0, edge_gap = 10.0, radius_systematic = 0.04;
   bool free_height = false, fix_first_pose = false, free_floor = false, force = false, quiet = false, verbose = false;
   int passes = 2, threads = 0;
 };
@@ -87,7 +87,6 @@ MapRefineJob RefineJobOf(const Opts& o, bool map_sigma_given) {
   if (map_sigma_given) job.map_sigma = o.map_sigma;
   if (o.pose_sigma != "auto") job.pose_sigma = std::stod(o.pose_sigma);
   RefineOptions& opt = job.options;
-  opt.map_sigma = o.map_sigma;  // without --map-sigma, unless the map states its own
   opt.reject_sigmas = o.reject_sigmas;
   opt.min_edge_gap_px = o.edge_gap;
   opt.radius_systematic_px = o.radius_systematic;

@@ -391,7 +391,7 @@ void RunSequence(const SequenceArgs& a) {
   job.map_path = a.map_path;
   job.calib_path = a.calib_path;
   job.trajectory_path = a.traj_path;
-  if (a.o_fps->count() || a.preset.empty()) job.fps = a.fps;
+  if (a.o_fps->count()) job.fps = a.fps;
   job.survey = a.survey;
   if (a.o_map_sigma->count()) job.survey_sigma = a.survey.sigma;
   if (a.o_map_seed->count()) job.survey_seed = a.survey.seed;
