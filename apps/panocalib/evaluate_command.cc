@@ -21,7 +21,7 @@ void AddEvaluateCommand(CLI::App& app) {
     double square = 0.0, marker = 0.0;
     int every = 0;
     EvaluateOptions eval;
-    bool no_refine = false, no_unwarp = false, force = false, quiet = false;
+    bool no_refine = false, no_unwarp = false, robust_pose = false, force = false, quiet = false;
   };
   auto o = std::make_shared<Opts>();
   CLI::App* cmd = app.add_subcommand(
@@ -43,9 +43,14 @@ void AddEvaluateCommand(CLI::App& app) {
   cmd->add_option("--dictionary", o->dictionary, "ChArUco: OpenCV's ArUco dictionary")->needs(board_opt);
   cmd->add_option("--units", o->units, "Units of --square (with --board)")->needs(board_opt);
   cmd->add_option("--every", o->every, "Video: take every N-th frame (0: about 30 frames)")->needs(board_opt);
-  cmd->add_option("--huber", o->eval.huber_px, "Huber loss threshold of the pose fit in pixels (0: least squares)");
+  cmd->add_option("--huber", o->eval.huber_px,
+                  "Huber loss threshold of the pose fit in pixels (0: least squares); the fit is then finished by "
+                  "plain least squares unless --robust-pose");
   cmd->add_option("--full-weight", o->eval.full_weight_px,
                   "Corner weights of the pose fit, as for calibrate (0: uniform)");
+  cmd->add_flag("--robust-pose", o->robust_pose,
+                "Report the errors at the robust, weighted fit's pose (default: each pose finished by plain least "
+                "squares, so that the RMS is the lowest any pose of the board gives, as OpenCV reports it)");
   cmd->add_flag("--no-refine", o->no_refine,
                 "Score the detector's corners as found (default: located again through the model, as "
                 "calibrate does before its final fit)");
@@ -66,6 +71,7 @@ void AddEvaluateCommand(CLI::App& app) {
     SetDecoderLogging(opt.verbose);  // a board video's FFmpeg lines only with -v
     if (opt.verbose) opt.on_log = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
     if (o->no_refine) opt.refine_passes = 0;
+    opt.least_squares_pose = !o->robust_pose;
     opt.unwarp_fallback = !o->no_unwarp;
     EvaluateJob job;
     job.calibration = o->calib;

@@ -71,7 +71,12 @@ void BindCalibrate(py::module_& m) {
 
   py::class_<CalibrationResult>(m, "CalibrationResult", "What calibrate() found")
       .def_readonly("calibration", &CalibrationResult::calib, "The fitted Calibration (with extras: std devs, RMS)")
-      .def_readonly("rms_px", &CalibrationResult::rms_px, "Euclidean RMS reprojection error over all corners (px)")
+      .def_readonly("rms_px", &CalibrationResult::rms_px,
+                    "Euclidean RMS reprojection error over all corners (px), as panocalib evaluate gives it on "
+                    "these images")
+      .def_readonly("fit_rms_px", &CalibrationResult::fit_rms_px, "The final fit's own RMS (px)")
+      .def_readonly("rms_raw_px", &CalibrationResult::rms_raw_px,
+                    "The final model on the detector's corners, as evaluate --no-refine gives it (px)")
       .def_property_readonly(
           "image_rms",
           [](const CalibrationResult& r) {

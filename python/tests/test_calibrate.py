@@ -20,6 +20,9 @@ def test_calibrate_matches_panocalib(targets, tmp_path):
     extras = expected.extras
     assert result.rms_px == pytest.approx(extras["rms_px"], rel=1e-9)
     assert result.rms_px == pytest.approx(0.0733, abs=0.002)  # measured (noise 2 grey levels)
+    # The figure evaluate reproduces; the fit's own and the raw-corner one beside it.
+    assert result.fit_rms_px == pytest.approx(result.rms_px, rel=0.1)
+    assert result.rms_raw_px > result.rms_px
     assert list(result.image_rms) == [f"cal_{i:03d}.png" for i in range(8)]
     for i, v in enumerate(result.image_rms.values()):
         assert v == pytest.approx(expected.images[f"cal_{i:03d}.png"]["rms_px"], rel=1e-9)
@@ -37,7 +40,8 @@ def test_calibrate_matches_panocalib(targets, tmp_path):
     truth = pt.read_calibration(SOURCE_DIR / "calib" / "paper-real.yaml").sensor
     focal = result.parameters["focal_px"]
     assert abs(focal.value - truth.focal_px) < 2 * focal.stddev
-    assert "RMS reprojection error 0.0733 px over 8 boards" in result.summary()
+    assert f"RMS reprojection error {result.rms_px:.4f} px over 8 boards" in result.summary()
+    assert f"the fit's own {result.fit_rms_px:.4f} px" in result.summary()
     assert "chosen: sphere" in result.summary()
 
     # Written as panocalib writes it, with the E(D,Z) table beside it.

@@ -151,6 +151,7 @@ void Describe(CalibrationResult* result, bool poses_known, const std::string& un
   for (const ParameterEstimate& p : res.parameters)
     if (!p.fixed && std::isfinite(p.stddev)) c.extras[p.name + "_std"] = p.stddev;
   c.extras["rms_px"] = res.rms_px;
+  if (std::isfinite(res.fit_rms_px)) c.extras["fit_rms_px"] = res.fit_rms_px;
   if (std::isfinite(res.rms_raw_px)) c.extras["rms_raw_px"] = res.rms_raw_px;
   c.images.clear();
   for (size_t i = 0; i < res.views.size(); ++i) {
@@ -171,6 +172,7 @@ void Describe(CalibrationResult* result, bool poses_known, const std::string& un
   cm << "panocalib calibrate: " << MirrorModelName(options.model) << " model, " << res.views.size()
      << " boards, " << (poses_known ? "known" : "unknown (estimated)") << " board poses, RMS "
      << res.rms_px << " px";
+  if (std::isfinite(res.fit_rms_px)) cm << " (the fit's own " << res.fit_rms_px << " px)";
   if (std::isfinite(res.rms_raw_px)) cm << " (" << res.rms_raw_px << " px on the detector's corners)";
   cm << ".\n";
   std::vector<std::string> undetermined;
@@ -592,10 +594,17 @@ void RefitWithLimb(Pipeline* p) {
   else p->limb = LimbObservation();
 }
 
-// The raw-corner figure (CalibrationResult::rms_raw_px): the final model on
-// the corners as found, each board's pose refitted as `panocalib evaluate`
-// fits it (the calibration's loss and weights).
-void ScoreFoundCorners(const Pipeline& p, CalibrationResult* res) {
+// The figures `panocalib evaluate` gives on the calibration's images
+// (CalibrationResult::rms_raw_px, and rms_px in place of the fit's own):
+// the final model on the detector's corners, only each board's pose fitted
+// (`--no-refine`); then those corners refined through the model at that
+// pose and each pose fitted again, as many passes as the fit refined them.
+// The fit's own RMS is over corners refined through the model as it was
+// being fitted, which follow it (on a board at the limb by a tenth of a
+// pixel): the figure reported is the one a check of the calibration repeats.
+void ScoreAsEvaluate(const Pipeline& p, CalibrationResult* res) {
+  res->fit_rms_px = res->rms_px;
+  res->corners_refined = p.options.refine_passes > 0;
   std::vector<BoardView> views = p.found_views;
   std::sort(views.begin(), views.end(),
             [](const BoardView& a, const BoardView& b) { return a.image_index < b.image_index; });
@@ -603,13 +612,29 @@ void ScoreFoundCorners(const Pipeline& p, CalibrationResult* res) {
   eo.huber_px = p.options.huber_px;
   eo.full_weight_px = p.options.full_weight_px;
   eo.num_threads = p.options.num_threads;
+  const Sensor& sensor = res->calib.sensor;
   try {
-    const EvaluationResult e = EvaluateViews(views, p.targets.board, res->calib.sensor, eo);
+    EvaluationResult e = EvaluateViews(views, p.targets.board, sensor, eo);
     res->rms_raw_px = e.rms_px;
     res->raw_boards = e.boards_fitted;
+    for (int pass = 0; pass < p.options.refine_passes; ++pass) {
+      std::vector<BoardView> fitted;
+      for (size_t i = 0; i < views.size(); ++i) {
+        if (!e.images[i].fit.ok) continue;
+        fitted.push_back(views[i]);
+        fitted.back().rvec = e.images[i].fit.robust_rvec;
+        fitted.back().tvec = e.images[i].fit.robust_tvec;
+      }
+      RefineCornersThroughModel(p.images, p.targets.board, sensor, &fitted, p.options.Threads());
+      for (BoardView& v : views)
+        for (const BoardView& f : fitted)
+          if (f.image_index == v.image_index) v.corners = f.corners;
+      e = EvaluateViews(views, p.targets.board, sensor, eo);
+    }
+    res->rms_px = e.rms_px;
   } catch (const Error& e) {
     res->warnings.push_back(std::string("the detector's corners could not be scored through the final model (") +
-                            e.what() + ")");
+                            e.what() + "): the RMS given is the fit's own");
   }
 }
 
@@ -626,7 +651,7 @@ CalibrationResult Complete(Pipeline* p, const StepClock& clock) {
   for (const std::string& w : p->carried)
     if (std::find(res.warnings.begin(), res.warnings.end(), w) == res.warnings.end())
       res.warnings.push_back(w);
-  ScoreFoundCorners(*p, &res);
+  ScoreAsEvaluate(*p, &res);
   Describe(&res, p->poses_known, p->targets.units, p->options);
   res.seconds_detect = p->det.seconds;
   res.seconds_fit = clock.Seconds() - p->det.seconds;
@@ -718,8 +743,11 @@ bool DropStrayCorners(const TargetBoard& board, const Sensor& sensor, BoardView*
     std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
     return std::max(kFloorPx, kMedianFactor * v[v.size() / 2]);
   };
+  // The robust fit's pose, which the stray corners cannot pull.
+  EvaluateOptions robust;
+  robust.least_squares_pose = false;
   for (int round = 0; round < 3; ++round) {
-    const BoardPoseFit fit = FitBoardPose(*view, board, sensor, EvaluateOptions());
+    const BoardPoseFit fit = FitBoardPose(*view, board, sensor, robust);
     if (!fit.ok) return true;  // judged by the fit that follows, as any board
     std::vector<double> error(fit.residuals.size());
     for (size_t k = 0; k < error.size(); ++k) error[k] = fit.residuals[k].norm();

@@ -252,7 +252,15 @@ struct CalibrationResult {
   std::vector<BoardView> views;  // boards used, with their fitted poses
   std::vector<double> image_rms;  // per view, pixels
   std::vector<std::vector<Eigen::Vector2d>> residuals;  // per view, per corner (projected - observed)
-  double rms_px = 0.0;            // Euclidean RMS over all corners
+  // Euclidean RMS over all corners. From Calibrate(): what `panocalib
+  // evaluate` gives on the calibration's images with the same corner option
+  // (the detector's corners refined through the final model at each board's
+  // pose fitted to them, each pose fitted again; with refine_passes 0 the
+  // detector's corners), the fit's own in fit_rms_px. From CalibrateViews and
+  // FitCalibration: the fit's.
+  double rms_px = 0.0;
+  double fit_rms_px = NAN;  // the final fit's own RMS (Calibrate(); NaN otherwise)
+  bool corners_refined = true;  // whether the corners were refined through the model (refine_passes > 0)
   // The final model on the detector's corners as found (before their
   // refinement through the model; the unwarped boards' as mapped back), only
   // each board's pose refitted (FitBoardPose): what `panocalib evaluate

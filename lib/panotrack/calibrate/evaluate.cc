@@ -191,6 +191,23 @@ BoardPoseFit FitBoardPose(const BoardView& view, const TargetBoard& board, const
     return fit;
   }
   fit.failure.clear();
+  fit.robust_rvec = Eigen::Vector3d(pose[0], pose[1], pose[2]);
+  fit.robust_tvec = Eigen::Vector3d(pose[3], pose[4], pose[5]);
+  if (options.least_squares_pose && (options.huber_px > 0 || options.full_weight_px > 0)) {
+    // The robust fit found the basin; plain least squares from there gives
+    // the pose whose RMS is lowest. Kept only where it is.
+    EvaluateOptions plain = options;
+    plain.huber_px = 0.0;
+    std::array<double, 6> polished = pose;
+    std::string why;
+    const std::vector<Eigen::Matrix2d> uniform(view.corners.size(), Eigen::Matrix2d::Identity());
+    if (std::isfinite(FitPoseFrom(view, pts, g, uniform, plain, &polished, &why))) {
+      BoardPoseFit robust, least_squares;
+      Score(view, pts, g, pose, &robust);
+      Score(view, pts, g, polished, &least_squares);
+      if (least_squares.corners_used >= robust.corners_used && least_squares.rms_px < robust.rms_px) pose = polished;
+    }
+  }
   fit.rvec = Eigen::Vector3d(pose[0], pose[1], pose[2]);
   fit.tvec = Eigen::Vector3d(pose[3], pose[4], pose[5]);
   Score(view, pts, g, pose, &fit);
@@ -261,8 +278,8 @@ EvaluationResult EvaluateCalibration(const TargetSet& targets, const std::vector
     for (size_t i = 0; i < views.size(); ++i)
       if (r.images[i].fit.ok) {
         fitted.push_back(views[i]);
-        fitted.back().rvec = r.images[i].fit.rvec;
-        fitted.back().tvec = r.images[i].fit.tvec;
+        fitted.back().rvec = r.images[i].fit.robust_rvec;
+        fitted.back().tvec = r.images[i].fit.robust_tvec;
       }
     std::vector<BoardView> extra =
         FindMissingBoards(targets, images, det, fitted, sensor, detect.Threads(), &det.warnings);
@@ -303,8 +320,8 @@ EvaluationResult EvaluateCalibration(const TargetSet& targets, const std::vector
     for (size_t i = 0; i < views.size(); ++i) {
       if (!r.images[i].fit.ok) continue;
       BoardView v = views[i];
-      v.rvec = r.images[i].fit.rvec;
-      v.tvec = r.images[i].fit.tvec;
+      v.rvec = r.images[i].fit.robust_rvec;
+      v.tvec = r.images[i].fit.robust_tvec;
       fitted.push_back(v);
     }
     RefineCornersThroughModel(images, targets.board, sensor, &fitted, detect.Threads());

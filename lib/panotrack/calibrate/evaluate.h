@@ -26,6 +26,11 @@ struct EvaluateOptions {
   // (<= 0: uniform). The reported errors are plain pixels either way.
   double huber_px = CalibrateOptions().huber_px;
   double full_weight_px = CalibrateOptions().full_weight_px;
+  // Each board's pose then finished by plain least squares on its corners, so
+  // that the RMS reported is the lowest any pose of the board gives through
+  // the calibration (the reprojection error as OpenCV's calibrations report
+  // it); false: the errors at the robust, weighted fit's pose.
+  bool least_squares_pose = true;
   // Passes of corner refinement through the fixed model (as calibrate's
   // step 5, so that the figures compare with its RMS); 0: the detector's corners.
   int refine_passes = CalibrateOptions().refine_passes;
@@ -47,6 +52,10 @@ struct BoardPoseFit {
   std::string failure;  // why not, when !ok
   Eigen::Vector3d rvec = Eigen::Vector3d::Zero();  // X_sensor = R(rvec) X_board + tvec
   Eigen::Vector3d tvec = Eigen::Vector3d::Zero();
+  // The robust, weighted fit's pose (rvec, tvec before the least-squares
+  // finish): the one a stray corner cannot pull, where corners are refined.
+  Eigen::Vector3d robust_rvec = Eigen::Vector3d::Zero();
+  Eigen::Vector3d robust_tvec = Eigen::Vector3d::Zero();
   std::vector<Eigen::Vector2d> residuals;  // projected - observed; NaN where not visible
   int corners_used = 0;                    // visible through the fitted pose
   double rms_px = NAN;

@@ -55,6 +55,7 @@ std::string CalibrationSummaryJson(const CalibrationResult& r, const Calibration
                   {"boards_used", r.views.size()},
                   {"rms_px", r.rms_px},
                   {"rms_raw_px", std::isfinite(r.rms_raw_px) ? json(r.rms_raw_px) : json(nullptr)},
+                  {"fit_rms_px", std::isfinite(r.fit_rms_px) ? json(r.fit_rms_px) : json(nullptr)},
                   {"image_rms_px", image_rms},
                   {"detection", detection},
                   {"parameters", parameters},

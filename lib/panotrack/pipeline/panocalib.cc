@@ -37,8 +37,17 @@ std::string CalibrationSummary(const CalibrationResult& r) {
   }
   if (s.params.rim_radius > 0)
     o << "  rim_radius        " << s.params.rim_radius << " (set to cover the image; not fitted)\n";
-  std::snprintf(line, sizeof line, "RMS reprojection error %.4f px over %zu boards (corners refined through the model)\n",
-                r.rms_px, r.views.size());
+  if (std::isfinite(r.fit_rms_px))
+    std::snprintf(line, sizeof line,
+                  "RMS reprojection error %.4f px over %zu boards (%s, each board's pose refitted: `panocalib "
+                  "evaluate`%s on these images; the fit's own %.4f px)\n",
+                  r.rms_px, r.views.size(),
+                  r.corners_refined ? "corners refined through the final model" : "the detector's corners",
+                  r.corners_refined ? "" : " --no-refine", r.fit_rms_px);
+  else
+    std::snprintf(line, sizeof line,
+                  "RMS reprojection error %.4f px over %zu boards (corners refined through the model)\n", r.rms_px,
+                  r.views.size());
   o << line;
   if (std::isfinite(r.rms_raw_px)) {
     std::snprintf(line, sizeof line,
