@@ -50,7 +50,7 @@ void AddEvaluateCommand(CLI::App& app) {
                   "Corner weights of the pose fit, as for calibrate (0: uniform)");
   cmd->add_flag("--robust-pose", o->robust_pose,
                 "Report the errors at the robust, weighted fit's pose (default: each pose finished by plain least "
-                "squares, so that the RMS is the lowest any pose of the board gives, as OpenCV reports it)");
+                "squares from there, the reprojection error as OpenCV reports it)");
   cmd->add_flag("--no-refine", o->no_refine,
                 "Score the detector's corners as found (default: located again through the model, as "
                 "calibrate does before its final fit)");

@@ -195,7 +195,8 @@ double RmsAtPose(const BoardView& view, const TargetBoard& board, const Sensor& 
   return std::sqrt(s2 / static_cast<double>(view.corners.size()));
 }
 
-TEST_CASE("evaluate: each board's pose gives the lowest RMS any pose gives, a stray corner or not", "[evaluate]") {
+TEST_CASE("evaluate: each board's pose gives the least RMS of the poses near it, a stray corner or not",
+          "[evaluate]") {
   const Calibration truth = ReadCalibration(test::SourcePath("calib/paper-real.yaml"));
   const TargetSet targets =
       ReadTargets(test::RenderTargets("calibrate_evaluate", truth, 8, 7) + "/targets_unknown.yaml");

@@ -597,13 +597,13 @@ void RefitWithLimb(Pipeline* p) {
 // The figures `panocalib evaluate` gives on the calibration's images
 // (CalibrationResult::rms_raw_px, and rms_px in place of the fit's own):
 // the final model on the detector's corners, only each board's pose fitted
-// (`--no-refine`); then those corners refined through the model at that
-// pose and each pose fitted again, as many passes as the fit refined them.
-// The fit's own RMS is over corners refined through the model as it was
-// being fitted, which follow it (on a board at the limb by a tenth of a
-// pixel): the figure reported is the one a check of the calibration repeats.
+// (`--no-refine`); then those corners refined through the model at the
+// robust fit's pose and each pose fitted again, refine_passes times, as
+// evaluate does. The fit's own RMS is over corners refined through the model
+// as it was being fitted, which follow it (on a board at the limb by a tenth
+// of a pixel): the figure reported is the one a check of the calibration
+// repeats. When the corners cannot be scored, the fit's own stays rms_px.
 void ScoreAsEvaluate(const Pipeline& p, CalibrationResult* res) {
-  res->fit_rms_px = res->rms_px;
   res->corners_refined = p.options.refine_passes > 0;
   std::vector<BoardView> views = p.found_views;
   std::sort(views.begin(), views.end(),
@@ -631,7 +631,9 @@ void ScoreAsEvaluate(const Pipeline& p, CalibrationResult* res) {
           if (f.image_index == v.image_index) v.corners = f.corners;
       e = EvaluateViews(views, p.targets.board, sensor, eo);
     }
+    res->fit_rms_px = res->rms_px;
     res->rms_px = e.rms_px;
+    res->boards_scored = e.boards_fitted;
   } catch (const Error& e) {
     res->warnings.push_back(std::string("the detector's corners could not be scored through the final model (") +
                             e.what() + "): the RMS given is the fit's own");

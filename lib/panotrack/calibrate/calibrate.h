@@ -260,6 +260,7 @@ struct CalibrationResult {
   // FitCalibration: the fit's.
   double rms_px = 0.0;
   double fit_rms_px = NAN;  // the final fit's own RMS (Calibrate(); NaN otherwise)
+  int boards_scored = 0;    // with fit_rms_px: the boards rms_px is over (their poses fitted)
   bool corners_refined = true;  // whether the corners were refined through the model (refine_passes > 0)
   // The final model on the detector's corners as found (before their
   // refinement through the model; the unwarped boards' as mapped back), only

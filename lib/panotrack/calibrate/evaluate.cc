@@ -195,9 +195,10 @@ BoardPoseFit FitBoardPose(const BoardView& view, const TargetBoard& board, const
   fit.robust_tvec = Eigen::Vector3d(pose[3], pose[4], pose[5]);
   if (options.least_squares_pose && (options.huber_px > 0 || options.full_weight_px > 0)) {
     // The robust fit found the basin; plain least squares from there gives
-    // the pose whose RMS is lowest. Kept only where it is.
+    // the pose of least RMS near it. Kept only where its RMS is lower.
     EvaluateOptions plain = options;
     plain.huber_px = 0.0;
+    plain.on_log = nullptr;
     std::array<double, 6> polished = pose;
     std::string why;
     const std::vector<Eigen::Matrix2d> uniform(view.corners.size(), Eigen::Matrix2d::Identity());

@@ -26,10 +26,10 @@ struct EvaluateOptions {
   // (<= 0: uniform). The reported errors are plain pixels either way.
   double huber_px = CalibrateOptions().huber_px;
   double full_weight_px = CalibrateOptions().full_weight_px;
-  // Each board's pose then finished by plain least squares on its corners, so
-  // that the RMS reported is the lowest any pose of the board gives through
-  // the calibration (the reprojection error as OpenCV's calibrations report
-  // it); false: the errors at the robust, weighted fit's pose.
+  // Each board's pose then finished by plain least squares on its corners
+  // from the robust fit's, so that the RMS reported is that of the
+  // least-squares pose (the reprojection error as OpenCV's calibrations
+  // report it); false: the errors at the robust, weighted fit's pose.
   bool least_squares_pose = true;
   // Passes of corner refinement through the fixed model (as calibrate's
   // step 5, so that the figures compare with its RMS); 0: the detector's corners.

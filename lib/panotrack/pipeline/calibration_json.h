@@ -12,7 +12,8 @@ namespace pano {
 // A JSON object:
 //   {"tool": "panocalib calibrate", "version": "X.Y.Z", "command_line": [argv...],
 //    "model", "image_width", "image_height", "poses_known", "boards_used",
-//    "rms_px", "image_rms_px": {file: RMS}, "detection": {file: "raw" |
+//    "rms_px" (as evaluate gives it), "rms_raw_px", "fit_rms_px" (null when
+//    unknown), "image_rms_px": {file: the fit's RMS}, "detection": {file: "raw" |
 //    "unwarped" | "given"}, "parameters": {name: {"value", "stddev", "fixed"}},
 //    "images_not_found": [file...], "warnings": [...], "iterations",
 //    "seconds": {"detection", "fit"}, "outputs": {"calibration", "lut", "report"}}

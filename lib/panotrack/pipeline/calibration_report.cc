@@ -113,6 +113,10 @@ struct ReportLayout {
   int width = 0, height = 0, x_left = 0, x_mid = 0, x_right = 0;
 };
 
+// The RMS of the fit's residuals, which the scatter, histogram and bars
+// draw (CalibrationResult::rms_px is evaluate's figure after Calibrate()).
+double ResidualRms(const CalibrationResult& r) { return std::isfinite(r.fit_rms_px) ? r.fit_rms_px : r.rms_px; }
+
 ReportLayout LayoutOf(const CalibrationResult& r, int W, int H) {
   ReportLayout l;
   const int n = static_cast<int>(r.views.size());
@@ -145,6 +149,7 @@ void DrawReportTitle(const CalibrationResult& r, int W, int H, cv::Mat* canvas) 
   if (n_unwarped > 0) title += " (" + std::to_string(n_unwarped) + " by the unwarped retry)";
   title += r.poses_known ? ", board poses known" : ", board poses estimated";
   title += Printf(", RMS %.3f px", r.rms_px);
+  if (std::isfinite(r.fit_rms_px)) title += Printf(" (the fit's own %.3f)", r.fit_rms_px);
   DrawText(canvas, title, {double(ReportLayout::kMargin), 14.0}, Anchor::kTopLeft,
            TextStyle{cv::FONT_HERSHEY_SIMPLEX, 0.6, 1, cv::Scalar(20, 20, 20)});
 }
@@ -297,7 +302,7 @@ int DrawResidualScatter(const CalibrationResult& r, const ResidualSets& res, con
   DrawText(canvas, Printf("Residuals of all %.0f corners", double(res.norms.size())), {double(l.x_mid), double(y)},
            Anchor::kTopLeft, kHeader);
   y += 24;
-  const double lim = std::max({Quantile(res.components, 0.99) * 1.15, 3.0 * r.rms_px, 1e-3});
+  const double lim = std::max({Quantile(res.components, 0.99) * 1.15, 3.0 * ResidualRms(r), 1e-3});
   AxesOptions ao;
   ao.x_label = "x residual (px)";
   ao.y_label = "y residual (px)";
@@ -320,12 +325,12 @@ int DrawResidualScatter(const CalibrationResult& r, const ResidualSets& res, con
   cv::Point2d previous;
   for (int k = 0; k <= 120; ++k) {
     const double a = 2 * M_PI * k / 120;
-    const cv::Point2d p = axes.Px(r.rms_px * std::cos(a), r.rms_px * std::sin(a));
+    const cv::Point2d p = axes.Px(ResidualRms(r) * std::cos(a), ResidualRms(r) * std::sin(a));
     if (k > 0 && k % 2 == 0) DrawLine(&plot, previous, p, kRms, 1);
     previous = p;
   }
   axes.DrawFrame();
-  std::vector<std::string> notes = {"projected - detected", Printf("dashed: RMS %.3f px", r.rms_px)};
+  std::vector<std::string> notes = {"projected - detected", Printf("dashed: RMS %.3f px", ResidualRms(r))};
   if (outside > 0) notes.push_back(Printf("%.0f beyond the axes", outside));
   DrawCornerNotes(notes, axes.area(), canvas);
   return y + 400 + 24;
@@ -336,7 +341,7 @@ void DrawResidualHistogram(const CalibrationResult& r, const ResidualSets& res, 
                            cv::Mat* canvas) {
   DrawText(canvas, "Residual lengths", {double(l.x_mid), double(y)}, Anchor::kTopLeft, kHeader);
   y += 30;
-  double hi = std::max(Quantile(res.norms, 0.995) * 1.05, std::max(1e-3, 2 * r.rms_px));
+  double hi = std::max(Quantile(res.norms, 0.995) * 1.05, std::max(1e-3, 2 * ResidualRms(r)));
   double lo = 0;
   NiceLimits(&lo, &hi, 5);
   const int bins = 30;
@@ -363,10 +368,10 @@ void DrawResidualHistogram(const CalibrationResult& r, const ResidualSets& res, 
                   cv::Point(int(std::lround(p1.x)) - 1, int(std::lround(p0.y))), cv::Scalar(200, 150, 90),
                   cv::FILLED);
   }
-  const double xr = axes.Px(r.rms_px, 0).x;
+  const double xr = axes.Px(ResidualRms(r), 0).x;
   DrawDashedLine(&plot, {xr, 0.0}, {xr, double(plot.rows)}, kRms, 2);
   const cv::Rect a = axes.area();
-  std::string note = Printf("RMS %.3f px", r.rms_px);
+  std::string note = Printf("RMS %.3f px", ResidualRms(r));
   TextStyle red = kSmall;
   red.colour = kRms;
   const cv::Rect nb = TextBox(note, {a.x + xr + 6, a.y + 6.0}, Anchor::kTopLeft, red);
@@ -407,7 +412,7 @@ int DrawRmsPerImage(const CalibrationResult& r, const ReportLayout& l, cv::Mat* 
   int y = ReportLayout::kTitleH;
   DrawText(canvas, "RMS per image (px)", {double(l.x_right), double(y)}, Anchor::kTopLeft, kHeader);
   y += 42;
-  double vmax = r.rms_px;
+  double vmax = ResidualRms(r);
   for (double v : r.image_rms) vmax = std::max(vmax, v);
   double lo = 0, hi = std::max(vmax * 1.05, 1e-3);
   NiceLimits(&lo, &hi, 4);
@@ -422,11 +427,11 @@ int DrawRmsPerImage(const CalibrationResult& r, const ReportLayout& l, cv::Mat* 
   }
   DrawLine(canvas, {double(bx0), double(by0)}, {double(bx0), double(by1)}, cv::Scalar(90, 90, 90));
   // The overall RMS under the bars and their values.
-  const double xr = X(r.rms_px);
+  const double xr = X(ResidualRms(r));
   DrawDashedLine(canvas, {xr, by0 - 6.0}, {xr, double(by1)}, kRms, 1);
   TextStyle red = kSmall;
   red.colour = kRms;
-  DrawText(canvas, Printf("all %.3f", r.rms_px), {xr, by0 - 8.0}, Anchor::kBottom, red);
+  DrawText(canvas, Printf("all %.3f", ResidualRms(r)), {xr, by0 - 8.0}, Anchor::kBottom, red);
   DrawLine(canvas, {double(bx0), double(by1)}, {double(bx1), double(by1)}, cv::Scalar(90, 90, 90));
   for (int i = 0; i < n; ++i) {
     const double v = i < static_cast<int>(r.image_rms.size()) ? r.image_rms[i] : 0.0;

@@ -39,9 +39,9 @@ std::string CalibrationSummary(const CalibrationResult& r) {
     o << "  rim_radius        " << s.params.rim_radius << " (set to cover the image; not fitted)\n";
   if (std::isfinite(r.fit_rms_px))
     std::snprintf(line, sizeof line,
-                  "RMS reprojection error %.4f px over %zu boards (%s, each board's pose refitted: `panocalib "
+                  "RMS reprojection error %.4f px over %d boards (%s, each board's pose refitted: `panocalib "
                   "evaluate`%s on these images; the fit's own %.4f px)\n",
-                  r.rms_px, r.views.size(),
+                  r.rms_px, r.boards_scored,
                   r.corners_refined ? "corners refined through the final model" : "the detector's corners",
                   r.corners_refined ? "" : " --no-refine", r.fit_rms_px);
   else
