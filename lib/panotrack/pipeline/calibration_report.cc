@@ -149,7 +149,7 @@ void DrawReportTitle(const CalibrationResult& r, int W, int H, cv::Mat* canvas) 
   if (n_unwarped > 0) title += " (" + std::to_string(n_unwarped) + " by the unwarped retry)";
   title += r.poses_known ? ", board poses known" : ", board poses estimated";
   title += Printf(", RMS %.3f px", r.rms_px);
-  if (std::isfinite(r.fit_rms_px)) title += Printf(" (the fit's own %.3f)", r.fit_rms_px);
+  if (std::isfinite(r.fit_rms_px)) title += Printf(" (fit %.3f)", r.fit_rms_px);
   DrawText(canvas, title, {double(ReportLayout::kMargin), 14.0}, Anchor::kTopLeft,
            TextStyle{cv::FONT_HERSHEY_SIMPLEX, 0.6, 1, cv::Scalar(20, 20, 20)});
 }
