@@ -612,25 +612,14 @@ void ScoreAsEvaluate(const Pipeline& p, CalibrationResult* res) {
   eo.huber_px = p.options.huber_px;
   eo.full_weight_px = p.options.full_weight_px;
   eo.num_threads = p.options.num_threads;
+  eo.refine_passes = p.options.refine_passes;
   const Sensor& sensor = res->calib.sensor;
   try {
-    EvaluationResult e = EvaluateViews(views, p.targets.board, sensor, eo);
-    res->rms_raw_px = e.rms_px;
-    res->raw_boards = e.boards_fitted;
-    for (int pass = 0; pass < p.options.refine_passes; ++pass) {
-      std::vector<BoardView> fitted;
-      for (size_t i = 0; i < views.size(); ++i) {
-        if (!e.images[i].fit.ok) continue;
-        fitted.push_back(views[i]);
-        fitted.back().rvec = e.images[i].fit.robust_rvec;
-        fitted.back().tvec = e.images[i].fit.robust_tvec;
-      }
-      RefineCornersThroughModel(p.images, p.targets.board, sensor, &fitted, p.options.Threads());
-      for (BoardView& v : views)
-        for (const BoardView& f : fitted)
-          if (f.image_index == v.image_index) v.corners = f.corners;
-      e = EvaluateViews(views, p.targets.board, sensor, eo);
-    }
+    const EvaluationResult raw = EvaluateViews(views, p.targets.board, sensor, eo);
+    res->rms_raw_px = raw.rms_px;
+    res->raw_boards = raw.boards_fitted;
+    const EvaluationResult e =
+        RefineAndEvaluate(p.images, p.targets.board, sensor, eo, p.options.Threads(), &views, raw);
     res->fit_rms_px = res->rms_px;
     res->rms_px = e.rms_px;
     res->boards_scored = e.boards_fitted;

@@ -245,6 +245,32 @@ EvaluationResult EvaluateViews(const std::vector<BoardView>& views, const Target
   return r;
 }
 
+std::vector<BoardView> ViewsAtFittedPoses(const std::vector<BoardView>& views, const EvaluationResult& r) {
+  std::vector<BoardView> fitted;
+  for (size_t i = 0; i < views.size(); ++i) {
+    if (!r.images[i].fit.ok) continue;
+    fitted.push_back(views[i]);
+    fitted.back().rvec = r.images[i].fit.robust_rvec;
+    fitted.back().tvec = r.images[i].fit.robust_tvec;
+  }
+  return fitted;
+}
+
+EvaluationResult RefineAndEvaluate(const std::vector<cv::Mat>& images, const TargetBoard& board,
+                                   const Sensor& sensor, const EvaluateOptions& options, int threads,
+                                   std::vector<BoardView>* views, EvaluationResult r) {
+  for (int pass = 0; pass < options.refine_passes; ++pass) {
+    // Refinement needs each board's pose: the fitted boards only.
+    std::vector<BoardView> fitted = ViewsAtFittedPoses(*views, r);
+    RefineCornersThroughModel(images, board, sensor, &fitted, threads);
+    for (BoardView& v : *views)
+      for (const BoardView& f : fitted)
+        if (f.image_index == v.image_index) v.corners = f.corners;
+    r = EvaluateViews(*views, board, sensor, options);
+  }
+  return r;
+}
+
 EvaluationResult EvaluateCalibration(const TargetSet& targets, const std::vector<cv::Mat>& images,
                                      const Calibration& calib, const EvaluateOptions& options) {
   options.Check();
@@ -275,15 +301,8 @@ EvaluationResult EvaluateCalibration(const TargetSet& targets, const std::vector
   std::vector<BoardView> views = det.views;
   EvaluationResult r = EvaluateViews(views, targets.board, sensor, options);
   if (options.unwarp_fallback && !det.not_found.empty()) {
-    std::vector<BoardView> fitted;
-    for (size_t i = 0; i < views.size(); ++i)
-      if (r.images[i].fit.ok) {
-        fitted.push_back(views[i]);
-        fitted.back().rvec = r.images[i].fit.robust_rvec;
-        fitted.back().tvec = r.images[i].fit.robust_tvec;
-      }
-    std::vector<BoardView> extra =
-        FindMissingBoards(targets, images, det, fitted, sensor, detect.Threads(), &det.warnings);
+    std::vector<BoardView> extra = FindMissingBoards(targets, images, det, ViewsAtFittedPoses(views, r), sensor,
+                                                     detect.Threads(), &det.warnings);
     if (!extra.empty()) {
       views.insert(views.end(), extra.begin(), extra.end());
       std::sort(views.begin(), views.end(),
@@ -315,22 +334,7 @@ EvaluationResult EvaluateCalibration(const TargetSet& targets, const std::vector
       }
     }
   }
-  for (int pass = 0; pass < options.refine_passes; ++pass) {
-    // Refinement needs each board's pose: the fitted boards only.
-    std::vector<BoardView> fitted;
-    for (size_t i = 0; i < views.size(); ++i) {
-      if (!r.images[i].fit.ok) continue;
-      BoardView v = views[i];
-      v.rvec = r.images[i].fit.robust_rvec;
-      v.tvec = r.images[i].fit.robust_tvec;
-      fitted.push_back(v);
-    }
-    RefineCornersThroughModel(images, targets.board, sensor, &fitted, detect.Threads());
-    for (BoardView& v : views)
-      for (const BoardView& f : fitted)
-        if (f.image_index == v.image_index) v.corners = f.corners;
-    r = EvaluateViews(views, targets.board, sensor, options);
-  }
+  r = RefineAndEvaluate(images, targets.board, sensor, options, detect.Threads(), &views, r);
   // Every image, in order: the ones without a board too.
   std::vector<ImageEvaluation> all(targets.images.size());
   for (size_t i = 0; i < all.size(); ++i) {

@@ -94,6 +94,18 @@ struct EvaluationResult {
 EvaluationResult EvaluateViews(const std::vector<BoardView>& views, const TargetBoard& board,
                                const Sensor& sensor, const EvaluateOptions& options);
 
+// The views whose board pose `r` (EvaluateViews' result on `views`)
+// fitted, each at its robust fit's pose (robust_rvec, robust_tvec).
+std::vector<BoardView> ViewsAtFittedPoses(const std::vector<BoardView>& views, const EvaluationResult& r);
+
+// options.refine_passes passes over `views`, whose score `r` is: the fitted
+// boards' corners refined through `sensor` at their robust poses (`threads`
+// threads), then every pose fitted again (EvaluateViews). Returns the last
+// score (r itself when there is no pass).
+EvaluationResult RefineAndEvaluate(const std::vector<cv::Mat>& images, const TargetBoard& board,
+                                   const Sensor& sensor, const EvaluateOptions& options, int threads,
+                                   std::vector<BoardView>* views, EvaluationResult r);
+
 // Detects the board in every image as calibrate does (the raw search, then
 // the images without a board in views unwarped through `calib`, with
 // options.unwarp_fallback), fits each board's pose through `calib`, refines the corners through the model
