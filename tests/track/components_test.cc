@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <random>
 #include <set>
 
@@ -112,14 +113,31 @@ TEST_CASE("landmarks: a door measured a little behind its wall is seen within th
   CHECK_THROWS_AS(measured.Check(), Error);
 }
 
+// OneRoom with what predicting its landmarks needs.
+struct SpreadRoom {
+  Map m = OneRoom();
+  std::vector<Landmark> lms = LandmarksFromMap(m);
+  Sensor s = MakeSphereSensor(500, 500, 590, 249.5, 249.5, 1.0, 4.9, 15.1);
+  Scene scene = Scene::FromMap(m, false);
+  RadiusTable table = RadiusTable::Build(s, RangesForMap(m, s));
+  // A random pose in the room, nullopt where it is not free.
+  std::optional<Pose2> RandomPose(std::mt19937_64& rng) const {
+    std::uniform_real_distribution<double> xy(5.0, 195.0), heading(-M_PI, M_PI);
+    const Pose2 pose{xy(rng), xy(rng), heading(rng)};
+    if (!m.IsFree(pose.x, pose.y)) return std::nullopt;
+    return pose;
+  }
+  std::vector<PredictedLandmark> All(const Pose2& pose) const {
+    return PredictLandmarks(lms, m, scene, s, table, pose, PredictionOptions());
+  }
+  SpreadPrediction Spread(const Pose2& pose, int max_count, int partners = 0) const {
+    return SpreadPrediction(lms, m, scene, s, table, pose, PredictionOptions(), max_count, partners);
+  }
+};
+
 TEST_CASE("landmarks: SpreadPrediction is SelectSpread(PredictLandmarks) in two parts", "[landmarks]") {
   PANO_SEEDED_RNG(11);
-  const Map m = OneRoom();
-  const std::vector<Landmark> lms = LandmarksFromMap(m);
-  const Sensor s = MakeSphereSensor(500, 500, 590, 249.5, 249.5, 1.0, 4.9, 15.1);
-  const Scene scene = Scene::FromMap(m, false);
-  const RadiusTable table = RadiusTable::Build(s, RangesForMap(m, s));
-  std::uniform_real_distribution<double> xy(5.0, 195.0), heading(-M_PI, M_PI);
+  const SpreadRoom room;
   auto same = [](const PredictedLandmark& a, const PredictedLandmark& b) {
     return a.index == b.index && a.corner_px == b.corner_px && a.azimuth == b.azimuth && a.v_radius == b.v_radius &&
            a.r_main == b.r_main && a.theta_main == b.theta_main && a.v_polarity == b.v_polarity &&
@@ -127,13 +145,14 @@ TEST_CASE("landmarks: SpreadPrediction is SelectSpread(PredictLandmarks) in two 
   };
   int with_rest = 0, short_lists = 0;
   for (int trial = 0; trial < 60; ++trial) {
-    const Pose2 pose{xy(rng), xy(rng), heading(rng)};
-    if (!m.IsFree(pose.x, pose.y)) continue;
-    const std::vector<PredictedLandmark> all = PredictLandmarks(lms, m, scene, s, table, pose, PredictionOptions());
+    const std::optional<Pose2> at = room.RandomPose(rng);
+    if (!at) continue;
+    const Pose2& pose = *at;
+    const std::vector<PredictedLandmark> all = room.All(pose);
     for (int max_count : {0, 3, 5, 12, 100}) {
       INFO("pose " << pose.x << " " << pose.y << " " << pose.theta << ", max_count " << max_count);
       const std::vector<PredictedLandmark> expected = SelectSpread(all, max_count);
-      SpreadPrediction prediction(lms, m, scene, s, table, pose, PredictionOptions(), max_count);
+      SpreadPrediction prediction = room.Spread(pose, max_count);
       std::vector<PredictedLandmark> got = prediction.First();
       CHECK(got.size() == (max_count > 0 ? std::min<size_t>(max_count, all.size()) : all.size()));
       CHECK(prediction.HasMore() == (got.size() < expected.size()));
@@ -149,6 +168,57 @@ TEST_CASE("landmarks: SpreadPrediction is SelectSpread(PredictLandmarks) in two 
   // (spread), and one no longer (landmark order).
   CHECK(with_rest > 20);
   CHECK(short_lists > 20);
+}
+
+TEST_CASE("landmarks: SpreadPrediction's partners are the other corners of the nearest chosen edges",
+          "[landmarks]") {
+  PANO_SEEDED_RNG(12);
+  const SpreadRoom room;
+  auto same_edge = [](const PredictedLandmark& a, const PredictedLandmark& b) {
+    return (a.landmark->corner.head<2>() - b.landmark->corner.head<2>()).squaredNorm() < 1e-12;
+  };
+  auto in = [](const std::vector<PredictedLandmark>& list, int index) {
+    return std::any_of(list.begin(), list.end(), [&](const PredictedLandmark& p) { return p.index == index; });
+  };
+  constexpr int kMaxCount = 5, kPartners = 2;
+  int with_partners = 0;
+  for (int trial = 0; trial < 60; ++trial) {
+    const std::optional<Pose2> at = room.RandomPose(rng);
+    if (!at) continue;
+    const Pose2& pose = *at;
+    const std::vector<PredictedLandmark> all = room.All(pose);
+    SpreadPrediction plain = room.Spread(pose, kMaxCount);
+    SpreadPrediction paired = room.Spread(pose, kMaxCount, kPartners);
+    const std::vector<PredictedLandmark> chosen = plain.First();
+    INFO("pose " << pose.x << " " << pose.y << " " << pose.theta);
+    // The first part and the rest as without partners.
+    const std::vector<PredictedLandmark> first = paired.First(), rest = paired.Rest(), plain_rest = plain.Rest();
+    REQUIRE(first.size() == chosen.size());
+    for (size_t i = 0; i < first.size(); ++i) CHECK(first[i].index == chosen[i].index);
+    REQUIRE(rest.size() == plain_rest.size());
+    for (size_t i = 0; i < rest.size(); ++i) CHECK(rest[i].index == plain_rest[i].index);
+    const std::vector<PredictedLandmark> partners = paired.Partners();
+    if (!plain.HasMore()) {
+      CHECK(partners.empty());
+      continue;
+    }
+    // Each partner: on the edge of one chosen landmark, visible, not chosen
+    // itself, once; as many as the chosen have, up to kPartners.
+    int available = 0;
+    for (const PredictedLandmark& c : chosen)
+      available += std::any_of(all.begin(), all.end(), [&](const PredictedLandmark& p) {
+        return p.index != c.index && same_edge(p, c) && !in(chosen, p.index);
+      });
+    CHECK(static_cast<int>(partners.size()) == std::min(available, kPartners));
+    for (size_t i = 0; i < partners.size(); ++i) {
+      CHECK(std::any_of(chosen.begin(), chosen.end(), [&](const PredictedLandmark& c) { return same_edge(c, partners[i]); }));
+      CHECK(in(all, partners[i].index));
+      CHECK_FALSE(in(chosen, partners[i].index));
+      for (size_t j = 0; j < i; ++j) CHECK(partners[j].index != partners[i].index);
+    }
+    with_partners += !partners.empty();
+  }
+  CHECK(with_partners > 10);
 }
 
 TEST_CASE("linear samples: the vector path gives the scalar blend's bits", "[edge_step]") {

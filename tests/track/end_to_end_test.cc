@@ -145,6 +145,9 @@ TEST_CASE("long-run's fast turns: azimuths first where most frames need a second
   LocalizerOptions bad;
   bad.coarse_landmarks = 2;
   CHECK_THROWS_WITH(bad.Check(), Catch::Contains("coarse_landmarks"));
+  LocalizerOptions negative_pairs;
+  negative_pairs.noise_pairs = -1;
+  CHECK_THROWS_WITH(negative_pairs.Check(), Catch::Contains("noise_pairs"));
 }
 
 }  // namespace

@@ -11,8 +11,13 @@
 #include <optional>
 #include <utility>
 
+#include "panotrack/io/map.h"
+#include "panotrack/io/pose_csv.h"
 #include "panotrack/pipeline/accuracy.h"
+#include "panotrack/pipeline/panoloc.h"
 #include "panotrack/render/sequence.h"
+#include "panotrack/render/writers.h"
+#include "test_paths.h"
 #include "track_fixture.h"
 
 namespace pano {
@@ -374,6 +379,58 @@ TEST_CASE("a map measured to 0.5 cm that says so, no start: the room's half-turn
   INFO(FormatAccuracy(a, "cm"));
   CHECK(a.tracked >= 9);
   CHECK(a.max <= 1.5);
+}
+
+TEST_CASE("a map measured to 1 unit that claims to be exact: edges seen at both corners tell its error from the images'",
+          "[measured_map]") {
+  // The kidnap preset through its H.264 video, junction method, map seed 2
+  // stated exact. Few of the landmarks spread in azimuth share an edge, so
+  // the image noise was bounded only by a poor tracker's 0.3 degree, which
+  // took in the whole of the residuals: the map stayed exact, its
+  // tolerances kept 6 - 9 landmarks that agreed on a pose a unit or more
+  // off, reported with the image noise's covariance, and after the kidnap
+  // nothing verified under them for 8 frames. Measured without the pairs
+  // (noise_pairs 0): 52 of 60 frames, 42 % inside 3 sigma, RMS 1.08, max
+  // 2.31 units; with them 60, 70 %, 0.96 and 2.02 (the first frames, before
+  // the pairs have bounded the image noise, lie outside).
+  const std::string dir = test::ScratchDir("measured_map_video");
+  SequenceCase c = MakePreset("kidnap");
+  SequenceWriteOptions w;
+  w.overwrite = true;
+  WriteSequence(c, dir + "/seq", w);
+  Map measured = PerturbedMap(c.map, 1.0, 2);
+  measured.survey_sigma = 0.0;
+  WriteMap(dir + "/map.yaml", measured);
+  const std::vector<PoseRow> truth = ReadPoseCsv(dir + "/seq/gt.csv");
+  for (int noise_pairs : {0, LocalizerOptions().noise_pairs}) {
+    PanolocOptions o;
+    o.inputs = {dir + "/seq/video.mp4"};
+    o.output = dir + "/est.csv";
+    o.overwrite = true;
+    o.calib_path = dir + "/seq/calib.yaml";
+    o.map_path = dir + "/map.yaml";
+    o.gt = dir + "/seq/gt.csv";
+    o.quiet = true;  // the initial pose comes from case.yaml beside the video
+    o.localizer.method = TrackingMethod::kJunction;
+    o.localizer.noise_pairs = noise_pairs;
+    const std::vector<VideoSummary> s = RunPanoloc(o);
+    REQUIRE(s.size() == 1);
+    REQUIRE(s[0].has_accuracy);
+    const AccuracySummary& a = s[0].accuracy;
+    const double inside = InsideThreeSigma(ReadPoseCsv(o.output), truth);
+    INFO("noise pairs " << noise_pairs << ": " << FormatAccuracy(a, "units") << ", inside 3 sigma " << inside);
+    CHECK(a.outliers == 0);
+    if (noise_pairs == 0) {
+      // The failure above, so that this test shows what it guards.
+      CHECK(a.tracked <= 55);
+      CHECK(inside < 0.6);
+      continue;
+    }
+    CHECK(a.tracked == 60);
+    CHECK(a.max <= 2.2);
+    CHECK(a.rms <= 1.0);
+    CHECK(inside >= 0.65);
+  }
 }
 
 TEST_CASE("a map measured to 1 unit that says so: a kidnapped robot is not kept where it was", "[measured_map]") {

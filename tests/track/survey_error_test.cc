@@ -134,6 +134,24 @@ TEST_CASE("survey error: one edge pair with a wrong junction does not take the m
   CHECK(e.image_sigma() < 4.0 * image);
 }
 
+TEST_CASE("survey error: edges with both corners found are wanted until a few bound the image noise",
+          "[survey_error]") {
+  PANO_SEEDED_RNG(44);
+  SurveyErrorEstimate e(SurveyErrorOptions(), 120.0);
+  CHECK(e.WantsPairs());
+  // Frames without pairs leave them wanted; two pairs a frame are enough
+  // after five frames (ten, twice the five that bound the image noise,
+  // less what is forgotten).
+  Feed(&e, rng, 1.0, 0.0005, 20, 12, false);
+  CHECK(e.WantsPairs());
+  std::normal_distribution<double> unit(0.0, 1.0);
+  int frames = 0;
+  for (; frames < 20 && e.WantsPairs(); ++frames)
+    e.Update({unit(rng) * 0.01, unit(rng) * 0.01}, {100.0, 120.0}, {unit(rng) * 0.001, unit(rng) * 0.001}, 0);
+  CHECK(frames == 6);
+  CHECK(!e.WantsPairs());
+}
+
 TEST_CASE("survey error: an exact map's residuals show no survey error", "[survey_error]") {
   PANO_SEEDED_RNG(38);
   SurveyErrorEstimate e(SurveyErrorOptions(), 120.0);

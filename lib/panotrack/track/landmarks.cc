@@ -214,7 +214,7 @@ std::vector<PredictedLandmark> PredictLandmarks(const std::vector<Landmark>& lan
 
 SpreadPrediction::SpreadPrediction(const std::vector<Landmark>& landmarks, const Map& map, const Scene& scene,
                                    const Sensor& sensor, const RadiusTable& table, const Pose2& pose,
-                                   const PredictionOptions& opt, int max_count)
+                                   const PredictionOptions& opt, int max_count, int partners)
     : map_(map),
       scene_(scene),
       sensor_(sensor),
@@ -263,6 +263,29 @@ SpreadPrediction::SpreadPrediction(const std::vector<Landmark>& landmarks, const
         more_ = true;
         break;
       }
+  if (more_ && partners > 0) FindPartners(partners);
+}
+
+void SpreadPrediction::FindPartners(int partners) {
+  std::vector<int> chosen = spread_;
+  std::stable_sort(chosen.begin(), chosen.end(),
+                   [&](int a, int b) { return candidates_[a].distance < candidates_[b].distance; });
+  for (int i : chosen) {
+    if (static_cast<int>(partners_.size()) == partners) break;
+    const Eigen::Vector2d at = candidates_[i].landmark->corner.head<2>();
+    for (int j : by_distance_) {
+      if (taken_[j] || (candidates_[j].landmark->corner.head<2>() - at).squaredNorm() >= 1e-12) continue;
+      if (std::find(partners_.begin(), partners_.end(), j) != partners_.end() || !Visible(j)) continue;
+      partners_.push_back(j);
+      break;
+    }
+  }
+}
+
+std::vector<PredictedLandmark> SpreadPrediction::Partners() const {
+  std::vector<PredictedLandmark> out;
+  for (int i : partners_) out.push_back(candidates_[i]);
+  return out;
 }
 
 bool SpreadPrediction::Visible(int i) {

@@ -144,18 +144,26 @@ struct PredictionContext {
 // so a frame that tracks the chosen landmarks pays for about those alone.
 class SpreadPrediction {
  public:
+  // `partners`: Partners() holds the other corner of the vertical edge of
+  // up to this many of the first part's landmarks (the nearest first, where
+  // visible and not in the first part): the two corners of one edge share
+  // its survey error, so the difference of their bearings shows the image
+  // noise alone.
   SpreadPrediction(const std::vector<Landmark>& landmarks, const Map& map, const Scene& scene,
                    const Sensor& sensor, const RadiusTable& table, const Pose2& pose,
-                   const PredictionOptions& opt, int max_count);
+                   const PredictionOptions& opt, int max_count, int partners = 0);
   // The whole list's first min(max_count, size) elements (all for max_count <= 0).
   std::vector<PredictedLandmark> First();
   // Whether the whole list is longer than First().
   bool HasMore() const { return max_count_ > 0 && more_; }
   // The elements after First(), in order.
   std::vector<PredictedLandmark> Rest();
+  // The partners of the first part (the constructor's `partners`).
+  std::vector<PredictedLandmark> Partners() const;
 
  private:
   bool Visible(int i);  // the image geometry's and the scene's tests of candidates_[i], run once
+  void FindPartners(int partners);  // partners_ (the constructor's `partners`)
   enum State : char { kUnknown, kVisible, kHidden };
   const Map& map_;
   const Scene& scene_;
@@ -170,6 +178,7 @@ class SpreadPrediction {
   std::vector<int> by_distance_;  // candidates nearest first
   std::vector<char> taken_;       // in the first part
   std::vector<int> spread_;       // the first part (when more_)
+  std::vector<int> partners_;     // Partners()
   bool more_ = false;
 };
 

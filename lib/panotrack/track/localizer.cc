@@ -37,6 +37,7 @@ void LocalizerOptions::Check() const {
   if (refine_passes < 0 || refine_passes > 5) throw Error("localiser: refine_passes: expected 0..5");
   if (!(refine_threshold_px >= 0.0)) throw Error("localiser: refine_threshold_px: expected >= 0");
   if (!(coarse_to_fine_rate >= 0.0)) throw Error("localiser: coarse_to_fine_rate: expected >= 0");
+  if (noise_pairs < 0) throw Error("localiser: noise_pairs: expected >= 0");
   if (coarse_landmarks != 0 && coarse_landmarks < 3)
     throw Error("localiser: coarse_landmarks: expected 0 or >= 3");
   if (!(exposure_fraction >= 0.0 && exposure_fraction <= 1.0))
@@ -309,8 +310,9 @@ void Localizer::LearnPolarity(const FrameResult& fr, const TriangulationResult& 
 }
 
 void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, const Pose2* solved_motion,
-                        bool either, bool azimuth_only) const {
+                        bool either, bool azimuth_only, bool tracking) const {
   out->either_polarity = either;
+  out->with_partners = tracking && !azimuth_only && PairsWanted();
   out->blur_turn = solved_motion ? std::optional<double>(solved_motion->theta) : std::nullopt;
   // The motion over the last frame interval; unknown: the fastest turn.
   const bool known = track_.motion_updates >= 2 || solved_motion;
@@ -324,7 +326,8 @@ void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, c
   // The landmarks to track, spread in azimuth (SelectSpread): the chosen
   // ones first, the others only when they are needed.
   SpreadPrediction prediction(landmarks_, map_, scene_, calib_.sensor, *table_, pose, errors_.prediction,
-                              azimuth_only ? CoarseLandmarks(opt_, MaxLandmarks()) : MaxLandmarks());
+                              azimuth_only ? CoarseLandmarks(opt_, MaxLandmarks()) : MaxLandmarks(),
+                              out->with_partners ? opt_.noise_pairs : 0);
   // The polarities to search for (the map's, or what the images showed),
   // and the expected motion blur.
   auto prepare = [&](std::vector<PredictedLandmark>* batch) {
@@ -399,6 +402,11 @@ void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, c
   meas.resize(used);
   out->predicted = std::move(ordered);
   out->measurements = std::move(meas);
+  out->partners = prediction.Partners();
+  prepare(&out->partners);
+  out->partner_measurements.clear();
+  for (const PredictedLandmark& p : out->partners)
+    out->partner_measurements.push_back(tracker_->Measure(p, SearchWidth(p, search_px)));
 }
 
 int Localizer::ChosenInliers(const FrameResult& fr, const TriangulationResult& tri) const {
@@ -420,6 +428,14 @@ double Localizer::InlierThreshold() const {
   return errors_.bearing_sigma > 0
              ? std::clamp(3.0 * errors_.bearing_sigma, opt_.min_inlier_threshold, opt_.robust.inlier_threshold)
              : opt_.robust.inlier_threshold;
+}
+
+bool Localizer::PairsWanted() const {
+  // Only while tracking on from a reported pose: the pairs of a search's
+  // hypotheses, a held pose's confirmation or the survey probe's trials
+  // may be a wrong pose's, and a search measures many poses.
+  return opt_.survey.check && errors_.survey.WantsPairs() && track_.ever_tracked && track_.n_lost == 0 &&
+         !reloc_.held && reloc_.probe_sigma == 0.0;
 }
 
 double Localizer::SurveySigma(const Landmark& l) const {
@@ -666,6 +682,8 @@ bool Localizer::TrackFrom(const Pose2& pose, double search_px, FrameResult* fr,
     if (!Acceptable(again, tri2)) break;
     fr->predicted = std::move(again.predicted);
     fr->measurements = std::move(again.measurements);
+    fr->partners = std::move(again.partners);
+    fr->partner_measurements = std::move(again.partner_measurements);
     *tri = tri2;
   }
   return Acceptable(*fr, *tri);
@@ -1094,7 +1112,7 @@ void Localizer::TrackPredictions(const Pose2 pred, FrameResult* fr, Triangulatio
   // (the compass misled) is kept only when the model's finds none.
   std::optional<std::pair<FrameResult, TriangulationResult>> misled;
   for (const Pose2& p : predictions) {
-    Measure(p, search, fr);
+    Measure(p, search, fr, nullptr, false, false, true);
     *tri = Solve(*fr, p);
     if (!Acceptable(*fr, *tri)) continue;
     fr->predicted_pose = p;
@@ -1115,7 +1133,7 @@ void Localizer::TrackPredictions(const Pose2 pred, FrameResult* fr, Triangulatio
   for (double wider = 2.0 * search; !Acceptable(*fr, *tri) && wider <= 2.0 * opt_.max_search_px;
        wider *= 2.0) {
     for (const Pose2& p : predictions) {
-      Measure(p, wider, fr);
+      Measure(p, wider, fr, nullptr, false, false, true);
       *tri = Solve(*fr, p);
       if (Acceptable(*fr, *tri)) break;
     }
@@ -1125,7 +1143,7 @@ void Localizer::TrackPredictions(const Pose2 pred, FrameResult* fr, Triangulatio
   if (Acceptable(*fr, *tri) || !EitherFallbackUseful()) return;
   for (double width : {search, 2.0 * opt_.max_search_px})
     for (const Pose2& p : predictions) {
-      Measure(p, width, fr, nullptr, true);
+      Measure(p, width, fr, nullptr, true, false, true);
       *tri = Solve(*fr, p);
       if (Acceptable(*fr, *tri)) {
         fr->predicted_pose = p;
@@ -1165,7 +1183,7 @@ bool Localizer::TrackCoarseToFine(const Pose2 pred, FrameResult* fr, Triangulati
   if (!Acceptable(coarse, first)) return false;
   *recentred = MaxShiftPx(coarse) > opt_.refine_threshold_px;
   const std::optional<Pose2> solved = SolvedMotion(first.pose);
-  Measure(first.pose, opt_.refine_search_px, fr, solved ? &*solved : nullptr);
+  Measure(first.pose, opt_.refine_search_px, fr, solved ? &*solved : nullptr, false, false, true);
   *tri = Solve(*fr, first.pose);
   if (!Acceptable(*fr, *tri)) return false;
   fr->predicted_pose = start;
@@ -1190,11 +1208,14 @@ bool Localizer::RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) 
   for (int pass = 0; pass < opt_.refine_passes && off_centre && Acceptable(*fr, *tri); ++pass) {
     FrameResult again;
     solved = SolvedMotion(tri->pose);
-    Measure(tri->pose, opt_.refine_search_px, &again, solved ? &*solved : nullptr, fr->either_polarity);
+    Measure(tri->pose, opt_.refine_search_px, &again, solved ? &*solved : nullptr, fr->either_polarity, false,
+            fr->with_partners);
     TriangulationResult tri2 = Solve(again, tri->pose);
     if (!Acceptable(again, tri2)) break;
     fr->predicted = std::move(again.predicted);
     fr->measurements = std::move(again.measurements);
+    fr->partners = std::move(again.partners);
+    fr->partner_measurements = std::move(again.partner_measurements);
     fr->refined = true;
     *tri = tri2;
   }
@@ -1269,6 +1290,8 @@ bool Localizer::RelocalizeUnderProbe(const cv::Mat& grey, bool near_last, FrameR
 void Localizer::AdoptSearchResult(SearchResult&& found, FrameResult* fr, TriangulationResult* tri) {
   fr->predicted = std::move(found.first.predicted);
   fr->measurements = std::move(found.first.measurements);
+  fr->partners = std::move(found.first.partners);
+  fr->partner_measurements = std::move(found.first.partner_measurements);
   fr->integrity = found.first.integrity;
   fr->innovation = -1.0;
   fr->relocalized = true;
@@ -1481,21 +1504,38 @@ void Localizer::UpdateSurveyEstimate(const FrameResult& fr, const TriangulationR
     int group;
     double residual;  // its first inlier's
     size_t index;     // in residuals
+    Eigen::Vector2d landmark;
+    bool paired;
   };
-  std::vector<Edge> groups;
+  std::vector<Edge> edges;
   for (size_t k = 0; k < used->inliers.size(); ++k) {
     const BearingObservation& o = obs[static_cast<size_t>(used->inliers[k])];
     const double r = BearingResidual(o, used->pose);
-    const auto seen = std::find_if(groups.begin(), groups.end(), [&](const Edge& g) { return g.group == o.group; });
-    if (o.group >= 0 && seen != groups.end()) {
+    const auto seen = std::find_if(edges.begin(), edges.end(), [&](const Edge& e) { return e.group == o.group; });
+    if (o.group >= 0 && seen != edges.end()) {
       pairs.push_back(r - seen->residual);
+      seen->paired = true;
       leverages[seen->index] += leverage[k];
       continue;
     }
-    if (o.group >= 0) groups.push_back({o.group, r, residuals.size()});
+    edges.push_back({o.group, r, residuals.size(), o.landmark, false});
     residuals.push_back(r);
     distances.push_back((o.landmark - Eigen::Vector2d(used->pose.x, used->pose.y)).norm());
     leverages.push_back(leverage[k]);
+  }
+  // The partners measured for this (FrameResult::partners): the other
+  // corner of an inlier edge.
+  for (size_t i = 0; i < fr.partners.size() && i < fr.partner_measurements.size(); ++i) {
+    if (!fr.partner_measurements[i].found) continue;
+    BearingObservation o;
+    o.landmark = fr.partners[i].landmark->corner.head<2>();
+    o.bearing = calib_.sensor.bearing_of_azimuth(fr.partner_measurements[i].azimuth);
+    const auto edge = std::find_if(edges.begin(), edges.end(), [&](const Edge& e) {
+      return !e.paired && (e.landmark - o.landmark).squaredNorm() < 1e-12;
+    });
+    if (edge == edges.end()) continue;
+    pairs.push_back(BearingResidual(o, used->pose) - edge->residual);
+    edge->paired = true;
   }
   errors_.survey.Update(residuals, distances, pairs, 3, leverages);
   UpdateLandmarkBudget();

@@ -103,6 +103,12 @@ struct LocalizerOptions {
   // distance exceeds the image noise: each landmark brings its own map
   // error, and more of them average it down.
   int max_landmarks_uncertain_map = 32;
+  // While few edges have had both corners found (the image noise they
+  // show does not yet bound the image's share of the residuals: a map
+  // stated exact would have its error put down to noisy images), the other
+  // corner of this many of the landmarks chosen is measured too, for the
+  // survey estimate alone (not in the pose).
+  int noise_pairs = 2;
   double refine_search_px = 3.0;  // second pass, around the solved pose
   int refine_passes = 1;
   // The second pass runs only when some landmark was found further than
@@ -265,6 +271,12 @@ struct FrameResult {
   // Measured with every edge whose polarity the images have not confirmed
   // taken with either sign (the map's polarities found nothing).
   bool either_polarity = false;
+  // Measured with the partners of some chosen landmarks (Measure's
+  // `tracking`): the other corner of their vertical edge, for the image
+  // noise the difference of the two bearings shows; never in the pose.
+  bool with_partners = false;
+  std::vector<PredictedLandmark> partners;
+  std::vector<LandmarkMeasurement> partner_measurements;  // one per partner
   // The turn over the frame interval (radians) that the measurement's blur
   // allowance came from, when it was a solved one (a first pass's pose);
   // absent: the motion model's.
@@ -373,11 +385,17 @@ class Localizer {
   // `either`: edges whose map polarity no tracked frame has confirmed are
   // searched with either sign.
   // `azimuth_only`: the tracker's MeasureAzimuth (a first estimate).
+  // `tracking`: the frame is tracked from a prediction (not a search's
+  // hypothesis verified): where PairsWanted, partners of the chosen
+  // landmarks are measured too (FrameResult::partners).
   void Measure(const Pose2& pose, double search_px, FrameResult* out, const Pose2* motion = nullptr,
-               bool either = false, bool azimuth_only = false) const;
+               bool either = false, bool azimuth_only = false, bool tracking = false) const;
   // The polarity to search an edge for: the map's while the images do not
   // contradict it, else the one learned, else 0 (either).
   int SearchPolarity(const EdgePolarityEvidence& e, int map_polarity, int object, bool either) const;
+  // Whether a frame tracked now measures the other corner of some chosen
+  // edges (LocalizerOptions::noise_pairs): the survey estimate wants them.
+  bool PairsWanted() const;
   // Whether retrying with `either` could find what the map's polarities did
   // not: some shade is known and the images have not confirmed the map yet.
   bool EitherFallbackUseful() const;

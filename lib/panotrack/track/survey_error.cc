@@ -132,9 +132,16 @@ void SurveyErrorEstimate::Update(const std::vector<double>& residuals, const std
   Fit();
 }
 
-double SurveyErrorEstimate::PairVariance() const {
+double SurveyErrorEstimate::PairWeight() const {
   double total = 0.0;
   for (const Sample& pair : pair_samples_) total += pair.weight;
+  return total;
+}
+
+bool SurveyErrorEstimate::WantsPairs() const { return PairWeight() < 2.0 * kMinPairs; }
+
+double SurveyErrorEstimate::PairVariance() const {
+  const double total = PairWeight();
   if (total < kMinPairs) return std::numeric_limits<double>::infinity();
   // The weighted median of the halved squared differences, over the median
   // of a chi-square of one degree of freedom: the variance of the pairs'

@@ -125,12 +125,17 @@ class SurveyErrorEstimate {
   double estimated() const { return survey_; }
   double image_sigma() const { return std::sqrt(image_variance_); }
   bool confident() const { return n_ >= opt_.min_bearings; }
+  // Whether more edges with both corners found are wanted: their image
+  // noise bounds the image's share once a few have been seen (twice as
+  // many as that, so that a few more a while keep it so).
+  bool WantsPairs() const;
 
  private:
   void Fit();
   // The image noise's variance the pairs show (radians^2; infinite until
   // there are enough of them).
   double PairVariance() const;
+  double PairWeight() const;  // the pairs remembered, weighed as forgotten
   // The estimate above which a map stated exact is taken to be measured.
   double ExactDoubt() const;
   SurveyErrorOptions opt_;
