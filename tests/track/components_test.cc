@@ -174,8 +174,9 @@ TEST_CASE("landmarks: SpreadPrediction's partners are the other corners of the n
           "[landmarks]") {
   PANO_SEEDED_RNG(12);
   const SpreadRoom room;
-  auto same_edge = [](const PredictedLandmark& a, const PredictedLandmark& b) {
-    return (a.landmark->corner.head<2>() - b.landmark->corner.head<2>()).squaredNorm() < 1e-12;
+  // b is the corner at the other end of a's vertical edge.
+  auto other_end = [](const PredictedLandmark& a, const PredictedLandmark& b) {
+    return (a.landmark->v_end - b.landmark->corner).squaredNorm() < 1e-12;
   };
   auto in = [](const std::vector<PredictedLandmark>& list, int index) {
     return std::any_of(list.begin(), list.end(), [&](const PredictedLandmark& p) { return p.index == index; });
@@ -197,25 +198,29 @@ TEST_CASE("landmarks: SpreadPrediction's partners are the other corners of the n
     for (size_t i = 0; i < first.size(); ++i) CHECK(first[i].index == chosen[i].index);
     REQUIRE(rest.size() == plain_rest.size());
     for (size_t i = 0; i < rest.size(); ++i) CHECK(rest[i].index == plain_rest[i].index);
+    CHECK(plain.Partners().empty());
     const std::vector<PredictedLandmark> partners = paired.Partners();
     if (!plain.HasMore()) {
       CHECK(partners.empty());
       continue;
     }
-    // Each partner: on the edge of one chosen landmark, visible, not chosen
-    // itself, once; as many as the chosen have, up to kPartners.
-    int available = 0;
-    for (const PredictedLandmark& c : chosen)
-      available += std::any_of(all.begin(), all.end(), [&](const PredictedLandmark& p) {
-        return p.index != c.index && same_edge(p, c) && !in(chosen, p.index);
+    // The partners expected: of the chosen, nearest first, each that has
+    // the other end of its vertical edge visible and not chosen, that
+    // corner; up to kPartners.
+    std::vector<PredictedLandmark> by_distance = chosen;
+    std::stable_sort(by_distance.begin(), by_distance.end(),
+                     [](const PredictedLandmark& a, const PredictedLandmark& b) { return a.distance < b.distance; });
+    std::vector<int> expected;
+    for (const PredictedLandmark& c : by_distance) {
+      if (static_cast<int>(expected.size()) == kPartners) break;
+      const auto end = std::find_if(all.begin(), all.end(), [&](const PredictedLandmark& p) {
+        return other_end(c, p) && !in(chosen, p.index) &&
+               std::find(expected.begin(), expected.end(), p.index) == expected.end();
       });
-    CHECK(static_cast<int>(partners.size()) == std::min(available, kPartners));
-    for (size_t i = 0; i < partners.size(); ++i) {
-      CHECK(std::any_of(chosen.begin(), chosen.end(), [&](const PredictedLandmark& c) { return same_edge(c, partners[i]); }));
-      CHECK(in(all, partners[i].index));
-      CHECK_FALSE(in(chosen, partners[i].index));
-      for (size_t j = 0; j < i; ++j) CHECK(partners[j].index != partners[i].index);
+      if (end != all.end()) expected.push_back(end->index);
     }
+    REQUIRE(partners.size() == expected.size());
+    for (size_t i = 0; i < partners.size(); ++i) CHECK(partners[i].index == expected[i]);
     with_partners += !partners.empty();
   }
   CHECK(with_partners > 10);

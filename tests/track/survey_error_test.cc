@@ -139,9 +139,9 @@ TEST_CASE("survey error: edges with both corners found are wanted until a few bo
   PANO_SEEDED_RNG(44);
   SurveyErrorEstimate e(SurveyErrorOptions(), 120.0);
   CHECK(e.WantsPairs());
-  // Frames without pairs leave them wanted; two pairs a frame are enough
-  // after five frames (ten, twice the five that bound the image noise,
-  // less what is forgotten).
+  // Frames without pairs leave them wanted; two pairs a frame reach ten
+  // (twice the five that bound the image noise) on the sixth frame: after
+  // five, forgetting leaves 9.8.
   Feed(&e, rng, 1.0, 0.0005, 20, 12, false);
   CHECK(e.WantsPairs());
   std::normal_distribution<double> unit(0.0, 1.0);

@@ -272,9 +272,11 @@ void SpreadPrediction::FindPartners(int partners) {
                    [&](int a, int b) { return candidates_[a].distance < candidates_[b].distance; });
   for (int i : chosen) {
     if (static_cast<int>(partners_.size()) == partners) break;
-    const Eigen::Vector2d at = candidates_[i].landmark->corner.head<2>();
+    // The other end of its vertical edge (not a corner of another rectangle
+    // at the same place, whose bearing error is not independent).
+    const Eigen::Vector3d& other_end = candidates_[i].landmark->v_end;
     for (int j : by_distance_) {
-      if (taken_[j] || (candidates_[j].landmark->corner.head<2>() - at).squaredNorm() >= 1e-12) continue;
+      if (taken_[j] || (candidates_[j].landmark->corner - other_end).squaredNorm() >= 1e-12) continue;
       if (std::find(partners_.begin(), partners_.end(), j) != partners_.end() || !Visible(j)) continue;
       partners_.push_back(j);
       break;

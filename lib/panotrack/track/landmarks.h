@@ -144,11 +144,11 @@ struct PredictionContext {
 // so a frame that tracks the chosen landmarks pays for about those alone.
 class SpreadPrediction {
  public:
-  // `partners`: Partners() holds the other corner of the vertical edge of
-  // up to this many of the first part's landmarks (the nearest first, where
-  // visible and not in the first part): the two corners of one edge share
-  // its survey error, so the difference of their bearings shows the image
-  // noise alone.
+  // `partners`: Partners() holds the landmark at the other end of the
+  // vertical edge of up to this many of the first part's landmarks (the
+  // nearest first, where visible and not in the first part): the two
+  // corners of one edge share its survey error, so the difference of their
+  // bearings shows the image noise alone.
   SpreadPrediction(const std::vector<Landmark>& landmarks, const Map& map, const Scene& scene,
                    const Sensor& sensor, const RadiusTable& table, const Pose2& pose,
                    const PredictionOptions& opt, int max_count, int partners = 0);

@@ -403,6 +403,13 @@ void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, c
   out->predicted = std::move(ordered);
   out->measurements = std::move(meas);
   out->partners = prediction.Partners();
+  // A partner tracked with the rest already is a landmark of the frame.
+  out->partners.erase(std::remove_if(out->partners.begin(), out->partners.end(),
+                                     [&](const PredictedLandmark& p) {
+                                       return std::any_of(out->predicted.begin(), out->predicted.end(),
+                                                          [&](const PredictedLandmark& q) { return q.index == p.index; });
+                                     }),
+                      out->partners.end());
   prepare(&out->partners);
   out->partner_measurements.clear();
   for (const PredictedLandmark& p : out->partners)
@@ -434,7 +441,8 @@ bool Localizer::PairsWanted() const {
   // Only while tracking on from a reported pose: the pairs of a search's
   // hypotheses, a held pose's confirmation or the survey probe's trials
   // may be a wrong pose's, and a search measures many poses.
-  return opt_.survey.check && errors_.survey.WantsPairs() && track_.ever_tracked && track_.n_lost == 0 &&
+  return opt_.noise_pairs > 0 && opt_.survey.check && errors_.survey.WantsPairs() && track_.ever_tracked &&
+         track_.n_lost == 0 &&
          !reloc_.held && reloc_.probe_sigma == 0.0;
 }
 
@@ -1290,6 +1298,7 @@ bool Localizer::RelocalizeUnderProbe(const cv::Mat& grey, bool near_last, FrameR
 void Localizer::AdoptSearchResult(SearchResult&& found, FrameResult* fr, TriangulationResult* tri) {
   fr->predicted = std::move(found.first.predicted);
   fr->measurements = std::move(found.first.measurements);
+  fr->with_partners = found.first.with_partners;
   fr->partners = std::move(found.first.partners);
   fr->partner_measurements = std::move(found.first.partner_measurements);
   fr->integrity = found.first.integrity;
@@ -1505,6 +1514,7 @@ void Localizer::UpdateSurveyEstimate(const FrameResult& fr, const TriangulationR
     double residual;  // its first inlier's
     size_t index;     // in residuals
     Eigen::Vector2d landmark;
+    int index_in_map;  // the landmark's (PredictedLandmark::index)
     bool paired;
   };
   std::vector<Edge> edges;
@@ -1518,7 +1528,7 @@ void Localizer::UpdateSurveyEstimate(const FrameResult& fr, const TriangulationR
       leverages[seen->index] += leverage[k];
       continue;
     }
-    edges.push_back({o.group, r, residuals.size(), o.landmark, false});
+    edges.push_back({o.group, r, residuals.size(), o.landmark, fr.predicted[static_cast<size_t>(o.id)].index, false});
     residuals.push_back(r);
     distances.push_back((o.landmark - Eigen::Vector2d(used->pose.x, used->pose.y)).norm());
     leverages.push_back(leverage[k]);
@@ -1531,7 +1541,7 @@ void Localizer::UpdateSurveyEstimate(const FrameResult& fr, const TriangulationR
     o.landmark = fr.partners[i].landmark->corner.head<2>();
     o.bearing = calib_.sensor.bearing_of_azimuth(fr.partner_measurements[i].azimuth);
     const auto edge = std::find_if(edges.begin(), edges.end(), [&](const Edge& e) {
-      return !e.paired && (e.landmark - o.landmark).squaredNorm() < 1e-12;
+      return !e.paired && e.index_in_map != fr.partners[i].index && (e.landmark - o.landmark).squaredNorm() < 1e-12;
     });
     if (edge == edges.end()) continue;
     pairs.push_back(BearingResidual(o, used->pose) - edge->residual);

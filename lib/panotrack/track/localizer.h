@@ -271,9 +271,10 @@ struct FrameResult {
   // Measured with every edge whose polarity the images have not confirmed
   // taken with either sign (the map's polarities found nothing).
   bool either_polarity = false;
-  // Measured with the partners of some chosen landmarks (Measure's
-  // `tracking`): the other corner of their vertical edge, for the image
-  // noise the difference of the two bearings shows; never in the pose.
+  // The partners of some chosen landmarks were wanted (Measure's
+  // `tracking`, PairsWanted): the other corner of their vertical edge,
+  // measured for the image noise the difference of the two bearings
+  // shows; never in the pose.
   bool with_partners = false;
   std::vector<PredictedLandmark> partners;
   std::vector<LandmarkMeasurement> partner_measurements;  // one per partner
