@@ -111,6 +111,16 @@ constexpr int kMaxPulledBearings = 2;
 // standard deviations); a false alarm costs the frame one bearing.
 constexpr double kPulledBearingAlpha = 0.001;
 
+// What Measure wrote into `from` (the landmarks measured, and the partners
+// with the flag that asked for them), moved into `to`.
+void TakeMeasurements(FrameResult* from, FrameResult* to) {
+  to->predicted = std::move(from->predicted);
+  to->measurements = std::move(from->measurements);
+  to->with_partners = from->with_partners;
+  to->partners = std::move(from->partners);
+  to->partner_measurements = std::move(from->partner_measurements);
+}
+
 // A frame to be measured again from scratch: its row and prediction kept.
 FrameResult FrameToMeasure(const PoseRow& row, const Pose2& predicted) {
   FrameResult fr;
@@ -688,10 +698,7 @@ bool Localizer::TrackFrom(const Pose2& pose, double search_px, FrameResult* fr,
     Measure(tri->pose, opt_.refine_search_px, &again, nullptr, either);
     TriangulationResult tri2 = Solve(again, tri->pose);
     if (!Acceptable(again, tri2)) break;
-    fr->predicted = std::move(again.predicted);
-    fr->measurements = std::move(again.measurements);
-    fr->partners = std::move(again.partners);
-    fr->partner_measurements = std::move(again.partner_measurements);
+    TakeMeasurements(&again, fr);
     *tri = tri2;
   }
   return Acceptable(*fr, *tri);
@@ -1220,10 +1227,7 @@ bool Localizer::RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) 
             fr->with_partners);
     TriangulationResult tri2 = Solve(again, tri->pose);
     if (!Acceptable(again, tri2)) break;
-    fr->predicted = std::move(again.predicted);
-    fr->measurements = std::move(again.measurements);
-    fr->partners = std::move(again.partners);
-    fr->partner_measurements = std::move(again.partner_measurements);
+    TakeMeasurements(&again, fr);
     fr->refined = true;
     *tri = tri2;
   }
@@ -1296,11 +1300,7 @@ bool Localizer::RelocalizeUnderProbe(const cv::Mat& grey, bool near_last, FrameR
 }
 
 void Localizer::AdoptSearchResult(SearchResult&& found, FrameResult* fr, TriangulationResult* tri) {
-  fr->predicted = std::move(found.first.predicted);
-  fr->measurements = std::move(found.first.measurements);
-  fr->with_partners = found.first.with_partners;
-  fr->partners = std::move(found.first.partners);
-  fr->partner_measurements = std::move(found.first.partner_measurements);
+  TakeMeasurements(&found.first, fr);
   fr->integrity = found.first.integrity;
   fr->innovation = -1.0;
   fr->relocalized = true;
