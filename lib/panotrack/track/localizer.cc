@@ -452,8 +452,7 @@ bool Localizer::PairsWanted() const {
   // hypotheses, a held pose's confirmation or the survey probe's trials
   // may be a wrong pose's, and a search measures many poses.
   return opt_.noise_pairs > 0 && opt_.survey.check && errors_.survey.WantsPairs() && track_.ever_tracked &&
-         track_.n_lost == 0 &&
-         !reloc_.held && reloc_.probe_sigma == 0.0;
+         track_.n_lost == 0 && !reloc_.held && reloc_.probe_sigma == 0.0;
 }
 
 double Localizer::SurveySigma(const Landmark& l) const {
@@ -1514,7 +1513,6 @@ void Localizer::UpdateSurveyEstimate(const FrameResult& fr, const TriangulationR
     double residual;  // its first inlier's
     size_t index;     // in residuals
     Eigen::Vector2d landmark;
-    int index_in_map;  // the landmark's (PredictedLandmark::index)
     bool paired;
   };
   std::vector<Edge> edges;
@@ -1528,20 +1526,21 @@ void Localizer::UpdateSurveyEstimate(const FrameResult& fr, const TriangulationR
       leverages[seen->index] += leverage[k];
       continue;
     }
-    edges.push_back({o.group, r, residuals.size(), o.landmark, fr.predicted[static_cast<size_t>(o.id)].index, false});
+    edges.push_back({o.group, r, residuals.size(), o.landmark, false});
     residuals.push_back(r);
     distances.push_back((o.landmark - Eigen::Vector2d(used->pose.x, used->pose.y)).norm());
     leverages.push_back(leverage[k]);
   }
   // The partners measured for this (FrameResult::partners): the other
-  // corner of an inlier edge.
+  // corner of an inlier edge (never one of the frame's landmarks: Measure
+  // leaves those out).
   for (size_t i = 0; i < fr.partners.size() && i < fr.partner_measurements.size(); ++i) {
     if (!fr.partner_measurements[i].found) continue;
     BearingObservation o;
     o.landmark = fr.partners[i].landmark->corner.head<2>();
     o.bearing = calib_.sensor.bearing_of_azimuth(fr.partner_measurements[i].azimuth);
     const auto edge = std::find_if(edges.begin(), edges.end(), [&](const Edge& e) {
-      return !e.paired && e.index_in_map != fr.partners[i].index && (e.landmark - o.landmark).squaredNorm() < 1e-12;
+      return !e.paired && (e.landmark - o.landmark).squaredNorm() < 1e-12;
     });
     if (edge == edges.end()) continue;
     pairs.push_back(BearingResidual(o, used->pose) - edge->residual);
