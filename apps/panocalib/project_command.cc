@@ -146,7 +146,7 @@ void AddLutCommand(CLI::App& app) {
       "lut",
       "Build the E(D,Z) lookup table of a calibration and its inverse. E(D,Z) is the image radius "
       "of a point at horizontal distance D and height Z. Ranges come from --map when given, else "
-      "from the sensor (2 to 400 mirror distances).");
+      "from the sensor (1 to 400 mirror distances).");
   lut->add_option("--calib", o->calib, "Calibration YAML")->required();
   lut->add_option("--map", o->map, "Map YAML whose room and landmarks the table must cover");
   lut->add_option("-o,--output", o->out, "Output table file (.lut)")->required();

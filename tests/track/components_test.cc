@@ -7,6 +7,7 @@
 #include <optional>
 #include <random>
 #include <set>
+#include <string>
 
 #include "panotrack/core/error.h"
 #include "test_rng.h"
@@ -113,6 +114,64 @@ TEST_CASE("landmarks: a door measured a little behind its wall is seen within th
   CHECK_THROWS_AS(measured.Check(), Error);
 }
 
+TEST_CASE("landmarks: a wall passed closer than two mirror distances keeps its corners", "[landmarks]") {
+  // The door's wall 24.5 and 27.5 units away, the sensor's mirror distance
+  // 15.1: the door's horizontal edges, whose lines pass that near, come
+  // from the E(D,Z) table, which reaches one mirror distance; the room-wide
+  // search's options (lines from two) leave them out.
+  const Map m = OneRoom();
+  const std::vector<Landmark> lms = LandmarksFromMap(m);
+  const Sensor s = MakeSphereSensor(500, 500, 590, 249.5, 249.5, 1.0, 4.9, 15.1);
+  const Scene scene = Scene::FromMap(m, false);
+  const RadiusTable table = RadiusTable::Build(s, RangesForMap(m, s));
+  CHECK(table.ranges().d_min <= s.mirror_distance());
+  PredictionOptions search;
+  search.min_line_distance_mirrors = 2.0;
+  for (const double x : {25.0, 28.0}) {
+    const Pose2 pose{x, 70, 0.4};
+    auto doors = [&](const PredictionOptions& o) {
+      std::set<std::string> ids;
+      for (const PredictedLandmark& p : PredictLandmarks(lms, m, scene, s, table, pose, o)) {
+        if (p.landmark->id.rfind("door/", 0) != 0) continue;
+        ids.insert(p.landmark->id);
+        Eigen::Vector2d px;
+        REQUIRE(s.project(SensorFromWorld(pose, m.sensor_height, p.landmark->corner), &px));
+        CHECK((px - p.corner_px).norm() < 1e-3);
+      }
+      return ids;
+    };
+    INFO("robot at x = " << x);
+    CHECK(doors(PredictionOptions()) == std::set<std::string>{"door/from-bottom", "door/to-bottom"});
+    CHECK(doors(search).empty());
+  }
+  // A corner nearer than PredictionOptions::min_distance_mirrors (30.2
+  // units: a panel's corner level with the sensor, in view) is left out.
+  Map panel = m;
+  panel.rectangles[0].z0 = 20;
+  panel.rectangles[0].z1 = 45;
+  const std::vector<Landmark> panel_lms = LandmarksFromMap(panel);
+  const Scene panel_scene = Scene::FromMap(panel, false);
+  const Pose2 beside{25, 60, 0.4};
+  auto panel_corners = [&](const PredictionOptions& o) {
+    std::set<std::string> ids;
+    for (const PredictedLandmark& p : PredictLandmarks(panel_lms, panel, panel_scene, s, table, beside, o))
+      if (p.landmark->id.rfind("door/", 0) == 0) ids.insert(p.landmark->id);
+    return ids;
+  };
+  PredictionOptions all;
+  all.min_distance_mirrors = 0.0;
+  CHECK(panel_corners(all).count("door/from-bottom") == 1);
+  CHECK(panel_corners(PredictionOptions()).count("door/from-bottom") == 0);
+  CHECK(panel_corners(PredictionOptions()).count("door/to-bottom") == 1);
+  for (double PredictionOptions::*field : {&PredictionOptions::min_distance_mirrors,
+                                            &PredictionOptions::min_line_distance_mirrors,
+                                            &PredictionOptions::spread_line_distance_mirrors}) {
+    PredictionOptions bad;
+    bad.*field = -1.0;
+    CHECK_THROWS_AS(bad.Check(), Error);
+  }
+}
+
 // OneRoom with what predicting its landmarks needs.
 struct SpreadRoom {
   Map m = OneRoom();
@@ -120,6 +179,7 @@ struct SpreadRoom {
   Sensor s = MakeSphereSensor(500, 500, 590, 249.5, 249.5, 1.0, 4.9, 15.1);
   Scene scene = Scene::FromMap(m, false);
   RadiusTable table = RadiusTable::Build(s, RangesForMap(m, s));
+  PredictionOptions options;
   // A random pose in the room, nullopt where it is not free.
   std::optional<Pose2> RandomPose(std::mt19937_64& rng) const {
     std::uniform_real_distribution<double> xy(5.0, 195.0), heading(-M_PI, M_PI);
@@ -128,16 +188,23 @@ struct SpreadRoom {
     return pose;
   }
   std::vector<PredictedLandmark> All(const Pose2& pose) const {
-    return PredictLandmarks(lms, m, scene, s, table, pose, PredictionOptions());
+    return PredictLandmarks(lms, m, scene, s, table, pose, options);
   }
   SpreadPrediction Spread(const Pose2& pose, int max_count, int partners = 0) const {
-    return SpreadPrediction(lms, m, scene, s, table, pose, PredictionOptions(), max_count, partners);
+    return SpreadPrediction(lms, m, scene, s, table, pose, options, max_count, partners);
+  }
+  // The horizontal distance from `pose` to the line of l's horizontal edge.
+  static double LineDistance(const Landmark& l, const Pose2& pose) {
+    const Eigen::Vector2d c = l.corner.head<2>() - Eigen::Vector2d(pose.x, pose.y);
+    const Eigen::Vector2d dir = (l.h_end - l.corner).head<2>().normalized();
+    return (c - c.dot(dir) * dir).norm();
   }
 };
 
 TEST_CASE("landmarks: SpreadPrediction is SelectSpread(PredictLandmarks) in two parts", "[landmarks]") {
   PANO_SEEDED_RNG(11);
-  const SpreadRoom room;
+  SpreadRoom room;
+  room.options.spread_line_distance_mirrors = 0.0;  // every landmark takes part in the spread
   auto same = [](const PredictedLandmark& a, const PredictedLandmark& b) {
     return a.index == b.index && a.corner_px == b.corner_px && a.azimuth == b.azimuth && a.v_radius == b.v_radius &&
            a.r_main == b.r_main && a.theta_main == b.theta_main && a.v_polarity == b.v_polarity &&
@@ -168,6 +235,47 @@ TEST_CASE("landmarks: SpreadPrediction is SelectSpread(PredictLandmarks) in two 
   // (spread), and one no longer (landmark order).
   CHECK(with_rest > 20);
   CHECK(short_lists > 20);
+}
+
+TEST_CASE("landmarks: landmarks whose horizontal edges pass near are tracked besides the spread, not in it",
+          "[landmarks]") {
+  PANO_SEEDED_RNG(13);
+  const SpreadRoom room;
+  const double near = room.options.spread_line_distance_mirrors * room.s.mirror_distance();
+  REQUIRE(near > 0.0);
+  int with_near = 0;
+  for (int trial = 0; trial < 120; ++trial) {
+    const std::optional<Pose2> at = room.RandomPose(rng);
+    if (!at) continue;
+    const Pose2& pose = *at;
+    const std::vector<PredictedLandmark> all = room.All(pose);
+    std::vector<PredictedLandmark> far, near_lines;
+    for (const PredictedLandmark& p : all)
+      (SpreadRoom::LineDistance(*p.landmark, pose) < near ? near_lines : far).push_back(p);
+    std::stable_sort(near_lines.begin(), near_lines.end(),
+                     [](const PredictedLandmark& a, const PredictedLandmark& b) { return a.distance < b.distance; });
+    for (int max_count : {3, 5}) {
+      INFO("pose " << pose.x << " " << pose.y << " " << pose.theta << ", max_count " << max_count);
+      SpreadPrediction prediction = room.Spread(pose, max_count);
+      std::vector<PredictedLandmark> got = prediction.First();
+      const std::vector<PredictedLandmark> got_near = prediction.NearLines();
+      if (!prediction.HasMore()) {
+        // No more than max_count of the others: First() holds every one.
+        CHECK(got_near.empty());
+        CHECK(got.size() == all.size());
+        continue;
+      }
+      const std::vector<PredictedLandmark> expected = SelectSpread(far, max_count);
+      const std::vector<PredictedLandmark> rest = prediction.Rest();
+      got.insert(got.end(), rest.begin(), rest.end());
+      REQUIRE(got.size() == expected.size());
+      for (size_t i = 0; i < got.size(); ++i) CHECK(got[i].index == expected[i].index);
+      REQUIRE(got_near.size() == near_lines.size());
+      for (size_t i = 0; i < got_near.size(); ++i) CHECK(got_near[i].index == near_lines[i].index);
+      with_near += !got_near.empty();
+    }
+  }
+  CHECK(with_near > 5);
 }
 
 TEST_CASE("landmarks: SpreadPrediction's partners are the other corners of the nearest chosen edges",

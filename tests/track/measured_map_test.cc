@@ -303,8 +303,13 @@ TEST_CASE("a map measured to 2 cm that claims to be exact, no start: a twin foun
   // before a pose tracked from a search's is checked against the search
   // until the map's error is known: the twin tracked from frame 16 to the
   // end (277 frames 0.9 - 1.7 m off); after, frames 16 and 17 only (95 cm
-  // off), every later one within 1.2 cm. (With the search's survey probe,
-  // below, the true pose is found on frame 0: off here to keep the twin.)
+  // off), every later one within 1.2 cm. Since the corners of the walls
+  // passed near are tracked, the twin's frames 16 and 17 widen the survey
+  // estimate to 0.78 cm only, under which the search on frame 18 verifies
+  // nothing; frame 18's own residuals widen it to 1.56, and the search on
+  // frame 19 verifies the true pose on 28 against the twin's 14 (frames 16
+  // - 18 off). (With the search's survey probe, below, the true pose is
+  // found on frame 0: off here to keep the twin.)
   const test::RenderedCase truth = test::RenderPreset("fast-turns", 40);
   const test::RenderedCase r = OnMeasuredMap(truth, 2.0, 2, 0.0);
   LocalizerOptions o;
@@ -313,16 +318,16 @@ TEST_CASE("a map measured to 2 cm that claims to be exact, no start: a twin foun
   const std::vector<PoseRow> rows = LocalizeWithoutStart(r, o, 10.0);
   const AccuracySummary a = CompareToGroundTruth(rows, truth.truth, TypicalRange(truth.c.map, truth.truth));
   INFO(FormatAccuracy(a, "cm"));
-  CHECK(a.outliers <= 2);
+  CHECK(a.outliers <= 3);
   int later_ok = 0;
   double later_max = 0.0;
-  for (size_t i = 18; i < rows.size(); ++i) {
+  for (size_t i = 19; i < rows.size(); ++i) {
     if (rows[i].status != PoseStatus::kOk) continue;
     ++later_ok;
     later_max = std::max(later_max, std::hypot(rows[i].pose.x - truth.truth[i].pose.x,
                                                rows[i].pose.y - truth.truth[i].pose.y));
   }
-  INFO("frames 18 - 39: " << later_ok << " ok, at most " << later_max << " cm off");
+  INFO("frames 19 - 39: " << later_ok << " ok, at most " << later_max << " cm off");
   CHECK(later_ok >= 20);
   CHECK(later_max <= 2.5);
 }
@@ -339,7 +344,12 @@ TEST_CASE("a map measured to 2 cm that states nothing or claims to be exact, no 
   // once confirmed: 53 - 57 of 57 tracked, every ok frame inside its 3
   // sigma; one outlier (junction, stating nothing, seed 3: frame 31, 6.6 cm
   // off, 1.5 of its standard deviations, counts as one once frame 0 is
-  // reported: the median error falls below a fifth of it).
+  // reported: the median error falls below a fifth of it). Since the
+  // landmarks whose horizontal edges pass near are tracked besides the
+  // chosen (not in the search), and a held pose is confirmed only on a
+  // frame that finds half the landmarks it chose: 50 - 57 of 57 (stating
+  // nothing, seed 1 vertex and seed 2 junction, 50: the first pose comes
+  // later), no frame further off than 7 cm.
   const test::RenderedCase& truth = PaperReal();
   for (TrackingMethod method : {TrackingMethod::kVertex, TrackingMethod::kJunction}) {
     for (double stated : {std::numeric_limits<double>::quiet_NaN(), 0.0}) {
@@ -351,7 +361,7 @@ TEST_CASE("a map measured to 2 cm that states nothing or claims to be exact, no 
         const AccuracySummary a = CompareToGroundTruth(rows, truth.truth, TypicalRange(truth.c.map, truth.truth));
         INFO(TrackingMethodName(method) << ", stated " << stated << ", map seed " << seed << ": "
                                           << FormatAccuracy(a, "cm"));
-        CHECK(a.tracked >= 52);
+        CHECK(a.tracked >= 50);
         CHECK(a.outliers <= 1);
         CHECK(a.max <= 7.0);
         CHECK(InsideThreeSigma(rows, truth.truth) >= 0.98);
@@ -392,7 +402,9 @@ TEST_CASE("a map measured to 1 unit that claims to be exact: edges seen at both 
   // nothing verified under them for 8 frames. Measured without the pairs
   // (noise_pairs 0): 52 of 60 frames, 42 % inside 3 sigma, RMS 1.08, max
   // 2.31 units; with them 60, 70 %, 0.96 and 2.02 (the first frames, before
-  // the pairs have bounded the image noise, lie outside).
+  // the pairs have bounded the image noise, lie outside). Since the corners
+  // of the walls passed near are tracked, the run without the pairs tracks
+  // every frame, but 35 % inside 3 sigma (RMS 1.05, max 2.31 units).
   const std::string dir = test::ScratchDir("measured_map_video");
   SequenceCase c = MakePreset("kidnap");
   SequenceWriteOptions w;
@@ -422,7 +434,6 @@ TEST_CASE("a map measured to 1 unit that claims to be exact: edges seen at both 
     CHECK(a.outliers == 0);
     if (noise_pairs == 0) {
       // The failure above, so that this test shows what it guards.
-      CHECK(a.tracked <= 55);
       CHECK(inside < 0.6);
       continue;
     }

@@ -117,7 +117,12 @@ LutRanges RangesForMap(const Map& map, const Sensor& sensor) {
   z_top = std::max(z_top, map.sensor_height);
   LutRanges r;
   const double diag = (hi - lo).norm();
-  r.d_min = std::max(2.0 * sensor.mirror_distance(), 1e-3 * diag);
+  // Nearest distance: one mirror distance (pinhole to the sphere's centre).
+  // A robot can pass a wall closer than two of them (the paper's sensor:
+  // 30 cm); the corners on that wall, whose horizontal edges' lines pass
+  // that near, must stay predictable: they are the landmarks whose
+  // bearings tell the position best.
+  r.d_min = std::max(sensor.mirror_distance(), 1e-3 * diag);
   r.d_max = 1.5 * diag + r.d_min;
   r.z_min = MapBottom(map) - map.sensor_height - 1e-6;
   r.z_max = z_top - map.sensor_height + 1e-6;
@@ -127,7 +132,7 @@ LutRanges RangesForMap(const Map& map, const Sensor& sensor) {
 LutRanges DefaultRanges(const Sensor& sensor) {
   const double scale = sensor.params.vertex_distance + sensor.params.curvature_radius;
   LutRanges r;
-  r.d_min = 2.0 * scale;
+  r.d_min = scale;
   r.d_max = 400.0 * scale;
   r.z_min = -0.5 * r.d_max;
   r.z_max = 0.5 * r.d_max;

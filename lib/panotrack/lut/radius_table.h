@@ -31,7 +31,7 @@ struct LutRanges {
 // ceiling (or the highest corner).
 LutRanges RangesForMap(const Map& map, const Sensor& sensor);
 // Ranges for a sensor alone (used by panocalib when no map is given):
-// distances from 2 to 400 mirror distances, heights within +-D_max/2.
+// distances from 1 to 400 mirror distances, heights within +-D_max/2.
 LutRanges DefaultRanges(const Sensor& sensor);
 
 struct LutSize {

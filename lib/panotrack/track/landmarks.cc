@@ -16,6 +16,12 @@ void PredictionOptions::Check() const {
   if (!(min_contrast >= 0.0)) throw Error("prediction: min_contrast: expected >= 0");
   if (!(surface_tolerance >= 0.0) || !std::isfinite(surface_tolerance))
     throw Error("prediction: surface_tolerance: expected a length >= 0");
+  if (!(min_distance_mirrors >= 0.0) || !std::isfinite(min_distance_mirrors))
+    throw Error("prediction: min_distance_mirrors: expected >= 0");
+  if (!(min_line_distance_mirrors >= 0.0) || !std::isfinite(min_line_distance_mirrors))
+    throw Error("prediction: min_line_distance_mirrors: expected >= 0");
+  if (!(spread_line_distance_mirrors >= 0.0) || !std::isfinite(spread_line_distance_mirrors))
+    throw Error("prediction: spread_line_distance_mirrors: expected >= 0");
 }
 
 std::vector<Landmark> LandmarksFromMap(const Map& map) {
@@ -130,6 +136,7 @@ bool PredictImage(const Map& map, const Sensor& sensor, const RadiusTable& table
   const Eigen::Vector3d c = SensorFromWorld(pose, ctx.cos_sin, map.sensor_height, l.corner);
   const Eigen::Vector3d h = SensorFromWorld(pose, ctx.cos_sin, map.sensor_height, l.h_end);
   const Eigen::Vector3d v = SensorFromWorld(pose, ctx.cos_sin, map.sensor_height, l.v_end);
+  if (p.distance < opt.min_distance_mirrors * sensor.mirror_distance()) return false;
   if (!table.radius(p.distance, c.z(), &p.corner_radius)) return false;
   if (p.corner_radius < ctx.r_lo || p.corner_radius > ctx.r_hi) return false;
   p.corner_px = sensor.from_polar(p.corner_radius, p.azimuth);
@@ -147,7 +154,9 @@ bool PredictImage(const Map& map, const Sensor& sensor, const RadiusTable& table
   const Eigen::Vector2d foot = c2 - (c2.dot(dir) / len2) * dir;
   const double d_main = foot.norm();
   p.h_height = c.z();
-  if (!(d_main > 0.0) || !table.radius(d_main, p.h_height, &p.r_main)) return false;
+  if (!(d_main > 0.0) || d_main < opt.min_line_distance_mirrors * sensor.mirror_distance() ||
+      !table.radius(d_main, p.h_height, &p.r_main))
+    return false;
   p.theta_main = sensor.image_azimuth(FastAtan2(foot.y(), foot.x()));
   p.h_end_azimuth = sensor.image_azimuth(FastAtan2(h.y(), h.x()));
   const double dtheta_edge = WrapAngle(p.h_end_azimuth - p.azimuth);
@@ -241,6 +250,10 @@ SpreadPrediction::SpreadPrediction(const std::vector<Landmark>& landmarks, const
   taken_.assign(candidates_.size(), 0);
   std::vector<char> sector_used(static_cast<size_t>(max_count_), 0);
   for (int i : by_distance_) {
+    if (NearLine(i)) {
+      if (Visible(i)) near_lines_.push_back(i);
+      continue;
+    }
     const int sector = SpreadSector(candidates_[i], max_count_);
     if (sector_used[sector] || !Visible(i)) continue;
     sector_used[sector] = 1;
@@ -249,7 +262,7 @@ SpreadPrediction::SpreadPrediction(const std::vector<Landmark>& landmarks, const
   }
   for (size_t k = 0; k < by_distance_.size() && static_cast<int>(spread_.size()) < max_count_; ++k) {
     const int i = by_distance_[k];
-    if (!taken_[i] && Visible(i)) {
+    if (!taken_[i] && !NearLine(i) && Visible(i)) {
       taken_[i] = 1;
       spread_.push_back(i);
     }
@@ -259,10 +272,11 @@ SpreadPrediction::SpreadPrediction(const std::vector<Landmark>& landmarks, const
   more_ = false;
   if (static_cast<int>(spread_.size()) == max_count_)
     for (int i : by_distance_)
-      if (!taken_[i] && Visible(i)) {
+      if (!taken_[i] && !NearLine(i) && Visible(i)) {
         more_ = true;
         break;
       }
+  if (!more_) near_lines_.clear();  // First() holds them
   if (more_ && partners > 0) FindPartners(partners);
 }
 
@@ -317,9 +331,27 @@ std::vector<PredictedLandmark> SpreadPrediction::Rest() {
   std::vector<PredictedLandmark> out;
   if (max_count_ <= 0 || !more_) return out;
   for (int i : by_distance_)
-    if (!taken_[i] && Visible(i)) out.push_back(candidates_[i]);
+    if (!taken_[i] && !NearLine(i) && Visible(i)) out.push_back(candidates_[i]);
   return out;
 }
+
+std::vector<PredictedLandmark> SpreadPrediction::NearLines() const {
+  std::vector<PredictedLandmark> out;
+  for (int i : near_lines_) out.push_back(candidates_[i]);
+  return out;
+}
+
+bool SpreadPrediction::NearLine(int i) const {
+  // The horizontal distance from the robot to the line through the corner
+  // and the horizontal edge's other end (PredictImage's D_main).
+  const Landmark& l = *candidates_[i].landmark;
+  const Eigen::Vector2d c = l.corner.head<2>() - ctx_.cam, dir = (l.h_end - l.corner).head<2>();
+  const double len2 = dir.squaredNorm();
+  if (!(len2 > 0.0)) return false;
+  const double d_main = (c - (c.dot(dir) / len2) * dir).norm();
+  return d_main < opt_.spread_line_distance_mirrors * sensor_.mirror_distance();
+}
+
 void SetImageMotion(const Map& map, const Sensor& sensor, const RadiusTable& table,
                     const Pose2& previous, double fraction, std::vector<PredictedLandmark>* predicted) {
   for (PredictedLandmark& p : *predicted) {

@@ -95,6 +95,24 @@ struct PredictionOptions {
   // measured by hand places some corners a little behind their wall, and
   // that wall does not hide them (Scene::Occluded's plane tolerance).
   double surface_tolerance = 0.0;
+  // Corners nearer than this many mirror distances (pinhole to the
+  // sphere's centre) are left out: there the strongly curved edges bias a
+  // junction beyond the image noise a pose's covariance holds. Walls that
+  // near still count by their farther corners.
+  double min_distance_mirrors = 2.0;
+  // A horizontal edge whose line passes nearer than this many mirror
+  // distances is left out (0: wherever the E(D,Z) table reaches). The
+  // room-wide search sets two: a hypothesis a grid step off predicts such
+  // a strongly curved edge far from where it is, so it could neither vouch
+  // for the hypothesis nor count against it.
+  double min_line_distance_mirrors = 0.0;
+  // A landmark whose horizontal edge's line passes within this many mirror
+  // distances is not chosen for SpreadPrediction's azimuth spread: the
+  // robot's own motion blurs such a strongly curved edge most, and a sector
+  // whose one chosen landmark is missed leaves the pose to the others. It
+  // is tracked besides the chosen instead (SpreadPrediction::NearLines),
+  // where its bearing tells the position best.
+  double spread_line_distance_mirrors = 2.0;
   void Check() const;
 };
 
@@ -142,6 +160,9 @@ struct PredictionContext {
 // casts (occlusion and the shades beyond the edges: most of a prediction's
 // cost) run only for the landmarks that decide the order of the first part,
 // so a frame that tracks the chosen landmarks pays for about those alone.
+// The landmarks whose horizontal edges' lines pass near
+// (PredictionOptions::spread_line_distance_mirrors) take no part in the
+// spread or the rest: NearLines() holds them.
 class SpreadPrediction {
  public:
   // `partners`: Partners() holds the landmark at the other end of the
@@ -156,13 +177,19 @@ class SpreadPrediction {
   std::vector<PredictedLandmark> First();
   // Whether the whole list is longer than First().
   bool HasMore() const { return max_count_ > 0 && more_; }
-  // The elements after First(), in order.
+  // The elements after First(), in order, less NearLines().
   std::vector<PredictedLandmark> Rest();
+  // The visible landmarks whose horizontal edges' lines pass within
+  // PredictionOptions::spread_line_distance_mirrors, nearest first, when
+  // they are not in First() (which holds every landmark when there are no
+  // more than max_count).
+  std::vector<PredictedLandmark> NearLines() const;
   // The partners of the first part (the constructor's `partners`).
   std::vector<PredictedLandmark> Partners() const;
 
  private:
   bool Visible(int i);  // the image geometry's and the scene's tests of candidates_[i], run once
+  bool NearLine(int i) const;  // candidates_[i]'s horizontal edge's line passes near (2-D geometry)
   void FindPartners(int partners);  // partners_ (the constructor's `partners`)
   enum State : char { kUnknown, kVisible, kHidden };
   const Map& map_;
@@ -179,6 +206,7 @@ class SpreadPrediction {
   std::vector<char> taken_;       // in the first part
   std::vector<int> spread_;       // the first part (when more_)
   std::vector<int> partners_;     // Partners()
+  std::vector<int> near_lines_;   // NearLines()
   bool more_ = false;
 };
 

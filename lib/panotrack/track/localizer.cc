@@ -117,6 +117,7 @@ void TakeMeasurements(FrameResult* from, FrameResult* to) {
   to->predicted = std::move(from->predicted);
   to->measurements = std::move(from->measurements);
   to->with_partners = from->with_partners;
+  to->from_prediction = from->from_prediction;
   to->partners = std::move(from->partners);
   to->partner_measurements = std::move(from->partner_measurements);
 }
@@ -134,6 +135,17 @@ FrameResult FrameToMeasure(const PoseRow& row, const Pose2& predicted) {
 int CoarseLandmarks(const LocalizerOptions& options, int max_landmarks) {
   if (options.coarse_landmarks == 0) return max_landmarks;
   return max_landmarks == 0 ? options.coarse_landmarks : std::min(options.coarse_landmarks, max_landmarks);
+}
+
+// A search's hypotheses (and the relocalisation index) leave out the
+// horizontal edges whose lines pass within this many mirror distances
+// (PredictionOptions::min_line_distance_mirrors): a hypothesis a grid step
+// off predicts those strongly curved edges far from where they are.
+constexpr double kSearchLineDistanceMirrors = 2.0;
+
+PredictionOptions SearchPrediction(PredictionOptions o) {
+  o.min_line_distance_mirrors = std::max(o.min_line_distance_mirrors, kSearchLineDistanceMirrors);
+  return o;
 }
 
 }  // namespace
@@ -188,7 +200,7 @@ Localizer::Localizer(const Calibration& calib, const Map& map,
     errors_.room_size = (hi - lo).maxCoeff();
   }
   UpdateLandmarkBudget();
-  errors_.index_prediction = errors_.prediction;
+  errors_.index_prediction = SearchPrediction(errors_.prediction);
   motion_options_ = opt_.motion.Scaled(map_.UnitsPerMetre());
   motion_ = MotionModel(motion_options_);
   tracker_ = MakeTracker(opt_.method, calib_.sensor, table_, opt_, std::move(ph_tables));
@@ -322,6 +334,7 @@ void Localizer::LearnPolarity(const FrameResult& fr, const TriangulationResult& 
 void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, const Pose2* solved_motion,
                         bool either, bool azimuth_only, bool tracking) const {
   out->either_polarity = either;
+  out->from_prediction = tracking;
   out->with_partners = tracking && !azimuth_only && PairsWanted();
   out->blur_turn = solved_motion ? std::optional<double>(solved_motion->theta) : std::nullopt;
   // The motion over the last frame interval; unknown: the fastest turn.
@@ -335,7 +348,8 @@ void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, c
                                 : opt_.exposure_fraction;
   // The landmarks to track, spread in azimuth (SelectSpread): the chosen
   // ones first, the others only when they are needed.
-  SpreadPrediction prediction(landmarks_, map_, scene_, calib_.sensor, *table_, pose, errors_.prediction,
+  SpreadPrediction prediction(landmarks_, map_, scene_, calib_.sensor, *table_, pose,
+                              tracking ? errors_.prediction : SearchPrediction(errors_.prediction),
                               azimuth_only ? CoarseLandmarks(opt_, MaxLandmarks()) : MaxLandmarks(),
                               out->with_partners ? opt_.noise_pairs : 0);
   // The polarities to search for (the map's, or what the images showed),
@@ -396,16 +410,32 @@ void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, c
     }
     RethrowFirst(errors);
   };
-  measure(0, n_first);
+  // Tracking on from a pose, the landmarks whose horizontal edges pass
+  // near (never chosen for the spread) are tracked besides the chosen; not
+  // to confirm a held pose or to probe the survey error (the survey error
+  // they carry, least known where they are near, would decide those).
+  int n_near = 0;
+  if (tracking && !reloc_.held && reloc_.probe_sigma == 0.0) {
+    std::vector<PredictedLandmark> near = prediction.NearLines();
+    prepare(&near);
+    // (not those whose edges the frames have not shown: the rest's
+    // reordering below keeps the measured ones in place)
+    near.erase(std::remove_if(near.begin(), near.end(), [&](const PredictedLandmark& p) { return !seen(p); }),
+               near.end());
+    n_near = static_cast<int>(near.size());
+    ordered.insert(ordered.begin() + n_first, near.begin(), near.end());
+    meas.resize(ordered.size());
+  }
+  measure(0, n_first + n_near);
   int found = 0;
   for (int i = 0; i < n_first; ++i) found += meas[i].found;
   // Too few of the chosen ones (occluded, off their edges): track the rest.
-  int used = n_first;
+  int used = n_first + n_near;
   if (found < std::max(opt_.triangulation.min_landmarks + 3, n_first / 2) && prediction.HasMore()) {
     if (!have_rest) add_rest();
     const int n_all = static_cast<int>(ordered.size());
     meas.resize(ordered.size());
-    measure(n_first, n_all);
+    measure(n_first + n_near, n_all);
     used = n_all;
   }
   ordered.resize(used);
@@ -1192,7 +1222,7 @@ bool Localizer::TrackCoarseToFine(const Pose2 pred, FrameResult* fr, Triangulati
   const bool compass_first = by_compass && CompassFirst(pred, *by_compass);
   const Pose2 start = compass_first ? *by_compass : pred;
   FrameResult coarse;
-  Measure(start, opt_.search_px, &coarse, nullptr, false, true);
+  Measure(start, opt_.search_px, &coarse, nullptr, false, true, true);
   const TriangulationResult first = Solve(coarse, start);
   if (!Acceptable(coarse, first)) return false;
   *recentred = MaxShiftPx(coarse) > opt_.refine_threshold_px;
@@ -1223,7 +1253,7 @@ bool Localizer::RefineAroundSolution(FrameResult* fr, TriangulationResult* tri) 
     FrameResult again;
     solved = SolvedMotion(tri->pose);
     Measure(tri->pose, opt_.refine_search_px, &again, solved ? &*solved : nullptr, fr->either_polarity, false,
-            fr->with_partners);
+            fr->from_prediction);
     TriangulationResult tri2 = Solve(again, tri->pose);
     if (!Acceptable(again, tri2)) break;
     TakeMeasurements(&again, fr);
@@ -1677,7 +1707,13 @@ void Localizer::TrackFromPrediction(double time_s, const OdometryIncrement* odom
   }
   // A held relocalised pose is confirmed only on as much evidence as a
   // relocalised pose needs (the frame is nearly the same image).
-  if (reloc_.held) w->accepted = w->accepted && EnoughForRelocalized(fr, tri);
+  // Before the residuals have shown the map's error, it must also find
+  // half the landmarks it chose (a wrong pose tracks extra landmarks where
+  // few of those are found, and fits some of them).
+  if (reloc_.held)
+    w->accepted = w->accepted && EnoughForRelocalized(fr, tri) &&
+                  !(opt_.survey.check && !errors_.survey.confident() &&
+                    ChosenInliers(fr, tri) < opt_.relocalize_min_fraction * ChosenToTrack(fr));
   // One beyond the robot's reach, where the map's survey error widens
   // every tolerance, stands on its own evidence, on this frame and on
   // every frame tracked from it until one does: a partial twin of the

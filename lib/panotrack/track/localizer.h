@@ -276,6 +276,9 @@ struct FrameResult {
   // measured for the image noise the difference of the two bearings
   // shows; never in the pose.
   bool with_partners = false;
+  // Measured from a prediction (Measure's `tracking`), not a search's
+  // hypothesis: the landmarks whose horizontal edges pass near are in.
+  bool from_prediction = false;
   std::vector<PredictedLandmark> partners;
   std::vector<LandmarkMeasurement> partner_measurements;  // one per partner
   // The turn over the frame interval (radians) that the measurement's blur
