@@ -85,6 +85,12 @@ namespace {
 
 int Sign(double v) { return v > 0 ? 1 : (v < 0 ? -1 : 0); }
 
+// The point nearest the origin on the line through `point` along `dir`
+// (not zero): a horizontal edge's D_main foot (Eqn 4) seen from the axis.
+Eigen::Vector2d LineFoot(const Eigen::Vector2d& point, const Eigen::Vector2d& dir) {
+  return point - (point.dot(dir) / dir.squaredNorm()) * dir;
+}
+
 // Shade seen (map reflectance) looking from `eye` at world point `target`,
 // a little beyond the landmark's face.
 double ShadeTowards(const Scene& scene, const Eigen::Vector3d& eye, const Eigen::Vector3d& target) {
@@ -149,9 +155,8 @@ bool PredictImage(const Map& map, const Sensor& sensor, const RadiusTable& table
   if (std::abs(p.v_radius - p.corner_radius) < opt.min_edge_px) return false;
   // Horizontal edge: its line's closest point to the axis (Eqn 4).
   const Eigen::Vector2d c2 = c.head<2>(), dir = (h - c).head<2>();
-  const double len2 = dir.squaredNorm();
-  if (!(len2 > 0.0)) return false;
-  const Eigen::Vector2d foot = c2 - (c2.dot(dir) / len2) * dir;
+  if (!(dir.squaredNorm() > 0.0)) return false;
+  const Eigen::Vector2d foot = LineFoot(c2, dir);
   const double d_main = foot.norm();
   p.h_height = c.z();
   if (!(d_main > 0.0) || d_main < opt.min_line_distance_mirrors * sensor.mirror_distance() ||
@@ -249,6 +254,14 @@ SpreadPrediction::SpreadPrediction(const std::vector<Landmark>& landmarks, const
                    [&](int a, int b) { return candidates_[a].distance < candidates_[b].distance; });
   taken_.assign(candidates_.size(), 0);
   std::vector<char> sector_used(static_cast<size_t>(max_count_), 0);
+  near_line_.resize(candidates_.size());
+  for (size_t i = 0; i < candidates_.size(); ++i) {
+    // The horizontal distance to the line of the horizontal edge (D_main).
+    const Landmark& l = *candidates_[i].landmark;
+    const Eigen::Vector2d dir = (l.h_end - l.corner).head<2>();
+    near_line_[i] = dir.squaredNorm() > 0.0 && LineFoot(l.corner.head<2>() - ctx_.cam, dir).norm() <
+                                                   opt_.spread_line_distance_mirrors * sensor_.mirror_distance();
+  }
   for (int i : by_distance_) {
     if (NearLine(i)) {
       if (Visible(i)) near_lines_.push_back(i);
@@ -339,17 +352,6 @@ std::vector<PredictedLandmark> SpreadPrediction::NearLines() const {
   std::vector<PredictedLandmark> out;
   for (int i : near_lines_) out.push_back(candidates_[i]);
   return out;
-}
-
-bool SpreadPrediction::NearLine(int i) const {
-  // The horizontal distance from the robot to the line through the corner
-  // and the horizontal edge's other end (PredictImage's D_main).
-  const Landmark& l = *candidates_[i].landmark;
-  const Eigen::Vector2d c = l.corner.head<2>() - ctx_.cam, dir = (l.h_end - l.corner).head<2>();
-  const double len2 = dir.squaredNorm();
-  if (!(len2 > 0.0)) return false;
-  const double d_main = (c - (c.dot(dir) / len2) * dir).norm();
-  return d_main < opt_.spread_line_distance_mirrors * sensor_.mirror_distance();
 }
 
 void SetImageMotion(const Map& map, const Sensor& sensor, const RadiusTable& table,

@@ -189,7 +189,7 @@ class SpreadPrediction {
 
  private:
   bool Visible(int i);  // the image geometry's and the scene's tests of candidates_[i], run once
-  bool NearLine(int i) const;  // candidates_[i]'s horizontal edge's line passes near (2-D geometry)
+  bool NearLine(int i) const { return near_line_[static_cast<size_t>(i)]; }
   void FindPartners(int partners);  // partners_ (the constructor's `partners`)
   enum State : char { kUnknown, kVisible, kHidden };
   const Map& map_;
@@ -207,6 +207,7 @@ class SpreadPrediction {
   std::vector<int> spread_;       // the first part (when more_)
   std::vector<int> partners_;     // Partners()
   std::vector<int> near_lines_;   // NearLines()
+  std::vector<char> near_line_;   // per candidate: its horizontal edge's line passes near (the spread's rule)
   bool more_ = false;
 };
 

@@ -415,7 +415,7 @@ void Localizer::Measure(const Pose2& pose, double search_px, FrameResult* out, c
   // to confirm a held pose or to probe the survey error (the survey error
   // they carry, least known where they are near, would decide those).
   int n_near = 0;
-  if (tracking && !reloc_.held && reloc_.probe_sigma == 0.0) {
+  if (tracking && !ConfirmingOrProbing()) {
     std::vector<PredictedLandmark> near = prediction.NearLines();
     prepare(&near);
     // (not those whose edges the frames have not shown: the rest's
@@ -482,7 +482,7 @@ bool Localizer::PairsWanted() const {
   // hypotheses, a held pose's confirmation or the survey probe's trials
   // may be a wrong pose's, and a search measures many poses.
   return opt_.noise_pairs > 0 && opt_.survey.check && errors_.survey.WantsPairs() && track_.ever_tracked &&
-         track_.n_lost == 0 && !reloc_.held && reloc_.probe_sigma == 0.0;
+         track_.n_lost == 0 && !ConfirmingOrProbing();
 }
 
 double Localizer::SurveySigma(const Landmark& l) const {
@@ -1373,6 +1373,11 @@ double Localizer::SurveyChosenLandmarks(const FrameResult& fr) const {
   return WithinBudget(fr.predicted.size(), MaxLandmarks());
 }
 
+bool Localizer::FewChosenBeforeSurvey(const FrameResult& fr, const TriangulationResult& tri,
+                                      double fraction) const {
+  return opt_.survey.check && !errors_.survey.confident() && ChosenInliers(fr, tri) < fraction * ChosenToTrack(fr);
+}
+
 bool Localizer::Corroborated(const FrameResult& fr, const TriangulationResult& tri, double fraction) const {
   // The motion model cannot vouch for it: after a loss its prediction is
   // too wide to tell a right pose from a wrong one nearby.
@@ -1712,8 +1717,7 @@ void Localizer::TrackFromPrediction(double time_s, const OdometryIncrement* odom
   // few of those are found, and fits some of them).
   if (reloc_.held)
     w->accepted = w->accepted && EnoughForRelocalized(fr, tri) &&
-                  !(opt_.survey.check && !errors_.survey.confident() &&
-                    ChosenInliers(fr, tri) < opt_.relocalize_min_fraction * ChosenToTrack(fr));
+                  !FewChosenBeforeSurvey(fr, tri, opt_.relocalize_min_fraction);
   // One beyond the robot's reach, where the map's survey error widens
   // every tolerance, stands on its own evidence, on this frame and on
   // every frame tracked from it until one does: a partial twin of the
@@ -1789,9 +1793,8 @@ void Localizer::RelocalizeWhenLost(const cv::Mat& grey, int frame, FrameWork* w)
   // resting on extra landmarks (tracked because few of those chosen were
   // found) before the residuals have shown the map's error: a map stated
   // exact but centimetres off lets a wrong pose fit a few anywhere.
-  const bool on_extras = opt_.survey.check && !errors_.survey.confident() &&
-                         ChosenInliers(fr, tri) < opt_.relocalize_confirmed_fraction * ChosenToTrack(fr);
-  w->accepted = Corroborated(fr, tri) && !under_probe && !on_extras;
+  w->accepted = Corroborated(fr, tri) && !under_probe &&
+                !FewChosenBeforeSurvey(fr, tri, opt_.relocalize_confirmed_fraction);
   fr.unconfirmed = !w->accepted;
 }
 

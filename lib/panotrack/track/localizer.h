@@ -400,6 +400,9 @@ class Localizer {
   // Whether a frame tracked now measures the other corner of some chosen
   // edges (LocalizerOptions::noise_pairs): the survey estimate wants them.
   bool PairsWanted() const;
+  // Whether this frame confirms a held pose or a survey probe tries a
+  // level: what is measured then must not lean on the map's least known parts.
+  bool ConfirmingOrProbing() const { return reloc_.held || reloc_.probe_sigma != 0.0; }
   // Whether retrying with `either` could find what the map's polarities did
   // not: some shade is known and the images have not confirmed the map yet.
   bool EitherFallbackUseful() const;
@@ -588,6 +591,10 @@ class Localizer {
     return Corroborated(fr, tri, opt_.relocalize_confirmed_fraction);
   }
   bool Corroborated(const FrameResult& fr, const TriangulationResult& tri, double fraction) const;
+  // whether, before the residuals have shown the map's error, fewer than
+  // `fraction` of the landmarks chosen to track are inliers (a pose resting
+  // on extra landmarks: a wrong one fits a few of them anywhere);
+  bool FewChosenBeforeSurvey(const FrameResult& fr, const TriangulationResult& tri, double fraction) const;
   // the landmarks chosen to track at this frame (max_landmarks of those predicted);
   double ChosenLandmarks(const FrameResult& fr) const;
   // ... and with those the map's survey error adds (MaxLandmarks);
