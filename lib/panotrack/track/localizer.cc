@@ -1042,7 +1042,14 @@ bool Localizer::PartialFirstFrame(const FrameResult& fr, const TriangulationResu
   if (track_.ever_tracked || !track_.start_is_hint || !opt_.survey.check || errors_.survey.confident()) return false;
   int n_found = 0;
   for (const auto& m : fr.measurements) n_found += m.found;
-  return 2 * static_cast<int>(tri.inliers.size()) < n_found;
+  const int inliers = static_cast<int>(tri.inliers.size());
+  if (2 * inliers < n_found) return true;
+  // A map stated exact allows the image noise alone: from a start the user
+  // gave (a search's pose held has its own rules: ConfirmHeldPose), fewer
+  // left out are a sign of its error too.
+  if (reloc_.held || StatedSurveySigma() != 0.0) return false;
+  const int left_out = n_found - inliers;
+  return 6 * left_out > n_found || (left_out > 0 && !Corroborated(fr, tri));
 }
 
 bool Localizer::RetrackUnderShownSurvey(FrameResult* fr, TriangulationResult* tri) {
@@ -1155,8 +1162,14 @@ void Localizer::TrackPredictions(const Pose2 pred, FrameResult* fr, Triangulatio
   // A pose found from the compass's heading that lies nearer the model's
   // (the compass misled) is kept only when the model's finds none.
   std::optional<std::pair<FrameResult, TriangulationResult>> misled;
+  // Measured from the compass's heading, the edges are blurred by the turn
+  // it measured (a robot that begins to spin: the model's turn is none).
+  const auto blur_motion = [&](const Pose2& p) {
+    return by_compass && p.theta == by_compass->theta ? SolvedMotion(p) : std::nullopt;
+  };
   for (const Pose2& p : predictions) {
-    Measure(p, search, fr, nullptr, false, false, true);
+    const std::optional<Pose2> motion = blur_motion(p);
+    Measure(p, search, fr, motion ? &*motion : nullptr, false, false, true);
     *tri = Solve(*fr, p);
     if (!Acceptable(*fr, *tri)) continue;
     fr->predicted_pose = p;
@@ -1177,7 +1190,8 @@ void Localizer::TrackPredictions(const Pose2 pred, FrameResult* fr, Triangulatio
   for (double wider = 2.0 * search; !Acceptable(*fr, *tri) && wider <= 2.0 * opt_.max_search_px;
        wider *= 2.0) {
     for (const Pose2& p : predictions) {
-      Measure(p, wider, fr, nullptr, false, false, true);
+      const std::optional<Pose2> motion = blur_motion(p);
+      Measure(p, wider, fr, motion ? &*motion : nullptr, false, false, true);
       *tri = Solve(*fr, p);
       if (Acceptable(*fr, *tri)) break;
     }
@@ -1187,7 +1201,8 @@ void Localizer::TrackPredictions(const Pose2 pred, FrameResult* fr, Triangulatio
   if (Acceptable(*fr, *tri) || !EitherFallbackUseful()) return;
   for (double width : {search, 2.0 * opt_.max_search_px})
     for (const Pose2& p : predictions) {
-      Measure(p, width, fr, nullptr, true, false, true);
+      const std::optional<Pose2> motion = blur_motion(p);
+      Measure(p, width, fr, motion ? &*motion : nullptr, true, false, true);
       *tri = Solve(*fr, p);
       if (Acceptable(*fr, *tri)) {
         fr->predicted_pose = p;
