@@ -1164,12 +1164,12 @@ void Localizer::TrackPredictions(const Pose2 pred, FrameResult* fr, Triangulatio
   std::optional<std::pair<FrameResult, TriangulationResult>> misled;
   // Measured from the compass's heading, the edges are blurred by the turn
   // it measured (a robot that begins to spin: the model's turn is none).
-  const auto blur_motion = [&](const Pose2& p) {
-    return by_compass && p.theta == by_compass->theta ? SolvedMotion(p) : std::nullopt;
+  const std::optional<Pose2> compass_motion = by_compass ? SolvedMotion(*by_compass) : std::nullopt;
+  const auto blur_motion = [&](const Pose2& p) -> const Pose2* {
+    return compass_motion && p.theta == by_compass->theta ? &*compass_motion : nullptr;
   };
   for (const Pose2& p : predictions) {
-    const std::optional<Pose2> motion = blur_motion(p);
-    Measure(p, search, fr, motion ? &*motion : nullptr, false, false, true);
+    Measure(p, search, fr, blur_motion(p), false, false, true);
     *tri = Solve(*fr, p);
     if (!Acceptable(*fr, *tri)) continue;
     fr->predicted_pose = p;
@@ -1190,8 +1190,7 @@ void Localizer::TrackPredictions(const Pose2 pred, FrameResult* fr, Triangulatio
   for (double wider = 2.0 * search; !Acceptable(*fr, *tri) && wider <= 2.0 * opt_.max_search_px;
        wider *= 2.0) {
     for (const Pose2& p : predictions) {
-      const std::optional<Pose2> motion = blur_motion(p);
-      Measure(p, wider, fr, motion ? &*motion : nullptr, false, false, true);
+      Measure(p, wider, fr, blur_motion(p), false, false, true);
       *tri = Solve(*fr, p);
       if (Acceptable(*fr, *tri)) break;
     }
@@ -1201,8 +1200,7 @@ void Localizer::TrackPredictions(const Pose2 pred, FrameResult* fr, Triangulatio
   if (Acceptable(*fr, *tri) || !EitherFallbackUseful()) return;
   for (double width : {search, 2.0 * opt_.max_search_px})
     for (const Pose2& p : predictions) {
-      const std::optional<Pose2> motion = blur_motion(p);
-      Measure(p, width, fr, motion ? &*motion : nullptr, true, false, true);
+      Measure(p, width, fr, blur_motion(p), true, false, true);
       *tri = Solve(*fr, p);
       if (Acceptable(*fr, *tri)) {
         fr->predicted_pose = p;
