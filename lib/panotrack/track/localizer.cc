@@ -1038,18 +1038,29 @@ Eigen::Matrix3d Localizer::ReportedCovariance(const FrameResult& fr, const std::
   return largest(predicted) > largest(tri.covariance) ? predicted : tri.covariance;
 }
 
-bool Localizer::PartialFirstFrame(const FrameResult& fr, const TriangulationResult& tri) const {
-  if (track_.ever_tracked || !track_.start_is_hint || !opt_.survey.check || errors_.survey.confident()) return false;
+bool Localizer::PartialBeforeSurvey(const FrameResult& fr, const TriangulationResult& tri) const {
+  if (!opt_.survey.check || errors_.survey.confident()) return false;
+  const bool first_from_hint = !track_.ever_tracked && track_.start_is_hint;
+  const bool stated_exact = StatedSurveySigma() == 0.0;
+  if (!first_from_hint && !stated_exact) return false;
   int n_found = 0;
   for (const auto& m : fr.measurements) n_found += m.found;
   const int inliers = static_cast<int>(tri.inliers.size());
-  if (2 * inliers < n_found) return true;
-  // A map stated exact allows the image noise alone: from a start the user
-  // gave (a search's pose held has its own rules: ConfirmHeldPose), fewer
-  // left out are a sign of its error too.
-  if (reloc_.held || StatedSurveySigma() != 0.0) return false;
+  if (first_from_hint && 2 * inliers < n_found) return true;
+  // A map stated exact allows the image noise alone: fewer left out are a
+  // sign of its error too (a search's pose held has its own rules:
+  // ConfirmHeldPose).
+  if (reloc_.held || !stated_exact) return false;
   const int left_out = n_found - inliers;
-  return 6 * left_out > n_found || (left_out > 0 && !Corroborated(fr, tri));
+  if (left_out <= 0) return false;
+  const bool many_left_out = 6 * left_out > n_found;
+  const bool weak = !Corroborated(fr, tri);
+  if (first_from_hint) return many_left_out || weak;
+  // Later, both signs on a consensus smaller than the landmarks an exact
+  // map tracks: a pose that many bearings agree on is not a chance subset's
+  // (nor is a twin of the room that leaves few of those it found out,
+  // which the survey probe would fit under a wider error).
+  return many_left_out && weak && inliers < opt_.max_landmarks;
 }
 
 bool Localizer::RetrackUnderShownSurvey(FrameResult* fr, TriangulationResult* tri) {
@@ -1736,7 +1747,7 @@ void Localizer::TrackFromPrediction(double time_s, const OdometryIncrement* odom
   // every frame tracked from it until one does: a partial twin of the
   // room then tracks as well as the true pose from one frame to the next.
   w->accepted = w->accepted && ConfirmsJump(fr, tri);
-  w->accepted = w->accepted && !PartialFirstFrame(fr, tri);
+  w->accepted = w->accepted && !PartialBeforeSurvey(fr, tri);
   if (reloc_.held && !w->accepted) ++reloc_.failures;
 }
 

@@ -493,17 +493,22 @@ class Localizer {
   // provisional sigma and the frame is tracked again under it around its
   // pose, the new solution taken where it is accepted. True if it was.
   bool RetrackUnderShownSurvey(FrameResult* fr, TriangulationResult* tri);
-  // The first frame from a start given as a guess, before the survey error
-  // is known, whose pose leaves most of the bearings it found out; on a map
-  // stated exact, from a start the user gave (not a search's pose held),
-  // more than a sixth of them, or any without the support a relocalised
-  // pose needs (Corroborated): under too small a survey error a subset of
-  // well-measured corners agrees on a pose off by the error of the rest (8
-  // of 10 found, 5 cm off, on a map stated exact but measured to 2 cm). A
-  // tracker's odd outlier (a cluttered room's 1 of 11) is not a map's
-  // error. Not accepted as it is: the survey probe then tries it under
-  // larger errors.
-  bool PartialFirstFrame(const FrameResult& fr, const TriangulationResult& tri) const;
+  // Before the survey error is known, a frame whose pose leaves found
+  // bearings out: the first frame from a start given as a guess that
+  // leaves most of them out; on a map stated exact (not a search's pose
+  // held), the first frame from a start the user gave that leaves more
+  // than a sixth of them out, or any without the support a relocalised
+  // pose needs (Corroborated), and a later frame that does both on fewer
+  // inliers than max_landmarks. Under too small a survey error a subset of
+  // well-measured corners agrees on a pose off by the error of the rest: 8
+  // of 10 found, 5 cm off, on a map stated exact but measured to 2 cm; 6
+  // of 10, 3.9 cm off, at 0.5 cm. A tracker's odd outlier (a cluttered
+  // room's 1 of 11) is not a map's error; nor is a pose on 21 - 26 inliers
+  // that leaves a few out (within a centimetre at 2 cm), nor a twin of the
+  // room that finds 20 of the 32 landmarks it chose and leaves 2 out (the
+  // survey probe would fit it under a wider error). Not accepted as it is:
+  // the survey probe then tries it under larger errors.
+  bool PartialBeforeSurvey(const FrameResult& fr, const TriangulationResult& tri) const;
   // The indices into fr.predicted of the solution's inlier observations.
   std::vector<int> InlierPredictions(const FrameResult& fr, const TriangulationResult& tri) const;
   // The integrity test of an acceptable solution (fills fr->integrity).
