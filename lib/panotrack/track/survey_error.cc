@@ -119,8 +119,14 @@ void SurveyErrorEstimate::Update(const std::vector<double>& residuals, const std
   pair_samples_.erase(std::remove_if(pair_samples_.begin(), pair_samples_.end(),
                                      [](const Sample& x) { return x.weight < 1e-2; }),
                       pair_samples_.end());
-  for (double q : pairs)
-    if (std::isfinite(q)) pair_samples_.push_back({0.0, 0.5 * q * q, 1.0});
+  // Kept in the order of y, which forgetting keeps (PairVariance's median).
+  for (double q : pairs) {
+    if (!std::isfinite(q)) continue;
+    const Sample pair{0.0, 0.5 * q * q, 1.0};
+    pair_samples_.insert(std::upper_bound(pair_samples_.begin(), pair_samples_.end(), pair,
+                                          [](const Sample& a, const Sample& b) { return a.y < b.y; }),
+                         pair);
+  }
   for (size_t i = 0; i < n; ++i) {
     if (!(distances[i] > 0.0) || !std::isfinite(residuals[i])) continue;
     // A bearing the fit rests on almost alone tells little: its share is
@@ -150,8 +156,7 @@ double SurveyErrorEstimate::PairVariance() const {
   // corner, a degree off) is no image noise, and lifted the mean square
   // enough to take a map's error for the images'; the median alone would
   // leave out blur's broad tails, which are.
-  std::vector<Sample> sorted = pair_samples_;
-  std::sort(sorted.begin(), sorted.end(), [](const Sample& a, const Sample& b) { return a.y < b.y; });
+  const std::vector<Sample>& sorted = pair_samples_;  // in the order of y (Update)
   double below = 0.0, core = sorted.back().y;
   for (const Sample& pair : sorted) {
     below += pair.weight;
@@ -214,8 +219,11 @@ void SurveyErrorEstimate::Fit() {
       next_a = std::clamp(next_a, 0.0, image_bound);
       next_b = std::max(0.0, (suy - next_a * su) / suu);
     }
+    // A fixed point reached: the further steps would repeat it.
+    const bool converged = next_a == a && next_b == b;
     a = next_a;
     b = next_b;
+    if (converged) break;
   }
   image_variance_ = a;
   survey_ = std::min(std::sqrt(b), opt_.max_fraction * typical_distance_);
