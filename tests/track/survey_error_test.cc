@@ -134,6 +134,34 @@ TEST_CASE("survey error: one edge pair with a wrong junction does not take the m
   CHECK(e.image_sigma() < 4.0 * image);
 }
 
+TEST_CASE("survey error: the edge pairs' order does not change the estimate", "[survey_error]") {
+  // The pairs are kept in the order of their squared difference (their
+  // median and core); a frame's pairs given in reverse must give the same
+  // estimate, bit for bit.
+  PANO_SEEDED_RNG(53);
+  SurveyErrorEstimate forward(SurveyErrorOptions(), 120.0), reverse(SurveyErrorOptions(), 120.0);
+  std::uniform_real_distribution<double> distance(110.0, 130.0);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  const double survey = 1.0, image = 0.0005;
+  for (int f = 0; f < 20; ++f) {
+    std::vector<double> residuals, distances, pairs;
+    for (int i = 0; i < 12; ++i) {
+      distances.push_back(distance(rng));
+      residuals.push_back(unit(rng) * std::hypot(image, survey / distances.back()));
+    }
+    for (int k = 0; k < 4; ++k) pairs.push_back(unit(rng) * std::sqrt(2.0) * image);
+    forward.Update(residuals, distances, pairs, 0);
+    std::reverse(pairs.begin(), pairs.end());
+    reverse.Update(residuals, distances, pairs, 0);
+    INFO("frame " << f);
+    CHECK(forward.estimated() == reverse.estimated());
+    CHECK(forward.image_sigma() == reverse.image_sigma());
+  }
+  REQUIRE(forward.confident());
+  // The pairs bound the image's share: the rest is the map's.
+  CHECK(forward.estimated() == Approx(survey).epsilon(0.2));
+}
+
 TEST_CASE("survey error: edges with both corners found are wanted until a few bound the image noise",
           "[survey_error]") {
   PANO_SEEDED_RNG(44);
