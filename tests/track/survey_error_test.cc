@@ -39,6 +39,23 @@ void Feed(SurveyErrorEstimate* e, std::mt19937_64& rng, double survey, double im
   }
 }
 
+// One frame of 12 bearings at distances 110 - 130 (too close together to
+// split the residuals) and `n_pairs` edges' pairs (image noise alone).
+struct NarrowFrame {
+  std::vector<double> residuals, distances, pairs;
+};
+NarrowFrame DrawNarrowFrame(std::mt19937_64& rng, double survey, double image, int n_pairs) {
+  std::uniform_real_distribution<double> distance(110.0, 130.0);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  NarrowFrame f;
+  for (int i = 0; i < 12; ++i) {
+    f.distances.push_back(distance(rng));
+    f.residuals.push_back(unit(rng) * std::hypot(image, survey / f.distances.back()));
+  }
+  for (int k = 0; k < n_pairs; ++k) f.pairs.push_back(unit(rng) * std::sqrt(2.0) * image);
+  return f;
+}
+
 TEST_CASE("survey error: the fit tells a map's error from the image noise by the landmarks' distances",
           "[survey_error]") {
   PANO_SEEDED_RNG(37);
@@ -114,19 +131,12 @@ TEST_CASE("survey error: one edge pair with a wrong junction does not take the m
   // 1-unit survey error, image noise 0.0005 rad, two edges' pairs a frame:
   // the pairs alone bound the image's share.
   const double survey = 1.0, image = 0.0005;
-  std::uniform_real_distribution<double> distance(110.0, 130.0);
-  std::normal_distribution<double> unit(0.0, 1.0);
   for (int f = 0; f < 12; ++f) {
-    std::vector<double> residuals, distances, pairs;
-    for (int i = 0; i < 12; ++i) {
-      distances.push_back(distance(rng));
-      residuals.push_back(unit(rng) * std::hypot(image, survey / distances.back()));
-    }
-    for (int k = 0; k < 2; ++k) pairs.push_back(unit(rng) * std::sqrt(2.0) * image);
+    NarrowFrame frame = DrawNarrowFrame(rng, survey, image, 2);
     // On one frame one corner of an edge is a degree off (someone in front
     // of it): its pair's difference is no image noise.
-    if (f == 8) pairs.push_back(1.0 * M_PI / 180);
-    e.Update(residuals, distances, pairs, 0);
+    if (f == 8) frame.pairs.push_back(1.0 * M_PI / 180);
+    e.Update(frame.residuals, frame.distances, frame.pairs, 0);
   }
   REQUIRE(e.confident());
   INFO("survey " << e.estimated() << " image " << e.image_sigma());
@@ -140,19 +150,12 @@ TEST_CASE("survey error: the edge pairs' order does not change the estimate", "[
   // estimate, bit for bit.
   PANO_SEEDED_RNG(53);
   SurveyErrorEstimate forward(SurveyErrorOptions(), 120.0), reverse(SurveyErrorOptions(), 120.0);
-  std::uniform_real_distribution<double> distance(110.0, 130.0);
-  std::normal_distribution<double> unit(0.0, 1.0);
   const double survey = 1.0, image = 0.0005;
   for (int f = 0; f < 20; ++f) {
-    std::vector<double> residuals, distances, pairs;
-    for (int i = 0; i < 12; ++i) {
-      distances.push_back(distance(rng));
-      residuals.push_back(unit(rng) * std::hypot(image, survey / distances.back()));
-    }
-    for (int k = 0; k < 4; ++k) pairs.push_back(unit(rng) * std::sqrt(2.0) * image);
-    forward.Update(residuals, distances, pairs, 0);
-    std::reverse(pairs.begin(), pairs.end());
-    reverse.Update(residuals, distances, pairs, 0);
+    NarrowFrame frame = DrawNarrowFrame(rng, survey, image, 4);
+    forward.Update(frame.residuals, frame.distances, frame.pairs, 0);
+    std::reverse(frame.pairs.begin(), frame.pairs.end());
+    reverse.Update(frame.residuals, frame.distances, frame.pairs, 0);
     INFO("frame " << f);
     CHECK(forward.estimated() == reverse.estimated());
     CHECK(forward.image_sigma() == reverse.image_sigma());
