@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include "expect_error.h"
@@ -163,6 +164,63 @@ TEST_CASE("survey error: the edge pairs' order does not change the estimate", "[
   REQUIRE(forward.confident());
   // The pairs bound the image's share: the rest is the map's.
   CHECK(forward.estimated() == Approx(survey).epsilon(0.2));
+}
+
+TEST_CASE("survey error: the fit's sums are the same to the bit on the vector unit and without it",
+          "[survey_error]") {
+  // Every length from empty to a few vectors and a tail, samples at the
+  // spread a run gives them (u = 1/d^2, y = r^2 / kept, forgotten weights).
+  PANO_SEEDED_RNG(61);
+  std::uniform_real_distribution<double> distance(40.0, 400.0), weight(1e-2, 1.0);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  for (size_t n = 0; n <= 41; ++n) {
+    std::vector<double> u, y, w;
+    for (size_t i = 0; i < n; ++i) {
+      const double d = distance(rng), r = unit(rng) * std::hypot(0.001, 0.5 / d);
+      u.push_back(1.0 / (d * d));
+      y.push_back(r * r / 0.9);
+      w.push_back(weight(rng));
+    }
+    for (const auto& [a, b] : {std::pair{0.0, 0.25}, std::pair{1e-6, 0.3}, std::pair{3e-7, 0.0}}) {
+      const internal::NormalSums vector = internal::WeightedNormalSums(u.data(), y.data(), w.data(), n, a, b);
+      const internal::NormalSums portable = internal::PortableNormalSums(u.data(), y.data(), w.data(), n, a, b);
+      INFO(n << " samples, a " << a << " b " << b);
+      CHECK(vector.s1 == portable.s1);
+      CHECK(vector.su == portable.su);
+      CHECK(vector.suu == portable.suu);
+      CHECK(vector.sy == portable.sy);
+      CHECK(vector.suy == portable.suy);
+      // Lane order or not, the sums are the weighted normal equations'.
+      double s1 = 0.0, suy = 0.0;
+      for (size_t i = 0; i < n; ++i) {
+        const double v = std::max(a + b * u[i], 1e-30), wi = w[i] / (v * v);
+        s1 += wi;
+        suy += wi * u[i] * y[i];
+      }
+      CHECK(portable.s1 == Approx(s1).epsilon(1e-12));
+      CHECK(portable.suy == Approx(suy).epsilon(1e-12));
+    }
+  }
+}
+
+TEST_CASE("survey error: forgotten frames leave no trace, however long the run", "[survey_error]") {
+  // Weights forgotten below a hundredth (0.99^459) are dropped: after 470
+  // frames, a run that saw 4600 frames of another map before (its weights
+  // rescaled on the way) holds the same evidence as one that saw only the
+  // 470, and gives the same estimate to rounding.
+  PANO_SEEDED_RNG(67);
+  SurveyErrorEstimate long_run(SurveyErrorOptions(), 150.0), fresh(SurveyErrorOptions(), 150.0);
+  Feed(&long_run, rng, 3.0, 0.002, 4600);
+  INFO("after the other map: survey " << long_run.estimated());
+  CHECK(long_run.estimated() == Approx(3.0).epsilon(0.15));
+  std::mt19937_64 copy = rng;
+  Feed(&long_run, rng, 0.5, 0.0005, 470);
+  Feed(&fresh, copy, 0.5, 0.0005, 470);
+  REQUIRE(fresh.confident());
+  CHECK(long_run.confident());
+  CHECK(long_run.estimated() == Approx(fresh.estimated()).epsilon(1e-9));
+  CHECK(long_run.image_sigma() == Approx(fresh.image_sigma()).epsilon(1e-9));
+  CHECK(fresh.estimated() == Approx(0.5).epsilon(0.25));
 }
 
 TEST_CASE("survey error: edges with both corners found are wanted until a few bound the image noise",

@@ -3,7 +3,12 @@
 #include <algorithm>
 #include <limits>
 
+#include "panotrack/core/cpu_features.h"
 #include "panotrack/core/error.h"
+
+#ifdef PANO_HAVE_X86_TARGETS
+#include <immintrin.h>
+#endif
 
 namespace pano {
 
@@ -27,7 +32,76 @@ constexpr double kChiSquare1Median = 0.454936423119572;
 // A pair difference beyond this many standard deviations of the pairs'
 // core is a wrong junction's, not image noise.
 constexpr double kPairOutlier = 3.0;
+// The smallest variance a reweighting step divides by.
+constexpr double kMinVariance = 1e-30;
+
+using internal::NormalSums;
+
+constexpr int kLanes = 4;  // WeightedNormalSums' order
+
+NormalSums SumLanes(const double (&lanes)[5][kLanes]) {
+  double total[5];
+  for (int k = 0; k < 5; ++k) total[k] = (lanes[k][0] + lanes[k][1]) + (lanes[k][2] + lanes[k][3]);
+  return {total[0], total[1], total[2], total[3], total[4]};
+}
+
+void AddSample(double u, double y, double weight, double a, double b, double (&lanes)[5][kLanes], int lane) {
+  const double v = std::max(a + b * u, kMinVariance);
+  const double w = weight / (v * v);
+  const double wu = w * u;
+  lanes[0][lane] += w;
+  lanes[1][lane] += wu;
+  lanes[2][lane] += wu * u;
+  lanes[3][lane] += w * y;
+  lanes[4][lane] += wu * y;
+}
+
+#ifdef PANO_HAVE_X86_TARGETS
+// The same, four samples at a time (the same operations per lane, none
+// fused: the same sums to the bit).
+__attribute__((target("avx2"))) NormalSums SumsAvx2(const double* u, const double* y, const double* weight, size_t n,
+                                                   double a, double b) {
+  const __m256d va = _mm256_set1_pd(a), vb = _mm256_set1_pd(b), floor = _mm256_set1_pd(kMinVariance);
+  __m256d acc[5];
+  for (__m256d& x : acc) x = _mm256_setzero_pd();
+  size_t i = 0;
+  for (; i + kLanes <= n; i += kLanes) {
+    const __m256d vu = _mm256_loadu_pd(u + i), vy = _mm256_loadu_pd(y + i);
+    // max(floor, v): v where v is NaN, as std::max(v, floor).
+    const __m256d v = _mm256_max_pd(floor, _mm256_add_pd(va, _mm256_mul_pd(vb, vu)));
+    const __m256d w = _mm256_div_pd(_mm256_loadu_pd(weight + i), _mm256_mul_pd(v, v));
+    const __m256d wu = _mm256_mul_pd(w, vu);
+    acc[0] = _mm256_add_pd(acc[0], w);
+    acc[1] = _mm256_add_pd(acc[1], wu);
+    acc[2] = _mm256_add_pd(acc[2], _mm256_mul_pd(wu, vu));
+    acc[3] = _mm256_add_pd(acc[3], _mm256_mul_pd(w, vy));
+    acc[4] = _mm256_add_pd(acc[4], _mm256_mul_pd(wu, vy));
+  }
+  double lanes[5][kLanes];
+  for (int k = 0; k < 5; ++k) _mm256_storeu_pd(lanes[k], acc[k]);
+  for (; i < n; ++i) AddSample(u[i], y[i], weight[i], a, b, lanes, static_cast<int>(i % kLanes));
+  return SumLanes(lanes);
+}
+#endif
+
 }  // namespace
+
+namespace internal {
+
+NormalSums PortableNormalSums(const double* u, const double* y, const double* weight, size_t n, double a, double b) {
+  double lanes[5][kLanes] = {};
+  for (size_t i = 0; i < n; ++i) AddSample(u[i], y[i], weight[i], a, b, lanes, static_cast<int>(i % kLanes));
+  return SumLanes(lanes);
+}
+
+NormalSums WeightedNormalSums(const double* u, const double* y, const double* weight, size_t n, double a, double b) {
+#ifdef PANO_HAVE_X86_TARGETS
+  if (HaveAvx2()) return SumsAvx2(u, y, weight, n, a, b);
+#endif
+  return PortableNormalSums(u, y, weight, n, a, b);
+}
+
+}  // namespace internal
 
 void SurveyErrorOptions::Check() const {
   if (!(unstated_fraction >= 0.0) || !(max_fraction >= unstated_fraction) || !std::isfinite(max_fraction))
@@ -52,7 +126,12 @@ SurveyErrorEstimate::SurveyErrorEstimate(const SurveyErrorOptions& options, doub
 }
 
 void SurveyErrorEstimate::Reset() {
-  samples_.clear();
+  sample_u_.clear();
+  sample_y_.clear();
+  sample_weight_.clear();
+  first_sample_ = 0;
+  weight_scale_ = 1.0;
+  stored_weight_ = 0.0;
   n_ = 0.0;
   pair_samples_.clear();
   survey_ = image_variance_ = provisional_ = 0.0;
@@ -109,22 +188,19 @@ void SurveyErrorEstimate::Update(const std::vector<double>& residuals, const std
   // (n - fitted) / n in variance.
   const double inflate = static_cast<double>(n) / static_cast<double>(static_cast<int>(n) - fitted);
   const double keep = opt_.forgetting;
-  for (Sample& sample : samples_) sample.weight *= keep;
   // Evidence forgotten below a hundredth no longer counts.
-  samples_.erase(std::remove_if(samples_.begin(), samples_.end(), [](const Sample& x) { return x.weight < 1e-2; }),
-                 samples_.end());
-  n_ = 0.0;
-  for (const Sample& sample : samples_) n_ += sample.weight;
-  for (Sample& pair : pair_samples_) pair.weight *= keep;
+  constexpr double kForgotten = 1e-2;
+  Forget(keep, kForgotten);
+  for (PairSample& pair : pair_samples_) pair.weight *= keep;
   pair_samples_.erase(std::remove_if(pair_samples_.begin(), pair_samples_.end(),
-                                     [](const Sample& x) { return x.weight < 1e-2; }),
+                                     [](const PairSample& x) { return x.weight < kForgotten; }),
                       pair_samples_.end());
   // Kept in the order of y, which forgetting keeps (PairVariance's median).
   for (double q : pairs) {
     if (!std::isfinite(q)) continue;
-    const Sample pair{0.0, 0.5 * q * q, 1.0};
+    const PairSample pair{0.5 * q * q, 1.0};
     pair_samples_.insert(std::upper_bound(pair_samples_.begin(), pair_samples_.end(), pair,
-                                          [](const Sample& a, const Sample& b) { return a.y < b.y; }),
+                                          [](const PairSample& a, const PairSample& b) { return a.y < b.y; }),
                          pair);
   }
   for (size_t i = 0; i < n; ++i) {
@@ -132,15 +208,38 @@ void SurveyErrorEstimate::Update(const std::vector<double>& residuals, const std
     // A bearing the fit rests on almost alone tells little: its share is
     // capped at kMaxLeverage.
     const double kept = i < leverages.size() ? 1.0 - std::clamp(leverages[i], 0.0, kMaxLeverage) : 1.0 / inflate;
-    samples_.push_back({1.0 / (distances[i] * distances[i]), residuals[i] * residuals[i] / kept, 1.0});
-    n_ += 1.0;
+    sample_u_.push_back(1.0 / (distances[i] * distances[i]));
+    sample_y_.push_back(residuals[i] * residuals[i] / kept);
+    sample_weight_.push_back(1.0 / weight_scale_);
+    stored_weight_ += sample_weight_.back();
   }
+  n_ = stored_weight_ * weight_scale_;
   Fit();
+}
+
+void SurveyErrorEstimate::Forget(double keep, double forgotten) {
+  weight_scale_ *= keep;
+  // The oldest samples weigh least: the forgotten ones are the first.
+  const size_t end = sample_weight_.size();
+  while (first_sample_ < end && sample_weight_[first_sample_] * weight_scale_ < forgotten)
+    stored_weight_ -= sample_weight_[first_sample_++];
+  if (first_sample_ == end) stored_weight_ = 0.0;
+  // Now and then: the forgotten samples' room back, and the stored weights
+  // back to the weights themselves (far from overflow in the fit's sums).
+  constexpr double kSmallestScale = 1e-20;
+  if (2 * first_sample_ > end || weight_scale_ < kSmallestScale) {
+    for (std::vector<double>* column : {&sample_u_, &sample_y_, &sample_weight_})
+      column->erase(column->begin(), column->begin() + static_cast<std::ptrdiff_t>(first_sample_));
+    first_sample_ = 0;
+    stored_weight_ = 0.0;
+    for (double& weight : sample_weight_) stored_weight_ += weight *= weight_scale_;
+    weight_scale_ = 1.0;
+  }
 }
 
 double SurveyErrorEstimate::PairWeight() const {
   double total = 0.0;
-  for (const Sample& pair : pair_samples_) total += pair.weight;
+  for (const PairSample& pair : pair_samples_) total += pair.weight;
   return total;
 }
 
@@ -156,9 +255,9 @@ double SurveyErrorEstimate::PairVariance() const {
   // corner, a degree off) is no image noise, and lifted the mean square
   // enough to take a map's error for the images'; the median alone would
   // leave out blur's broad tails, which are.
-  const std::vector<Sample>& sorted = pair_samples_;  // in the order of y (Update)
+  const std::vector<PairSample>& sorted = pair_samples_;  // in the order of y (Update)
   double below = 0.0, core = sorted.back().y;
-  for (const Sample& pair : sorted) {
+  for (const PairSample& pair : sorted) {
     below += pair.weight;
     if (below >= 0.5 * total) {
       core = pair.y / kChiSquare1Median;
@@ -167,7 +266,7 @@ double SurveyErrorEstimate::PairVariance() const {
   }
   const double limit = kPairOutlier * kPairOutlier * core;
   double weight = 0.0, sum = 0.0;
-  for (const Sample& pair : sorted) {
+  for (const PairSample& pair : sorted) {
     if (pair.y > limit) break;
     weight += pair.weight;
     sum += pair.weight * pair.y;
@@ -176,31 +275,27 @@ double SurveyErrorEstimate::PairVariance() const {
 }
 
 void SurveyErrorEstimate::Fit() {
-  if (samples_.empty()) return;
+  if (first_sample_ == sample_u_.size()) return;
   // The pairs' image noise, with a margin (four times its variance: a few
   // pairs vary), caps the image's share, as does the noisiest tracker's;
   // the rest is the survey's.
   const double image_bound = std::min(opt_.max_image_sigma * opt_.max_image_sigma, 4.0 * PairVariance());
   // Start from all of it the survey's (the residuals' mean square in map
   // units), then reweigh by the variance fitted.
+  // The stored weights, not the weights: a common factor changes no step.
+  const size_t n = sample_u_.size() - first_sample_;
+  const double *u = sample_u_.data() + first_sample_, *y = sample_y_.data() + first_sample_,
+               *weight = sample_weight_.data() + first_sample_;
   double a = 0.0, b = 0.0, sw = 0.0;
-  for (const Sample& x : samples_) {
-    b += x.weight * x.y / x.u;
-    sw += x.weight;
+  for (size_t i = 0; i < n; ++i) {
+    b += weight[i] * y[i] / u[i];
+    sw += weight[i];
   }
   b /= sw;
   for (int iteration = 0; iteration < kFitIterations; ++iteration) {
     // Weighted normal equations of y = a + b u, weights 1 / (a + b u)^2.
-    double s1 = 0.0, su = 0.0, suu = 0.0, sy = 0.0, suy = 0.0;
-    for (const Sample& x : samples_) {
-      const double v = std::max(a + b * x.u, 1e-30);
-      const double w = x.weight / (v * v);
-      s1 += w;
-      su += w * x.u;
-      suu += w * x.u * x.u;
-      sy += w * x.y;
-      suy += w * x.u * x.y;
-    }
+    const NormalSums sums = internal::WeightedNormalSums(u, y, weight, n, a, b);
+    const double s1 = sums.s1, su = sums.su, suu = sums.suu, sy = sums.sy, suy = sums.suy;
     const double det = s1 * suu - su * su;
     // The distances must spread enough to tell the terms apart (relative
     // weighted variance of u above 1 %); else the excess is the image

@@ -16,6 +16,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <vector>
 
 namespace pano {
@@ -140,18 +141,42 @@ class SurveyErrorEstimate {
   double ExactDoubt() const;
   SurveyErrorOptions opt_;
   double typical_distance_ = 0.0;
-  // The inlier bearings remembered: u = 1/d^2, y = r^2 (corrected for the
-  // fit) and the weight left after forgetting; n_ their sum of weights.
-  struct Sample {
-    double u, y, weight;
-  };
-  std::vector<Sample> samples_;
+  // Forgets the samples' weights by `keep`; drops those below `forgotten`.
+  void Forget(double keep, double forgotten);
+  // The inlier bearings remembered from first_sample_ on, in the order
+  // seen, a column per field (the fit sums them four at a time): u = 1/d^2,
+  // y = r^2 (corrected for the fit) and the weight left after forgetting
+  // over weight_scale_ (forgetting scales one number, not every weight);
+  // stored_weight_ the stored weights' sum, n_ the weights'.
+  std::vector<double> sample_u_, sample_y_, sample_weight_;
+  size_t first_sample_ = 0;
+  double weight_scale_ = 1.0;
+  double stored_weight_ = 0.0;
   double n_ = 0.0;
-  // The pairs' halved squared differences (y; u unused), weighed the same.
-  std::vector<Sample> pair_samples_;
+  // The pairs' halved squared differences and their weights, forgotten the
+  // same way.
+  struct PairSample {
+    double y, weight;
+  };
+  std::vector<PairSample> pair_samples_;
   double survey_ = 0.0;
   double image_variance_ = 0.0;
   double provisional_ = 0.0;
 };
+
+namespace internal {
+
+// One reweighting step of the fit: the sums of the weighted normal
+// equations of y = a + b u, sample i weighing weight[i] / (a + b u[i])^2.
+struct NormalSums {
+  double s1 = 0.0, su = 0.0, suu = 0.0, sy = 0.0, suy = 0.0;
+};
+// Sample i is summed into lane i % 4 and the lanes pairwise at the end, so
+// that the vector unit (where there is one) and the portable loop give the
+// same sums to the bit.
+NormalSums WeightedNormalSums(const double* u, const double* y, const double* weight, size_t n, double a, double b);
+NormalSums PortableNormalSums(const double* u, const double* y, const double* weight, size_t n, double a, double b);
+
+}  // namespace internal
 
 }  // namespace pano
