@@ -75,6 +75,8 @@ void LocalizerOptions::Check() const {
       !(relocalize_ambiguity > 0 && relocalize_ambiguity <= 1))
     throw Error("localiser: relocalize_min_fraction 0..1, relocalize_margin >= 0, relocalize_distinct > 0, "
                 "relocalize_symmetry_tolerance >= 0, relocalize_ambiguity in (0, 1] expected");
+  if (relocalize_rival_searches < 0 || !(relocalize_rival_fit >= 1.0) || !std::isfinite(relocalize_rival_fit))
+    throw Error("localiser: relocalize_rival_searches: expected >= 0, relocalize_rival_fit: expected >= 1");
   if (polarity_learn_frames < 1 || polarity_forget_misses < 1 || polarity_max_flips < 0)
     throw Error("localiser: polarity_learn_frames and polarity_forget_misses: expected >= 1, "
                 "polarity_max_flips: expected >= 0");
@@ -226,6 +228,7 @@ void Localizer::Reset(const Pose2& robot_initial, bool hint) {
   reloc_.held = reloc_.held_jump = false;
   reloc_.held_frame.reset();
   reloc_.confirmed_hold.reset();
+  reloc_.rivalries.clear();
   track_.last_known.reset();
   errors_.bearing_sigma = 0.0;
   errors_.survey.Reset();
@@ -734,7 +737,7 @@ bool Localizer::TrackFrom(const Pose2& pose, double search_px, FrameResult* fr,
 }
 
 bool Localizer::Relocalize(const cv::Mat& grey, bool near_last, FrameResult* fr, TriangulationResult* tri,
-                           std::vector<VerifiedPose>* verified) const {
+                           std::vector<VerifiedPose>* verified, bool settle_rivalry) const {
   if (!relocalization_index_) {
     const auto build = [this] {
       return std::make_unique<const RelocalizationIndex>(calib_.sensor, *table_, map_, scene_, landmarks_,
@@ -746,12 +749,13 @@ bool Localizer::Relocalize(const cv::Mat& grey, bool near_last, FrameResult* fr,
   const std::vector<PoseHypothesis> hyps = relocalization_index_->Hypotheses(grey, SearchThreadCount(opt_));
   // With the map's polarities, then (while the images have not confirmed
   // them) with either.
-  return RelocalizeWith(hyps, false, near_last, fr, tri, verified) ||
+  return RelocalizeWith(hyps, false, near_last, fr, tri, verified, settle_rivalry) ||
          (EitherFallbackUseful() && RelocalizeWith(hyps, true, near_last, fr, tri, verified));
 }
 
 bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool either, bool near_last, FrameResult* fr,
-                               TriangulationResult* tri, std::vector<VerifiedPose>* verified_out) const {
+                               TriangulationResult* tri, std::vector<VerifiedPose>* verified_out,
+                               bool settle_rivalry) const {
   struct Verified {
     FrameResult fr;
     TriangulationResult tri;
@@ -799,7 +803,30 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
       return &v == &a || !DistinctPlaces(v.tri.pose, a.tri.pose) || outranks(a, v);
     });
   };
-  const auto best = std::find_if(verified.begin(), verified.end(), outranks_all);
+  auto best = std::find_if(verified.begin(), verified.end(), outranks_all);
+  if (settle_rivalry) {
+    // Ambiguous between the best supported place and one rival place (every
+    // pose not outranked lies there): does the first keep leading?
+    const Verified& leader = verified.front();
+    const auto rival = std::find_if(verified.begin(), verified.end(), [&](const Verified& v) {
+      return DistinctPlaces(v.tri.pose, leader.tri.pose) && !outranks(leader, v);
+    });
+    const bool two_places =
+        best == verified.end() && rival != verified.end() &&
+        std::all_of(verified.begin(), verified.end(), [&](const Verified& v) {
+          return !DistinctPlaces(v.tri.pose, leader.tri.pose) || !DistinctPlaces(v.tri.pose, rival->tri.pose) ||
+                 outranks(leader, v);
+        });
+    if (!two_places) {
+      reloc_.rivalries.clear();
+    } else {
+      const double floor = ReferenceSigma() * errors_.typical_distance;
+      const bool leads = count(leader) >= count(*rival) && leader.chosen >= rival->chosen &&
+                         count(*rival) >= std::max(opt_.relocalize_min_landmarks, kFitComparedBearings) &&
+                         rival->tri.residual >= opt_.relocalize_rival_fit * std::max(leader.tri.residual, floor);
+      if (LedRivalLongEnough(leader.tri.pose, rival->tri.pose, leads)) best = verified.begin();
+    }
+  }
   if (best == verified.end()) return false;
   // The best-supported pose, unambiguous, must also pass the integrity test
   // (a pose with fewer inliers that passes it is no better: few bearings
@@ -813,6 +840,29 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
   *fr = std::move(best->fr);
   *tri = best->tri;
   return true;
+}
+
+bool Localizer::LedRivalLongEnough(const Pose2& leader, const Pose2& rival, bool leads) const {
+  std::vector<Relocalization::Rivalry>& led = reloc_.rivalries;
+  // Under the exact statement's tolerances (or a probe's) a chance subset
+  // of a measured map's corners can favour either place; and support
+  // counted under different tolerances does not compare.
+  const double sigma = LargestSurveySigma();
+  if (!leads || opt_.relocalize_rival_searches <= 0 || reloc_.probe_sigma > 0.0 || !(sigma > 0.0)) {
+    led.clear();
+    return false;
+  }
+  // The same two places as the last search's: each within the robot's
+  // reach of where it was (the twin moves as the robot's mirror image).
+  if (!led.empty()) {
+    const Relocalization::Rivalry& last = led.back();
+    const double reach = motion_options_.max_speed * std::max(0.0, track_.time_s - last.time_s) +
+                         opt_.relocalize_distinct * errors_.room_size;
+    const auto within = [&](const Pose2& a, const Pose2& b) { return std::hypot(a.x - b.x, a.y - b.y) <= reach; };
+    if (last.survey_sigma != sigma || !within(leader, last.leader) || !within(rival, last.rival)) led.clear();
+  }
+  led.push_back({track_.time_s, leader, rival, sigma});
+  return static_cast<int>(led.size()) >= opt_.relocalize_rival_searches;
 }
 
 bool Localizer::ChooseAmongTwins(bool either, bool near_last, FrameResult* fr, TriangulationResult* tri) const {
@@ -1314,7 +1364,7 @@ bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, F
   FrameResult found;
   TriangulationResult t;
   reloc_.survey_evidence.reset();
-  bool relocalized = Relocalize(grey, !at_once, &found, &t);
+  bool relocalized = Relocalize(grey, !at_once, &found, &t, nullptr, true);
   if (reloc_.survey_evidence) UpdateSurveyEstimate(reloc_.survey_evidence->first, reloc_.survey_evidence->second);
   reloc_.survey_evidence.reset();
   if (!relocalized && !track_.ever_tracked && opt_.relocalize_survey_probe && opt_.survey.check &&
@@ -1846,6 +1896,7 @@ void Localizer::FinishFrame(const cv::Mat& grey, int frame, double time_s, std::
   if (accepted) {
     reloc_.failures = 0;
     reloc_.next_frame = 0;
+    reloc_.rivalries.clear();
   }
   // The step of the model that tracked up to this frame (a hold starts a new one).
   fr.has_motion_step = track_.motion_stepped;
@@ -1882,6 +1933,7 @@ void Localizer::FinishFrame(const cv::Mat& grey, int frame, double time_s, std::
 const cv::Mat& Localizer::BeginFrame(const cv::Mat& frame_image, int frame, double time_s, FrameWork* w) {
   CheckFrame(frame_image, frame);
   track_.frame = frame;
+  track_.time_s = time_s;
   reloc_.confirmed_hold.reset();  // the previous frame's, not taken
   if (view_) view_->Resample(frame_image, &view_frame_);
   const cv::Mat& grey = view_ ? view_frame_ : frame_image;

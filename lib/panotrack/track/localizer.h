@@ -172,6 +172,15 @@ struct LocalizerOptions {
   int relocalize_margin = 2;
   double relocalize_ambiguity = 0.7;
   double relocalize_distinct = 0.05;
+  // A search left ambiguous between two places (a room laid out nearly
+  // symmetrically, under a survey error's tolerances: the true pose and
+  // the half-turned twin both verify, neither clearly ahead) takes the
+  // place that led the other in this many consecutive searches, each on
+  // its own frame under the same survey sigma: at least as many inliers,
+  // among the chosen too, and the other's residuals
+  // relocalize_rival_fit times its own (0: never).
+  int relocalize_rival_searches = 3;
+  double relocalize_rival_fit = 1.3;
   // A map that repeats what a relocalised pose sees (a floor motion carrying
   // its inlier landmarks onto others, within this fraction of the room's
   // size) shows the same image from the moved pose: the last known pose
@@ -533,14 +542,22 @@ class Localizer {
   // short loss, the view as predicted), not carried off. `verified`
   // (optional): every hypothesis the search verified, whatever it then
   // decided.
+  // `settle_rivalry`: a lost frame's own search, whose ambiguity between
+  // two places counts towards the place that keeps leading (Rivalry).
   bool Relocalize(const cv::Mat& grey, bool near_last, FrameResult* fr, TriangulationResult* tri,
-                  std::vector<VerifiedPose>* verified = nullptr) const;
+                  std::vector<VerifiedPose>* verified = nullptr, bool settle_rivalry = false) const;
   // Among a relocalised pose and its twins under the map's symmetries, the
   // one clearly nearest the last known pose (tracked from); false when
   // there are twins and none is.
   bool ChooseAmongTwins(bool either, bool near_last, FrameResult* fr, TriangulationResult* tri) const;
   bool RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool either, bool near_last, FrameResult* fr,
-                      TriangulationResult* tri, std::vector<VerifiedPose>* verified_out) const;
+                      TriangulationResult* tri, std::vector<VerifiedPose>* verified_out,
+                      bool settle_rivalry = false) const;
+  // An ambiguous search's leading place `leader` and its rival: whether
+  // the leader led as relocalize_rival_searches consecutive searches have
+  // (recorded in reloc_.rivalries; a search that shows no such lead, or
+  // one under another survey sigma, starts them again).
+  bool LedRivalLongEnough(const Pose2& leader, const Pose2& rival, bool leads) const;
   // The covariance a pose is reported with: the solution's, or where
   // larger the one its geometry predicts from what the weights assume (the
   // image noise of the consensus, each corner's reported survey sigma
@@ -755,6 +772,7 @@ class Localizer {
     int motion_updates = 0;       // poses fused since the motion model (re)started
     bool motion_stepped = false;  // the motion model took a step at this frame
     int frame = -1;               // the frame being processed
+    double time_s = 0.0;          // ... and its time
   };
   Track track_;
 
@@ -832,6 +850,14 @@ class Localizer {
     mutable std::optional<std::pair<FrameResult, TriangulationResult>> survey_evidence;
     // The survey sigma a probe assumes (ProbeSurveyError; 0 otherwise).
     double probe_sigma = 0.0;
+    // The consecutive ambiguous searches in which one place led its rival
+    // (LedRivalLongEnough).
+    struct Rivalry {
+      double time_s;
+      Pose2 leader, rival;
+      double survey_sigma;
+    };
+    mutable std::vector<Rivalry> rivalries;
   };
   Relocalization reloc_;
 
