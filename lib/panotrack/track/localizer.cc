@@ -820,10 +820,20 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
     if (!two_places) {
       reloc_.rivalries.clear();
     } else {
-      const double floor = ReferenceSigma() * errors_.typical_distance;
-      const bool leads = count(leader) >= count(*rival) && leader.chosen >= rival->chosen &&
-                         count(*rival) >= std::max(opt_.relocalize_min_landmarks, kFitComparedBearings) &&
-                         rival->tri.residual >= opt_.relocalize_rival_fit * std::max(leader.tri.residual, floor);
+      // The leader leads each pose at the rival's place it does not
+      // outrank: as many inliers or more (among the chosen too), and a
+      // residual relocalize_rival_fit times smaller, or one no larger on
+      // relocalize_margin more inliers.
+      const double own = std::max(leader.tri.residual, ReferenceSigma() * errors_.typical_distance);
+      const auto leads_pose = [&](const Verified& v) {
+        if (!DistinctPlaces(v.tri.pose, leader.tri.pose) || outranks(leader, v)) return true;
+        if (count(leader) < count(v) || leader.chosen < v.chosen ||
+            count(v) < std::max(opt_.relocalize_min_landmarks, kFitComparedBearings))
+          return false;
+        return v.tri.residual >= opt_.relocalize_rival_fit * own ||
+               (count(leader) >= count(v) + opt_.relocalize_margin && v.tri.residual >= own);
+      };
+      const bool leads = std::all_of(verified.begin(), verified.end(), leads_pose);
       if (LedRivalLongEnough(leader.tri.pose, rival->tri.pose, leads)) best = verified.begin();
     }
   }

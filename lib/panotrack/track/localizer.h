@@ -177,8 +177,9 @@ struct LocalizerOptions {
   // the half-turned twin both verify, neither clearly ahead) takes the
   // place that led the other in this many consecutive searches, each on
   // its own frame under the same survey sigma: at least as many inliers,
-  // among the chosen too, and the other's residuals
-  // relocalize_rival_fit times its own (0: never).
+  // among the chosen too, and the other's residuals relocalize_rival_fit
+  // times its own, or no smaller on relocalize_margin fewer inliers
+  // (0: never).
   int relocalize_rival_searches = 3;
   double relocalize_rival_fit = 1.3;
   // A map that repeats what a relocalised pose sees (a floor motion carrying
