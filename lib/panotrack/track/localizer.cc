@@ -790,54 +790,24 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
   // none: the search is ambiguous.
   std::stable_sort(verified.begin(), verified.end(),
                    [&](const Verified& a, const Verified& b) { return count(a) > count(b); });
-  // A pose that found few of the landmarks it chose tracks more of them,
-  // and may fit more in all: it outranks none clearly better supported on
-  // the landmarks chosen.
-  const auto outranks = [&](const Verified& a, const Verified& b) {
-    if (ClearlyBetterSupported(b.chosen, a.chosen)) return false;
-    return Outranks(count(a), a.tri.residual, count(b), b.tri.residual) ||
-           (!either && count(a) >= count(b) && ClearlyBetterSupported(a.chosen, b.chosen));
+  std::vector<VerifiedPose> ranked;
+  for (const Verified& v : verified) ranked.push_back({v.tri.pose, count(v), v.chosen, v.tri.residual});
+  const auto outranks_all = [&](size_t a) {
+    for (size_t i = 0; i < ranked.size(); ++i)
+      if (i != a && DistinctPlaces(ranked[i].pose, ranked[a].pose) && !SearchOutranks(ranked[a], ranked[i], either))
+        return false;
+    return true;
   };
-  const auto outranks_all = [&](const Verified& a) {
-    return std::all_of(verified.begin(), verified.end(), [&](const Verified& v) {
-      return &v == &a || !DistinctPlaces(v.tri.pose, a.tri.pose) || outranks(a, v);
-    });
-  };
-  auto best = std::find_if(verified.begin(), verified.end(), outranks_all);
+  size_t best_index = 0;
+  while (best_index < ranked.size() && !outranks_all(best_index)) ++best_index;
   if (settle_rivalry) {
-    // Ambiguous between the best supported place and one rival place (every
-    // pose not outranked lies there): does the first keep leading?
-    const Verified& leader = verified.front();
-    const auto rival = std::find_if(verified.begin(), verified.end(), [&](const Verified& v) {
-      return DistinctPlaces(v.tri.pose, leader.tri.pose) && !outranks(leader, v);
-    });
-    const bool two_places =
-        best == verified.end() && rival != verified.end() &&
-        std::all_of(verified.begin(), verified.end(), [&](const Verified& v) {
-          return !DistinctPlaces(v.tri.pose, leader.tri.pose) || !DistinctPlaces(v.tri.pose, rival->tri.pose) ||
-                 outranks(leader, v);
-        });
-    if (!two_places) {
-      reloc_.rivalries.clear();
-    } else {
-      // The leader leads each pose at the rival's place it does not
-      // outrank: as many inliers or more (among the chosen too), and a
-      // residual relocalize_rival_fit times smaller, or one no larger on
-      // relocalize_margin more inliers.
-      const double own = std::max(leader.tri.residual, ReferenceSigma() * errors_.typical_distance);
-      const auto leads_pose = [&](const Verified& v) {
-        if (!DistinctPlaces(v.tri.pose, leader.tri.pose) || outranks(leader, v)) return true;
-        if (count(leader) < count(v) || leader.chosen < v.chosen ||
-            count(v) < std::max(opt_.relocalize_min_landmarks, kFitComparedBearings))
-          return false;
-        return v.tri.residual >= opt_.relocalize_rival_fit * own ||
-               (count(leader) >= count(v) + opt_.relocalize_margin && v.tri.residual >= own);
-      };
-      const bool leads = std::all_of(verified.begin(), verified.end(), leads_pose);
-      if (LedRivalLongEnough(leader.tri.pose, rival->tri.pose, leads)) best = verified.begin();
-    }
+    if (best_index < ranked.size())
+      reloc_.rivalries.clear();  // not ambiguous
+    else if (SettlesRivalry(ranked, either))
+      best_index = 0;
   }
-  if (best == verified.end()) return false;
+  if (best_index == ranked.size()) return false;
+  const auto best = verified.begin() + static_cast<std::ptrdiff_t>(best_index);
   // The best-supported pose, unambiguous, must also pass the integrity test
   // (a pose with fewer inliers that passes it is no better: few bearings
   // fit a wrong pose easily).
@@ -850,6 +820,46 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
   *fr = std::move(best->fr);
   *tri = best->tri;
   return true;
+}
+
+bool Localizer::SearchOutranks(const VerifiedPose& a, const VerifiedPose& b, bool either) const {
+  // A pose that found few of the landmarks it chose tracks more of them,
+  // and may fit more in all: it outranks none clearly better supported on
+  // the landmarks chosen.
+  if (ClearlyBetterSupported(b.chosen_inliers, a.chosen_inliers)) return false;
+  return Outranks(a.inliers, a.residual, b.inliers, b.residual) ||
+         (!either && a.inliers >= b.inliers && ClearlyBetterSupported(a.chosen_inliers, b.chosen_inliers));
+}
+
+bool Localizer::SettlesRivalry(const std::vector<VerifiedPose>& ranked, bool either) const {
+  // Ambiguous between the best supported place and one rival place (every
+  // pose not outranked lies there): does the first keep leading?
+  const VerifiedPose& leader = ranked.front();
+  const auto rival = std::find_if(ranked.begin(), ranked.end(), [&](const VerifiedPose& v) {
+    return DistinctPlaces(v.pose, leader.pose) && !SearchOutranks(leader, v, either);
+  });
+  const bool two_places = rival != ranked.end() && std::all_of(ranked.begin(), ranked.end(), [&](const VerifiedPose& v) {
+                            return !DistinctPlaces(v.pose, leader.pose) || !DistinctPlaces(v.pose, rival->pose) ||
+                                   SearchOutranks(leader, v, either);
+                          });
+  if (!two_places) {
+    reloc_.rivalries.clear();
+    return false;
+  }
+  // The leader leads each pose at the rival's place it does not outrank:
+  // as many inliers or more (among the chosen too), and a residual
+  // relocalize_rival_fit times smaller, or one no larger on
+  // relocalize_margin more inliers.
+  const double own = std::max(leader.residual, ReferenceSigma() * errors_.typical_distance);
+  const auto leads = [&](const VerifiedPose& v) {
+    if (!DistinctPlaces(v.pose, leader.pose) || SearchOutranks(leader, v, either)) return true;
+    if (leader.inliers < v.inliers || leader.chosen_inliers < v.chosen_inliers ||
+        v.inliers < std::max(opt_.relocalize_min_landmarks, kFitComparedBearings))
+      return false;
+    return v.residual >= opt_.relocalize_rival_fit * own ||
+           (leader.inliers >= v.inliers + opt_.relocalize_margin && v.residual >= own);
+  };
+  return LedRivalLongEnough(leader.pose, rival->pose, std::all_of(ranked.begin(), ranked.end(), leads));
 }
 
 bool Localizer::LedRivalLongEnough(const Pose2& leader, const Pose2& rival, bool leads) const {

@@ -554,6 +554,13 @@ class Localizer {
   bool RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool either, bool near_last, FrameResult* fr,
                       TriangulationResult* tri, std::vector<VerifiedPose>* verified_out,
                       bool settle_rivalry = false) const;
+  // whether, in a room-wide search (`either`: with either polarity), pose
+  // `a` outranks pose `b` at another place;
+  bool SearchOutranks(const VerifiedPose& a, const VerifiedPose& b, bool either) const;
+  // A search no pose of which outranks every other (`ranked`: its poses,
+  // the best supported first): whether its best supported pose has led the
+  // one rival place long enough to be taken (LedRivalLongEnough).
+  bool SettlesRivalry(const std::vector<VerifiedPose>& ranked, bool either) const;
   // An ambiguous search's leading place `leader` and its rival: whether
   // the leader led as relocalize_rival_searches consecutive searches have
   // (recorded in reloc_.rivalries; a search that shows no such lead, or
