@@ -113,6 +113,13 @@ constexpr int kMaxPulledBearings = 2;
 // standard deviations); a false alarm costs the frame one bearing.
 constexpr double kPulledBearingAlpha = 0.001;
 
+// The landmarks a frame's measurement found, chosen or not.
+int FoundLandmarks(const FrameResult& fr) {
+  int found = 0;
+  for (const LandmarkMeasurement& m : fr.measurements) found += m.found;
+  return found;
+}
+
 // What Measure wrote into `from` (the landmarks measured, and the partners
 // with the flag that asked for them), moved into `to`.
 void TakeMeasurements(FrameResult* from, FrameResult* to) {
@@ -780,18 +787,17 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
   std::vector<Verified> verified;
   for (std::optional<Verified>& v : tracked)
     if (v) verified.push_back(std::move(*v));
-  if (verified_out)
-    for (const Verified& v : verified)
-      verified_out->push_back(
-          {v.tri.pose, static_cast<int>(v.tri.inliers.size()), v.chosen, v.tri.residual});
-  if (verified.empty()) return false;
   auto count = [](const Verified& v) { return static_cast<int>(v.tri.inliers.size()); };
+  auto as_pose = [&](const Verified& v) { return VerifiedPose{v.tri.pose, count(v), v.chosen, v.tri.residual}; };
+  if (verified_out)
+    for (const Verified& v : verified) verified_out->push_back(as_pose(v));
+  if (verified.empty()) return false;
   // The pose that outranks every pose elsewhere, the best supported first;
   // none: the search is ambiguous.
   std::stable_sort(verified.begin(), verified.end(),
                    [&](const Verified& a, const Verified& b) { return count(a) > count(b); });
   std::vector<VerifiedPose> ranked;
-  for (const Verified& v : verified) ranked.push_back({v.tri.pose, count(v), v.chosen, v.tri.residual});
+  for (const Verified& v : verified) ranked.push_back(as_pose(v));
   const auto outranks_all = [&](size_t a) {
     for (size_t i = 0; i < ranked.size(); ++i)
       if (i != a && DistinctPlaces(ranked[i].pose, ranked[a].pose) && !SearchOutranks(ranked[a], ranked[i], either))
@@ -1059,8 +1065,7 @@ bool Localizer::ProbeSurveyError(const Pose2& pred) {
     TriangulationResult tri;
     TrackPredictions(pred, &fr, &tri);
     RefineAroundSolution(&fr, &tri);
-    size_t n_found = 0;
-    for (const auto& m : fr.measurements) n_found += m.found;
+    const size_t n_found = static_cast<size_t>(FoundLandmarks(fr));
     const bool agree = SurveyEvidence(fr, tri) && Consistent(&fr, tri) && 3 * tri.inliers.size() >= 2 * n_found;
     if (agree) agreeing.emplace_back(level, tri.inliers.size());
   }
@@ -1113,8 +1118,7 @@ bool Localizer::PartialBeforeSurvey(const FrameResult& fr, const TriangulationRe
   const bool first_from_hint = !track_.ever_tracked && track_.start_is_hint;
   const bool stated_exact = StatedSurveySigma() == 0.0;
   if (!first_from_hint && !stated_exact) return false;
-  int n_found = 0;
-  for (const auto& m : fr.measurements) n_found += m.found;
+  const int n_found = FoundLandmarks(fr);
   const int inliers = static_cast<int>(tri.inliers.size());
   if (first_from_hint && 2 * inliers < n_found) return true;
   // A map stated exact allows the image noise alone: fewer left out are a
@@ -1458,9 +1462,7 @@ bool Localizer::EnoughForRelocalized(const FrameResult& fr, const TriangulationR
   // Where the survey error widens every tolerance, wrong correspondences
   // fit too: most of what was found must agree (a confirmed fraction).
   if (!SurveyLimits()) return true;
-  int found = 0;
-  for (const LandmarkMeasurement& m : fr.measurements) found += m.found;
-  return inliers >= opt_.relocalize_confirmed_fraction * found;
+  return inliers >= opt_.relocalize_confirmed_fraction * FoundLandmarks(fr);
 }
 
 double Localizer::SurveyChosenLandmarks(const FrameResult& fr) const {
@@ -1991,7 +1993,7 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
   if (track_.known_start || track_.ever_tracked) TrackFromPrediction(time_s, odometry, w.signature, &w);
   ConfirmHeldPose(grey, &w);
   CheckAgainstRoomSearch(grey, &w);
-  for (const auto& m : w.fr.measurements) w.n_found += m.found;  // before any relocalisation
+  w.n_found = FoundLandmarks(w.fr);  // before any relocalisation
   if (w.gave_way && w.searched) {
     AdoptSearchResult(std::move(*w.searched), &w.fr, &w.tri);
     w.accepted = Corroborated(w.fr, w.tri);

@@ -280,12 +280,12 @@ void SurveyErrorEstimate::Fit() {
   // pairs vary), caps the image's share, as does the noisiest tracker's;
   // the rest is the survey's.
   const double image_bound = std::min(opt_.max_image_sigma * opt_.max_image_sigma, 4.0 * PairVariance());
-  // Start from all of it the survey's (the residuals' mean square in map
-  // units), then reweigh by the variance fitted.
   // The stored weights, not the weights: a common factor changes no step.
   const size_t n = sample_u_.size() - first_sample_;
   const double *u = sample_u_.data() + first_sample_, *y = sample_y_.data() + first_sample_,
                *weight = sample_weight_.data() + first_sample_;
+  // Start from all of it the survey's (the residuals' mean square in map
+  // units), then reweigh by the variance fitted.
   double a = 0.0, b = 0.0, sw = 0.0;
   for (size_t i = 0; i < n; ++i) {
     b += weight[i] * y[i] / u[i];
