@@ -39,20 +39,6 @@ test::RenderedCase OnMeasuredMap(const test::RenderedCase& truth, double sigma, 
   return r;
 }
 
-// The fraction of the ok rows whose position lies inside the ellipse of
-// three of their reported standard deviations (std_x, std_y).
-double InsideThreeSigma(const std::vector<PoseRow>& rows, const std::vector<PoseRow>& truth) {
-  int ok = 0, inside = 0;
-  for (size_t i = 0; i < rows.size() && i < truth.size(); ++i) {
-    if (rows[i].status != PoseStatus::kOk || rows[i].extra.size() < 2) continue;
-    ++ok;
-    const double dx = (rows[i].pose.x - truth[i].pose.x) / rows[i].extra[0];
-    const double dy = (rows[i].pose.y - truth[i].pose.y) / rows[i].extra[1];
-    inside += std::hypot(dx, dy) <= 3.0;
-  }
-  return ok > 0 ? static_cast<double>(inside) / ok : 0.0;
-}
-
 // `r` localised without a start pose (the first frame found by the
 // room-wide search), its frames `fps` apart.
 std::vector<PoseRow> LocalizeWithoutStart(const test::RenderedCase& r, const LocalizerOptions& o, double fps) {
@@ -116,7 +102,7 @@ MeasuredMapRun LocalizeOnMeasuredMap(TrackingMethod method, double stated_sigma,
   const std::vector<PoseRow> rows = test::Localize(r, o, truth.c.poses.front());
   MeasuredMapRun run;
   run.accuracy = CompareToGroundTruth(rows, truth.truth, TypicalRange(truth.c.map, truth.truth));
-  run.inside_three_sigma = InsideThreeSigma(rows, truth.truth);
+  run.inside_three_sigma = test::InsideThreeSigma(rows, truth.truth);
   return run;
 }
 
@@ -216,7 +202,7 @@ TEST_CASE("a map measured to 2 cm that claims to be exact: a loss in a fast turn
     const std::vector<PoseRow> rows = test::ProcessFrames(&loc, r, 10.0);
     const AccuracySummary a = CompareToGroundTruth(rows, truth.truth, TypicalRange(truth.c.map, truth.truth));
     INFO("map seed " << seed << ": " << FormatAccuracy(a, "cm") << ", inside 3 sigma "
-                     << InsideThreeSigma(rows, truth.truth));
+                     << test::InsideThreeSigma(rows, truth.truth));
     CHECK(a.outliers == 0);
     CHECK(a.max <= 10.0);
   }
@@ -251,7 +237,7 @@ TEST_CASE("a map measured to 2 cm that says nothing: a first frame where few fou
   const std::vector<PoseRow> rows =
       FromGuessOnMeasuredMap(TrackingMethod::kVertex, std::numeric_limits<double>::quiet_NaN(), 2.0, 4);
   const AccuracySummary a = CompareToGroundTruth(rows, truth.truth, TypicalRange(truth.c.map, truth.truth));
-  INFO(FormatAccuracy(a, "cm") << ", inside 3 sigma " << InsideThreeSigma(rows, truth.truth) << "; first frame "
+  INFO(FormatAccuracy(a, "cm") << ", inside 3 sigma " << test::InsideThreeSigma(rows, truth.truth) << "; first frame "
                                << std::hypot(rows[0].pose.x - truth.truth[0].pose.x,
                                              rows[0].pose.y - truth.truth[0].pose.y)
                                << " cm off");
@@ -427,7 +413,7 @@ TEST_CASE("a map measured to 2 cm that states nothing or claims to be exact, no 
         CHECK(a.tracked >= 50);
         CHECK(a.outliers <= 1);
         CHECK(a.max <= 7.0);
-        CHECK(InsideThreeSigma(rows, truth.truth) >= 0.98);
+        CHECK(test::InsideThreeSigma(rows, truth.truth) >= 0.98);
       }
     }
   }
@@ -478,7 +464,7 @@ TEST_CASE("a map measured to 2 cm that says so, no start: the place that keeps l
     CHECK(a.tracked >= 36);
     CHECK(a.outliers == 0);
     CHECK(a.max <= 2.0);
-    CHECK(InsideThreeSigma(rows, truth.truth) >= 0.98);
+    CHECK(test::InsideThreeSigma(rows, truth.truth) >= 0.98);
   }
   LocalizerOptions bad;
   bad.relocalize_rival_fit = 0.9;
@@ -514,7 +500,7 @@ TEST_CASE("a map measured to 0.5 cm that claims to be exact, no start: the first
       o.method = method;
       const AccuracySummary a = RunOnVideo(dir, o).accuracy;
       INFO(TrackingMethodName(method) << ", map seed " << seed << ": " << FormatAccuracy(a, "cm") << ", inside 3 sigma "
-                                      << InsideThreeSigma(ReadPoseCsv(dir + "/est.csv"), truth));
+                                      << test::InsideThreeSigma(ReadPoseCsv(dir + "/est.csv"), truth));
       CHECK(a.tracked >= 54);
       CHECK(a.outliers == 0);
       CHECK(a.max <= 1.2);
@@ -555,7 +541,7 @@ TEST_CASE("a map measured to 1 unit that claims to be exact: its error is found 
     o.method = TrackingMethod::kJunction;
     o.noise_pairs = noise_pairs;
     const AccuracySummary a = RunOnVideo(dir, o).accuracy;
-    const double inside = InsideThreeSigma(ReadPoseCsv(dir + "/est.csv"), truth);
+    const double inside = test::InsideThreeSigma(ReadPoseCsv(dir + "/est.csv"), truth);
     INFO("noise pairs " << noise_pairs << ": " << FormatAccuracy(a, "units") << ", inside 3 sigma " << inside);
     CHECK(a.outliers == 0);
     CHECK(a.tracked >= 51);

@@ -2,9 +2,11 @@
 // panosim's presets, rendered in memory (no video codec in the way).
 #pragma once
 
+#include <cmath>
 #include <optional>
 #include <vector>
 
+#include "panotrack/io/pose_csv.h"
 #include "panotrack/pose/pose2.h"
 #include "panotrack/render/presets.h"
 #include "panotrack/render/render.h"
@@ -49,6 +51,20 @@ inline std::vector<PoseRow> ProcessFrames(Localizer* loc, const RenderedCase& r,
     if (std::optional<FrameResult> held = loc->TakeConfirmedHold()) rows[static_cast<size_t>(held->row.frame)] = held->row;
   }
   return rows;
+}
+
+// The fraction of the ok rows whose position lies inside the ellipse of
+// three of their reported standard deviations (std_x, std_y).
+inline double InsideThreeSigma(const std::vector<PoseRow>& rows, const std::vector<PoseRow>& truth) {
+  int ok = 0, inside = 0;
+  for (size_t i = 0; i < rows.size() && i < truth.size(); ++i) {
+    if (rows[i].status != PoseStatus::kOk || rows[i].extra.size() < 2) continue;
+    ++ok;
+    const double dx = (rows[i].pose.x - truth[i].pose.x) / rows[i].extra[0];
+    const double dy = (rows[i].pose.y - truth[i].pose.y) / rows[i].extra[1];
+    inside += std::hypot(dx, dy) <= 3.0;
+  }
+  return ok > 0 ? static_cast<double>(inside) / ok : 0.0;
 }
 
 inline std::vector<PoseRow> Localize(const RenderedCase& r, const LocalizerOptions& opt, const Pose2& init) {

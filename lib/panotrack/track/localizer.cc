@@ -1156,8 +1156,13 @@ bool Localizer::RetrackUnderShownSurvey(FrameResult* fr, TriangulationResult* tr
   TriangulationResult solved;
   TrackPredictions(tri->pose, &again, &solved);
   RefineAroundSolution(&again, &solved);
+  // The wider tolerance is to take back bearings the map's error left out,
+  // not to trade them for fewer: a retrack fitting fewer has let in a wrong
+  // edge that pulls the pose (its tolerance grown from this frame's own
+  // residuals), and the frame keeps its solution.
   const bool accepted = Acceptable(again, solved) && Consistent(&again, solved) &&
-                        (AgreesWithMotion(&again, solved) || Corroborated(again, solved));
+                        (AgreesWithMotion(&again, solved) || Corroborated(again, solved)) &&
+                        solved.inliers.size() >= tri->inliers.size();
   if (!accepted) return false;
   *fr = std::move(again);
   *tri = solved;
@@ -1192,7 +1197,9 @@ Pose2 Localizer::PredictMotion(double time_s, const OdometryIncrement* odometry)
 }
 
 std::optional<double> Localizer::CompassHeading(const std::vector<float>& signature) const {
-  if (!opt_.compass || heading_.last_signature.empty() || !track_.ever_tracked) return std::nullopt;
+  // From a held search pose too: its frame's signature was kept with it, and
+  // the turn since that frame is what tracking from it must follow.
+  if (!opt_.compass || heading_.last_signature.empty() || !(track_.ever_tracked || reloc_.held)) return std::nullopt;
   double score;
   const double turn = compass_.Rotation(heading_.last_signature, signature, opt_.compass_max_rotation, &score);
   if (score < opt_.compass_min_score) return std::nullopt;
@@ -1551,7 +1558,11 @@ void Localizer::HoldForConfirmation(const Pose2& pose, int frame, bool jump) {
   track_.motion_updates = 0;
   track_.n_good = 0;
   track_.n_lost = 0;  // the confirming frame searches as narrowly as a tracked one
+  // The compass starts its record again but keeps the held frame's
+  // signature: the turn since it predicts the confirming frame's heading.
+  std::vector<float> held_signature = std::move(heading_.last_signature);
   ForgetCompassHistory();
+  heading_.last_signature = std::move(held_signature);
   reloc_.held = true;
   reloc_.held_jump = jump;
   // Held poses that keep failing to confirm back off like failed searches.

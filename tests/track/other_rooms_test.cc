@@ -1,0 +1,165 @@
+// The localiser in a room other than the paper's: the worked office of
+// docs/examples/office-map.yaml (4.2 x 3.6 m; a door, windows and boards
+// whose tops image within a few pixels of the mirror's limb) seen by the
+// paper-real sensor along a loop with the heading wiggling up to 9 degrees
+// a frame, on the exact map and on maps measured to 2 cm.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+#include "panotrack/io/calibration.h"
+#include "panotrack/io/map.h"
+#include "panotrack/pipeline/accuracy.h"
+#include "panotrack/pipeline/panoloc.h"
+#include "panotrack/render/render.h"
+#include "panotrack/render/sequence.h"
+#include "test_paths.h"
+#include "track_fixture.h"
+
+namespace pano {
+namespace {
+
+// The loop: an ellipse about the room's middle, 300 frames for a turn,
+// 10 frames a second, the heading along the path plus 25 degrees of
+// wiggle (sin(0.37 frame)).
+Pose2 OfficeLoopPose(int i) {
+  const double t = 2.0 * M_PI * i / 300.0;
+  const double wiggle = 25.0 * M_PI / 180.0 * std::sin(0.37 * i);
+  return Pose2{200.0 + 120.0 * std::cos(t), 150.0 + 70.0 * std::sin(t),
+               std::atan2(70.0 * std::cos(t), -120.0 * std::sin(t)) + wiggle};
+}
+
+// The loop's first `n_frames`, rendered with noise 3 and a 3 x 3 blur.
+const test::RenderedCase& Office(int n_frames) {
+  static const test::RenderedCase r = [n_frames] {
+    test::RenderedCase c;
+    c.c.calib = ReadCalibration(test::SourcePath("calib/paper-real.yaml"));
+    c.c.map = ReadMap(test::SourcePath("docs/examples/office-map.yaml"));
+    c.c.fps = 10.0;
+    c.c.options.noise_sigma = 3.0;
+    c.c.options.blur = true;
+    const Scene scene = Scene::FromMap(c.c.map, true);
+    const Renderer renderer(c.c.calib.sensor, scene, c.c.map.sensor_height, c.c.options);
+    for (int i = 0; i < n_frames; ++i) {
+      c.c.poses.push_back(OfficeLoopPose(i));
+      c.frames.push_back(renderer.Render(c.c.poses.back(), i));
+      PoseRow row;
+      row.frame = i;
+      row.pose = c.c.poses.back();
+      c.truth.push_back(row);
+    }
+    c.table = TableForMap(c.c.calib, c.c.map, true);
+    return c;
+  }();
+  REQUIRE(static_cast<int>(r.frames.size()) == n_frames);
+  return r;
+}
+
+constexpr int kFrames = 30;
+
+// The office's frames on its map measured to `sigma` (map seed `seed`),
+// stating it; `sigma` 0: the exact map, stating nothing.
+test::RenderedCase OnMap(double sigma, uint64_t seed) {
+  test::RenderedCase r = Office(kFrames);
+  if (sigma > 0) {
+    r.c.map = PerturbedMap(r.c.map, sigma, seed);
+    r.c.map.survey_sigma = sigma;
+    r.table = TableForMap(r.c.calib, r.c.map, true);
+  }
+  return r;
+}
+
+AccuracySummary Score(const std::vector<PoseRow>& rows) {
+  const test::RenderedCase& truth = Office(kFrames);
+  return CompareToGroundTruth(rows, truth.truth, TypicalRange(truth.c.map, truth.truth));
+}
+
+TEST_CASE("office, no start: the junction method tracks from a search's pose through a fast turn",
+          "[other_rooms]") {
+  // The first frames turn 8 - 11 degrees each. The room-wide search finds
+  // the pose on frame 0; the frame after it is tracked from that pose to
+  // confirm it, and the junction tracker's windows need the turn: the
+  // visual compass measures it from the searched frame. Measured before
+  // the compass was kept for a searched pose: the first 2 frames lost on
+  // the exact map (3 through H.264: each search found the pose again, and
+  // the next frame, tracked from it with no turn predicted, found 3 - 4
+  // corners); after: none.
+  const test::RenderedCase r = OnMap(0.0, 0);
+  LocalizerOptions o;
+  o.method = TrackingMethod::kJunction;
+  Localizer loc(r.c.calib, r.c.map, r.table, o);
+  loc.ResetUnknown();
+  const std::vector<PoseRow> rows = test::ProcessFrames(&loc, r, r.c.fps);
+  const AccuracySummary a = Score(rows);
+  INFO(FormatAccuracy(a, "cm"));
+  CHECK(a.tracked == kFrames);
+  CHECK(a.outliers == 0);
+  CHECK(a.max <= 0.3);  // measured 0.13 cm
+}
+
+TEST_CASE("office, maps measured to 2 cm that say so, no start: searched poses confirmed through the turns",
+          "[other_rooms]") {
+  // Map seeds 1 - 3. Frames wait while the room-wide search's pose is
+  // confirmed by the next frame, which the compass now follows through the
+  // loop's turns. Measured: 70 of the junction method's 90 frames tracked
+  // before, 87 after (the rest wait where few of the corners chosen are
+  // found: the tops of the door, the window and the boards image at the
+  // mirror's limb, where the junction tracker finds few of them); the
+  // vertex method 90 before and after.
+  for (const auto& [method, min_tracked] :
+       {std::pair{TrackingMethod::kJunction, 86}, std::pair{TrackingMethod::kVertex, 89}}) {
+    int tracked = 0;
+    for (uint64_t seed : {uint64_t{1}, uint64_t{2}, uint64_t{3}}) {
+      const test::RenderedCase r = OnMap(2.0, seed);
+      LocalizerOptions o;
+      o.method = method;
+      Localizer loc(r.c.calib, r.c.map, r.table, o);
+      loc.ResetUnknown();
+      const std::vector<PoseRow> rows = test::ProcessFrames(&loc, r, r.c.fps);
+      const AccuracySummary a = Score(rows);
+      INFO(TrackingMethodName(method) << ", map seed " << seed << ": " << FormatAccuracy(a, "cm"));
+      // The map's error moves every pose by up to 2.5 cm here (map seed 3:
+      // 2.3 cm on every frame); the junction method's first pose on map
+      // seed 1, on the search's landmarks, 2.9 cm where the next are 0.5 -
+      // 0.9 cm off: within the covariance reported, as every pose.
+      CHECK(a.max <= 3.0);
+      CHECK(test::InsideThreeSigma(rows, Office(kFrames).truth) == 1.0);
+      tracked += a.tracked;
+    }
+    INFO(TrackingMethodName(method) << ": " << tracked << " of " << 3 * kFrames << " frames tracked");
+    CHECK(tracked >= min_tracked);
+  }
+}
+
+TEST_CASE("office, a map measured to 2 cm that says so: the first frame keeps its bearings under the error it shows",
+          "[other_rooms]") {
+  // The start given, junction method, map seed 1. The first frame's
+  // residuals show a survey error wider than the 2 cm stated, and the
+  // frame is tracked again under it. The wider tolerance can let in a
+  // wrong edge that pulls the pose (the loop rendered through H.264 with
+  // another map: a neighbouring edge 4 degrees from its corner's
+  // prediction, 10 bearings fitted where the first solution fitted 14,
+  // the pose 4.7 cm off). Measured before a retrack had to fit as many
+  // bearings: 2.70 cm off on frame 0 where the next frames are 0.4 - 0.9
+  // (off by the 5x-median rule); after: 0.83 cm.
+  const test::RenderedCase& office = Office(kFrames);
+  const test::RenderedCase r = OnMap(2.0, 1);
+  LocalizerOptions o;
+  o.method = TrackingMethod::kJunction;
+  const std::vector<PoseRow> rows = test::Localize(r, o, office.c.poses.front());
+  const AccuracySummary a = Score(rows);
+  REQUIRE(rows.front().status == PoseStatus::kOk);
+  const double first =
+      std::hypot(rows.front().pose.x - office.truth.front().pose.x, rows.front().pose.y - office.truth.front().pose.y);
+  INFO("frame 0 " << first << " cm off; " << FormatAccuracy(a, "cm"));
+  CHECK(first <= 1.2);
+  CHECK(a.outliers == 0);
+  CHECK(a.tracked == kFrames);
+}
+
+}  // namespace
+}  // namespace pano
