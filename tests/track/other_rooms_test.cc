@@ -33,9 +33,11 @@ Pose2 OfficeLoopPose(int i) {
                std::atan2(70.0 * std::cos(t), -120.0 * std::sin(t)) + wiggle};
 }
 
-// The loop's first `n_frames`, rendered with noise 3 and a 3 x 3 blur.
-const test::RenderedCase& Office(int n_frames) {
-  static const test::RenderedCase r = [n_frames] {
+constexpr int kFrames = 30;
+
+// The loop's first kFrames, rendered with noise 3 and a 3 x 3 blur.
+const test::RenderedCase& Office() {
+  static const test::RenderedCase r = [] {
     test::RenderedCase c;
     c.c.calib = ReadCalibration(test::SourcePath("calib/paper-real.yaml"));
     c.c.map = ReadMap(test::SourcePath("docs/examples/office-map.yaml"));
@@ -44,7 +46,7 @@ const test::RenderedCase& Office(int n_frames) {
     c.c.options.blur = true;
     const Scene scene = Scene::FromMap(c.c.map, true);
     const Renderer renderer(c.c.calib.sensor, scene, c.c.map.sensor_height, c.c.options);
-    for (int i = 0; i < n_frames; ++i) {
+    for (int i = 0; i < kFrames; ++i) {
       c.c.poses.push_back(OfficeLoopPose(i));
       c.frames.push_back(renderer.Render(c.c.poses.back(), i));
       PoseRow row;
@@ -55,16 +57,13 @@ const test::RenderedCase& Office(int n_frames) {
     c.table = TableForMap(c.c.calib, c.c.map, true);
     return c;
   }();
-  REQUIRE(static_cast<int>(r.frames.size()) == n_frames);
   return r;
 }
-
-constexpr int kFrames = 30;
 
 // The office's frames on its map measured to `sigma` (map seed `seed`),
 // stating it; `sigma` 0: the exact map, stating nothing.
 test::RenderedCase OnMap(double sigma, uint64_t seed) {
-  test::RenderedCase r = Office(kFrames);
+  test::RenderedCase r = Office();
   if (sigma > 0) {
     r.c.map = PerturbedMap(r.c.map, sigma, seed);
     r.c.map.survey_sigma = sigma;
@@ -74,7 +73,7 @@ test::RenderedCase OnMap(double sigma, uint64_t seed) {
 }
 
 AccuracySummary Score(const std::vector<PoseRow>& rows) {
-  const test::RenderedCase& truth = Office(kFrames);
+  const test::RenderedCase& truth = Office();
   return CompareToGroundTruth(rows, truth.truth, TypicalRange(truth.c.map, truth.truth));
 }
 
@@ -127,7 +126,7 @@ TEST_CASE("office, maps measured to 2 cm that say so, no start: searched poses c
       // seed 1, on the search's landmarks, 2.9 cm where the next are 0.5 -
       // 0.9 cm off: within the covariance reported, as every pose.
       CHECK(a.max <= 3.0);
-      CHECK(test::InsideThreeSigma(rows, Office(kFrames).truth) == 1.0);
+      CHECK(test::InsideThreeSigma(rows, Office().truth) == 1.0);
       tracked += a.tracked;
     }
     INFO(TrackingMethodName(method) << ": " << tracked << " of " << 3 * kFrames << " frames tracked");
@@ -146,7 +145,7 @@ TEST_CASE("office, a map measured to 2 cm that says so: the first frame keeps it
   // the pose 4.7 cm off). Measured before a retrack had to fit as many
   // bearings: 2.70 cm off on frame 0 where the next frames are 0.4 - 0.9
   // (off by the 5x-median rule); after: 0.83 cm.
-  const test::RenderedCase& office = Office(kFrames);
+  const test::RenderedCase& office = Office();
   const test::RenderedCase r = OnMap(2.0, 1);
   LocalizerOptions o;
   o.method = TrackingMethod::kJunction;

@@ -1216,6 +1216,10 @@ std::optional<Pose2> Localizer::CompassPose(const Pose2& pred) const {
 
 void Localizer::ForgetCompassHistory() {
   heading_.last_signature.clear();
+  ForgetCompassRecord();
+}
+
+void Localizer::ForgetCompassRecord() {
   heading_.model_error = heading_.compass_error = -1.0;
   heading_.error_frames = 0;
 }
@@ -1560,9 +1564,7 @@ void Localizer::HoldForConfirmation(const Pose2& pose, int frame, bool jump) {
   track_.n_lost = 0;  // the confirming frame searches as narrowly as a tracked one
   // The compass starts its record again but keeps the held frame's
   // signature: the turn since it predicts the confirming frame's heading.
-  std::vector<float> held_signature = std::move(heading_.last_signature);
-  ForgetCompassHistory();
-  heading_.last_signature = std::move(held_signature);
+  ForgetCompassRecord();
   reloc_.held = true;
   reloc_.held_jump = jump;
   // Held poses that keep failing to confirm back off like failed searches.

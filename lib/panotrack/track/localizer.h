@@ -599,6 +599,9 @@ class Localizer {
   // A new start: the previous frame's compass signature and the running
   // heading errors no longer apply.
   void ForgetCompassHistory();
+  // ... the running heading errors alone (a held search pose keeps its
+  // frame's signature: the confirming frame's turn is measured from it).
+  void ForgetCompassRecord();
   // or, where most recent frames needed a second pass, coarse to fine: the
   // landmarks' azimuths alone from the prediction, then the full
   // measurement around the pose they give; false when either fails;
