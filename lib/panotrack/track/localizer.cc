@@ -4,6 +4,8 @@
 #include <cmath>
 #include <exception>
 #include <numeric>
+#include <optional>
+#include <tuple>
 #include <utility>
 
 #include <Eigen/Eigenvalues>
@@ -77,6 +79,8 @@ void LocalizerOptions::Check() const {
                 "relocalize_symmetry_tolerance >= 0, relocalize_ambiguity in (0, 1] expected");
   if (relocalize_rival_searches < 0 || !(relocalize_rival_fit >= 1.0) || !std::isfinite(relocalize_rival_fit))
     throw Error("localiser: relocalize_rival_searches: expected >= 0, relocalize_rival_fit: expected >= 1");
+  if (relocalize_sparse_frames < 0 || !(relocalize_sparse_lead >= 1.0) || !std::isfinite(relocalize_sparse_lead))
+    throw Error("localiser: relocalize_sparse_frames: expected >= 0, relocalize_sparse_lead: expected >= 1");
   if (polarity_learn_frames < 1 || polarity_forget_misses < 1 || polarity_max_flips < 0)
     throw Error("localiser: polarity_learn_frames and polarity_forget_misses: expected >= 1, "
                 "polarity_max_flips: expected >= 0");
@@ -236,6 +240,7 @@ void Localizer::Reset(const Pose2& robot_initial, bool hint) {
   reloc_.held_frame.reset();
   reloc_.confirmed_hold.reset();
   reloc_.rivalries.clear();
+  reloc_.sparse_holds = 0;
   track_.last_known.reset();
   errors_.bearing_sigma = 0.0;
   errors_.survey.Reset();
@@ -754,19 +759,51 @@ bool Localizer::Relocalize(const cv::Mat& grey, bool near_last, FrameResult* fr,
     relocalization_index_ = shared_index_ ? shared_index_->Get(build) : build();
   }
   const std::vector<PoseHypothesis> hyps = relocalization_index_->Hypotheses(grey, SearchThreadCount(opt_));
+  reloc_.sparse_candidates.clear();
+  reloc_.any_verified = reloc_.sparse_lead = false;
   // With the map's polarities, then (while the images have not confirmed
-  // them) with either.
-  return RelocalizeWith(hyps, false, near_last, fr, tri, verified, settle_rivalry) ||
-         (EitherFallbackUseful() && RelocalizeWith(hyps, true, near_last, fr, tri, verified));
+  // them) with either; a lost frame's search that verified nothing, a
+  // sparse image's lead.
+  const bool found = RelocalizeWith(hyps, false, near_last, fr, tri, verified, settle_rivalry, settle_rivalry) ||
+                     (EitherFallbackUseful() && RelocalizeWith(hyps, true, near_last, fr, tri, verified, false, settle_rivalry));
+  if (found || !settle_rivalry || reloc_.any_verified) return found;
+  return reloc_.sparse_lead = SparseLead(fr, tri);
+}
+
+bool Localizer::SparselySupported(const FrameResult& fr, const TriangulationResult& tri) const {
+  const int inliers = static_cast<int>(tri.inliers.size());
+  return tri.ok && inliers >= opt_.relocalize_min_landmarks &&
+         inliers >= opt_.relocalize_confirmed_fraction * FoundLandmarks(fr);
+}
+
+bool Localizer::SparseLead(FrameResult* fr, TriangulationResult* tri) const {
+  std::vector<Relocalization::SparseCandidate>& candidates = reloc_.sparse_candidates;
+  if (opt_.relocalize_sparse_frames <= 0 || candidates.empty()) return false;
+  const auto inliers = [](const Relocalization::SparseCandidate& c) { return static_cast<int>(c.tri.inliers.size()); };
+  // The best supported of every pose tracked (a place whose bearings a
+  // narrow tolerance splits is a rival too), if it is a lead at all.
+  const auto best = std::max_element(candidates.begin(), candidates.end(), [&](const auto& a, const auto& b) {
+    return inliers(a) < inliers(b);
+  });
+  const bool ahead = best->supported && std::all_of(candidates.begin(), candidates.end(), [&](const auto& c) {
+                       return !DistinctPlaces(c.tri.pose, best->tri.pose) ||
+                              opt_.relocalize_sparse_lead * inliers(c) <= inliers(*best);
+                     });
+  // A twin of what it saw (a symmetry of the map) is as far ahead.
+  if (!ahead || TwinPoses(best->fr, best->tri).size() > 1 || !Consistent(&best->fr, best->tri)) return false;
+  *fr = std::move(best->fr);
+  *tri = best->tri;
+  return true;
 }
 
 bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool either, bool near_last, FrameResult* fr,
                                TriangulationResult* tri, std::vector<VerifiedPose>* verified_out,
-                               bool settle_rivalry) const {
+                               bool settle_rivalry, bool collect_sparse) const {
   struct Verified {
     FrameResult fr;
     TriangulationResult tri;
     int chosen = 0;  // ChosenInliers
+    bool enough = false;  // EnoughForRelocalized (else a sparse candidate)
   };
   // Each hypothesis tracked on its own (in parallel), kept in their order.
   std::vector<std::optional<Verified>> tracked(hyps.size());
@@ -779,14 +816,18 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
         if (!TrackFrom(pose, opt_.search_px, &v.fr, &v.tri, either) &&
             !TrackFrom(pose, opt_.max_search_px, &v.fr, &v.tri, either))
           return;
-        if (!EnoughForRelocalized(v.fr, v.tri)) return;
+        v.enough = EnoughForRelocalized(v.fr, v.tri);
+        if (!v.enough && !collect_sparse) return;
         v.chosen = ChosenInliers(v.fr, v.tri);
         tracked[static_cast<size_t>(i)] = std::move(v);
       },
       SearchThreadCount(opt_));
   std::vector<Verified> verified;
-  for (std::optional<Verified>& v : tracked)
-    if (v) verified.push_back(std::move(*v));
+  for (std::optional<Verified>& v : tracked) {
+    if (v && v->enough) verified.push_back(std::move(*v));
+    else if (v) reloc_.sparse_candidates.push_back({std::move(v->fr), v->tri, SparselySupported(v->fr, v->tri)});
+  }
+  reloc_.any_verified = reloc_.any_verified || !verified.empty();
   auto count = [](const Verified& v) { return static_cast<int>(v.tri.inliers.size()); };
   auto as_pose = [&](const Verified& v) { return VerifiedPose{v.tri.pose, count(v), v.chosen, v.tri.residual}; };
   if (verified_out)
@@ -891,16 +932,21 @@ bool Localizer::LedRivalLongEnough(const Pose2& leader, const Pose2& rival, bool
   return static_cast<int>(led.size()) >= opt_.relocalize_rival_searches;
 }
 
-bool Localizer::ChooseAmongTwins(bool either, bool near_last, FrameResult* fr, TriangulationResult* tri) const {
+std::vector<Pose2> Localizer::TwinPoses(const FrameResult& fr, const TriangulationResult& tri) const {
   std::vector<int> seen;
-  for (int i : InlierPredictions(*fr, *tri)) seen.push_back(fr->predicted[static_cast<size_t>(i)].index);
+  for (int i : InlierPredictions(fr, tri)) seen.push_back(fr.predicted[static_cast<size_t>(i)].index);
   const std::vector<FloorMotion> motions =
       LandmarkSymmetries(landmarks_, seen, opt_.relocalize_symmetry_tolerance * errors_.room_size);
-  std::vector<Pose2> poses{tri->pose};
+  std::vector<Pose2> poses{tri.pose};
   for (const FloorMotion& m : motions) {
-    const Pose2 twin = m.Apply(tri->pose);
+    const Pose2 twin = m.Apply(tri.pose);
     if (map_.IsFree(twin.x, twin.y)) poses.push_back(twin);  // not behind a wall
   }
+  return poses;
+}
+
+bool Localizer::ChooseAmongTwins(bool either, bool near_last, FrameResult* fr, TriangulationResult* tri) const {
+  std::vector<Pose2> poses = TwinPoses(*fr, *tri);
   if (poses.size() == 1) return true;
   // Which twin is nearest the last pose tells only while the robot is
   // likely still near it: after a jump of the view (a kidnap) the twins
@@ -1386,8 +1432,8 @@ bool Localizer::ViewUnlikePrediction(const FrameResult& fr, const TriangulationR
 }
 
 bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, FrameResult* fr,
-                                 TriangulationResult* tri, bool* under_probe) {
-  *under_probe = false;
+                                 TriangulationResult* tri, bool* under_probe, bool* sparse_lead) {
+  *under_probe = *sparse_lead = false;
   // Before the first pose (no start, or a start the frames did not confirm)
   // at once; later after relocalize_after lost frames (at once when the
   // view is not the predicted one), then less and less often while it
@@ -1400,6 +1446,7 @@ bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, F
   TriangulationResult t;
   reloc_.survey_evidence.reset();
   bool relocalized = Relocalize(grey, !at_once, &found, &t, nullptr, true);
+  *sparse_lead = relocalized && reloc_.sparse_lead;
   if (reloc_.survey_evidence) UpdateSurveyEstimate(reloc_.survey_evidence->first, reloc_.survey_evidence->second);
   reloc_.survey_evidence.reset();
   if (!relocalized && !track_.ever_tracked && opt_.relocalize_survey_probe && opt_.survey.check &&
@@ -1569,6 +1616,19 @@ void Localizer::HoldForConfirmation(const Pose2& pose, int frame, bool jump) {
   reloc_.held_jump = jump;
   // Held poses that keep failing to confirm back off like failed searches.
   reloc_.next_frame = reloc_.failures >= 3 ? BackedOffRelocalizeFrame(frame) : 0;
+}
+
+void Localizer::FollowSparseLead(MotionModel&& lead_motion, int lead_updates, const FrameResult& fr,
+                                 const TriangulationResult& tri) {
+  const PoseMeasurement m = MeasurementOf(tri, Observations(fr), opt_.gate_position_fraction, opt_.gate_heading_sigma);
+  if (reloc_.sparse_holds == 1 || !lead_motion.initialized()) {
+    motion_.Reset(fr.row.time_s, tri.pose, m.covariance, motion_options_.max_speed, motion_options_.max_turn_rate);
+    track_.motion_updates = 1;
+  } else {
+    motion_ = std::move(lead_motion);
+    motion_.Update(m);
+    track_.motion_updates = lead_updates + 1;
+  }
 }
 
 void Localizer::UpdateBlurEstimate(const FrameResult& fr) {
@@ -1812,28 +1872,49 @@ void Localizer::TrackFromPrediction(double time_s, const OdometryIncrement* odom
     drop_pulled();
     w->accepted = acceptable();
   }
-  if (!w->accepted) {
+  // A coarse-to-fine pose that leaves out much of what it found may rest
+  // on the wrong edges its azimuths led to: the full pass decides, on
+  // more inliers.
+  const bool partial = w->accepted && tri.inliers.size() < opt_.relocalize_confirmed_fraction * FoundLandmarks(fr);
+  if (!w->accepted || partial) {
+    // The coarse-to-fine solution (its integrity report and innovation
+    // with it), taken back where the full pass fits no more.
+    std::optional<std::tuple<FrameResult, TriangulationResult, bool>> coarse;
+    if (partial) coarse.emplace(fr, tri, w->recentred);
     fr = FrameToMeasure(fr.row, pred);
     TrackPredictions(pred, &fr, &tri);
     w->recentred = RefineAroundSolution(&fr, &tri);
     drop_pulled();
     w->accepted = acceptable();
+    if (coarse && !(w->accepted && tri.inliers.size() > std::get<1>(*coarse).inliers.size())) {
+      std::tie(fr, tri, w->recentred) = std::move(*coarse);
+      w->accepted = true;
+    }
   }
   // A held relocalised pose is confirmed only on as much evidence as a
   // relocalised pose needs (the frame is nearly the same image).
   // Before the residuals have shown the map's error, it must also find
   // half the landmarks it chose (a wrong pose tracks extra landmarks where
   // few of those are found, and fits some of them).
-  if (reloc_.held)
-    w->accepted = w->accepted && EnoughForRelocalized(fr, tri) &&
-                  !FewChosenBeforeSurvey(fr, tri, opt_.relocalize_min_fraction);
+  // A sparse lead is confirmed by frames in a row that fit it as well.
+  if (reloc_.held) {
+    const bool enough = EnoughForRelocalized(fr, tri) && !FewChosenBeforeSurvey(fr, tri, opt_.relocalize_min_fraction);
+    if (w->accepted && !enough && reloc_.sparse_holds > 0 && SparselySupported(fr, tri)) {
+      w->accepted = reloc_.sparse_holds + 1 >= opt_.relocalize_sparse_frames;
+      w->sparse_continues = !w->accepted;
+    } else {
+      w->accepted = w->accepted && enough;
+    }
+  }
   // One beyond the robot's reach, where the map's survey error widens
   // every tolerance, stands on its own evidence, on this frame and on
   // every frame tracked from it until one does: a partial twin of the
   // room then tracks as well as the true pose from one frame to the next.
   w->accepted = w->accepted && ConfirmsJump(fr, tri);
   w->accepted = w->accepted && !PartialBeforeSurvey(fr, tri);
-  if (reloc_.held && !w->accepted) ++reloc_.failures;
+  if (w->sparse_continues && !(ConfirmsJump(fr, tri) && !PartialBeforeSurvey(fr, tri))) w->sparse_continues = false;
+  if (reloc_.held && !w->accepted && !w->sparse_continues) ++reloc_.failures;
+  fr.unconfirmed = w->sparse_continues;
 }
 
 // Until the residuals have shown how well the map was measured, a frame
@@ -1887,7 +1968,8 @@ void Localizer::RelocalizeWhenLost(const cv::Mat& grey, int frame, FrameWork* w)
   std::optional<std::pair<FrameResult, TriangulationResult>> near;
   if (near_consistent) near.emplace(fr, tri);
   bool under_probe = false;
-  if (!RelocalizeIfLost(grey, frame, track_.ever_tracked && ViewUnlikePrediction(fr, tri), &fr, &tri, &under_probe))
+  if (!RelocalizeIfLost(grey, frame, track_.ever_tracked && ViewUnlikePrediction(fr, tri), &fr, &tri, &under_probe,
+                        &w->sparse_lead))
     return;
   if (near && DistinctPlaces(tri.pose, near->second.pose) &&
       !ClearlyBetterSupported(static_cast<int>(tri.inliers.size()), static_cast<int>(near->second.inliers.size()))) {
@@ -1902,7 +1984,8 @@ void Localizer::RelocalizeWhenLost(const cv::Mat& grey, int frame, FrameWork* w)
   // resting on extra landmarks (tracked because few of those chosen were
   // found) before the residuals have shown the map's error: a map stated
   // exact but centimetres off lets a wrong pose fit a few anywhere.
-  w->accepted = Corroborated(fr, tri) && !under_probe &&
+  // So does a sparse lead, for relocalize_sparse_frames frames.
+  w->accepted = Corroborated(fr, tri) && !under_probe && !w->sparse_lead &&
                 !FewChosenBeforeSurvey(fr, tri, opt_.relocalize_confirmed_fraction);
   fr.unconfirmed = !w->accepted;
 }
@@ -1941,9 +2024,13 @@ void Localizer::FinishFrame(const cv::Mat& grey, int frame, double time_s, std::
   if (w->was_held && accepted && !fr.relocalized && reloc_.held_frame)
     reloc_.confirmed_hold = ReportConfirmedHold(*reloc_.held_frame);
   reloc_.held_frame.reset();
+  reloc_.sparse_holds = w->sparse_lead ? 1 : w->sparse_continues ? reloc_.sparse_holds + 1 : 0;
   if (fr.unconfirmed) {
     reloc_.held_frame = HeldFrame{grey.clone(), fr.row, tri.pose};
+    MotionModel lead_motion = motion_;
+    const int lead_updates = track_.motion_updates;
     HoldForConfirmation(tri.pose, frame, BeyondReach(tri.pose, time_s));
+    if (reloc_.sparse_holds > 0) FollowSparseLead(std::move(lead_motion), lead_updates, fr, tri);
   } else if (w->was_held && !accepted) {
     // A search's hypothesis that its next frame did not confirm is no
     // start (tracking from it lets a wrong pose be accepted once the survey
@@ -1986,7 +2073,8 @@ void Localizer::ConfirmHeldPose(const cv::Mat& grey, FrameWork* w) {
   w->was_held = reloc_.held;
   reloc_.held = false;
   if (w->was_held) w->survey_before_hold = errors_.survey;
-  if (!w->accepted && opt_.survey.check && !errors_.survey.confident() && (track_.known_start || track_.ever_tracked))
+  if (!w->accepted && !w->sparse_continues && opt_.survey.check && !errors_.survey.confident() &&
+      (track_.known_start || track_.ever_tracked))
     LearnSurveyFromRejected(w);
   // A search's hypothesis confirmed before the residuals have shown how well
   // the map was measured: within a map error's tolerances (the probe's, or
@@ -2012,7 +2100,7 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
     w.accepted = Corroborated(w.fr, w.tri);
     w.fr.unconfirmed = !w.accepted;
   }
-  if (!w.accepted && !w.gave_way) RelocalizeWhenLost(grey, frame, &w);
+  if (!w.accepted && !w.gave_way && !w.sparse_continues) RelocalizeWhenLost(grey, frame, &w);
   FinishFrame(grey, frame, time_s, std::move(w.signature), &w);
   return w.fr;
 }

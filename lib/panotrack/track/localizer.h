@@ -182,6 +182,17 @@ struct LocalizerOptions {
   // (0: never).
   int relocalize_rival_searches = 3;
   double relocalize_rival_fit = 1.3;
+  // A room-wide search that verifies no pose because the image shows few
+  // corners (blur, people, a dim exposure: the true pose finds a fraction
+  // of the landmarks it chose, every other place fewer still) holds its
+  // best pose as a sparse lead when at least relocalize_min_landmarks
+  // bearings fit it, most of those found (relocalize_confirmed_fraction),
+  // and it has relocalize_sparse_lead times the inliers of any other place
+  // tracked. The lead is reported only after relocalize_sparse_frames
+  // frames in a row (its own included) each tracked from the one before
+  // with as strong a fit (0: never).
+  int relocalize_sparse_frames = 3;
+  double relocalize_sparse_lead = 2.0;
   // A map that repeats what a relocalised pose sees (a floor motion carrying
   // its inlier landmarks onto others, within this fraction of the room's
   // size) shows the same image from the moved pose: the last known pose
@@ -551,9 +562,21 @@ class Localizer {
   // one clearly nearest the last known pose (tracked from); false when
   // there are twins and none is.
   bool ChooseAmongTwins(bool either, bool near_last, FrameResult* fr, TriangulationResult* tri) const;
+  // A pose and its twins under the map's symmetries of the landmarks it
+  // fits (those in free space), the pose first.
+  std::vector<Pose2> TwinPoses(const FrameResult& fr, const TriangulationResult& tri) const;
+  // `collect_sparse`: the poses that verified too few bearings are kept in
+  // reloc_.sparse_candidates (SparseLead).
   bool RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool either, bool near_last, FrameResult* fr,
-                      TriangulationResult* tri, std::vector<VerifiedPose>* verified_out,
-                      bool settle_rivalry = false) const;
+                      TriangulationResult* tri, std::vector<VerifiedPose>* verified_out, bool settle_rivalry = false,
+                      bool collect_sparse = false) const;
+  // Of a lost frame's search that verified nothing, the pose clearly ahead
+  // of every other place on a sparse image (relocalize_sparse_lead); false
+  // when there is none.
+  bool SparseLead(FrameResult* fr, TriangulationResult* tri) const;
+  // whether most of what a pose found fits it, on at least
+  // relocalize_min_landmarks bearings: a sparse lead's evidence.
+  bool SparselySupported(const FrameResult& fr, const TriangulationResult& tri) const;
   // whether, in a room-wide search (`either`: with either polarity), pose
   // `a` outranks pose `b` at another place;
   bool SearchOutranks(const VerifiedPose& a, const VerifiedPose& b, bool either) const;
@@ -618,9 +641,10 @@ class Localizer {
   // the room-wide search after relocalize_after lost frames;
   // `at_once`: the view is not the predicted one (ViewUnlikePrediction).
   // `under_probe`: the pose was verified only under a survey error wider
-  // than the map's (RelocalizeUnderProbe).
+  // than the map's (RelocalizeUnderProbe). `sparse_lead`: the pose is a
+  // sparse image's lead (SparseLead).
   bool RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, FrameResult* fr, TriangulationResult* tri,
-                        bool* under_probe);
+                        bool* under_probe, bool* sparse_lead);
   // whether a frame's tracking says the robot is not near the prediction;
   bool ViewUnlikePrediction(const FrameResult& fr, const TriangulationResult& tri) const;
   // whether a relocalised pose stands on its own evidence (`fraction` of
@@ -694,6 +718,11 @@ class Localizer {
   // tracking restarts from a relocalised pose that the next frame must
   // confirm (`jump`: one BeyondReach, which its own evidence must carry);
   void HoldForConfirmation(const Pose2& pose, int frame, bool jump);
+  // A held sparse lead's frames (SparseLead) feed a motion model from the
+  // lead's pose on (`lead_motion`, `lead_updates`: the one before this
+  // frame's hold): the frames that follow must agree with the motion they show.
+  void FollowSparseLead(MotionModel&& lead_motion, int lead_updates, const FrameResult& fr,
+                        const TriangulationResult& tri);
   // the output row and the motion model's state.
   void RecordOutcome(FrameResult* fr, const TriangulationResult& tri, bool accepted, int n_found);
   // The row of a reported pose: the pose, its inliers, residual, covariance
@@ -726,6 +755,10 @@ class Localizer {
     bool after_search = false;  // tracked from a search's pose, the map's error not yet shown
     bool gave_way = false;      // the tracked pose gave way to the room-wide search
     std::optional<SearchResult> searched;
+    // A search's sparse lead (held), or a frame that tracked a held one with
+    // as strong a fit, not yet relocalize_sparse_frames long (held again).
+    bool sparse_lead = false;
+    bool sparse_continues = false;
     int n_found = 0;  // what tracking from the prediction found
     std::vector<float> signature;  // the compass's, of this frame (for the next one too)
   };
@@ -869,6 +902,19 @@ class Localizer {
       double survey_sigma;
     };
     mutable std::vector<Rivalry> rivalries;
+    // A lost frame's search: the poses tracked from its hypotheses that
+    // verified too few bearings (SparseLead: leads and rivals), whether any
+    // verified enough, and whether the pose it returned is such a lead.
+    struct SparseCandidate {
+      FrameResult fr;
+      TriangulationResult tri;
+      bool supported = false;  // SparselySupported
+    };
+    mutable std::vector<SparseCandidate> sparse_candidates;
+    mutable bool any_verified = false;
+    mutable bool sparse_lead = false;
+    // The frames a sparse lead has been held in a row (0: the hold is not one).
+    int sparse_holds = 0;
   };
   Relocalization reloc_;
 
