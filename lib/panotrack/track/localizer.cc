@@ -5,7 +5,6 @@
 #include <exception>
 #include <numeric>
 #include <optional>
-#include <tuple>
 #include <utility>
 
 #include <Eigen/Eigenvalues>
@@ -1879,15 +1878,22 @@ void Localizer::TrackFromPrediction(double time_s, const OdometryIncrement* odom
   if (!w->accepted || partial) {
     // The coarse-to-fine solution (its integrity report and innovation
     // with it), taken back where the full pass fits no more.
-    std::optional<std::tuple<FrameResult, TriangulationResult, bool>> coarse;
-    if (partial) coarse.emplace(fr, tri, w->recentred);
+    struct Solution {
+      FrameResult fr;
+      TriangulationResult tri;
+      bool recentred;
+    };
+    std::optional<Solution> coarse;
+    if (partial) coarse = Solution{fr, tri, w->recentred};
     fr = FrameToMeasure(fr.row, pred);
     TrackPredictions(pred, &fr, &tri);
     w->recentred = RefineAroundSolution(&fr, &tri);
     drop_pulled();
     w->accepted = acceptable();
-    if (coarse && !(w->accepted && tri.inliers.size() > std::get<1>(*coarse).inliers.size())) {
-      std::tie(fr, tri, w->recentred) = std::move(*coarse);
+    if (coarse && !(w->accepted && tri.inliers.size() > coarse->tri.inliers.size())) {
+      fr = std::move(coarse->fr);
+      tri = coarse->tri;
+      w->recentred = coarse->recentred;
       w->accepted = true;
     }
   }
@@ -1910,9 +1916,10 @@ void Localizer::TrackFromPrediction(double time_s, const OdometryIncrement* odom
   // every tolerance, stands on its own evidence, on this frame and on
   // every frame tracked from it until one does: a partial twin of the
   // room then tracks as well as the true pose from one frame to the next.
-  w->accepted = w->accepted && ConfirmsJump(fr, tri);
-  w->accepted = w->accepted && !PartialBeforeSurvey(fr, tri);
-  if (w->sparse_continues && !(ConfirmsJump(fr, tri) && !PartialBeforeSurvey(fr, tri))) w->sparse_continues = false;
+  // So does a sparse lead's frame.
+  const bool stands = (w->accepted || w->sparse_continues) && ConfirmsJump(fr, tri) && !PartialBeforeSurvey(fr, tri);
+  w->accepted = w->accepted && stands;
+  w->sparse_continues = w->sparse_continues && stands;
   if (reloc_.held && !w->accepted && !w->sparse_continues) ++reloc_.failures;
   fr.unconfirmed = w->sparse_continues;
 }
