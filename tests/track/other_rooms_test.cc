@@ -11,6 +11,8 @@
 #include <utility>
 #include <vector>
 
+#include <opencv2/imgcodecs.hpp>
+
 #include "panotrack/io/calibration.h"
 #include "panotrack/io/map.h"
 #include "panotrack/pipeline/accuracy.h"
@@ -164,32 +166,49 @@ TEST_CASE("office, a map measured to 2 cm that says so: the first frame keeps it
 // The loop's first kFrames under real conditions: a shutter open half the
 // frame interval, an exposure that drifts, textured walls, two people
 // walking (panosim's real-conditions factors, without covered or dropped
-// frames, and with the noise of the loop above: no video codec smooths it).
-const test::RenderedCase& OfficeRealConditions() {
-  static const test::RenderedCase r = [] {
-    test::RenderedCase c;
-    c.c.name = "custom";
-    c.c.calib = ReadCalibration(test::SourcePath("calib/paper-real.yaml"));
-    c.c.map = ReadMap(test::SourcePath("docs/examples/office-map.yaml"));
-    c.c.fps = 10.0;
-    c.c.options.noise_sigma = 3.0;
-    c.c.options.blur = true;
-    c.c.options.exposure = 0.5;
-    c.c.options.auto_exposure = 0.2;
-    c.c.options.texture = 0.1;
-    c.c.options.people = 2;
-    for (int i = 0; i < kFrames; ++i) c.c.poses.push_back(OfficeLoopPose(i));
-    const SequenceRenderer renderer(c.c);
-    for (int i = 0; i < kFrames; ++i) {
-      c.frames.push_back(renderer.RenderFrame(i));
-      PoseRow row;
-      row.frame = i;
-      row.pose = c.c.poses[static_cast<size_t>(i)];
-      c.truth.push_back(row);
+// frames), with noise `noise_sigma`; each frame compressed as a JPEG of
+// `jpeg_quality` (0: not).
+test::RenderedCase RenderOfficeUnderRealConditions(double noise_sigma, int jpeg_quality) {
+  test::RenderedCase c;
+  c.c.name = "custom";
+  c.c.calib = ReadCalibration(test::SourcePath("calib/paper-real.yaml"));
+  c.c.map = ReadMap(test::SourcePath("docs/examples/office-map.yaml"));
+  c.c.fps = 10.0;
+  c.c.options.noise_sigma = noise_sigma;
+  c.c.options.blur = true;
+  c.c.options.exposure = 0.5;
+  c.c.options.auto_exposure = 0.2;
+  c.c.options.texture = 0.1;
+  c.c.options.people = 2;
+  for (int i = 0; i < kFrames; ++i) c.c.poses.push_back(OfficeLoopPose(i));
+  const SequenceRenderer renderer(c.c);
+  for (int i = 0; i < kFrames; ++i) {
+    cv::Mat frame = renderer.RenderFrame(i);
+    if (jpeg_quality > 0) {
+      std::vector<uchar> jpeg;
+      cv::imencode(".jpg", frame, jpeg, {cv::IMWRITE_JPEG_QUALITY, jpeg_quality});
+      frame = cv::imdecode(jpeg, cv::IMREAD_GRAYSCALE);
     }
-    c.table = TableForMap(c.c.calib, c.c.map, true);
-    return c;
-  }();
+    c.frames.push_back(frame);
+    PoseRow row;
+    row.frame = i;
+    row.pose = c.c.poses[static_cast<size_t>(i)];
+    c.truth.push_back(row);
+  }
+  c.table = TableForMap(c.c.calib, c.c.map, true);
+  return c;
+}
+
+// With the noise of the loop above (no video codec smooths it).
+const test::RenderedCase& OfficeRealConditions() {
+  static const test::RenderedCase r = RenderOfficeUnderRealConditions(3.0, 0);
+  return r;
+}
+
+// As a video shows them: noise 4, each frame compressed (JPEG quality 40:
+// blocks and ringing at the edges).
+const test::RenderedCase& OfficeCompressed() {
+  static const test::RenderedCase r = RenderOfficeUnderRealConditions(4.0, 40);
   return r;
 }
 
@@ -220,6 +239,49 @@ TEST_CASE("office under real conditions, no start: a sparse image's lead is take
   CHECK(a.outliers == 0);
   CHECK(a.max <= 1.0);
   CHECK(test::InsideThreeSigma(rows, r.truth) == 1.0);
+}
+
+TEST_CASE("office under real conditions, compressed, no start: the map's statement outlives the blurred first frames",
+          "[other_rooms]") {
+  // The exact map says so. The first frames, blurred in the loop's fastest
+  // turn, agree only under a survey error of centimetres (the search's
+  // probe); kept, that error let two later frames be reported 6.5 cm off
+  // and every pose with a 3 cm deviation. Two later frames in a row agree
+  // under the statement as well, so the estimate starts again from it. Measured: 29
+  // of 30 tracked, the held first frame 2.8 cm off within its 2.8 cm
+  // deviation (its confirming frame did not agree under the statement),
+  // then 1.92 cm at most, 0.85 cm from frame 5 on; without the check 30,
+  // frames 16 and 18 6.5 and 6.6 cm off.
+  const test::RenderedCase& r = OfficeCompressed();
+  Map stated_exact = r.c.map;
+  stated_exact.survey_sigma = 0.0;
+  const auto run = [&](bool recheck) {
+    LocalizerOptions o;
+    o.method = TrackingMethod::kVertex;
+    o.survey.recheck_statement = recheck;
+    Localizer loc(r.c.calib, stated_exact, r.table, o);
+    loc.ResetUnknown();
+    return test::ProcessFrames(&loc, r, r.c.fps);
+  };
+  const auto largest_error = [&](const std::vector<PoseRow>& rows, int first) {
+    double largest = 0.0;
+    for (const PoseRow& row : rows) {
+      const Pose2& truth = r.truth[static_cast<size_t>(row.frame)].pose;
+      if (row.status == PoseStatus::kOk && row.frame >= first)
+        largest = std::max(largest, std::hypot(row.pose.x - truth.x, row.pose.y - truth.y));
+    }
+    return largest;
+  };
+  const std::vector<PoseRow> rows = run(true);
+  const std::vector<PoseRow> kept = run(false);
+  const AccuracySummary a = CompareToGroundTruth(rows, r.truth, TypicalRange(r.c.map, r.truth));
+  INFO("statement checked: " << FormatAccuracy(a, "cm") << "; never: "
+                             << FormatAccuracy(CompareToGroundTruth(kept, r.truth, TypicalRange(r.c.map, r.truth)), "cm"));
+  CHECK(a.tracked >= 28);
+  CHECK(largest_error(rows, 1) <= 2.2);
+  CHECK(largest_error(rows, 5) <= 1.0);
+  CHECK(test::InsideThreeSigma(rows, r.truth) == 1.0);
+  CHECK(largest_error(kept, 5) >= 5.0);
 }
 
 }  // namespace

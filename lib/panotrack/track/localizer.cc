@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <limits>
 #include <numeric>
 #include <optional>
 #include <utility>
@@ -97,6 +98,22 @@ constexpr double kReportedNoiseMargin = 1.5;
 // The survey-error probe's choice: the smallest level whose bearings agree
 // with at least this fraction of the inliers of the level most agree under.
 constexpr double kProbeSaturation = 0.9;
+// A provisional survey sigma more than this many times the map's
+// statement (or the unstated default) contradicts it: the statement is
+// tried again on the next tracked frames (RetrackUnderStatedSurvey). Up
+// to it, a map measured a little worse than stated.
+constexpr double kStatementDoubt = 3.0;
+// The statement stands again after this many tracked frames in a row agree
+// under it; after a frame that does not, the next try waits twice as long
+// as the last, at most this many frames.
+constexpr int kStatementFrames = 2;
+// ... and lie within this many of their combined standard deviations of the
+// pose under the error learned (AgreesUnderStatement); a frame held after a
+// search is measured under the statement where the frame confirming it
+// agrees within the second.
+constexpr double kStatementApart = 1.0;
+constexpr double kStatementHoldApart = 2.0;
+constexpr int kStatementCheckMaxGap = 32;
 // The survey errors, as fractions of the typical landmark distance, that
 // the search for a first pose tries where it verified nothing under the one
 // assumed (LocalizerOptions::relocalize_survey_probe).
@@ -244,6 +261,11 @@ void Localizer::Reset(const Pose2& robot_initial, bool hint) {
   errors_.bearing_sigma = 0.0;
   errors_.survey.Reset();
   errors_.survey_before_search.reset();
+  errors_.next_statement_check = 0;
+  errors_.statement_check_gap = 1;
+  errors_.statement_verified = false;
+  errors_.statement_agreements = 0;
+  errors_.statement_supports_hold = false;
   errors_.residual_memory.assign(landmarks_.size(), 0.0);
   errors_.residual_frame.assign(landmarks_.size(), -2);
   UpdateLandmarkBudget();
@@ -1099,7 +1121,7 @@ bool Localizer::ProbeSurveyError(const Pose2& pred) {
   std::vector<std::pair<double, size_t>> agreeing;  // level, inliers
   for (double fraction : {0.0025, 0.005, 0.01, 0.02, opt_.survey.max_fraction}) {
     const double level = fraction * errors_.typical_distance;
-    if (level <= 1.5 * current) continue;
+    if (level <= 1.5 * current || (errors_.statement_verified && level > StatementBound())) continue;
     reloc_.probe_sigma = level;
     // The walls of that error (corners behind them in view), but the
     // landmarks of the error assumed: a longer list under a wide tolerance
@@ -1189,7 +1211,8 @@ bool Localizer::RetrackUnderShownSurvey(FrameResult* fr, TriangulationResult* tr
   const double bearing_sigma_before = errors_.bearing_sigma;
   UpdateBearingNoise(Observations(*fr), *tri);
   UpdateSurveyEstimate(*fr, *tri);
-  const double level = errors_.survey.Early();
+  const double shown = errors_.survey.Early();
+  const double level = errors_.statement_verified ? std::min(shown, StatementBound()) : shown;
   errors_.survey = survey_before;
   errors_.bearing_sigma = bearing_sigma_before;
   UpdateLandmarkBudget();
@@ -1212,6 +1235,89 @@ bool Localizer::RetrackUnderShownSurvey(FrameResult* fr, TriangulationResult* tr
   *fr = std::move(again);
   *tri = solved;
   return true;
+}
+
+double Localizer::StatementBound() const {
+  return std::max(kStatementDoubt * errors_.survey.StatedSigma(StatedSurveySigma()),
+                  opt_.survey.doubt_fraction * errors_.typical_distance);
+}
+
+bool Localizer::StatementInDoubt() const {
+  return opt_.survey.check && opt_.survey.recheck_statement && errors_.survey.provisional() > StatementBound();
+}
+
+Localizer::LearnedSurvey Localizer::AssumeStatementOnly() {
+  LearnedSurvey learned{errors_.survey, errors_.bearing_sigma};
+  const int budget = errors_.max_landmarks;
+  errors_.survey.Reset();
+  errors_.bearing_sigma = 0.0;
+  UpdateLandmarkBudget();
+  // The landmarks the error learned tracks: under a narrower budget the
+  // few nearest agree on a map centimetres off as well.
+  errors_.max_landmarks = budget;
+  return learned;
+}
+
+void Localizer::RestoreSurvey(const LearnedSurvey& learned) {
+  errors_.survey = learned.survey;
+  errors_.bearing_sigma = learned.bearing_sigma;
+  UpdateLandmarkBudget();
+}
+
+bool Localizer::AgreesUnderStatement(const FrameResult& fr, const TriangulationResult& tri, FrameResult* again,
+                                     TriangulationResult* solved, double* apart) {
+  *apart = std::numeric_limits<double>::infinity();
+  *again = FrameToMeasure(fr.row, fr.predicted_pose);
+  TrackPredictions(tri.pose, again, solved);
+  RefineAroundSolution(again, solved);
+  // Most of what it finds agrees, as large a share as under the error
+  // learned (a narrower tolerance finds fewer landmarks in view).
+  const double found = FoundLandmarks(*again);
+  const double inliers = static_cast<double>(solved->inliers.size());
+  if (!(SurveyEvidence(*again, *solved) && Consistent(again, *solved) && 3.0 * inliers >= 2.0 * found &&
+        inliers * FoundLandmarks(fr) >= kProbeSaturation * static_cast<double>(tri.inliers.size()) * found))
+    return false;
+  // How far apart the two poses lie, in their combined standard deviations.
+  const Eigen::Vector2d between(solved->pose.x - tri.pose.x, solved->pose.y - tri.pose.y);
+  const Eigen::Matrix2d both = tri.covariance.topLeftCorner<2, 2>() + solved->covariance.topLeftCorner<2, 2>();
+  const Eigen::FullPivLU<Eigen::Matrix2d> lu(both);
+  if (lu.isInvertible()) *apart = std::sqrt(std::max(0.0, between.dot(lu.solve(between))));
+  return true;
+}
+
+bool Localizer::RetrackUnderStatedSurvey(FrameResult* fr, TriangulationResult* tri) {
+  errors_.statement_supports_hold = false;
+  if (track_.frame < errors_.next_statement_check || !StatementInDoubt()) return false;
+  const LearnedSurvey learned = AssumeStatementOnly();
+  FrameResult again;
+  TriangulationResult solved;
+  double apart = 0.0;
+  const bool shares = AgreesUnderStatement(*fr, *tri, &again, &solved, &apart);
+  // On the same pose: the same edges' errors are in both solutions, so
+  // agreeing ones lie within their combined deviations of each other (a
+  // map 2 cm off, stated exact, lets a subset agree under the statement on
+  // a pose 1.3 - 6 of them away).
+  const bool agrees = shares && apart <= kStatementApart;
+  errors_.statement_supports_hold = shares && apart <= kStatementHoldApart;
+  // Two tracked frames in a row: one with few landmarks in view may agree
+  // under a tolerance narrower than the map's error by chance.
+  if (agrees && ++errors_.statement_agreements >= kStatementFrames) {
+    errors_.statement_agreements = 0;
+    errors_.statement_check_gap = 1;
+    errors_.statement_verified = true;
+    *fr = std::move(again);
+    *tri = solved;
+    return true;
+  }
+  RestoreSurvey(learned);
+  if (agrees) {
+    errors_.next_statement_check = track_.frame + 1;
+  } else {
+    errors_.statement_agreements = 0;
+    errors_.next_statement_check = track_.frame + errors_.statement_check_gap;
+    errors_.statement_check_gap = std::min(2 * errors_.statement_check_gap, kStatementCheckMaxGap);
+  }
+  return false;
 }
 
 void Localizer::CheckFrame(const cv::Mat& grey, int frame) const {
@@ -1830,10 +1936,32 @@ std::optional<FrameResult> Localizer::ReportConfirmedHold(const HeldFrame& held)
   tracker_->BeginFrame(held.grey);
   if (!TrackFrom(held.pose, opt_.search_px, &fr, &tri) || !Consistent(&fr, tri) || !EnoughForRelocalized(fr, tri))
     return std::nullopt;
-  fr.triangulation = tri;
-  FillReportedRow(&fr, Observations(fr), tri);
-  if (view_) fr.row.pose = view_->RobotPose(fr.row.pose);
+  // Where the survey error it was found under is in doubt (a search's wide
+  // tolerance on a blurred frame) and the frame that confirmed it agrees
+  // under the map's statement, it is reported only as measured under the
+  // statement too. (Where that frame does not agree either, the map may
+  // well be as far off as the error learned.)
+  if (StatementInDoubt() && errors_.statement_supports_hold) {
+    const LearnedSurvey learned = AssumeStatementOnly();
+    FrameResult again;
+    TriangulationResult solved;
+    double apart = 0.0;
+    const bool agrees = AgreesUnderStatement(fr, tri, &again, &solved, &apart) && apart <= kStatementHoldApart &&
+                        EnoughForRelocalized(again, solved);
+    if (agrees) FinishHeldReport(&again, solved);
+    RestoreSurvey(learned);
+    if (!agrees) return std::nullopt;
+    return again;
+  }
+  FinishHeldReport(&fr, tri);
   return fr;
+}
+
+void Localizer::FinishHeldReport(FrameResult* fr, const TriangulationResult& tri) const {
+  fr->relocalized = true;
+  fr->triangulation = tri;
+  FillReportedRow(fr, Observations(*fr), tri);
+  if (view_) fr->row.pose = view_->RobotPose(fr->row.pose);
 }
 
 bool Localizer::BeyondAlertLimitOnly(FrameResult* fr, const TriangulationResult& tri) const {
@@ -2007,7 +2135,10 @@ void Localizer::FinishFrame(const cv::Mat& grey, int frame, double time_s, std::
   FrameResult& fr = w->fr;
   TriangulationResult& tri = w->tri;
   const bool accepted = w->accepted;
-  // A relocalised pose has its own evidence: its verification.
+  // A relocalised pose has its own evidence: its verification. (A frame
+  // tracked from a held one is tried under the statement too: that frame
+  // is reported under what this one leaves.)
+  if (accepted && !fr.relocalized && !w->sparse_continues) RetrackUnderStatedSurvey(&fr, &tri);
   if (accepted && !fr.relocalized && opt_.survey.check && !errors_.survey.confident())
     RetrackUnderShownSurvey(&fr, &tri);
   fr.triangulation = tri;
@@ -2051,6 +2182,7 @@ void Localizer::FinishFrame(const cv::Mat& grey, int frame, double time_s, std::
     // given-way pose's frames taught the survey estimate goes with it.
     track_.known_start = track_.ever_tracked = false;
     errors_.survey = *errors_.survey_before_search;
+    errors_.statement_verified = false;
     UpdateLandmarkBudget();
   }
   if (errors_.survey.confident()) errors_.survey_before_search.reset();

@@ -514,6 +514,34 @@ class Localizer {
   // provisional sigma and the frame is tracked again under it around its
   // pose, the new solution taken where it is accepted. True if it was.
   bool RetrackUnderShownSurvey(FrameResult* fr, TriangulationResult* tri);
+  // A tracked frame while a provisional survey sigma well above the map's
+  // statement holds (learned on earlier frames by a probe or a search):
+  // tracked again under the statement alone (a fresh estimate). Where its
+  // bearings agree there as well, the wider error was those frames'
+  // images', not the map's: the estimate starts again from the statement
+  // and the frame takes that solution. True if it did.
+  bool RetrackUnderStatedSurvey(FrameResult* fr, TriangulationResult* tri);
+  // Whether a provisional survey sigma beyond StatementBound holds (and
+  // the statement is to be tried again).
+  bool StatementInDoubt() const;
+  // The survey and bearing-noise estimates put aside for the map's
+  // statement alone (a fresh estimate), and put back.
+  struct LearnedSurvey {
+    SurveyErrorEstimate survey;
+    double bearing_sigma;
+  };
+  LearnedSurvey AssumeStatementOnly();
+  void RestoreSurvey(const LearnedSurvey& learned);
+  // `fr`, solved as `tri`, measured again under the survey error now
+  // assumed (into `again`, `solved`): whether its bearings agree there as
+  // well, as large a share of those found and enough of them; `apart`: how
+  // far apart the two poses lie, in their combined standard deviations.
+  bool AgreesUnderStatement(const FrameResult& fr, const TriangulationResult& tri, FrameResult* again,
+                            TriangulationResult* solved, double* apart);
+  // The largest provisional survey sigma the map's statement allows:
+  // kStatementDoubt times the sigma it gives alone, at least
+  // SurveyErrorOptions::doubt_fraction of the typical landmark distance.
+  double StatementBound() const;
   // Before the survey error is known, a frame whose pose leaves found
   // bearings out: the first frame from a start given as a guess that
   // leaves most of them out; on a map stated exact (not a search's pose
@@ -739,6 +767,8 @@ class Localizer {
   // tracked again from it with what that frame taught (the survey error
   // its residuals showed, the learned blur), reported where it is accepted
   // as a tracked frame is; else none.
+  // A held frame's report of `tri`: the row filled in, in the robot's frame.
+  void FinishHeldReport(FrameResult* fr, const TriangulationResult& tri) const;
   std::optional<FrameResult> ReportConfirmedHold(const HeldFrame& held);
 
   // One frame's work in progress, handed from one step of Process to the next.
@@ -870,6 +900,18 @@ class Localizer {
     // had it as an inlier, and that frame (SuddenResiduals).
     std::vector<double> residual_memory;
     std::vector<int> residual_frame;
+    // RetrackUnderStatedSurvey's schedule: the next frame it may try, and
+    // the gap after the next failure (doubled each time, to a cap).
+    int next_statement_check = 0;
+    int statement_check_gap = 1;
+    int statement_agreements = 0;  // tracked frames in a row that agreed under it
+    // This frame agreed under the statement closely enough to report the
+    // frame held before it as measured under the statement.
+    bool statement_supports_hold = false;
+    // A tracked frame agreed under the statement alone: frames that do not
+    // are the images' fault (blur, a person), and teach no survey error
+    // beyond StatementBound.
+    bool statement_verified = false;
   };
   ErrorModel errors_;
 

@@ -114,6 +114,8 @@ void SurveyErrorOptions::Check() const {
   if (!(forgetting > 0.0 && forgetting <= 1.0)) throw Error("survey error: forgetting: expected in (0, 1]");
   if (!(estimate_margin >= 1.0) || !std::isfinite(estimate_margin))
     throw Error("survey error: estimate_margin: expected >= 1");
+  if (!(doubt_fraction >= 0.0) || !std::isfinite(doubt_fraction))
+    throw Error("survey error: doubt_fraction: expected >= 0");
   if (!(stated_margin >= 1.0) || !std::isfinite(stated_margin))
     throw Error("survey error: stated_margin: expected >= 1");
 }
@@ -137,8 +139,12 @@ void SurveyErrorEstimate::Reset() {
   survey_ = image_variance_ = provisional_ = 0.0;
 }
 
+double SurveyErrorEstimate::StatedSigma(double stated) const {
+  return std::isnan(stated) ? opt_.unstated_fraction * typical_distance_ : stated;
+}
+
 double SurveyErrorEstimate::Sigma(double stated) const {
-  const double base = std::isnan(stated) ? opt_.unstated_fraction * typical_distance_ : stated;
+  const double base = StatedSigma(stated);
   if (!opt_.check) return base;
   if (!confident()) return std::max(base, provisional_);
   if (std::isnan(stated)) return survey_;

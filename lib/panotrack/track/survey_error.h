@@ -43,6 +43,19 @@ struct SurveyErrorOptions {
   // calibration search, whose wrong trials' residuals must not be taken for
   // survey error).
   bool check = true;
+  // Where the first frames (blurred in a fast turn, a person in front)
+  // agreed only under a survey error well above the map's statement, the
+  // next tracked frames are tried under the statement again: one whose
+  // bearings agree there as well shows the wider error was the images',
+  // and the estimate starts again from the statement (a tolerance that
+  // wide lets wrong edges pull later poses centimetres off). From then on
+  // a frame that does not agree teaches no survey error. Off: what the
+  // first frames showed stays until the residuals forget it.
+  bool recheck_statement = true;
+  // ... where that error is also above this fraction of the typical
+  // landmark distance (1.5 %: 3 cm at 2 m, beyond a careless tape survey;
+  // the probe's two widest levels).
+  double doubt_fraction = 0.015;
   // The image's share of the residuals is at most this (radians; the
   // localiser's max_bearing_sigma, the noise of a poor tracker): where the
   // distances cannot tell the two apart and no edge's two corners bound the
@@ -86,6 +99,8 @@ class SurveyErrorEstimate {
   // unstated default. Until the estimate is confident, never below the
   // provisional sigma.
   double Sigma(double stated) const;
+  // The sigma before any evidence: the statement, or the unstated default.
+  double StatedSigma(double stated) const;
   // The sigma the reported covariances hold: stated_margin times Sigma
   // where the map states an error; where the estimate alone decides it
   // (the map stating nothing or an exact map overruled), estimate_margin
