@@ -104,15 +104,15 @@ constexpr double kProbeSaturation = 0.9;
 // to it, a map measured a little worse than stated.
 constexpr double kStatementDoubt = 3.0;
 // The statement stands again after this many tracked frames in a row agree
-// under it; after a frame that does not, the next try waits twice as long
-// as the last, at most this many frames.
+// under it, on poses within the first of these many of their combined
+// standard deviations of the pose under the error learned
+// (AgreesUnderStatement); a frame held after a search is measured under the
+// statement where the frame confirming it agrees within the second.
 constexpr int kStatementFrames = 2;
-// ... and lie within this many of their combined standard deviations of the
-// pose under the error learned (AgreesUnderStatement); a frame held after a
-// search is measured under the statement where the frame confirming it
-// agrees within the second.
 constexpr double kStatementApart = 1.0;
 constexpr double kStatementHoldApart = 2.0;
+// After a frame that does not agree, the next try waits twice as long as the
+// last, at most this many frames.
 constexpr int kStatementCheckMaxGap = 32;
 // The survey errors, as fractions of the typical landmark distance, that
 // the search for a first pose tries where it verified nothing under the one
@@ -1207,15 +1207,12 @@ bool Localizer::PartialBeforeSurvey(const FrameResult& fr, const TriangulationRe
 bool Localizer::RetrackUnderShownSurvey(FrameResult* fr, TriangulationResult* tri) {
   // What this frame would teach, learned once only, from the solution reported.
   const double assumed = MeanSurveySigma();
-  const SurveyErrorEstimate survey_before = errors_.survey;
-  const double bearing_sigma_before = errors_.bearing_sigma;
+  const LearnedSurvey before{errors_.survey, errors_.bearing_sigma};
   UpdateBearingNoise(Observations(*fr), *tri);
   UpdateSurveyEstimate(*fr, *tri);
   const double shown = errors_.survey.Early();
   const double level = errors_.statement_verified ? std::min(shown, StatementBound()) : shown;
-  errors_.survey = survey_before;
-  errors_.bearing_sigma = bearing_sigma_before;
-  UpdateLandmarkBudget();
+  RestoreSurvey(before);
   if (!(level > 1.5 * assumed)) return false;
   errors_.survey.Provisional(level);
   UpdateLandmarkBudget();

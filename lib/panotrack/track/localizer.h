@@ -767,9 +767,9 @@ class Localizer {
   // tracked again from it with what that frame taught (the survey error
   // its residuals showed, the learned blur), reported where it is accepted
   // as a tracked frame is; else none.
+  std::optional<FrameResult> ReportConfirmedHold(const HeldFrame& held);
   // A held frame's report of `tri`: the row filled in, in the robot's frame.
   void FinishHeldReport(FrameResult* fr, const TriangulationResult& tri) const;
-  std::optional<FrameResult> ReportConfirmedHold(const HeldFrame& held);
 
   // One frame's work in progress, handed from one step of Process to the next.
   struct FrameWork {

@@ -49,8 +49,8 @@ struct SurveyErrorOptions {
   // bearings agree there as well shows the wider error was the images',
   // and the estimate starts again from the statement (a tolerance that
   // wide lets wrong edges pull later poses centimetres off). From then on
-  // a frame that does not agree teaches no survey error. Off: what the
-  // first frames showed stays until the residuals forget it.
+  // a frame that does not agree teaches no survey error that large again.
+  // Off: what the first frames showed stays until the residuals forget it.
   bool recheck_statement = true;
   // ... where that error is also above this fraction of the typical
   // landmark distance (1.5 %: 3 cm at 2 m, beyond a careless tape survey;
