@@ -188,6 +188,13 @@ void AddTrackingOptions(CLI::App* app, CommandLine* c) {
                  "automatic limit")
       ->check(CLI::NonNegativeNumber)
       ->group(kTracking);
+  app->add_option("--max-speed", c->o.localizer.motion.max_speed,
+                 "The robot's top speed (m/s): a pose the room-wide search found is confirmed only by a next "
+                 "frame within this reach of it (beyond it, within their errors); also the velocity's spread "
+                 "while it is unknown")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str()
+      ->group(kTracking);
   app->add_option("--survey-sigma", c->o.localizer.survey_sigma,
                  "How well the map was measured: the standard deviation of each corner coordinate (map "
                  "units); default: the map's survey_sigma, checked against the images (docs/maps.md)")

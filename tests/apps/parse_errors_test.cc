@@ -61,6 +61,7 @@ TEST_CASE("range errors: readable bounds and the value typed", "[parse_errors]")
   ExpectLine(kRefine + "--map-sigma 0", "panomap: --map-sigma: expected a positive number, got 0");
   ExpectLine(kRefine + "--reject-sigmas 1e300", "panomap: --reject-sigmas: expected a value from 2.5 to 100, got 1e300");
   ExpectLine(kLoc + "--alert-fraction 2", "panoloc: --alert-fraction: expected a value from 0 to 1, got 2");
+  ExpectLine(kLoc + "--max-speed 0", "panoloc: --max-speed: expected a positive number, got 0");
 }
 
 TEST_CASE("an unknown option is named before a required one that is missing", "[parse_errors]") {

@@ -163,12 +163,12 @@ TEST_CASE("office, a map measured to 2 cm that says so: the first frame keeps it
   CHECK(a.tracked == kFrames);
 }
 
-// The loop's first kFrames under real conditions: a shutter open half the
-// frame interval, an exposure that drifts, textured walls, two people
-// walking (panosim's real-conditions factors, without covered or dropped
-// frames), with noise `noise_sigma`; each frame compressed as a JPEG of
-// `jpeg_quality` (0: not).
-test::RenderedCase RenderOfficeUnderRealConditions(double noise_sigma, int jpeg_quality) {
+// The loop's first kFrames under real conditions: a shutter open for
+// `exposure` of the frame interval, an exposure that drifts, textured
+// walls, two people walking (panosim's real-conditions factors, without
+// covered or dropped frames), with noise `noise_sigma`; each frame
+// compressed as a JPEG of `jpeg_quality` (0: not).
+test::RenderedCase RenderOfficeUnderRealConditions(double noise_sigma, int jpeg_quality, double exposure = 0.5) {
   test::RenderedCase c;
   c.c.name = "custom";
   c.c.calib = ReadCalibration(test::SourcePath("calib/paper-real.yaml"));
@@ -176,7 +176,7 @@ test::RenderedCase RenderOfficeUnderRealConditions(double noise_sigma, int jpeg_
   c.c.fps = 10.0;
   c.c.options.noise_sigma = noise_sigma;
   c.c.options.blur = true;
-  c.c.options.exposure = 0.5;
+  c.c.options.exposure = exposure;
   c.c.options.auto_exposure = 0.2;
   c.c.options.texture = 0.1;
   c.c.options.people = 2;
@@ -282,6 +282,27 @@ TEST_CASE("office under real conditions, compressed, no start: the map's stateme
   CHECK(largest_error(rows, 5) <= 1.0);
   CHECK(test::InsideThreeSigma(rows, r.truth) == 1.0);
   CHECK(largest_error(kept, 5) >= 5.0);
+}
+
+TEST_CASE("office, shutter open the whole frame, compressed, no start: a held pose is confirmed only within reach",
+          "[other_rooms]") {
+  // The shutter open the whole frame interval blurs the loop's turns. The
+  // search holds a sparse lead two metres off on frame 2; frame 3 fitted
+  // a pose 37 cm from it under the survey probe's wider error (the robot
+  // covers 10 cm a frame at most) and was reported 208 cm off. Measured:
+  // frame 3 not confirmed (27 cm beyond reach, 4.4 combined deviations);
+  // the true pose found on frame 23, 6 frames tracked, all within 0.17 cm.
+  const test::RenderedCase r = RenderOfficeUnderRealConditions(4.0, 40, 1.0);
+  LocalizerOptions o;
+  o.method = TrackingMethod::kVertex;
+  Localizer loc(r.c.calib, r.c.map, r.table, o);
+  loc.ResetUnknown();
+  const std::vector<PoseRow> rows = test::ProcessFrames(&loc, r, r.c.fps);
+  const AccuracySummary a = CompareToGroundTruth(rows, r.truth, TypicalRange(r.c.map, r.truth));
+  INFO(FormatAccuracy(a, "cm"));
+  CHECK(a.tracked >= 6);
+  CHECK(a.max <= 0.5);
+  CHECK(test::InsideThreeSigma(rows, r.truth) == 1.0);
 }
 
 }  // namespace

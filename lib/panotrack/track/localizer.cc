@@ -1700,6 +1700,24 @@ bool Localizer::ConfirmsJump(const FrameResult& fr, const TriangulationResult& t
   return !reloc_.held_jump || !SurveyLimits() || Corroborated(fr, tri, opt_.relocalize_jump_fraction);
 }
 
+bool Localizer::WithinReachOfHeld(const FrameResult& fr, const TriangulationResult& tri) const {
+  // The motion model holds no velocity at a held pose (its top speed is a
+  // standard deviation there, or nothing before a pose is known): a wrong
+  // pose near the held one, found under a wide tolerance, would confirm it.
+  if (!reloc_.held_frame) return true;
+  const HeldFrame& held = *reloc_.held_frame;
+  double dt = fr.row.time_s - held.row.time_s;
+  if (!std::isfinite(dt)) dt = track_.last_dt;
+  if (!(dt >= 0.0)) return true;
+  const Eigen::Vector2d moved(tri.pose.x - held.pose.x, tri.pose.y - held.pose.y);
+  const double beyond = moved.norm() - motion_options_.max_speed * dt;
+  if (beyond <= 0.0) return true;
+  const Eigen::Vector2d along = moved.normalized();
+  const Eigen::Matrix2d combined =
+      (held.covariance + ReportedCovariance(fr, Observations(fr), tri)).topLeftCorner<2, 2>();
+  return beyond * beyond <= kGateChiSquare1Dof99 * along.dot(combined * along);
+}
+
 void Localizer::HoldForConfirmation(const Pose2& pose, int frame, bool jump) {
   // As from a start pose given as a hint: no velocity, any turn, and a new
   // room-wide search at once if the next frame does not track.
@@ -2029,6 +2047,7 @@ void Localizer::TrackFromPrediction(double time_s, const OdometryIncrement* odom
   // few of those are found, and fits some of them).
   // A sparse lead is confirmed by frames in a row that fit it as well.
   if (reloc_.held) {
+    w->accepted = w->accepted && WithinReachOfHeld(fr, tri);
     const bool enough = EnoughForRelocalized(fr, tri) && !FewChosenBeforeSurvey(fr, tri, opt_.relocalize_min_fraction);
     if (w->accepted && !enough && reloc_.sparse_holds > 0 && SparselySupported(fr, tri)) {
       w->accepted = reloc_.sparse_holds + 1 >= opt_.relocalize_sparse_frames;
@@ -2063,6 +2082,9 @@ void Localizer::LearnSurveyFromRejected(FrameWork* w) {
   TrackPredictions(pred, &fr, &tri);
   RefineAroundSolution(&fr, &tri);
   w->accepted = Acceptable(fr, tri) && Consistent(&fr, tri) && AgreesWithMotion(&fr, tri) && ConfirmsJump(fr, tri);
+  // A held pose is confirmed under the wider error only from within the
+  // robot's reach, as under the narrower one.
+  if (w->was_held) w->accepted = w->accepted && WithinReachOfHeld(fr, tri);
 }
 
 // A pose tracked from a search's pose, until the residuals have shown the
@@ -2161,7 +2183,7 @@ void Localizer::FinishFrame(const cv::Mat& grey, int frame, double time_s, std::
   reloc_.held_frame.reset();
   reloc_.sparse_holds = w->sparse_lead ? 1 : w->sparse_continues ? reloc_.sparse_holds + 1 : 0;
   if (fr.unconfirmed) {
-    reloc_.held_frame = HeldFrame{grey.clone(), fr.row, tri.pose};
+    reloc_.held_frame = HeldFrame{grey.clone(), fr.row, tri.pose, ReportedCovariance(fr, Observations(fr), tri)};
     MotionModel lead_motion = motion_;
     const int lead_updates = track_.motion_updates;
     HoldForConfirmation(tri.pose, frame, BeyondReach(tri.pose, time_s));

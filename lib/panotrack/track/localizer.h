@@ -757,12 +757,18 @@ class Localizer {
   // and integrity quality (`obs`: the frame's Observations).
   void FillReportedRow(FrameResult* fr, const std::vector<BearingObservation>& obs,
                        const TriangulationResult& tri) const;
-  // A frame held for confirmation: its image (as tracked), row and pose.
+  // A frame held for confirmation: its image (as tracked), row, pose and
+  // the pose's covariance as it would be reported.
   struct HeldFrame {
     cv::Mat grey;
     PoseRow row;
     Pose2 pose;
+    Eigen::Matrix3d covariance;
   };
+  // Whether the frame confirming a held one found a pose the robot can
+  // have reached from the held pose: no farther than max_speed for the
+  // time between them, beyond that within the two poses' combined error.
+  bool WithinReachOfHeld(const FrameResult& fr, const TriangulationResult& tri) const;
   // The held frame's result once the next frame has confirmed its pose:
   // tracked again from it with what that frame taught (the survey error
   // its residuals showed, the learned blur), reported where it is accepted
