@@ -1701,9 +1701,10 @@ bool Localizer::ConfirmsJump(const FrameResult& fr, const TriangulationResult& t
 }
 
 bool Localizer::WithinReachOfHeld(const FrameResult& fr, const TriangulationResult& tri) const {
-  // The motion model holds no velocity at a held pose (its top speed is a
-  // standard deviation there, or nothing before a pose is known): a wrong
-  // pose near the held one, found under a wide tolerance, would confirm it.
+  // At a held pose the motion model bounds nothing (it is not started, or
+  // at a sparse lead takes the top speed as the velocity's standard
+  // deviation): a wrong pose near the held one, fitted under a wide
+  // tolerance, would confirm it.
   if (!reloc_.held_frame) return true;
   const HeldFrame& held = *reloc_.held_frame;
   double dt = fr.row.time_s - held.row.time_s;
