@@ -250,6 +250,7 @@ void Localizer::Reset(const Pose2& robot_initial, bool hint) {
   track_.ever_tracked = false;
   motion_ = MotionModel(motion_options_);
   track_.last_dt = 0.0;
+  track_.dropped_s = 0.0;
   reloc_.next_frame = 0;
   reloc_.failures = 0;
   reloc_.held = reloc_.held_jump = false;
@@ -1014,6 +1015,9 @@ bool Localizer::Acceptable(const FrameResult& fr, const TriangulationResult& tri
 
 namespace {
 
+// The prior odds against a frame having been dropped before this one.
+constexpr double kDroppedFrameOdds = 100.0;
+
 // A triangulated pose as a measurement for the motion model: its covariance
 // with floors (it is estimated from a few residuals), the position's from
 // the mean distance of the landmarks used.
@@ -1085,7 +1089,33 @@ bool Localizer::AgreesWithMotion(FrameResult* fr, const TriangulationResult& tri
   const PoseMeasurement m =
       MeasurementOf(tri, Observations(*fr), opt_.gate_position_fraction, opt_.gate_heading_sigma);
   fr->innovation = motion_.Innovation(m);
-  return fr->innovation <= opt_.gate_chi2;
+  fr->after_drop = false;
+  if (fr->innovation <= opt_.gate_chi2) return true;
+  const std::optional<MotionModel> later = AfterDroppedFrame();
+  if (!later) return false;
+  // A fit there as close as 99 % of right poses fit their prediction (a
+  // thinly measured wrong pose passes the wider gate a frame interval on),
+  // and more likely there than here by the odds against a dropped frame
+  // (kDroppedFrameOdds to one).
+  const double innovation = later->Innovation(m);
+  if (innovation > std::min(opt_.gate_chi2, kGateChiSquare3Dof99) ||
+      fr->innovation - innovation < 2.0 * std::log(kDroppedFrameOdds))
+    return false;
+  fr->innovation = innovation;
+  fr->after_drop = true;
+  return true;
+}
+
+std::optional<MotionModel> Localizer::AfterDroppedFrame() const {
+  // Only right after a tracked frame: after a lost one the prediction has
+  // widened over the loss, and a wrong pose passes the gate a frame later.
+  if (!opt_.dropped_frames || !track_.motion_stepped || track_.odometry_predicted || !opt_.constant_velocity ||
+      track_.motion_updates < 2 || track_.n_lost > 0 || !(track_.last_dt > 0.0) ||
+      !track_.before_prediction.initialized())
+    return std::nullopt;
+  MotionModel later = track_.before_prediction;
+  later.Predict(motion_.time() + track_.last_dt);
+  return later;
 }
 
 bool Localizer::SurveyEvidence(const FrameResult& fr, const TriangulationResult& tri) const {
@@ -1328,10 +1358,13 @@ void Localizer::CheckFrame(const cv::Mat& grey, int frame) const {
 
 Pose2 Localizer::PredictMotion(double time_s, const OdometryIncrement* odometry) {
   if (!motion_.initialized()) return track_.last;  // the start pose, or the last one before a loss
-  const double t = std::isfinite(time_s) ? std::max(time_s, motion_.time()) : motion_.time() + track_.last_dt;
+  const double t =
+      std::isfinite(time_s) ? std::max(MotionClock(time_s), motion_.time()) : motion_.time() + track_.last_dt;
   const double dt = t - motion_.time();
   // The frame interval: the shortest recent step (a dropped frame is longer).
   if (dt > 0) track_.last_dt = track_.last_dt > 0 && dt > track_.last_dt ? 0.95 * track_.last_dt + 0.05 * dt : dt;
+  track_.before_prediction = motion_;
+  track_.odometry_predicted = odometry != nullptr;
   if (odometry)
     motion_.PredictWithOdometry(t, *odometry);
   else
@@ -1455,8 +1488,9 @@ void Localizer::TrackPredictions(const Pose2 pred, FrameResult* fr, Triangulatio
 
 std::optional<Pose2> Localizer::SolvedMotion(const Pose2& pose) const {
   if (!track_.ever_tracked || track_.n_lost > 0) return std::nullopt;
-  return Pose2{pose.x - track_.frame_pose.x, pose.y - track_.frame_pose.y,
-               WrapAngle(pose.theta - track_.frame_pose.theta)};
+  const double k = track_.frame_intervals;
+  return Pose2{(pose.x - track_.frame_pose.x) / k, (pose.y - track_.frame_pose.y) / k,
+               WrapAngle(pose.theta - track_.frame_pose.theta) / k};
 }
 
 double Localizer::MaxShiftPx(const FrameResult& fr) {
@@ -1743,7 +1777,8 @@ void Localizer::FollowSparseLead(MotionModel&& lead_motion, int lead_updates, co
                                  const TriangulationResult& tri) {
   const PoseMeasurement m = MeasurementOf(tri, Observations(fr), opt_.gate_position_fraction, opt_.gate_heading_sigma);
   if (reloc_.sparse_holds == 1 || !lead_motion.initialized()) {
-    motion_.Reset(fr.row.time_s, tri.pose, m.covariance, motion_options_.max_speed, motion_options_.max_turn_rate);
+    motion_.Reset(MotionClock(fr.row.time_s), tri.pose, m.covariance, motion_options_.max_speed,
+                  motion_options_.max_turn_rate);
     track_.motion_updates = 1;
   } else {
     motion_ = std::move(lead_motion);
@@ -1882,13 +1917,19 @@ void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, b
     FillReportedRow(fr, obs, tri);
     const PoseMeasurement m = MeasurementOf(tri, obs, opt_.gate_position_fraction, opt_.gate_heading_sigma);
     if (!motion_.initialized()) {
-      motion_.Reset(row->time_s, tri.pose, m.covariance, motion_options_.max_speed, motion_options_.max_turn_rate);
+      motion_.Reset(MotionClock(row->time_s), tri.pose, m.covariance, motion_options_.max_speed,
+                    motion_options_.max_turn_rate);
       track_.motion_updates = 1;
     } else if (fr->relocalized || fr->innovation > opt_.gate_chi2) {
-      motion_.Reinitialize(std::max(row->time_s, motion_.time()), tri.pose, m.covariance);
+      motion_.Reinitialize(std::max(MotionClock(row->time_s), motion_.time()), tri.pose, m.covariance);
       track_.motion_updates = 1;
       track_.n_good = 0;  // no velocity across the jump
     } else {
+      if (fr->after_drop) {
+        // The frame came a frame interval later than its timestamp says.
+        motion_ = *AfterDroppedFrame();
+        track_.dropped_s += track_.last_dt;
+      }
       motion_.Update(m);
       ++track_.motion_updates;
     }
@@ -2040,6 +2081,14 @@ void Localizer::TrackFromPrediction(double time_s, const OdometryIncrement* odom
       w->recentred = coarse->recentred;
       w->accepted = true;
     }
+  }
+  // A frame taken to follow a dropped one is measured again with the blur
+  // of one frame interval's motion (the solved motion spans two).
+  if (w->accepted && fr.after_drop) {
+    track_.frame_intervals = 2;
+    RefineAroundSolution(&fr, &tri);
+    drop_pulled();
+    w->accepted = acceptable();
   }
   // A held relocalised pose is confirmed only on as much evidence as a
   // relocalised pose needs (the frame is nearly the same image).
@@ -2219,6 +2268,7 @@ const cv::Mat& Localizer::BeginFrame(const cv::Mat& frame_image, int frame, doub
   if (view_) view_->Resample(frame_image, &view_frame_);
   const cv::Mat& grey = view_ ? view_frame_ : frame_image;
   track_.motion_stepped = false;
+  track_.frame_intervals = 1;
   w->fr.row.frame = frame;
   w->fr.row.time_s = time_s;
   tracker_->BeginFrame(grey);

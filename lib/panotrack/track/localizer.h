@@ -126,6 +126,11 @@ struct LocalizerOptions {
   // those of all. 0: as many as max_landmarks.
   int coarse_landmarks = 8;
   bool constant_velocity = true;  // predict with the last frame-to-frame motion
+  // A frame whose pose fails the motion gate but fits the motion a frame
+  // interval later follows a dropped frame (a camera or recorder losing
+  // frames at a constant frame rate leaves no gap in the timestamps): it
+  // is accepted, and the motion model's clock moves on by that interval.
+  bool dropped_frames = true;
   bool compass = true;            // predict the heading with the visual compass
   double compass_max_rotation = 60.0 * M_PI / 180;  // per frame
   double compass_min_score = 0.5;
@@ -278,6 +283,7 @@ struct FrameResult {
   bool refined = false;         // measured again around the solved pose (windows or blur off)
   bool unconfirmed = false;     // ... found, but held back for the next frame to confirm
   double innovation = -1.0;     // squared Mahalanobis distance from the prediction (-1: none)
+  bool after_drop = false;      // the pose agrees with the motion only a frame interval later (AfterDroppedFrame)
   IntegrityReport integrity;    // of the reported pose
   // The covariance the pose is reported with (x, y, theta; the row's std
   // columns): Localizer::ReportedCovariance. Zero when not reported.
@@ -429,7 +435,8 @@ class Localizer {
   bool EitherFallbackUseful() const;
   // Learns the edges' polarities from an accepted frame's inliers.
   void LearnPolarity(const FrameResult& fr, const TriangulationResult& tri);
-  // The motion from the previous frame's pose to `pose`, when that pose was measured.
+  // The motion over one frame interval from the previous frame's pose to
+  // `pose` (over track_.frame_intervals of them), when that pose was measured.
   std::optional<Pose2> SolvedMotion(const Pose2& pose) const;
   // The pose from the found landmarks' bearings (consensus, then least
   // squares); its rms_bearing in units of each bearing's spread.
@@ -562,8 +569,16 @@ class Localizer {
   std::vector<int> InlierPredictions(const FrameResult& fr, const TriangulationResult& tri) const;
   // The integrity test of an acceptable solution (fills fr->integrity).
   bool Consistent(FrameResult* fr, const TriangulationResult& tri) const;
-  // The innovation gate against the motion model (fills fr->innovation).
+  // The innovation gate against the motion model (fills fr->innovation),
+  // or against it a frame interval later (fills fr->after_drop);
   bool AgreesWithMotion(FrameResult* fr, const TriangulationResult& tri) const;
+  // the motion model predicted one frame interval beyond this frame's time,
+  // where a frame may have been dropped before it without a gap in the
+  // timestamps (a camera or a recorder losing frames at a constant frame
+  // rate); none without a velocity, after a lost frame or with odometry.
+  std::optional<MotionModel> AfterDroppedFrame() const;
+  // A timestamp on the motion model's clock (track_.dropped_s).
+  double MotionClock(double time_s) const { return time_s + track_.dropped_s; }
   // Tracks from `pose` (first a wide, then a narrow search); true if accepted.
   bool TrackFrom(const Pose2& pose, double search_px, FrameResult* fr, TriangulationResult* tri,
                  bool either = false) const;
@@ -849,6 +864,14 @@ class Localizer {
     // robot was last known to be, for BeyondReach.
     std::optional<std::pair<Pose2, double>> last_known;
     double last_dt = 0.0;         // seconds between the last two frames
+    // The motion model before this frame's prediction (for AfterDroppedFrame),
+    // whether the prediction used odometry, and the frame intervals dropped
+    // without a gap in the timestamps so far (the motion model's clock is
+    // the timestamps' plus these).
+    MotionModel before_prediction;
+    bool odometry_predicted = false;
+    double dropped_s = 0.0;
+    int frame_intervals = 1;  // since the previous frame (2 once the frame is taken to follow a dropped one)
     int motion_updates = 0;       // poses fused since the motion model (re)started
     bool motion_stepped = false;  // the motion model took a step at this frame
     int frame = -1;               // the frame being processed
