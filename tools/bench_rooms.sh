@@ -1,20 +1,22 @@
 #!/usr/bin/env bash
 # panoloc in rooms other than the paper's, on exact and measured maps: the
 # worked examples docs/examples/office-map.yaml (4.2 x 3.6 m; a door, a
-# window and boards whose tops image at the mirror's limb) and
+# window and boards whose tops image at the mirror's limb),
 # docs/examples/lab-map.yaml (6 x 4 m; four identical windows, a column
-# that hides part of the room), seen by the paper-real sensor along a loop
-# of 300 frames (the office: an ellipse about the middle, 1.4 - 3.3 cm a
-# frame; the lab: a rounded rectangle about the column, 3.6 cm a frame),
-# the heading wiggling about the path (25 and 15 degrees). Each room is
-# rendered with noise 3 and a 3 x 3 blur ("office", "lab") and, with
-# RC=yes, with every factor of real-conditions too ("office-rc",
-# "lab-rc": exposure 0.5, auto-exposure 0.2, texture 0.1, 2 people, 3
-# covered and 3 dropped frames, noise 4). Then tools/bench_maps.sh runs on
-# them (its SIGMAS, SEEDS, STATED, METHODS and START apply) and prints its
-# table.
+# that hides part of the room) and docs/examples/workshop-map.yaml (7.2 x
+# 4.8 m; a free-standing bench, a pillar), seen by the paper-real sensor
+# along a loop of 300 frames (the office: an ellipse about the middle, 1.4 -
+# 3.3 cm a frame; the lab: a rounded rectangle about the column, 3.6 cm a
+# frame; the workshop: a figure eight, up to 7 cm a frame, with a stop and
+# a slow turn in place), the heading wiggling about the path (25, 15 and 30
+# degrees). Each room is rendered with noise 3 and a 3 x 3 blur ("office",
+# "lab", "workshop") and, with RC=yes, with every factor of real-conditions
+# too ("office-rc", "lab-rc", "workshop-rc": exposure 0.5, auto-exposure
+# 0.2, texture 0.1, 2 people, 3 covered and 3 dropped frames, noise 4).
+# Then tools/bench_maps.sh runs on them (its SIGMAS, SEEDS, STATED, METHODS
+# and START apply) and prints its table.
 # Usage: tools/bench_rooms.sh [BUILD_DIR] [WORK_DIR]
-#   RC=yes|no (no)  ROOMS="office lab"
+#   RC=yes|no (no)  ROOMS="office lab workshop"
 set -euo pipefail
 build=${1:-build}
 work=${2:-$(mktemp -d)}
@@ -24,7 +26,7 @@ bin="$build/bin"
 [ -x "$bin/panosim" ] || { echo "bench_rooms.sh: $bin/panosim not found (build first)" >&2; exit 1; }
 python=/usr/bin/python3
 [ -x "$python" ] || python=python3
-rooms=${ROOMS:-"office lab"}
+rooms=${ROOMS:-"office lab workshop"}
 rc=${RC:-no}
 [[ $rc == yes || $rc == no ]] || { echo "bench_rooms.sh: RC must be yes or no" >&2; exit 1; }
 
@@ -50,6 +52,15 @@ s = np.concatenate([[0], np.cumsum(np.hypot(np.diff(X), np.diff(Y)))])
 u = np.linspace(0, s[-1], n, endpoint=False)
 x, y = np.interp(u, s, X), np.interp(u, s, Y)
 write("lab", x, y, np.unwrap(np.arctan2(np.gradient(y), np.gradient(x))) + np.radians(15) * np.sin(0.23 * k))
+# A figure eight through the workshop, slowing to a stop at frame 150 and
+# turning 25 degrees in place there (frames 135 - 165).
+v = np.ones(n)
+v[135:165] = np.clip(np.abs(np.arange(135, 165) - 150) / 15.0, 0, 1) ** 2
+u = np.concatenate([[0], np.cumsum(v[:-1])])
+u = u / (u[-1] + v[-1]) * 2 * np.pi
+x, y = 370 + 230 * np.sin(u), 240 + 110 * np.sin(2 * u)
+th = np.unwrap(np.arctan2(220 * np.cos(2 * u), 230 * np.cos(u))) + np.radians(30) * np.sin(0.19 * k)
+write("workshop", x, y, th + np.radians(25) * np.clip((k - 135) / 30.0, 0, 1))
 PY
 
 presets=""

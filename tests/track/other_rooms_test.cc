@@ -12,6 +12,7 @@
 #include <vector>
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "panotrack/io/calibration.h"
 #include "panotrack/io/map.h"
@@ -212,6 +213,39 @@ const test::RenderedCase& OfficeCompressed() {
   return r;
 }
 
+// The junction method on `r` from its first true pose, with options `o`.
+std::vector<PoseRow> JunctionFromStart(const test::RenderedCase& r, LocalizerOptions o) {
+  o.method = TrackingMethod::kJunction;
+  Localizer loc(r.c.calib, r.c.map, r.table, o);
+  loc.Reset(r.truth.front().pose);
+  return test::ProcessFrames(&loc, r, r.c.fps);
+}
+
+// The junction method on `r` without a start, with options `o`.
+std::vector<PoseRow> JunctionWithoutStart(const test::RenderedCase& r, LocalizerOptions o) {
+  o.method = TrackingMethod::kJunction;
+  Localizer loc(r.c.calib, r.c.map, r.table, o);
+  loc.ResetUnknown();
+  return test::ProcessFrames(&loc, r, r.c.fps);
+}
+
+// The junction method on `r` (from its first true pose, or without a
+// start), by default and with the options `off` (a behaviour turned off),
+// each scored.
+struct AgainstOff {
+  std::vector<PoseRow> rows, off_rows;
+  AccuracySummary a, off;
+};
+AgainstOff JunctionAgainst(const test::RenderedCase& r, const LocalizerOptions& off, bool start) {
+  const auto run = start ? JunctionFromStart : JunctionWithoutStart;
+  AgainstOff out;
+  out.rows = run(r, LocalizerOptions());
+  out.off_rows = run(r, off);
+  out.a = CompareToGroundTruth(out.rows, r.truth, TypicalRange(r.c.map, r.truth));
+  out.off = CompareToGroundTruth(out.off_rows, r.truth, TypicalRange(r.c.map, r.truth));
+  return out;
+}
+
 TEST_CASE("office under real conditions, no start: a sparse image's lead is taken after frames that follow it",
           "[other_rooms]") {
   // The map states no survey error (its prior applies, and with it the
@@ -222,17 +256,9 @@ TEST_CASE("office under real conditions, no start: a sparse image's lead is take
   // with as strong a fit and along the motion they show. Measured: 28 of
   // 30 frames tracked, max 0.70 cm; without sparse leads none.
   const test::RenderedCase& r = OfficeRealConditions();
-  const auto run = [&](int sparse_frames) {
-    LocalizerOptions o;
-    o.method = TrackingMethod::kJunction;
-    o.relocalize_sparse_frames = sparse_frames;
-    Localizer loc(r.c.calib, r.c.map, r.table, o);
-    loc.ResetUnknown();
-    return test::ProcessFrames(&loc, r, r.c.fps);
-  };
-  const std::vector<PoseRow> rows = run(3);
-  const AccuracySummary a = CompareToGroundTruth(rows, r.truth, TypicalRange(r.c.map, r.truth));
-  const AccuracySummary without = CompareToGroundTruth(run(0), r.truth, TypicalRange(r.c.map, r.truth));
+  LocalizerOptions never;
+  never.relocalize_sparse_frames = 0;
+  const auto [rows, never_rows, a, without] = JunctionAgainst(r, never, false);
   INFO("sparse leads taken: " << FormatAccuracy(a, "cm") << "; never: " << FormatAccuracy(without, "cm"));
   CHECK(a.tracked >= 27);
   CHECK(without.tracked <= 2);
@@ -305,6 +331,66 @@ TEST_CASE("office, shutter open the whole frame, compressed, no start: a held po
   CHECK(test::InsideThreeSigma(rows, r.truth) == 1.0);
 }
 
+TEST_CASE("office, shutter open the whole frame, compressed, no start: search hypotheses tracked again from what they found",
+          "[other_rooms]") {
+  // The search's grid puts its best hypotheses up to a grid step (10 cm)
+  // from the true pose, where the junction tracker's windows find a few of
+  // the blurred corners: too few to verify. The pose those few fit is
+  // nearer, and tracked again from there finds enough. Measured: the
+  // first pose on frame 6, 24 of 30 frames tracked, at most 1.98 cm off,
+  // every one inside its 3-sigma ellipse; without: frame 26, 4 of 30.
+  const test::RenderedCase r = RenderOfficeUnderRealConditions(4.0, 40, 1.0);
+  LocalizerOptions never;
+  never.relocalize_retrack_passes = 0;
+  const auto [rows, never_rows, a, without] = JunctionAgainst(r, never, false);
+  INFO("tracked again: " << FormatAccuracy(a, "cm") << "; not: " << FormatAccuracy(without, "cm"));
+  CHECK(a.tracked >= 23);
+  CHECK(without.tracked <= 5);
+  CHECK(a.outliers == 0);
+  CHECK(a.max <= 2.5);
+  CHECK(test::InsideThreeSigma(rows, r.truth) == 1.0);
+}
+
+// The office's frames with those at `covered` dark over the whole mirror
+// (a hand over the lens).
+test::RenderedCase WithFramesCovered(const test::RenderedCase& r, const std::vector<int>& covered) {
+  test::RenderedCase out = r;
+  for (int k : covered) {
+    cv::Mat& frame = out.frames[static_cast<size_t>(k)];
+    frame = frame.clone();
+    cv::circle(frame, cv::Point(frame.cols / 2, frame.rows / 2), frame.rows / 2, cv::Scalar(10), cv::FILLED);
+  }
+  return out;
+}
+
+TEST_CASE("office, real conditions, frames covered: the search's pose after one continues the track",
+          "[other_rooms]") {
+  // The loop's heading wiggles up to 9 degrees a frame; over a covered
+  // frame the motion model's heading is degrees off and the junction
+  // tracker's windows miss the frame after it. The room-wide search finds
+  // the pose there on half of its landmarks, too few to report before the
+  // next frame confirms it, but where the model predicted it. Measured (a
+  // start given, frames 6, 12, 21 and 24 covered): every frame after a
+  // cover tracked, 24 of 30 in all, at most 0.73 cm off; without, 4 of 30
+  // (tracking never resumed after the first cover).
+  const std::vector<int> covered{6, 12, 21, 24};
+  const test::RenderedCase r = WithFramesCovered(OfficeRealConditions(), covered);
+  LocalizerOptions without_resuming;
+  without_resuming.resume_after_lost_frame = false;
+  const auto [rows, without_rows, a, without] = JunctionAgainst(r, without_resuming, true);
+  INFO("resumed: " << FormatAccuracy(a, "cm") << "; not: " << FormatAccuracy(without, "cm"));
+  for (int k : covered) {
+    INFO("frame " << k + 1);
+    CHECK(rows[static_cast<size_t>(k + 1)].status == PoseStatus::kOk);
+    CHECK(without_rows[static_cast<size_t>(k + 1)].status == PoseStatus::kLost);
+  }
+  CHECK(a.tracked >= 23);
+  CHECK(without.tracked <= 6);
+  CHECK(a.outliers == 0);
+  CHECK(a.max <= 1.0);
+  CHECK(test::InsideThreeSigma(rows, r.truth) == 1.0);
+}
+
 // The office's frames with those at `dropped` left out, the timestamps
 // still a frame interval apart (as a camera losing frames at a constant
 // frame rate records them).
@@ -333,18 +419,9 @@ TEST_CASE("office, real conditions, frames dropped at a constant rate: the frame
   // refused the frame after the third drop (23 of 26).
   const std::vector<int> after_drops{5, 10, 15, 20};
   const test::RenderedCase r = WithFramesDropped(OfficeRealConditions(), {5, 11, 17, 23});
-  const auto run = [&](bool dropped_frames) {
-    LocalizerOptions o;
-    o.method = TrackingMethod::kJunction;
-    o.dropped_frames = dropped_frames;
-    Localizer loc(r.c.calib, r.c.map, r.table, o);
-    loc.Reset(r.truth.front().pose);
-    return test::ProcessFrames(&loc, r, r.c.fps);
-  };
-  const std::vector<PoseRow> rows = run(true);
-  const std::vector<PoseRow> without_rows = run(false);
-  const AccuracySummary a = CompareToGroundTruth(rows, r.truth, TypicalRange(r.c.map, r.truth));
-  const AccuracySummary without = CompareToGroundTruth(without_rows, r.truth, TypicalRange(r.c.map, r.truth));
+  LocalizerOptions without_drops;
+  without_drops.dropped_frames = false;
+  const auto [rows, without_rows, a, without] = JunctionAgainst(r, without_drops, true);
   INFO("dropped frames considered: " << FormatAccuracy(a, "cm") << "; not: " << FormatAccuracy(without, "cm"));
   for (int k : after_drops) {
     INFO("frame " << k);

@@ -11,6 +11,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 
+#include "panotrack/core/angles.h"
 #include "panotrack/core/error.h"
 #include "panotrack/core/parallel.h"
 #include "panotrack/track/map_symmetry.h"
@@ -52,6 +53,7 @@ void LocalizerOptions::Check() const {
     throw Error("localiser: min_spare_bearings_with_outliers >= 0 expected");
   if (relocalize_after < 0 || relocalize_min_landmarks < 3)
     throw Error("localiser: relocalize_after >= 0 and relocalize_min_landmarks >= 3 expected");
+  if (relocalize_retrack_passes < 0) throw Error("localiser: relocalize_retrack_passes: expected >= 0");
   if (num_threads < 0) throw Error("localiser: num_threads: expected 0 (all cores) or more");
   if (search_threads < 0) throw Error("localiser: search_threads: expected 0 (num_threads) or more");
   if (!(relocalize_unseen_fraction >= 0 && relocalize_unseen_fraction <= 1))
@@ -770,6 +772,24 @@ bool Localizer::TrackFrom(const Pose2& pose, double search_px, FrameResult* fr,
   return Acceptable(*fr, *tri);
 }
 
+bool Localizer::RetrackFromFound(bool either, FrameResult* fr, TriangulationResult* tri) const {
+  for (int pass = 0; pass < opt_.relocalize_retrack_passes; ++pass) {
+    // A pose and the spare bearings that check it (as Acceptable asks of
+    // a fit that leaves found bearings out): fewer fit a wrong pose nearby.
+    const size_t inliers = tri->inliers.size();
+    if (!tri->ok || inliers < static_cast<size_t>(3 + opt_.min_spare_bearings_with_outliers)) return false;
+    const Pose2 fitted = tri->pose;
+    FrameResult again;
+    TriangulationResult tri_again;
+    const bool tracked = TrackFrom(fitted, opt_.search_px, &again, &tri_again, either);
+    if (!tracked && tri_again.inliers.size() <= inliers) return false;
+    *fr = std::move(again);
+    *tri = tri_again;
+    if (tracked) return true;
+  }
+  return false;
+}
+
 bool Localizer::Relocalize(const cv::Mat& grey, bool near_last, FrameResult* fr, TriangulationResult* tri,
                            std::vector<VerifiedPose>* verified, bool settle_rivalry) const {
   if (!relocalization_index_) {
@@ -836,8 +856,10 @@ bool Localizer::RelocalizeWith(const std::vector<PoseHypothesis>& hyps, bool eit
         // The normal search first: a wide one invites wrong edges.
         const Pose2& pose = hyps[static_cast<size_t>(i)].pose;
         if (!TrackFrom(pose, opt_.search_px, &v.fr, &v.tri, either) &&
-            !TrackFrom(pose, opt_.max_search_px, &v.fr, &v.tri, either))
+            !TrackFrom(pose, opt_.max_search_px, &v.fr, &v.tri, either) &&
+            !RetrackFromFound(either, &v.fr, &v.tri)) {
           return;
+        }
         v.enough = EnoughForRelocalized(v.fr, v.tri);
         if (!v.enough && !collect_sparse) return;
         v.chosen = ChosenInliers(v.fr, v.tri);
@@ -1015,6 +1037,11 @@ bool Localizer::Acceptable(const FrameResult& fr, const TriangulationResult& tri
 
 namespace {
 
+// Two poses this far apart in heading (radians) are different places to a
+// search, wherever they stand: the same pose verified from two hypotheses
+// converges to within a fraction of a degree.
+constexpr double kDistinctHeading = 10.0 * M_PI / 180.0;
+
 // The prior odds against a frame having been dropped before this one.
 constexpr double kDroppedFrameOdds = 100.0;
 
@@ -1104,6 +1131,19 @@ bool Localizer::AgreesWithMotion(FrameResult* fr, const TriangulationResult& tri
   fr->innovation = innovation;
   fr->after_drop = true;
   return true;
+}
+
+bool Localizer::ResumesTrack(const FrameResult& fr, const TriangulationResult& tri, bool under_probe) const {
+  // One lost frame only: the model's prediction has widened over a frame
+  // interval, not over a loss (after several, a wrong pose nearby fits it).
+  // It must fit within the 99 % gate of three degrees of freedom, on most
+  // of what the frame found.
+  if (!opt_.resume_after_lost_frame || under_probe || !track_.ever_tracked || track_.n_lost != 1 ||
+      track_.motion_updates < 2 ||
+      !motion_.initialized() || !SparselySupported(fr, tri))
+    return false;
+  const PoseMeasurement m = MeasurementOf(tri, Observations(fr), opt_.gate_position_fraction, opt_.gate_heading_sigma);
+  return motion_.Innovation(m) <= std::min(opt_.gate_chi2, kGateChiSquare3Dof99);
 }
 
 std::optional<MotionModel> Localizer::AfterDroppedFrame() const {
@@ -1707,7 +1747,10 @@ bool Localizer::RoomSearchAgrees(const cv::Mat& grey, const TriangulationResult&
 }
 
 bool Localizer::DistinctPlaces(const Pose2& a, const Pose2& b) const {
-  return std::hypot(a.x - b.x, a.y - b.y) > opt_.relocalize_distinct * errors_.room_size;
+  // Near a room's centre of symmetry its half-turned twin stands within a
+  // few centimetres of the true pose: a heading apart is another place.
+  return std::hypot(a.x - b.x, a.y - b.y) > opt_.relocalize_distinct * errors_.room_size ||
+         std::abs(WrapAngle(a.theta - b.theta)) > kDistinctHeading;
 }
 
 bool Localizer::ClearlyBetterSupported(int a, int b) const {
@@ -2191,6 +2234,10 @@ void Localizer::RelocalizeWhenLost(const cv::Mat& grey, int frame, FrameWork* w)
   // So does a sparse lead, for relocalize_sparse_frames frames.
   w->accepted = Corroborated(fr, tri) && !under_probe && !w->sparse_lead &&
                 !FewChosenBeforeSurvey(fr, tri, opt_.relocalize_confirmed_fraction);
+  if (!w->accepted && ResumesTrack(fr, tri, under_probe)) {
+    w->accepted = true;
+    w->sparse_lead = false;
+  }
   fr.unconfirmed = !w->accepted;
 }
 

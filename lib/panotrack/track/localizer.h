@@ -131,6 +131,11 @@ struct LocalizerOptions {
   // frames at a constant frame rate leaves no gap in the timestamps): it
   // is accepted, and the motion model's clock moves on by that interval.
   bool dropped_frames = true;
+  // After a single lost frame (a hand over the lens) the room-wide search's
+  // pose continues the track where the motion model predicted it (within
+  // its 99 % gate, on most of what the frame found), though it fits too few
+  // of its landmarks to stand on its own before the next frame confirms it.
+  bool resume_after_lost_frame = true;
   bool compass = true;            // predict the heading with the visual compass
   double compass_max_rotation = 60.0 * M_PI / 180;  // per frame
   double compass_min_score = 0.5;
@@ -166,6 +171,11 @@ struct LocalizerOptions {
   // frames, a short one is searched on every frame.
   int relocalize_max_interval = 8;
   int relocalize_min_landmarks = 6;
+  // A search's hypothesis lies up to a grid step off (a tenth of a metre
+  // in a room of four), where a tracker's windows find a few of its
+  // landmarks; the pose those few fit is nearer, and is tracked again, up
+  // to this many times while each pass finds more (0: never).
+  int relocalize_retrack_passes = 2;
   // A relocalised pose also needs this fraction of its predicted landmarks
   // as inliers, and must beat every hypothesis elsewhere in the room
   // (further than relocalize_distinct, as a fraction of the room's size) by
@@ -580,6 +590,9 @@ class Localizer {
   // A timestamp on the motion model's clock (track_.dropped_s).
   double MotionClock(double time_s) const { return time_s + track_.dropped_s; }
   // Tracks from `pose` (first a wide, then a narrow search); true if accepted.
+  // A hypothesis whose tracking failed, tracked again from the pose that
+  // what it found fits (relocalize_retrack_passes).
+  bool RetrackFromFound(bool either, FrameResult* fr, TriangulationResult* tri) const;
   bool TrackFrom(const Pose2& pose, double search_px, FrameResult* fr, TriangulationResult* tri,
                  bool either = false) const;
   // A hypothesis of the room-wide search that tracking verified.
@@ -620,6 +633,9 @@ class Localizer {
   // whether most of what a pose found fits it, on at least
   // relocalize_min_landmarks bearings: a sparse lead's evidence.
   bool SparselySupported(const FrameResult& fr, const TriangulationResult& tri) const;
+  // whether a search's pose on the frame after a single lost one (a hand
+  // over the lens) continues the track: the motion model predicted it.
+  bool ResumesTrack(const FrameResult& fr, const TriangulationResult& tri, bool under_probe) const;
   // whether, in a room-wide search (`either`: with either polarity), pose
   // `a` outranks pose `b` at another place;
   bool SearchOutranks(const VerifiedPose& a, const VerifiedPose& b, bool either) const;
@@ -713,7 +729,8 @@ class Localizer {
   // whether a relocalised pose has the inliers a room-wide search requires;
   bool EnoughForRelocalized(const FrameResult& fr, const TriangulationResult& tri) const;
   // whether two poses lie further apart than relocalize_distinct of the
-  // room (the search counts them as different places);
+  // room, or 10 degrees in heading (the search counts them as different
+  // places);
   bool DistinctPlaces(const Pose2& a, const Pose2& b) const;
   // whether a pose with `a` inliers is clearly better supported than one
   // with `b`: by relocalize_margin, and `b` below relocalize_ambiguity of
