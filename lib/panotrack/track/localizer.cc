@@ -2235,8 +2235,12 @@ void Localizer::RelocalizeWhenLost(const cv::Mat& grey, int frame, FrameWork* w)
   w->accepted = Corroborated(fr, tri) && !under_probe && !w->sparse_lead &&
                 !FewChosenBeforeSurvey(fr, tri, opt_.relocalize_confirmed_fraction);
   if (!w->accepted && ResumesTrack(fr, tri, under_probe)) {
+    // The motion model vouched for the pose: the track goes on with the
+    // model's velocity (a model started again there knows none, and the
+    // next frame's windows would open over the room).
     w->accepted = true;
     w->sparse_lead = false;
+    fr.relocalized = false;
   }
   fr.unconfirmed = !w->accepted;
 }
