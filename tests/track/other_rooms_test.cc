@@ -213,19 +213,15 @@ const test::RenderedCase& OfficeCompressed() {
   return r;
 }
 
-// The junction method on `r` from its first true pose, with options `o`.
-std::vector<PoseRow> JunctionFromStart(const test::RenderedCase& r, LocalizerOptions o) {
+// The junction method on `r` with options `o`, from its first true pose
+// (`start`) or without a start.
+std::vector<PoseRow> Junction(const test::RenderedCase& r, LocalizerOptions o, bool start) {
   o.method = TrackingMethod::kJunction;
   Localizer loc(r.c.calib, r.c.map, r.table, o);
-  loc.Reset(r.truth.front().pose);
-  return test::ProcessFrames(&loc, r, r.c.fps);
-}
-
-// The junction method on `r` without a start, with options `o`.
-std::vector<PoseRow> JunctionWithoutStart(const test::RenderedCase& r, LocalizerOptions o) {
-  o.method = TrackingMethod::kJunction;
-  Localizer loc(r.c.calib, r.c.map, r.table, o);
-  loc.ResetUnknown();
+  if (start)
+    loc.Reset(r.truth.front().pose);
+  else
+    loc.ResetUnknown();
   return test::ProcessFrames(&loc, r, r.c.fps);
 }
 
@@ -237,10 +233,9 @@ struct AgainstOff {
   AccuracySummary a, off;
 };
 AgainstOff JunctionAgainst(const test::RenderedCase& r, const LocalizerOptions& off, bool start) {
-  const auto run = start ? JunctionFromStart : JunctionWithoutStart;
   AgainstOff out;
-  out.rows = run(r, LocalizerOptions());
-  out.off_rows = run(r, off);
+  out.rows = Junction(r, LocalizerOptions(), start);
+  out.off_rows = Junction(r, off, start);
   out.a = CompareToGroundTruth(out.rows, r.truth, TypicalRange(r.c.map, r.truth));
   out.off = CompareToGroundTruth(out.off_rows, r.truth, TypicalRange(r.c.map, r.truth));
   return out;

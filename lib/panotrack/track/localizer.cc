@@ -1065,6 +1065,12 @@ PoseMeasurement MeasurementOf(const TriangulationResult& tri, const std::vector<
 
 }  // namespace
 
+PoseMeasurement Localizer::MotionMeasurement(const FrameResult& fr, const TriangulationResult& tri) const {
+  return MeasurementOf(tri, Observations(fr), opt_.gate_position_fraction, opt_.gate_heading_sigma);
+}
+
+double Localizer::StrictGate() const { return std::min(opt_.gate_chi2, kGateChiSquare3Dof99); }
+
 double Localizer::IntegritySigma() const {
   // Three times the recent noise: the residuals' spread varies from frame
   // to frame with blur and geometry; a wrong junction is off by far more.
@@ -1113,8 +1119,7 @@ bool Localizer::Consistent(FrameResult* fr, const TriangulationResult& tri) cons
 
 bool Localizer::AgreesWithMotion(FrameResult* fr, const TriangulationResult& tri) const {
   if (!motion_.initialized()) return true;
-  const PoseMeasurement m =
-      MeasurementOf(tri, Observations(*fr), opt_.gate_position_fraction, opt_.gate_heading_sigma);
+  const PoseMeasurement m = MotionMeasurement(*fr, tri);
   fr->innovation = motion_.Innovation(m);
   fr->after_drop = false;
   if (fr->innovation <= opt_.gate_chi2) return true;
@@ -1125,8 +1130,7 @@ bool Localizer::AgreesWithMotion(FrameResult* fr, const TriangulationResult& tri
   // and more likely there than here by the odds against a dropped frame
   // (kDroppedFrameOdds to one).
   const double innovation = later->Innovation(m);
-  if (innovation > std::min(opt_.gate_chi2, kGateChiSquare3Dof99) ||
-      fr->innovation - innovation < 2.0 * std::log(kDroppedFrameOdds))
+  if (innovation > StrictGate() || fr->innovation - innovation < 2.0 * std::log(kDroppedFrameOdds))
     return false;
   fr->innovation = innovation;
   fr->after_drop = true;
@@ -1139,11 +1143,9 @@ bool Localizer::ResumesTrack(const FrameResult& fr, const TriangulationResult& t
   // It must fit within the 99 % gate of three degrees of freedom, on most
   // of what the frame found.
   if (!opt_.resume_after_lost_frame || under_probe || !track_.ever_tracked || track_.n_lost != 1 ||
-      track_.motion_updates < 2 ||
-      !motion_.initialized() || !SparselySupported(fr, tri))
+      track_.motion_updates < 2 || !motion_.initialized() || !SparselySupported(fr, tri))
     return false;
-  const PoseMeasurement m = MeasurementOf(tri, Observations(fr), opt_.gate_position_fraction, opt_.gate_heading_sigma);
-  return motion_.Innovation(m) <= std::min(opt_.gate_chi2, kGateChiSquare3Dof99);
+  return motion_.Innovation(MotionMeasurement(fr, tri)) <= StrictGate();
 }
 
 std::optional<MotionModel> Localizer::AfterDroppedFrame() const {
@@ -1162,9 +1164,7 @@ bool Localizer::SurveyEvidence(const FrameResult& fr, const TriangulationResult&
   if (!tri.ok || static_cast<int>(tri.inliers.size()) < opt_.relocalize_min_landmarks + 2 || !Acceptable(fr, tri))
     return false;
   if (!motion_.initialized()) return true;
-  const PoseMeasurement m =
-      MeasurementOf(tri, Observations(fr), opt_.gate_position_fraction, opt_.gate_heading_sigma);
-  return motion_.Innovation(m) <= opt_.gate_chi2;
+  return motion_.Innovation(MotionMeasurement(fr, tri)) <= opt_.gate_chi2;
 }
 
 double Localizer::StatedSurveySigma() const {
@@ -1603,8 +1603,7 @@ bool Localizer::ViewUnlikePrediction(const FrameResult& fr, const TriangulationR
   // Corner-like responses elsewhere fit a pose (a few, never an acceptable
   // one) that the motion so far rules out.
   if (!tri.ok || Acceptable(fr, tri) || !motion_.initialized()) return false;
-  const PoseMeasurement m = MeasurementOf(tri, Observations(fr), opt_.gate_position_fraction, opt_.gate_heading_sigma);
-  return motion_.Innovation(m) > opt_.gate_chi2;
+  return motion_.Innovation(MotionMeasurement(fr, tri)) > opt_.gate_chi2;
 }
 
 bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, FrameResult* fr,
@@ -1818,7 +1817,7 @@ void Localizer::HoldForConfirmation(const Pose2& pose, int frame, bool jump) {
 
 void Localizer::FollowSparseLead(MotionModel&& lead_motion, int lead_updates, const FrameResult& fr,
                                  const TriangulationResult& tri) {
-  const PoseMeasurement m = MeasurementOf(tri, Observations(fr), opt_.gate_position_fraction, opt_.gate_heading_sigma);
+  const PoseMeasurement m = MotionMeasurement(fr, tri);
   if (reloc_.sparse_holds == 1 || !lead_motion.initialized()) {
     motion_.Reset(MotionClock(fr.row.time_s), tri.pose, m.covariance, motion_options_.max_speed,
                   motion_options_.max_turn_rate);
@@ -2001,7 +2000,7 @@ void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, b
   if (BeyondAlertLimitOnly(fr, tri)) {
     // Not reported, but the robot is there: the motion follows it (a turn
     // through a few such frames would otherwise leave the windows behind).
-    motion_.Update(MeasurementOf(tri, Observations(*fr), opt_.gate_position_fraction, opt_.gate_heading_sigma));
+    motion_.Update(MotionMeasurement(*fr, tri));
     ++track_.motion_updates;
     track_.motion_stepped = true;
     track_.frame_pose = track_.last = tri.pose;

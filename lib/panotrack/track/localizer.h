@@ -579,6 +579,12 @@ class Localizer {
   std::vector<int> InlierPredictions(const FrameResult& fr, const TriangulationResult& tri) const;
   // The integrity test of an acceptable solution (fills fr->integrity).
   bool Consistent(FrameResult* fr, const TriangulationResult& tri) const;
+  // A frame's pose as the motion model's measurement, with the gate's
+  // floors on its deviations (gate_position_fraction, gate_heading_sigma);
+  PoseMeasurement MotionMeasurement(const FrameResult& fr, const TriangulationResult& tri) const;
+  // the 99 % gate of a pose's three degrees of freedom, or gate_chi2 if
+  // narrower: where a prediction vouches for a pose that nothing else does.
+  double StrictGate() const;
   // The innovation gate against the motion model (fills fr->innovation),
   // or against it a frame interval later (fills fr->after_drop);
   bool AgreesWithMotion(FrameResult* fr, const TriangulationResult& tri) const;
@@ -590,11 +596,11 @@ class Localizer {
   // A timestamp on the motion model's clock (track_.dropped_s).
   double MotionClock(double time_s) const { return time_s + track_.dropped_s; }
   // Tracks from `pose` (first a wide, then a narrow search); true if accepted.
+  bool TrackFrom(const Pose2& pose, double search_px, FrameResult* fr, TriangulationResult* tri,
+                 bool either = false) const;
   // A hypothesis whose tracking failed, tracked again from the pose that
   // what it found fits (relocalize_retrack_passes).
   bool RetrackFromFound(bool either, FrameResult* fr, TriangulationResult* tri) const;
-  bool TrackFrom(const Pose2& pose, double search_px, FrameResult* fr, TriangulationResult* tri,
-                 bool either = false) const;
   // A hypothesis of the room-wide search that tracking verified.
   struct VerifiedPose {
     Pose2 pose;
