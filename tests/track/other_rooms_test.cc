@@ -213,10 +213,9 @@ const test::RenderedCase& OfficeCompressed() {
   return r;
 }
 
-// The junction method on `r` with options `o`, from its first true pose
+// `r` tracked with options `o` (their method), from its first true pose
 // (`start`) or without a start.
-std::vector<PoseRow> Junction(const test::RenderedCase& r, LocalizerOptions o, bool start) {
-  o.method = TrackingMethod::kJunction;
+std::vector<PoseRow> Track(const test::RenderedCase& r, const LocalizerOptions& o, bool start) {
   Localizer loc(r.c.calib, r.c.map, r.table, o);
   if (start)
     loc.Reset(r.truth.front().pose);
@@ -225,20 +224,24 @@ std::vector<PoseRow> Junction(const test::RenderedCase& r, LocalizerOptions o, b
   return test::ProcessFrames(&loc, r, r.c.fps);
 }
 
-// The junction method on `r` (from its first true pose, or without a
-// start), by default and with the options `off` (a behaviour turned off),
-// each scored.
+// `method` on `r` (from its first true pose, or without a start), by
+// default and with the options `off` (a behaviour turned off), each scored.
 struct AgainstOff {
   std::vector<PoseRow> rows, off_rows;
   AccuracySummary a, off;
 };
-AgainstOff JunctionAgainst(const test::RenderedCase& r, const LocalizerOptions& off, bool start) {
+AgainstOff Against(const test::RenderedCase& r, LocalizerOptions off, bool start, TrackingMethod method) {
+  LocalizerOptions on;
+  on.method = off.method = method;
   AgainstOff out;
-  out.rows = Junction(r, LocalizerOptions(), start);
-  out.off_rows = Junction(r, off, start);
+  out.rows = Track(r, on, start);
+  out.off_rows = Track(r, off, start);
   out.a = CompareToGroundTruth(out.rows, r.truth, TypicalRange(r.c.map, r.truth));
   out.off = CompareToGroundTruth(out.off_rows, r.truth, TypicalRange(r.c.map, r.truth));
   return out;
+}
+AgainstOff JunctionAgainst(const test::RenderedCase& r, const LocalizerOptions& off, bool start) {
+  return Against(r, off, start, TrackingMethod::kJunction);
 }
 
 TEST_CASE("office under real conditions, no start: a sparse image's lead is taken after frames that follow it",
@@ -384,6 +387,31 @@ TEST_CASE("office, real conditions, frames covered: the search's pose after one 
   CHECK(a.outliers == 0);
   CHECK(a.max <= 1.0);
   CHECK(test::InsideThreeSigma(rows, r.truth) == 1.0);
+}
+
+TEST_CASE("office, compressed, a map measured to 2 cm, no start: a tracked pose the search refutes gives way",
+          "[other_rooms]") {
+  // Frame 16 turns faster than the one before; the vertex tracker's
+  // windows take the wrong corners on some of the landmarks and the pose
+  // they fit, 8 cm off, passes every test. The room-wide search that
+  // checks a frame tracked on few of its chosen landmarks finds the pose
+  // beside it on 15 landmarks (the tracked one on 10) with half its
+  // residual, 3.7 deviations from it: that pose is taken, and the track
+  // goes on from it. Measured: 29 of 30 frames tracked, at most 2.35 cm
+  // off; without the refutation frame 16 is reported 7.99 cm off.
+  test::RenderedCase r = OfficeCompressed();
+  r.c.map = PerturbedMap(r.c.map, 2.0, 2);
+  r.c.map.survey_sigma = 2.0;
+  r.table = TableForMap(r.c.calib, r.c.map, true);
+  LocalizerOptions kept;
+  kept.relocalize_refutes = false;
+  const auto [rows, kept_rows, a, without] = Against(r, kept, false, TrackingMethod::kVertex);
+  INFO("refuted: " << FormatAccuracy(a, "cm") << "; kept: " << FormatAccuracy(without, "cm"));
+  CHECK(a.tracked >= 28);
+  CHECK(a.outliers == 0);
+  CHECK(a.max <= 2.6);
+  CHECK(test::InsideThreeSigma(rows, r.truth) == 1.0);
+  CHECK(without.max >= 7.0);
 }
 
 // The office's frames with those at `dropped` left out, the timestamps

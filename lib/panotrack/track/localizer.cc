@@ -1041,6 +1041,9 @@ namespace {
 // search, wherever they stand: the same pose verified from two hypotheses
 // converges to within a fraction of a degree.
 constexpr double kDistinctHeading = 10.0 * M_PI / 180.0;
+// Chi-square of two degrees of freedom at 95 %: a position outside the
+// ellipse that holds 95 % of a pose's reported errors.
+constexpr double kRefutedChi2 = 5.991;
 
 // The prior odds against a frame having been dropped before this one.
 constexpr double kDroppedFrameOdds = 100.0;
@@ -1144,6 +1147,12 @@ bool Localizer::ResumesTrack(const FrameResult& fr, const TriangulationResult& t
   // of what the frame found.
   if (!opt_.resume_after_lost_frame || under_probe || !track_.ever_tracked || track_.n_lost != 1 ||
       track_.motion_updates < 2 || !motion_.initialized() || !SparselySupported(fr, tri))
+    return false;
+  return motion_.Innovation(MotionMeasurement(fr, tri)) <= StrictGate();
+}
+
+bool Localizer::ContinuesTrack(const FrameResult& fr, const TriangulationResult& tri) const {
+  if (!track_.ever_tracked || track_.n_lost > 0 || track_.motion_updates < 2 || !motion_.initialized())
     return false;
   return motion_.Innovation(MotionMeasurement(fr, tri)) <= StrictGate();
 }
@@ -1713,7 +1722,8 @@ bool Localizer::Corroborated(const FrameResult& fr, const TriangulationResult& t
   return static_cast<double>(tri.inliers.size()) >= fraction * ChosenToTrack(fr);
 }
 
-Localizer::RoomSearch Localizer::SearchRoomAgainst(const cv::Mat& grey, const TriangulationResult& tri) const {
+Localizer::RoomSearch Localizer::SearchRoomAgainst(const cv::Mat& grey, const FrameResult& fr,
+                                                   const TriangulationResult& tri) const {
   RoomSearch search;
   FrameResult found;
   TriangulationResult t;
@@ -1731,18 +1741,27 @@ Localizer::RoomSearch Localizer::SearchRoomAgainst(const cv::Mat& grey, const Tr
       search.own_residual = std::min(search.own_residual, v.residual);
     }
   }
+  search.refuted = opt_.relocalize_refutes && search.chosen && Refutes(*search.chosen, fr, tri);
   return search;
 }
 
-bool Localizer::RoomSearchAgrees(const cv::Mat& grey, const TriangulationResult& tri) const {
+bool Localizer::Refutes(const SearchResult& chosen, const FrameResult& fr, const TriangulationResult& tri) const {
+  const TriangulationResult& other = chosen.second;
+  if (DistinctPlaces(other.pose, tri.pose) || other.inliers.size() < tri.inliers.size() ||
+      ChosenInliers(chosen.first, other) < ChosenInliers(fr, tri) || !(other.residual < tri.residual))
+    return false;
+  const Eigen::Matrix2d covariance = ReportedCovariance(fr, Observations(fr), tri).topLeftCorner<2, 2>();
+  const Eigen::Vector2d apart(other.pose.x - tri.pose.x, other.pose.y - tri.pose.y);
+  return apart.dot(covariance.inverse() * apart) > kRefutedChi2;
+}
+
+bool Localizer::NoRivalElsewhere(const RoomSearch& search) const {
   // A rival that found few of the landmarks it chose (and tracked more to
   // fit more in all) is outranked on those chosen.
-  const RoomSearch search = SearchRoomAgainst(grey, tri);
-  return std::none_of(search.elsewhere.begin(), search.elsewhere.end(),
-                      [&](const VerifiedPose& v) {
-                        return !Outranks(search.own, search.own_residual, v.inliers, v.residual) &&
-                               !ClearlyBetterSupported(search.own_chosen, v.chosen_inliers);
-                      });
+  return std::none_of(search.elsewhere.begin(), search.elsewhere.end(), [&](const VerifiedPose& v) {
+    return !Outranks(search.own, search.own_residual, v.inliers, v.residual) &&
+           !ClearlyBetterSupported(search.own_chosen, v.chosen_inliers);
+  });
 }
 
 bool Localizer::DistinctPlaces(const Pose2& a, const Pose2& b) const {
@@ -2189,15 +2208,18 @@ void Localizer::LearnSurveyFromRejected(FrameWork* w) {
 // So is a tracked pose that fits few of the landmarks chosen where the
 // survey error widens every tolerance: the place a kidnapped robot was
 // carried from fits a few of them under the motion model's prediction.
+// Either gives way as well to a pose the search verified beside it that
+// refutes it (RoomSearch::refuted).
 void Localizer::CheckAgainstRoomSearch(const cv::Mat& grey, FrameWork* w) {
   w->after_search = errors_.survey_before_search && opt_.survey.check && !errors_.survey.confident();
   const bool weakly_supported = SurveyLimits() && !w->fr.relocalized && !Corroborated(w->fr, w->tri);
   if (!w->accepted || w->was_held || !(w->after_search || weakly_supported)) return;
-  RoomSearch search = SearchRoomAgainst(grey, w->tri);
+  RoomSearch search = SearchRoomAgainst(grey, w->fr, w->tri);
   const int own = std::max(search.own_chosen, ChosenInliers(w->fr, w->tri));
-  w->gave_way = std::any_of(search.elsewhere.begin(), search.elsewhere.end(), [&](const VerifiedPose& v) {
+  w->gave_way = search.refuted || std::any_of(search.elsewhere.begin(), search.elsewhere.end(), [&](const VerifiedPose& v) {
     return Outranks(v.chosen_inliers, v.residual, own, search.own_residual);
   });
+  w->refuted = search.refuted;
   if (w->gave_way) w->searched = std::move(search.chosen);
   w->accepted = !w->gave_way;
 }
@@ -2340,9 +2362,19 @@ void Localizer::ConfirmHeldPose(const cv::Mat& grey, FrameWork* w) {
   // a map stated exact but centimetres off) a wrong pose fits most of what
   // it finds too. It stands only where the room-wide search under the same
   // tolerances finds no rival about as well supported (the true pose fits
-  // many more bearings there than a twin); else the search below runs.
-  if (w->accepted && w->was_held && opt_.survey.check && !errors_.survey.confident())
-    w->accepted = RoomSearchAgrees(grey, w->tri);
+  // many more bearings there than a twin); else the search below runs. Nor
+  // where it verified a pose beside it that refutes it (tracked from the
+  // held pose without a velocity, the edges found may be the wrong ones):
+  // that pose is taken instead.
+  if (w->accepted && w->was_held && opt_.survey.check && !errors_.survey.confident()) {
+    RoomSearch search = SearchRoomAgainst(grey, w->fr, w->tri);
+    w->accepted = NoRivalElsewhere(search);
+    if (w->accepted && search.refuted) {
+      w->accepted = false;
+      w->gave_way = w->refuted = true;
+      w->searched = std::move(search.chosen);
+    }
+  }
 }
 
 FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double time_s,
@@ -2355,8 +2387,18 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
   CheckAgainstRoomSearch(grey, &w);
   w.n_found = FoundLandmarks(w.fr);  // before any relocalisation
   if (w.gave_way && w.searched) {
+    const int n_good = track_.n_good;
     AdoptSearchResult(std::move(*w.searched), &w.fr, &w.tri);
-    w.accepted = Corroborated(w.fr, w.tri);
+    if (w.refuted && ContinuesTrack(w.fr, w.tri)) {
+      // Beside the pose it refuted, where the motion model predicted it:
+      // the track goes on with the model's velocity (a model started again
+      // knows none, and the next frame's windows would miss a turn).
+      w.fr.relocalized = false;
+      track_.n_good = n_good;
+      w.accepted = true;
+    } else {
+      w.accepted = Corroborated(w.fr, w.tri);
+    }
     w.fr.unconfirmed = !w.accepted;
   }
   if (!w.accepted && !w.gave_way && !w.sparse_continues) RelocalizeWhenLost(grey, frame, &w);

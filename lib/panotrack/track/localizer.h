@@ -176,6 +176,11 @@ struct LocalizerOptions {
   // landmarks; the pose those few fit is nearer, and is tracked again, up
   // to this many times while each pass finds more (0: never).
   int relocalize_retrack_passes = 2;
+  // Where a room-wide search runs on a tracked or held frame (to check it)
+  // and chooses a pose at the same place that fits the frame's bearings
+  // better, outside the tracked pose's reported 95 % ellipse, the tracked
+  // pose gives way to it (Localizer::Refutes).
+  bool relocalize_refutes = true;
   // A relocalised pose also needs this fraction of its predicted landmarks
   // as inliers, and must beat every hypothesis elsewhere in the room
   // (further than relocalize_distinct, as a fraction of the room's size) by
@@ -756,21 +761,34 @@ class Localizer {
   bool Outranks(int a, double a_residual, int b, double b_residual) const {
     return ClearlyBetterSupported(a, b) || FitsClearlyBetter(a, a_residual, b, b_residual);
   }
-  // whether the room-wide search on this frame verifies no pose away from
-  // `tri`'s that rivals the best near it;
-  bool RoomSearchAgrees(const cv::Mat& grey, const TriangulationResult& tri) const;
   // the room-wide search on this frame against a pose being checked: the
   // poses it verified away from it, the support of the best near it (at
-  // least its own), and the search's own result where it chose one;
+  // least its own), whether the search's choice refutes it, and that
+  // choice where it made one;
   using SearchResult = std::pair<FrameResult, TriangulationResult>;
   struct RoomSearch {
     int own = 0;
     int own_chosen = 0;
     double own_residual = 0.0;  // of the best near it (at most its own)
     std::vector<VerifiedPose> elsewhere;
+    // The search's choice Refutes the pose checked.
+    bool refuted = false;
     std::optional<SearchResult> chosen;
   };
-  RoomSearch SearchRoomAgainst(const cv::Mat& grey, const TriangulationResult& tri) const;
+  RoomSearch SearchRoomAgainst(const cv::Mat& grey, const FrameResult& fr, const TriangulationResult& tri) const;
+  // whether that search verified no pose away from the one checked that
+  // rivals the best near it;
+  bool NoRivalElsewhere(const RoomSearch& search) const;
+  // whether the search's choice, at the same place as the pose checked,
+  // fits the frame's bearings better (as many inliers or more, of those
+  // chosen too, and a smaller residual) and lies outside the checked
+  // pose's reported 95 % ellipse: the checked pose rests on edges a wrong
+  // prediction led to (a held pose tracked without a velocity, a turn
+  // mispredicted), and its covariance does not hold it;
+  bool Refutes(const SearchResult& chosen, const FrameResult& fr, const TriangulationResult& tri) const;
+  // whether a search's pose that refuted the tracked one continues the
+  // track: the motion model predicted it (within its 99 % gate);
+  bool ContinuesTrack(const FrameResult& fr, const TriangulationResult& tri) const;
   // takes a room-wide search's pose as this frame's (relocalised);
   void AdoptSearchResult(SearchResult&& found, FrameResult* fr, TriangulationResult* tri);
   // whether a relocalised pose lies beyond where the robot could have gone
@@ -828,6 +846,7 @@ class Localizer {
     std::optional<SurveyErrorEstimate> survey_before_hold;
     bool after_search = false;  // tracked from a search's pose, the map's error not yet shown
     bool gave_way = false;      // the tracked pose gave way to the room-wide search
+    bool refuted = false;       // ... whose choice beside it refuted it (Refutes)
     std::optional<SearchResult> searched;
     // A search's sparse lead (held), or a frame that tracked a held one with
     // as strong a fit, not yet relocalize_sparse_frames long (held again).
