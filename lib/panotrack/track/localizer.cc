@@ -2208,18 +2208,19 @@ void Localizer::LearnSurveyFromRejected(FrameWork* w) {
 // So is a tracked pose that fits few of the landmarks chosen where the
 // survey error widens every tolerance: the place a kidnapped robot was
 // carried from fits a few of them under the motion model's prediction.
-// Either gives way as well to a pose the search verified beside it that
-// refutes it (RoomSearch::refuted).
+// Either gives way as well to the search's choice beside it where that
+// refutes it (Refutes).
 void Localizer::CheckAgainstRoomSearch(const cv::Mat& grey, FrameWork* w) {
   w->after_search = errors_.survey_before_search && opt_.survey.check && !errors_.survey.confident();
   const bool weakly_supported = SurveyLimits() && !w->fr.relocalized && !Corroborated(w->fr, w->tri);
   if (!w->accepted || w->was_held || !(w->after_search || weakly_supported)) return;
   RoomSearch search = SearchRoomAgainst(grey, w->fr, w->tri);
   const int own = std::max(search.own_chosen, ChosenInliers(w->fr, w->tri));
-  w->gave_way = search.refuted || std::any_of(search.elsewhere.begin(), search.elsewhere.end(), [&](const VerifiedPose& v) {
+  const bool outranked = std::any_of(search.elsewhere.begin(), search.elsewhere.end(), [&](const VerifiedPose& v) {
     return Outranks(v.chosen_inliers, v.residual, own, search.own_residual);
   });
   w->refuted = search.refuted;
+  w->gave_way = outranked || search.refuted;
   if (w->gave_way) w->searched = std::move(search.chosen);
   w->accepted = !w->gave_way;
 }
@@ -2363,9 +2364,9 @@ void Localizer::ConfirmHeldPose(const cv::Mat& grey, FrameWork* w) {
   // it finds too. It stands only where the room-wide search under the same
   // tolerances finds no rival about as well supported (the true pose fits
   // many more bearings there than a twin); else the search below runs. Nor
-  // where it verified a pose beside it that refutes it (tracked from the
-  // held pose without a velocity, the edges found may be the wrong ones):
-  // that pose is taken instead.
+  // where the search's choice beside it refutes it (tracked from the held
+  // pose without a velocity, the edges found may be the wrong ones): that
+  // choice is taken instead.
   if (w->accepted && w->was_held && opt_.survey.check && !errors_.survey.confident()) {
     RoomSearch search = SearchRoomAgainst(grey, w->fr, w->tri);
     w->accepted = NoRivalElsewhere(search);
