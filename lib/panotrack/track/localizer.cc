@@ -1145,16 +1145,13 @@ bool Localizer::ResumesTrack(const FrameResult& fr, const TriangulationResult& t
   // interval, not over a loss (after several, a wrong pose nearby fits it).
   // It must fit within the 99 % gate of three degrees of freedom, on most
   // of what the frame found.
-  if (!opt_.resume_after_lost_frame || under_probe || !track_.ever_tracked || track_.n_lost != 1 ||
-      track_.motion_updates < 2 || !motion_.initialized() || !SparselySupported(fr, tri))
-    return false;
-  return motion_.Innovation(MotionMeasurement(fr, tri)) <= StrictGate();
+  return opt_.resume_after_lost_frame && !under_probe && track_.n_lost == 1 && SparselySupported(fr, tri) &&
+         ModelVouchesFor(fr, tri);
 }
 
-bool Localizer::ContinuesTrack(const FrameResult& fr, const TriangulationResult& tri) const {
-  if (!track_.ever_tracked || track_.n_lost > 0 || track_.motion_updates < 2 || !motion_.initialized())
-    return false;
-  return motion_.Innovation(MotionMeasurement(fr, tri)) <= StrictGate();
+bool Localizer::ModelVouchesFor(const FrameResult& fr, const TriangulationResult& tri) const {
+  return track_.ever_tracked && track_.motion_updates >= 2 && motion_.initialized() &&
+         motion_.Innovation(MotionMeasurement(fr, tri)) <= StrictGate();
 }
 
 std::optional<MotionModel> Localizer::AfterDroppedFrame() const {
@@ -2390,7 +2387,7 @@ FrameResult Localizer::Process(const cv::Mat& frame_image, int frame, double tim
   if (w.gave_way && w.searched) {
     const int n_good = track_.n_good;
     AdoptSearchResult(std::move(*w.searched), &w.fr, &w.tri);
-    if (w.refuted && ContinuesTrack(w.fr, w.tri)) {
+    if (w.refuted && track_.n_lost == 0 && ModelVouchesFor(w.fr, w.tri)) {
       // Beside the pose it refuted, where the motion model predicted it:
       // the track goes on with the model's velocity (a model started again
       // knows none, and the next frame's windows would miss a turn).

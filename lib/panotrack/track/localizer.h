@@ -647,6 +647,11 @@ class Localizer {
   // whether a search's pose on the frame after a single lost one (a hand
   // over the lens) continues the track: the motion model predicted it.
   bool ResumesTrack(const FrameResult& fr, const TriangulationResult& tri, bool under_probe) const;
+  // whether the motion model, with a velocity learned over two frames or
+  // more, predicted a pose within its 99 % gate (StrictGate): it then
+  // vouches for a pose too thinly supported to stand alone, or one a
+  // search took in place of a tracked pose it refuted;
+  bool ModelVouchesFor(const FrameResult& fr, const TriangulationResult& tri) const;
   // whether, in a room-wide search (`either`: with either polarity), pose
   // `a` outranks pose `b` at another place;
   bool SearchOutranks(const VerifiedPose& a, const VerifiedPose& b, bool either) const;
@@ -786,9 +791,6 @@ class Localizer {
   // prediction led to (a held pose tracked without a velocity, a turn
   // mispredicted), and its covariance does not hold it;
   bool Refutes(const SearchResult& chosen, const FrameResult& fr, const TriangulationResult& tri) const;
-  // whether a search's pose that refuted the tracked one continues the
-  // track: the motion model predicted it (within its 99 % gate);
-  bool ContinuesTrack(const FrameResult& fr, const TriangulationResult& tri) const;
   // takes a room-wide search's pose as this frame's (relocalised);
   void AdoptSearchResult(SearchResult&& found, FrameResult* fr, TriangulationResult* tri);
   // whether a relocalised pose lies beyond where the robot could have gone
