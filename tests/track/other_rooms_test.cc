@@ -224,14 +224,15 @@ std::vector<PoseRow> Track(const test::RenderedCase& r, const LocalizerOptions& 
   return test::ProcessFrames(&loc, r, r.c.fps);
 }
 
-// `method` on `r` (from its first true pose, or without a start), by
-// default and with the options `off` (a behaviour turned off), each scored.
+// `method` on `r` (from its first true pose, or without a start), with the
+// options `on` (by default the defaults) and `off` (a behaviour turned
+// off), each scored.
 struct AgainstOff {
   std::vector<PoseRow> rows, off_rows;
   AccuracySummary a, off;
 };
-AgainstOff Against(const test::RenderedCase& r, LocalizerOptions off, bool start, TrackingMethod method) {
-  LocalizerOptions on;
+AgainstOff Against(const test::RenderedCase& r, LocalizerOptions off, bool start, TrackingMethod method,
+                   LocalizerOptions on = {}) {
   on.method = off.method = method;
   AgainstOff out;
   out.rows = Track(r, on, start);
@@ -315,7 +316,8 @@ TEST_CASE("office, shutter open the whole frame, compressed, no start: a held po
   // a pose 37 cm from it under the survey probe's wider error (the robot
   // covers 10 cm a frame at most) and was reported 208 cm off. Measured:
   // frame 3 not confirmed (27 cm beyond reach, 4.4 combined deviations);
-  // the true pose found on frame 23, 6 frames tracked, all within 0.17 cm.
+  // the searches, started again by the lead, find the true pose on frame 4:
+  // 23 frames tracked, at most 1.86 cm off (frame 7, in a fast turn).
   const test::RenderedCase r = RenderOfficeUnderRealConditions(4.0, 40, 1.0);
   LocalizerOptions o;
   o.method = TrackingMethod::kVertex;
@@ -324,8 +326,8 @@ TEST_CASE("office, shutter open the whole frame, compressed, no start: a held po
   const std::vector<PoseRow> rows = test::ProcessFrames(&loc, r, r.c.fps);
   const AccuracySummary a = CompareToGroundTruth(rows, r.truth, TypicalRange(r.c.map, r.truth));
   INFO(FormatAccuracy(a, "cm"));
-  CHECK(a.tracked >= 6);
-  CHECK(a.max <= 0.5);
+  CHECK(a.tracked >= 22);
+  CHECK(a.max <= 2.0);
   CHECK(test::InsideThreeSigma(rows, r.truth) == 1.0);
 }
 
@@ -361,6 +363,12 @@ test::RenderedCase WithFramesCovered(const test::RenderedCase& r, const std::vec
   return out;
 }
 
+// The junction method from the start on the office under real conditions
+// with the frames `covered`, with the options `on` and `off`.
+AgainstOff CoveredAgainst(const std::vector<int>& covered, const LocalizerOptions& off, const LocalizerOptions& on = {}) {
+  return Against(WithFramesCovered(OfficeRealConditions(), covered), off, true, TrackingMethod::kJunction, on);
+}
+
 TEST_CASE("office, real conditions, frames covered: the search's pose after one continues the track",
           "[other_rooms]") {
   // The loop's heading wiggles up to 9 degrees a frame; over a covered
@@ -369,13 +377,12 @@ TEST_CASE("office, real conditions, frames covered: the search's pose after one 
   // the pose there on half of its landmarks, too few to report before the
   // next frame confirms it, but where the model predicted it. Measured (a
   // start given, frames 6, 12, 21 and 24 covered): every frame after a
-  // cover tracked, 24 of 30 in all, at most 0.73 cm off; without, 4 of 30
-  // (tracking never resumed after the first cover).
+  // cover tracked, 24 of 30 in all, at most 0.73 cm off; without, 8 of 30
+  // (frames 2 - 5, and 26 - 29 after the searches found the pose again).
   const std::vector<int> covered{6, 12, 21, 24};
-  const test::RenderedCase r = WithFramesCovered(OfficeRealConditions(), covered);
   LocalizerOptions without_resuming;
   without_resuming.resume_after_lost_frame = false;
-  const auto [rows, without_rows, a, without] = JunctionAgainst(r, without_resuming, true);
+  const auto [rows, without_rows, a, without] = CoveredAgainst(covered, without_resuming);
   INFO("resumed: " << FormatAccuracy(a, "cm") << "; not: " << FormatAccuracy(without, "cm"));
   for (int k : covered) {
     INFO("frame " << k + 1);
@@ -383,10 +390,38 @@ TEST_CASE("office, real conditions, frames covered: the search's pose after one 
     CHECK(without_rows[static_cast<size_t>(k + 1)].status == PoseStatus::kLost);
   }
   CHECK(a.tracked >= 23);
-  CHECK(without.tracked <= 6);
+  CHECK(without.tracked <= 9);
   CHECK(a.outliers == 0);
   CHECK(a.max <= 1.0);
-  CHECK(test::InsideThreeSigma(rows, r.truth) == 1.0);
+  CHECK(test::InsideThreeSigma(rows, OfficeRealConditions().truth) == 1.0);
+}
+
+TEST_CASE("office, real conditions, frames covered: the compass turns the frame after one from the last tracked",
+          "[other_rooms]") {
+  // The loop's heading wiggles up to 9 degrees a frame; over a covered
+  // frame the motion model's heading is degrees off. The compass's turn
+  // measured from the covered frame's image finds nothing (or a wrong
+  // turn, added to the model's guess), from the frame before it the turn
+  // over both intervals. Without the search's help (it finds these poses
+  // too): measured, a start given, frames 3, 11, 15 and 21 covered, every
+  // frame after a cover tracked, 24 of 30 in all, at most 0.74 cm off;
+  // from the covered frames' images 12 of 30 (frames 4 - 5 and 12 - 23
+  // lost).
+  const std::vector<int> covered{3, 11, 15, 21};
+  LocalizerOptions from_tracked;
+  from_tracked.resume_after_lost_frame = false;
+  LocalizerOptions from_covered = from_tracked;
+  from_covered.compass_from_measured = false;
+  const auto [rows, covered_rows, a, b] = CoveredAgainst(covered, from_covered, from_tracked);
+  INFO("from the last tracked frame: " << FormatAccuracy(a, "cm") << "; from the covered: " << FormatAccuracy(b, "cm"));
+  for (int k : covered) CHECK(rows[static_cast<size_t>(k + 1)].status == PoseStatus::kOk);
+  CHECK(covered_rows[4].status == PoseStatus::kLost);
+  CHECK(covered_rows[12].status == PoseStatus::kLost);
+  CHECK(a.tracked >= 24);
+  CHECK(b.tracked <= 13);
+  CHECK(a.outliers == 0);
+  CHECK(a.max <= 1.0);
+  CHECK(test::InsideThreeSigma(rows, OfficeRealConditions().truth) == 1.0);
 }
 
 TEST_CASE("office, compressed, a map measured to 2 cm, no start: a tracked pose the search refutes gives way",

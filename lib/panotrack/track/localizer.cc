@@ -1430,7 +1430,7 @@ std::optional<double> Localizer::CompassHeading(const std::vector<float>& signat
   double score;
   const double turn = compass_.Rotation(heading_.last_signature, signature, opt_.compass_max_rotation, &score);
   if (score < opt_.compass_min_score) return std::nullopt;
-  return WrapAngle(track_.frame_pose.theta + turn);
+  return WrapAngle(heading_.signature_heading + turn);
 }
 
 std::optional<Pose2> Localizer::CompassPose(const Pose2& pred) const {
@@ -1618,7 +1618,8 @@ bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, F
   // Before the first pose (no start, or a start the frames did not confirm)
   // at once; later after relocalize_after lost frames (at once when the
   // view is not the predicted one), then less and less often while it
-  // keeps failing.
+  // keeps failing: a search that finds a pose (held for the next frame to
+  // confirm) shows the room in view, and the schedule starts again.
   const bool due = track_.ever_tracked
                        ? opt_.relocalize_after > 0 && (track_.n_lost + 1 >= opt_.relocalize_after || at_once)
                        : opt_.relocalize_after > 0 || !track_.known_start || track_.start_is_hint;
@@ -1638,6 +1639,7 @@ bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, F
     reloc_.next_frame = BackedOffRelocalizeFrame(frame);
     return false;
   }
+  reloc_.failures = 0;
   AdoptSearchResult({std::move(found), t}, fr, tri);
   return true;
 }
@@ -2281,7 +2283,6 @@ void Localizer::FinishFrame(const cv::Mat& grey, int frame, double time_s, std::
   if (accepted && !fr.relocalized && opt_.survey.check && !errors_.survey.confident())
     RetrackUnderShownSurvey(&fr, &tri);
   fr.triangulation = tri;
-  if (opt_.compass) heading_.last_signature = std::move(signature);
   if (accepted && (fr.relocalized || w->was_held) && opt_.survey.check && !errors_.survey.confident())
     errors_.survey_before_search = w->was_held ? *w->survey_before_hold : errors_.survey;
   if (accepted) UpdatePredictionErrors(w->model_pred, fr, tri);
@@ -2325,6 +2326,15 @@ void Localizer::FinishFrame(const cv::Mat& grey, int frame, double time_s, std::
     UpdateLandmarkBudget();
   }
   if (errors_.survey.confident()) errors_.survey_before_search.reset();
+  // The compass measures the next turn from the last frame whose heading
+  // was measured (or held): a lost frame's image (covered, a person in
+  // front of the mirror) is no reference, and its heading only the
+  // model's guess.
+  if (opt_.compass &&
+      (!opt_.compass_from_measured || track_.n_lost == 0 || heading_.last_signature.empty())) {
+    heading_.last_signature = std::move(signature);
+    heading_.signature_heading = track_.frame_pose.theta;
+  }
   if (view_ && fr.row.status != PoseStatus::kLost) fr.row.pose = view_->RobotPose(fr.row.pose);
 }
 

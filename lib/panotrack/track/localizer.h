@@ -139,6 +139,10 @@ struct LocalizerOptions {
   bool compass = true;            // predict the heading with the visual compass
   double compass_max_rotation = 60.0 * M_PI / 180;  // per frame
   double compass_min_score = 0.5;
+  // The compass measures a turn from the last frame whose heading was
+  // measured (or held), not from a lost frame's image (covered, a person in
+  // front of the mirror) at the heading the motion model guessed for it.
+  bool compass_from_measured = true;
   // The compass's heading is tried before the motion model's when the two
   // differ by more than this (radians; the model's prediction would mostly
   // miss the search windows) and the compass has predicted the solved
@@ -684,8 +688,9 @@ class Localizer {
   // tracking from that prediction, then from the visual compass's heading
   // (CompassPose), then with wider searches until accepted;
   void TrackPredictions(Pose2 pred, FrameResult* fr, TriangulationResult* tri) const;
-  // The compass's heading for this frame (from the previous frame's pose
-  // and this frame's azimuthal `signature`), when its score is good enough.
+  // The compass's heading for this frame (from the heading of the last
+  // frame that measured or held one and this frame's azimuthal
+  // `signature`), when its score is good enough.
   std::optional<double> CompassHeading(const std::vector<float>& signature) const;
   // `pred` turned to this frame's compass heading, when it differs.
   std::optional<Pose2> CompassPose(const Pose2& pred) const;
@@ -897,7 +902,7 @@ class Localizer {
     // The camera's motion over the last frame interval (world frame), for
     // the landmarks' expected motion blur; kept while lost.
     Pose2 frame_motion;
-    Pose2 frame_pose;  // the estimate at the previous frame (for the compass)
+    Pose2 frame_pose;  // the estimate at the previous frame
     int n_good = 0;    // consecutive good frames (for the velocity model)
     int n_lost = 0;    // consecutive lost frames
     bool started = false;
@@ -926,7 +931,8 @@ class Localizer {
   // The heading from the panorama's azimuth signature, and how well it and
   // the motion model predicted the headings found (UpdatePredictionErrors).
   struct Heading {
-    std::vector<float> last_signature;
+    std::vector<float> last_signature;  // of the last frame with a measured or held heading
+    double signature_heading = 0.0;     // ... and that heading
     std::optional<double> compass_heading;  // this frame's (CompassHeading)
     double model_error = -1.0;
     double compass_error = -1.0;
@@ -1000,8 +1006,8 @@ class Localizer {
     std::optional<HeldFrame> held_frame;
     std::optional<FrameResult> confirmed_hold;
     int next_frame = 0;  // no room-wide search before this frame
-    // Searches (and held poses) that failed since the last accepted frame:
-    // the searches back off after two.
+    // Searches (and held poses) that failed since the last accepted frame
+    // or the last search that found a pose: the searches back off after two.
     int failures = 0;
     // A room-wide search's best pose, unambiguous but inconsistent with the
     // survey error assumed: evidence of it while the estimate is not yet
