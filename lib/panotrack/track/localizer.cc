@@ -2218,10 +2218,7 @@ void Localizer::CheckAgainstRoomSearch(const cv::Mat& grey, FrameWork* w) {
   const bool outranked = std::any_of(search.elsewhere.begin(), search.elsewhere.end(), [&](const VerifiedPose& v) {
     return Outranks(v.chosen_inliers, v.residual, own, search.own_residual);
   });
-  w->refuted = search.refuted;
-  w->gave_way = outranked || search.refuted;
-  if (w->gave_way) w->searched = std::move(search.chosen);
-  w->accepted = !w->gave_way;
+  if (outranked || search.refuted) w->GiveWay(std::move(search.chosen), search.refuted);
 }
 
 // Lost for a while (the robot may have been carried), or never found: the
@@ -2377,11 +2374,7 @@ void Localizer::ConfirmHeldPose(const cv::Mat& grey, FrameWork* w) {
   if (w->accepted && w->was_held && opt_.survey.check && !errors_.survey.confident()) {
     RoomSearch search = SearchRoomAgainst(grey, w->fr, w->tri);
     w->accepted = NoRivalElsewhere(search);
-    if (w->accepted && search.refuted) {
-      w->accepted = false;
-      w->gave_way = w->refuted = true;
-      w->searched = std::move(search.chosen);
-    }
+    if (w->accepted && search.refuted) w->GiveWay(std::move(search.chosen), true);
   }
 }
 

@@ -861,6 +861,14 @@ class Localizer {
     bool sparse_continues = false;
     int n_found = 0;  // what tracking from the prediction found
     std::vector<float> signature;  // the compass's, of this frame (for the next one too)
+    // The tracked pose gives way to the room-wide search's `chosen` pose
+    // (none: to nothing), refuted by it or not.
+    void GiveWay(std::optional<SearchResult>&& chosen, bool by_refutation) {
+      accepted = false;
+      gave_way = true;
+      refuted = by_refutation;
+      searched = std::move(chosen);
+    }
   };
   // Process's steps, in order: begin the frame; track from the prediction
   // (motion model, compass, coarse to fine, integrity); confirm a held pose
