@@ -167,6 +167,13 @@ function(pano_long_test name)
   set_tests_properties(${name} PROPERTIES SKIP_RETURN_CODE 77)
 endfunction()
 
+# The environment of every test: the build's programs; panoloc's table cache
+# inside the build tree, not in the user's home; OpenMP's threads sleeping
+# while they wait (ctest runs tests side by side: a spinning thread takes
+# the core another test needs, and changes no result).
+set(PANO_TEST_ENVIRONMENT
+  "PANO_BIN_DIR=${PROJECT_BINARY_DIR}/bin;XDG_CACHE_HOME=${PROJECT_BINARY_DIR}/test-cache;OMP_WAIT_POLICY=passive")
+
 # pano_add_test(FOLDER sensor NAME round_trip SRCS round_trip_test.cc DEPS ...)
 # registers the ctest "sensor/round_trip". LABELS default to "unit".
 function(pano_add_test)
@@ -182,14 +189,15 @@ function(pano_add_test)
   pano_test_timeout(ARG_TIMEOUT "${ARG_TIMEOUT}")
   set_tests_properties(${ARG_FOLDER}/${ARG_NAME} PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT}
     SKIP_RETURN_CODE 77
-    # panoloc's table cache inside the build tree, not in the user's home
-    ENVIRONMENT "PANO_BIN_DIR=${PROJECT_BINARY_DIR}/bin;XDG_CACHE_HOME=${PROJECT_BINARY_DIR}/test-cache")
+    ENVIRONMENT "${PANO_TEST_ENVIRONMENT}")
 endfunction()
 
 # pano_add_test_suite(FOLDER sensor SRCS a_test.cc b_test.cc DEPS ... TAGS round_trip jet)
 # builds one executable and registers one ctest per Catch tag: "sensor/round_trip"
 # runs the cases tagged [round_trip]. A tag that matches no case fails. Tags
 # also in LONG_TAGS are long tests (pano_long_test), labelled "long" as well.
+# "sensor/every_case_registered" fails where a case carries none of the tags
+# (it would never run): it lists them (Catch's exit code is their count).
 function(pano_add_test_suite)
   cmake_parse_arguments(ARG "" "FOLDER;TIMEOUT" "SRCS;DEPS;TAGS;LABELS;LONG_TAGS" ${ARGN})
   set(target test_${ARG_FOLDER})
@@ -210,7 +218,12 @@ function(pano_add_test_suite)
     endif()
     set_tests_properties(${ARG_FOLDER}/${tag} PROPERTIES LABELS "${labels}" TIMEOUT ${ARG_TIMEOUT}
       SKIP_RETURN_CODE 77
-      # panoloc's table cache inside the build tree, not in the user's home
-      ENVIRONMENT "PANO_BIN_DIR=${PROJECT_BINARY_DIR}/bin;XDG_CACHE_HOME=${PROJECT_BINARY_DIR}/test-cache")
+      ENVIRONMENT "${PANO_TEST_ENVIRONMENT}")
   endforeach()
+  set(unregistered "")
+  foreach(tag ${ARG_TAGS} ${ARG_LONG_TAGS})
+    string(APPEND unregistered "~[${tag}]")
+  endforeach()
+  add_test(NAME ${ARG_FOLDER}/every_case_registered COMMAND ${target} "${unregistered}" --list-test-names-only)
+  set_tests_properties(${ARG_FOLDER}/every_case_registered PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT 60)
 endfunction()

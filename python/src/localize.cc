@@ -118,7 +118,7 @@ class PyLocalizer {
   py::dict Track(const py::array& frame, std::optional<double> time_s, bool details) {
     const cv::Mat grey = GreyView(frame);
     FrameResult fr;
-    std::optional<FrameResult> confirmed;
+    std::vector<FrameResult> confirmed;
     {
       py::gil_scoped_release release;
       // One frame at a time, whichever Python threads call; the frame
@@ -126,12 +126,20 @@ class PyLocalizer {
       std::lock_guard<std::mutex> lock(busy_);
       const int index = next_frame_;
       fr = localizer_->Process(grey, index, time_s ? *time_s : index / fps_);
-      confirmed = localizer_->TakeConfirmedHold();
+      confirmed = localizer_->TakeConfirmedHolds();
       next_frame_ = index + 1;
     }
     py::dict d = ResultDict(fr, details);
     d["unconfirmed"] = fr.unconfirmed;
-    d["confirms_previous"] = confirmed ? py::object(ResultDict(*confirmed, details)) : py::object(py::none());
+    py::list confirms;
+    py::object previous = py::none();
+    for (const FrameResult& held : confirmed) {
+      py::dict h = ResultDict(held, details);
+      confirms.append(h);
+      if (held.row.frame == fr.row.frame - 1) previous = h;
+    }
+    d["confirms"] = confirms;
+    d["confirms_previous"] = previous;
     return d;
   }
 
@@ -406,8 +414,10 @@ void BindLocalize(py::module_& m) {
            "Localises the next frame (uint8 H x W). Returns a dict: frame, time_s, status (ok, lost, init), "
            "x, y, theta, std_x, std_y, std_theta, quality, covariance (3 x 3, x y theta), n_landmarks, "
            "residual, relocalized, innovation, predicted (x, y, theta); NaN where not defined; unconfirmed "
-           "(a pose the room-wide search found, reported lost until the next frame confirms it) and "
-           "confirms_previous (None, or the previous frame's dict, ok, once this frame confirmed it). With "
+           "(a pose the room-wide search found, reported lost until a later frame confirms it: the next, "
+           "or for a sparse lead the one that ends its run); confirms (the dicts, ok, of the held frames "
+           "this frame confirmed, in frame order) and confirms_previous (None, or the previous frame's "
+           "dict among them). With "
            "details, also landmarks: what the frame's measurement saw, as panoloc's debug video draws it "
            "(per predicted landmark: ids, found, why, corner_world (K, 3), predicted_corner_px (K, 2), "
            "predicted_edge_px (K, 2, 2: the vertical edge's ends), junction_px (K, 2, NaN when not found); "

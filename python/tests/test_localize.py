@@ -130,8 +130,9 @@ def test_localizer_reports_a_held_frame_once_confirmed(tmp_path):
     assert results[1]["status"] == "ok" and not results[1]["unconfirmed"]
     held = results[1]["confirms_previous"]
     assert held is not None and held["frame"] == 0 and held["status"] == "ok"
+    assert [h["frame"] for h in results[1]["confirms"]] == [0]
     assert math.hypot(held["x"] - gt["x"][0], held["y"] - gt["y"][0]) < 0.5
-    assert results[2]["confirms_previous"] is None
+    assert results[2]["confirms_previous"] is None and results[2]["confirms"] == []
     (out / "case.yaml").unlink()  # its start pose: localize_video would take it, as panoloc does
     expected = pt.localize_video(out / "frames", out / "calib.yaml", out / "map.yaml")
     np.testing.assert_allclose([held["x"], held["y"]], [expected["x"][0], expected["y"][0]], atol=5e-5)

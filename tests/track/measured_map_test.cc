@@ -319,12 +319,15 @@ TEST_CASE("no start: a search's pose held for the next frame is reported once th
   const FrameResult first = loc.Process(r.frames[0], 0, 0.0);
   REQUIRE(first.unconfirmed);
   CHECK(first.row.status == PoseStatus::kLost);
-  CHECK_FALSE(loc.TakeConfirmedHold());
+  CHECK(loc.FramesHeld() == 1);
+  CHECK(loc.TakeConfirmedHolds().empty());
   const FrameResult second = loc.Process(r.frames[1], 1, 0.1);
   CHECK(second.row.status == PoseStatus::kOk);
-  const std::optional<FrameResult> held = loc.TakeConfirmedHold();
-  REQUIRE(held);
-  CHECK_FALSE(loc.TakeConfirmedHold());  // once
+  CHECK(loc.FramesHeld() == 0);
+  const std::vector<FrameResult> confirmed = loc.TakeConfirmedHolds();
+  REQUIRE(confirmed.size() == 1);
+  CHECK(loc.TakeConfirmedHolds().empty());  // once
+  const FrameResult* held = &confirmed.front();
   CHECK(held->row.frame == 0);
   CHECK(held->row.time_s == 0.0);
   REQUIRE(held->row.status == PoseStatus::kOk);
@@ -338,7 +341,7 @@ TEST_CASE("no start: a search's pose held for the next frame is reported once th
   CHECK(sigmas <= 1.0);
   // A frame not held has nothing to confirm.
   loc.Process(r.frames[2], 2, 0.2);
-  CHECK_FALSE(loc.TakeConfirmedHold());
+  CHECK(loc.TakeConfirmedHolds().empty());
 }
 
 TEST_CASE("a map measured to 2 cm that claims to be exact, no start: a twin found first gives way to the true pose",

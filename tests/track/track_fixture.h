@@ -43,12 +43,18 @@ inline RenderedCase RenderPreset(const std::string& name, int n_frames, int firs
 }
 
 // The rows of every frame of `r`, taken `fps` frames a second apart, as
-// panoloc writes them (a held frame's row ok once the next confirms it).
-inline std::vector<PoseRow> ProcessFrames(Localizer* loc, const RenderedCase& r, double fps) {
+// panoloc writes them (a held frame's row ok once a later frame confirms it);
+// `held`, where given: per frame, whether its pose was held for a later
+// frame to confirm.
+inline std::vector<PoseRow> ProcessFrames(Localizer* loc, const RenderedCase& r, double fps,
+                                          std::vector<char>* held_out = nullptr) {
   std::vector<PoseRow> rows;
+  if (held_out) held_out->assign(r.frames.size(), 0);
   for (size_t i = 0; i < r.frames.size(); ++i) {
-    rows.push_back(loc->Process(r.frames[i], static_cast<int>(i), static_cast<double>(i) / fps).row);
-    if (std::optional<FrameResult> held = loc->TakeConfirmedHold()) rows[static_cast<size_t>(held->row.frame)] = held->row;
+    const FrameResult fr = loc->Process(r.frames[i], static_cast<int>(i), static_cast<double>(i) / fps);
+    if (held_out) (*held_out)[i] = fr.unconfirmed;
+    rows.push_back(fr.row);
+    for (const FrameResult& held : loc->TakeConfirmedHolds()) rows[static_cast<size_t>(held.row.frame)] = held.row;
   }
   return rows;
 }

@@ -337,9 +337,9 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
     // search starts its threads for each search, at this thread's priority.)
     priority.emplace(kIdleWhileWaiting, std::min(kNormalFromWaiting, source->prefetch_frames() / 2));
   }
-  // A frame's outputs go in frame order; a frame held for confirmation
-  // waits for the next (Localizer::TakeConfirmedHold).
-  std::optional<FrameResult> held;
+  // A frame's outputs go in frame order; the frames held for confirmation
+  // wait until the localiser holds them no more (Localizer::TakeConfirmedHolds).
+  std::deque<FrameResult> waiting;
   sum->end = VideoEnd::kDone;
   bool rate_assumed = false;  // some frame had no time: FrameTime took kAssumedFps
   for (int frame = 0;; ++frame) {
@@ -357,20 +357,19 @@ std::vector<PoseRow> TrackFrames(const VideoJob& job, const SharedResources& res
     }
     previous_time = time_s;
     FrameResult fr = loc.Process(grey, frame, time_s, odometry ? &*odometry : nullptr);
-    if (held) {
-      std::optional<FrameResult> confirmed = loc.TakeConfirmedHold();
-      outputs.Report(confirmed ? *confirmed : *held);
-      held.reset();
-    }
     if (dbg) dbg->Write(grey, s, fr);
-    if (fr.unconfirmed)
-      held = std::move(fr);
-    else
-      outputs.Report(fr);
+    waiting.push_back(std::move(fr));
+    for (FrameResult& confirmed : loc.TakeConfirmedHolds())
+      for (FrameResult& w : waiting)
+        if (w.row.frame == confirmed.row.frame) w = std::move(confirmed);
+    while (waiting.size() > static_cast<size_t>(loc.FramesHeld())) {
+      outputs.Report(waiting.front());
+      waiting.pop_front();
+    }
     if (opt.frames_done) ++*opt.frames_done;
   }
-  // No frame came to confirm it.
-  if (held) outputs.Report(*held);
+  // No frame came to confirm them.
+  for (const FrameResult& w : waiting) outputs.Report(w);
   std::vector<PoseRow> rows = outputs.Close(smoothed_rows);
   if (dbg) dbg->Commit();
   if (!opt.quiet) PrintRunNotes(job, res, loc, *sum, rate_assumed);

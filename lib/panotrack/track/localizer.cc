@@ -257,7 +257,8 @@ void Localizer::Reset(const Pose2& robot_initial, bool hint) {
   reloc_.failures = 0;
   reloc_.held = reloc_.held_jump = false;
   reloc_.held_frame.reset();
-  reloc_.confirmed_hold.reset();
+  reloc_.sparse_chain.clear();
+  reloc_.confirmed_holds.clear();
   reloc_.rivalries.clear();
   reloc_.sparse_holds = 0;
   track_.last_known.reset();
@@ -2051,7 +2052,10 @@ std::optional<FrameResult> Localizer::ReportConfirmedHold(const HeldFrame& held)
   fr.relocalized = true;
   TriangulationResult tri;
   tracker_->BeginFrame(held.grey);
-  if (!TrackFrom(held.pose, opt_.search_px, &fr, &tri) || !Consistent(&fr, tri) || !EnoughForRelocalized(fr, tri))
+  const auto supported = [&](const FrameResult& f, const TriangulationResult& t) {
+    return EnoughForRelocalized(f, t) || (held.sparse && SparselySupported(f, t));
+  };
+  if (!TrackFrom(held.pose, opt_.search_px, &fr, &tri) || !Consistent(&fr, tri) || !supported(fr, tri))
     return std::nullopt;
   // Where the survey error it was found under is in doubt (a search's wide
   // tolerance on a blurred frame) and the frame that confirmed it agrees
@@ -2064,7 +2068,7 @@ std::optional<FrameResult> Localizer::ReportConfirmedHold(const HeldFrame& held)
     TriangulationResult solved;
     double apart = 0.0;
     const bool agrees = AgreesUnderStatement(fr, tri, &again, &solved, &apart) && apart <= kStatementHoldApart &&
-                        EnoughForRelocalized(again, solved);
+                        supported(again, solved);
     if (agrees) FinishHeldReport(&again, solved);
     RestoreSurvey(learned);
     if (!agrees) return std::nullopt;
@@ -2295,13 +2299,21 @@ void Localizer::FinishFrame(const cv::Mat& grey, int frame, double time_s, std::
   fr.has_motion_step = track_.motion_stepped;
   if (fr.has_motion_step) fr.motion_step = motion_.step();
   // The held frame's pose is the one this frame tracked from and accepted
-  // (not a pose the search found elsewhere): the held frame is reported.
-  if (w->was_held && accepted && !fr.relocalized && reloc_.held_frame)
-    reloc_.confirmed_hold = ReportConfirmedHold(*reloc_.held_frame);
+  // (not a pose the search found elsewhere): the held frame is reported,
+  // and with it the sparse lead's frames it continued.
+  const bool confirms_held = w->was_held && accepted && !fr.relocalized && reloc_.held_frame;
+  if (reloc_.held_frame) reloc_.sparse_chain.push_back(std::move(*reloc_.held_frame));
   reloc_.held_frame.reset();
+  if (confirms_held)
+    for (const HeldFrame& held : reloc_.sparse_chain)
+      if (std::optional<FrameResult> report = ReportConfirmedHold(held))
+        reloc_.confirmed_holds.push_back(std::move(*report));
+  // A frame that continues a sparse lead keeps the lead's frames held.
+  if (!w->sparse_continues) reloc_.sparse_chain.clear();
   reloc_.sparse_holds = w->sparse_lead ? 1 : w->sparse_continues ? reloc_.sparse_holds + 1 : 0;
   if (fr.unconfirmed) {
-    reloc_.held_frame = HeldFrame{grey.clone(), fr.row, tri.pose, ReportedCovariance(fr, Observations(fr), tri)};
+    reloc_.held_frame = HeldFrame{grey.clone(), fr.row, tri.pose, ReportedCovariance(fr, Observations(fr), tri),
+                                  reloc_.sparse_holds > 0};
     MotionModel lead_motion = motion_;
     const int lead_updates = track_.motion_updates;
     HoldForConfirmation(tri.pose, frame, BeyondReach(tri.pose, time_s));
@@ -2341,7 +2353,7 @@ const cv::Mat& Localizer::BeginFrame(const cv::Mat& frame_image, int frame, doub
   CheckFrame(frame_image, frame);
   track_.frame = frame;
   track_.time_s = time_s;
-  reloc_.confirmed_hold.reset();  // the previous frame's, not taken
+  reloc_.confirmed_holds.clear();  // the previous frame's, not taken
   if (view_) view_->Resample(frame_image, &view_frame_);
   const cv::Mat& grey = view_ ? view_frame_ : frame_image;
   track_.motion_stepped = false;

@@ -385,12 +385,20 @@ class Localizer {
   FrameResult Process(const cv::Mat& grey, int frame, double time_s,
                       const OdometryIncrement* odometry = nullptr);
   // A frame whose pose the room-wide search found but held back (its
-  // result `unconfirmed`, its row lost) is reported once the frame after it
-  // confirms the pose: after that frame's Process, this returns the held
-  // frame's result with its row ok, once; else nothing. A caller that writes
-  // rows as they come writes an unconfirmed frame's row after the next
-  // Process: this one where given, else the lost one.
-  std::optional<FrameResult> TakeConfirmedHold() { return std::exchange(reloc_.confirmed_hold, std::nullopt); }
+  // result `unconfirmed`, its row lost) is reported once a later frame
+  // confirms the pose: the frame after it, or for a sparse lead's frames
+  // the frame that ends the lead's run (LocalizerOptions::
+  // relocalize_sparse_frames). After that frame's Process, this returns the
+  // held frames' results with their rows ok, in frame order, once; else
+  // none. A caller that writes rows as they come holds back the rows of the
+  // last FramesHeld() frames processed: each is written as returned here,
+  // else as it was (lost), once the localiser no longer holds it.
+  std::vector<FrameResult> TakeConfirmedHolds() { return std::exchange(reloc_.confirmed_holds, {}); }
+  // The frames processed last (up to the last) whose poses are held for a
+  // later frame to confirm: 0 after a frame that holds nothing.
+  int FramesHeld() const {
+    return reloc_.held_frame ? 1 + static_cast<int>(reloc_.sparse_chain.size()) : 0;
+  }
 
   const Map& map() const { return map_; }
   // The sensor the tracking works with: the calibration's, or for a rig
@@ -821,21 +829,24 @@ class Localizer {
   void FillReportedRow(FrameResult* fr, const std::vector<BearingObservation>& obs,
                        const TriangulationResult& tri) const;
   // A frame held for confirmation: its image (as tracked), row, pose and
-  // the pose's covariance as it would be reported.
+  // the pose's covariance as it would be reported; whether it was held as a
+  // sparse lead's frame (confirmed on a sparse lead's support).
   struct HeldFrame {
     cv::Mat grey;
     PoseRow row;
     Pose2 pose;
     Eigen::Matrix3d covariance;
+    bool sparse = false;
   };
   // Whether the frame confirming a held one found a pose the robot can
   // have reached from the held pose: no farther than max_speed for the
   // time between them, beyond that within the two poses' combined error.
   bool WithinReachOfHeld(const FrameResult& fr, const TriangulationResult& tri) const;
-  // The held frame's result once the next frame has confirmed its pose:
+  // The held frame's result once a later frame has confirmed its pose:
   // tracked again from it with what that frame taught (the survey error
   // its residuals showed, the learned blur), reported where it is accepted
-  // as a tracked frame is; else none.
+  // as a relocalised frame is (a sparse lead's frame: as it was held);
+  // else none.
   std::optional<FrameResult> ReportConfirmedHold(const HeldFrame& held);
   // A held frame's report of `tri`: the row filled in, in the robot's frame.
   void FinishHeldReport(FrameResult* fr, const TriangulationResult& tri) const;
@@ -1009,10 +1020,12 @@ class Localizer {
     // The pose tracked from is a relocalised one beyond the robot's reach
     // (BeyondReach) that no frame has corroborated yet.
     bool held_jump = false;
-    // The frame held for confirmation; its report once the next frame
-    // confirmed it (TakeConfirmedHold).
+    // The frame held for confirmation, and before it the frames of the
+    // sparse lead it continues (oldest first); their reports once a frame
+    // confirmed them (TakeConfirmedHolds).
     std::optional<HeldFrame> held_frame;
-    std::optional<FrameResult> confirmed_hold;
+    std::vector<HeldFrame> sparse_chain;
+    std::vector<FrameResult> confirmed_holds;
     int next_frame = 0;  // no room-wide search before this frame
     // Searches (and held poses) that failed since the last accepted frame
     // or the last search that found a pose: the searches back off after two.
