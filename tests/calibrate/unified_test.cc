@@ -127,7 +127,7 @@ TEST_CASE("unified: the pixel grid's shear (skew) is recovered with omnidir's fu
   CHECK(plain.rms_px > full.rms_px * 1.4);
 }
 
-TEST_CASE("unified: chosen by cross-validation for a unified camera", "[unified]") {
+TEST_CASE("unified: chosen by cross-validation for a unified camera", "[unified_selection]") {
   PANO_SEEDED_RNG(72);
   const auto set = UnifiedBoards(rng);
   REQUIRE(set.views.size() == 14);

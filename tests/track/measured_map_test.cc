@@ -35,7 +35,7 @@ test::RenderedCase OnMeasuredMap(const test::RenderedCase& truth, double sigma, 
   test::RenderedCase r = truth;
   r.c.map = PerturbedMap(truth.c.map, sigma, seed);
   r.c.map.survey_sigma = stated;
-  r.table = TableForMap(r.c.calib, r.c.map, true);
+  r.table = test::TableForMapOnce(r.c.calib, r.c.map);
   return r;
 }
 

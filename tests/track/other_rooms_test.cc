@@ -61,7 +61,7 @@ const test::RenderedCase& Office() {
       row.pose = c.c.poses.back();
       c.truth.push_back(row);
     }
-    c.table = TableForMap(c.c.calib, c.c.map, true);
+    c.table = test::TableForMapOnce(c.c.calib, c.c.map);
     return c;
   }();
   return r;
@@ -74,7 +74,7 @@ test::RenderedCase OnMap(double sigma, uint64_t seed) {
   if (sigma > 0) {
     r.c.map = PerturbedMap(r.c.map, sigma, seed);
     r.c.map.survey_sigma = sigma;
-    r.table = TableForMap(r.c.calib, r.c.map, true);
+    r.table = test::TableForMapOnce(r.c.calib, r.c.map);
   }
   return r;
 }
@@ -199,7 +199,7 @@ test::RenderedCase RenderOfficeUnderRealConditions(double noise_sigma, int jpeg_
     row.pose = c.c.poses[static_cast<size_t>(i)];
     c.truth.push_back(row);
   }
-  c.table = TableForMap(c.c.calib, c.c.map, true);
+  c.table = test::TableForMapOnce(c.c.calib, c.c.map);
   return c;
 }
 
@@ -490,7 +490,7 @@ TEST_CASE("office, compressed, a map measured to 2 cm, no start: a tracked pose 
   test::RenderedCase r = OfficeCompressed();
   r.c.map = PerturbedMap(r.c.map, 2.0, 2);
   r.c.map.survey_sigma = 2.0;
-  r.table = TableForMap(r.c.calib, r.c.map, true);
+  r.table = test::TableForMapOnce(r.c.calib, r.c.map);
   LocalizerOptions kept;
   kept.relocalize_refutes = false;
   const auto [rows, kept_rows, a, without, held, kept_held] = Against(r, kept, false, TrackingMethod::kVertex);

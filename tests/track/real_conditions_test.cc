@@ -27,7 +27,7 @@ test::RenderedCase RenderSequence(const std::string& preset, int n_frames, int f
   }
   r.c.poses.erase(r.c.poses.begin(), r.c.poses.begin() + first);
   r.c.map.distractors.clear();
-  r.table = TableForMap(r.c.calib, r.c.map, true);
+  r.table = test::TableForMapOnce(r.c.calib, r.c.map);
   return r;
 }
 

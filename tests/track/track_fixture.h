@@ -2,11 +2,18 @@
 // panosim's presets, rendered in memory (no video codec in the way).
 #pragma once
 
+#include <algorithm>
 #include <cmath>
+#include <list>
+#include <memory>
+#include <mutex>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "panotrack/io/pose_csv.h"
+#include "panotrack/lut/radius_table.h"
+#include "panotrack/lut/table_cache.h"
 #include "panotrack/pose/pose2.h"
 #include "panotrack/render/presets.h"
 #include "panotrack/render/render.h"
@@ -15,6 +22,27 @@
 #include "panotrack/pipeline/panoloc.h"
 
 namespace pano::test {
+
+// TableForMap, the tables used last kept for the test process: a suite's
+// cases track many renders on the same maps (a second a table), and a table
+// is a pure function of the sensor and the ranges the map needs (the table
+// cache's key).
+inline std::shared_ptr<const RadiusTable> TableForMapOnce(const Calibration& calib, const Map& map) {
+  if (!calib.lut_resolved.empty()) return TableForMap(calib, map, true);
+  constexpr size_t kKept = 8;
+  static std::mutex mutex;
+  static std::list<std::pair<std::string, std::shared_ptr<const RadiusTable>>> kept;  // the last used first
+  const std::string key = RadiusTableCacheKey(calib.sensor, RangesForMap(map, calib.sensor), LutSize());
+  std::lock_guard<std::mutex> lock(mutex);
+  auto it = std::find_if(kept.begin(), kept.end(), [&](const auto& entry) { return entry.first == key; });
+  if (it == kept.end()) {
+    kept.emplace_front(key, TableForMap(calib, map, true));
+    if (kept.size() > kKept) kept.pop_back();
+  } else {
+    kept.splice(kept.begin(), kept, it);
+  }
+  return kept.front().second;
+}
 
 struct RenderedCase {
   SequenceCase c;
@@ -38,7 +66,7 @@ inline RenderedCase RenderPreset(const std::string& name, int n_frames, int firs
   Map no_distractors = r.c.map;
   no_distractors.distractors.clear();
   r.c.map = no_distractors;
-  r.table = TableForMap(r.c.calib, r.c.map, true);
+  r.table = TableForMapOnce(r.c.calib, r.c.map);
   return r;
 }
 
