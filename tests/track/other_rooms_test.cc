@@ -216,6 +216,12 @@ const test::RenderedCase& OfficeCompressed() {
   return r;
 }
 
+// The same with the shutter open the whole frame interval (twice the blur).
+const test::RenderedCase& OfficeCompressedShutterOpen() {
+  static const test::RenderedCase r = RenderOfficeUnderRealConditions(4.0, 40, 1.0);
+  return r;
+}
+
 // `r` tracked with options `o` (their method), from its first true pose
 // (`start`) or without a start.
 std::vector<PoseRow> Track(const test::RenderedCase& r, const LocalizerOptions& o, bool start,
@@ -374,7 +380,7 @@ TEST_CASE("office, shutter open the whole frame, compressed, no start: a held po
   // frame 3 not confirmed (27 cm beyond reach, 4.4 combined deviations);
   // the searches, started again by the lead, find the true pose on frame 4:
   // 23 frames tracked, at most 1.86 cm off (frame 7, in a fast turn).
-  const test::RenderedCase r = RenderOfficeUnderRealConditions(4.0, 40, 1.0);
+  const test::RenderedCase& r = OfficeCompressedShutterOpen();
   LocalizerOptions o;
   o.method = TrackingMethod::kVertex;
   Localizer loc(r.c.calib, r.c.map, r.table, o);
@@ -395,7 +401,7 @@ TEST_CASE("office, shutter open the whole frame, compressed, no start: search hy
   // nearer, and tracked again from there finds enough. Measured: 26 of
   // 30 frames tracked, at most 1.98 cm off, every one inside its 3-sigma
   // ellipse; without: 6 of 30.
-  const test::RenderedCase r = RenderOfficeUnderRealConditions(4.0, 40, 1.0);
+  const test::RenderedCase& r = OfficeCompressedShutterOpen();
   LocalizerOptions never;
   never.relocalize_retrack_passes = 0;
   const auto [rows, never_rows, a, without, held, never_held] = JunctionAgainst(r, never, false);
