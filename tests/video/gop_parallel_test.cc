@@ -79,6 +79,50 @@ TEST_CASE("groups of pictures decoded in parallel give the frames one decoder gi
   CHECK_FALSE(parallel);
 }
 
+TEST_CASE("the last groups of pictures go to one decoder with all the threads where two would share them unevenly",
+          "[gop_parallel]") {
+  // Segments of equal cost, an even count: the two decoders share them.
+  CHECK(detail::FirstTailSegment({1, 1, 1, 1}) == -1);
+  CHECK(detail::FirstTailSegment(std::vector<double>(12, 1.0)) == -1);
+  CHECK(detail::FirstTailSegment({1, 1}) == -1);
+  // An odd count: the last one alone (1 + 1 / 1.6 instead of 2).
+  CHECK(detail::FirstTailSegment({1, 1, 1}) == 2);
+  CHECK(detail::FirstTailSegment({1, 1, 1, 1, 1}) == 4);
+  // Five groups and a short sixth (x264's 250-frame groups, 1320 frames):
+  // the last two (2 + 1.28 / 1.6 instead of 3).
+  CHECK(detail::FirstTailSegment({1, 1, 1, 1, 1, 0.28}) == 4);
+  // A short last one on an even count, not short enough to pay.
+  CHECK(detail::FirstTailSegment({1, 1, 1, 1, 1, 1, 1, 0.5}) == -1);
+  // One decoder's share far the longer: all of it on all the threads.
+  CHECK(detail::FirstTailSegment({1, 0.1}) == 0);
+  CHECK(detail::FirstTailSegment({}) == -1);
+  CHECK(detail::FirstTailSegment({1}) == 0);
+
+  if (!LumaDecoderAvailable()) return test::Skip("built without FFmpeg");
+  if (!test::HaveFfmpegTool()) return test::Skip("no ffmpeg command-line tool");
+  const std::string dir = test::ScratchDir("video_gop_tail");
+  LumaDecoderOptions options;
+  options.num_threads = 2;
+  options.gop_parallel_bytes = size_t(64) << 20;
+  // 20-frame segments (IDR pictures every 10 frames, segments of at least
+  // 16): three of them have a tail, four have none; the frames are those
+  // of one decoder either way.
+  for (const int frames : {60, 80}) {
+    const std::string path = dir + "/g10_" + std::to_string(frames) + ".mp4";
+    test::MakeVideo(path, frames, "-c:v libx264 -pix_fmt yuv420p -g 10 -bf 0");
+    LumaDecoder decoder;
+    std::string why;
+    REQUIRE(decoder.Open(path, &why, options));
+    INFO(path);
+    CHECK(decoder.gop_parallel());
+    CHECK(decoder.gop_tail() == (frames == 60));
+    std::vector<int> seen;
+    cv::Mat grey;
+    while (decoder.Read(&grey)) seen.push_back(test::FrameIndex(grey));
+    CHECK(seen == test::Iota(frames));
+  }
+}
+
 TEST_CASE("frames held by the caller stay intact while groups of pictures decode in parallel",
           "[gop_parallel]") {
   if (!LumaDecoderAvailable()) return test::Skip("built without FFmpeg");

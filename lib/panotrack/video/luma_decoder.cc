@@ -27,6 +27,7 @@ extern "C" {
 #include <condition_variable>
 #include <cstring>
 #include <deque>
+#include <limits>
 #include <mutex>
 #include <new>
 #include <thread>
@@ -42,6 +43,41 @@ HardwareDecoding ParseHardwareDecoding(const std::string& name) {
   if (name == "auto") return HardwareDecoding::kAuto;
   throw Error("hardware decoding: expected none, cuda or auto, got '" + name + "'");
 }
+
+namespace detail {
+
+long FirstTailSegment(const std::vector<double>& segment_costs) {
+  // Twice the threads decode a stream about 1.6 times as fast (FFmpeg's
+  // frame threads, 1 -> 2 on two cores: 1.6 - 1.8).
+  constexpr double kTailSpeedup = 1.6;
+  // The frame threads' hand-overs cost CPU: a tail only for a clear gain.
+  constexpr double kWorthwhile = 0.95;
+  const long n = static_cast<long>(segment_costs.size());
+  // The two decoders' segments end with the longer share; the tail's after them.
+  auto makespan = [&](long tail_from) {
+    double share[kGopDecoderCount] = {}, tail = 0.0;
+    for (long s = 0; s < n; ++s) {
+      if (s < tail_from)
+        share[s % kGopDecoderCount] += segment_costs[static_cast<size_t>(s)];
+      else
+        tail += segment_costs[static_cast<size_t>(s)];
+    }
+    return *std::max_element(share, share + kGopDecoderCount) + tail / kTailSpeedup;
+  };
+  const double without = makespan(n);
+  long best = -1;
+  double best_span = kWorthwhile * without;
+  for (long from = n - 1; from >= 0; --from) {
+    const double span = makespan(from);
+    if (span < best_span) {
+      best = from;
+      best_span = span;
+    }
+  }
+  return best;
+}
+
+}  // namespace detail
 
 #if PANO_WITH_FFMPEG
 
@@ -138,8 +174,10 @@ struct RedecodeRequest {};
 constexpr long kMinSegmentPackets = 16;
 // The decoded frames of the segment being read wait up to this many bytes.
 constexpr size_t kReadAheadBytes = size_t(16) << 20;
-// Decoders of GOP mode, each on a segment of its own.
-constexpr int kGopDecoders = 2;
+// Decoders of GOP mode, each on a segment of its own, and the tail's,
+// which decodes the last segments on all their threads.
+constexpr int kGopDecoders = detail::kGopDecoderCount;
+constexpr size_t kTailDecoder = kGopDecoders;
 #if PANO_WITH_CUDA
 // Page-locked buffers NVDEC's frames keep: a FrameSource's queue holds 8 or more.
 constexpr size_t kNvdecBuffers = 12;
@@ -207,6 +245,31 @@ long LongestGop(AVStream* st) {
   (void)st;
   return 0;
 #endif
+}
+
+// The bytes of each segment DemuxFor will cut the stream into, from a
+// container index that lists every frame (its keyframes taken for IDR
+// pictures); empty when the index does not.
+std::vector<double> PredictedSegmentBytes(AVStream* st) {
+  std::vector<double> bytes;
+#if LIBAVFORMAT_VERSION_INT >= AV_VERSION_INT(58, 78, 100)
+  const int n = avformat_index_get_entries_count(st);
+  if (n < 2 || st->nb_frames != n) return bytes;
+  long packets = 0;
+  for (int i = 0; i < n; ++i) {
+    const AVIndexEntry* e = avformat_index_get_entry(st, i);
+    if (!e) return {};
+    if (bytes.empty() || ((e->flags & AVINDEX_KEYFRAME) && packets >= kMinSegmentPackets)) {
+      bytes.push_back(0.0);
+      packets = 0;
+    }
+    bytes.back() += e->size;
+    ++packets;
+  }
+#else
+  (void)st;
+#endif
+  return bytes;
 }
 
 // Copies the decoded frame's luma plane into *copy (rows packed), which
@@ -319,8 +382,12 @@ struct LumaDecoder::Impl {
   bool inband_parameter_sets = false;  // seen in a packet so far
   size_t segment_bytes = 0;            // the decoded frames a segment may hold
   std::unique_ptr<BufferPool> luma_buffers;  // for the frames' luma copies
-  std::vector<AVCodecContext*> gop_codecs;  // [0] is `codec`
+  std::vector<AVCodecContext*> gop_codecs;  // [0] is `codec`; [kTailDecoder] the tail's, where it has one
   std::vector<std::thread> gop_threads;
+  // The first segment the tail decoder takes (detail::FirstTailSegment);
+  // the others take the segments before it.
+  long tail_from = std::numeric_limits<long>::max();
+  size_t DecoderOf(long s) const { return s >= tail_from ? kTailDecoder : static_cast<size_t>(s % kGopDecoders); }
   // NVDEC: the CUDA device FFmpeg decodes on, and the copies of its luma
   // planes into page-locked buffers (luma_buffers).
   AVBufferRef* cuda_device = nullptr;
@@ -335,8 +402,8 @@ struct LumaDecoder::Impl {
   // thread it concerns (a shared one woke every waiter for every frame).
   std::mutex gop_mu;
   std::condition_variable read_cv;                   // Read(): a frame or a segment's end
-  std::condition_variable decoder_cv[kGopDecoders];  // a decoder: room for frames, its turn
-  bool decoder_wants_room[kGopDecoders] = {};        // waiting for Read() to take frames
+  std::condition_variable decoder_cv[kGopDecoders + 1];  // a decoder: room for frames, its turn
+  bool decoder_wants_room[kGopDecoders + 1] = {};        // waiting for Read() to take frames
   std::deque<Segment> segments;  // from the one Read() takes frames from
   long first_segment = 0;        // its index
   bool demux_ended = false, gop_stop = false;
@@ -734,7 +801,7 @@ struct LumaDecoder::Impl {
         // The next segment holds at most segment_bytes of frames (Open chose
         // GOP mode because a group of pictures fits); the one Read() takes
         // frames from runs ahead of it by no more than a single decoder would.
-        const size_t worker = static_cast<size_t>(s % kGopDecoders);
+        const size_t worker = DecoderOf(s);
         decoder_wants_room[worker] = true;
         decoder_cv[worker].wait(lock, [&] {
           const size_t limit = s == first_segment ? std::min(segment_bytes, kReadAheadBytes) : segment_bytes;
@@ -753,13 +820,15 @@ struct LumaDecoder::Impl {
   }
 
   // GOP mode: decoder `worker`'s thread, decoding segments worker, worker +
-  // n, ... each once Read() has reached the segment before it.
+  // n, ... before tail_from (the tail decoder: tail_from, tail_from + 1, ...),
+  // each once Read() has reached the segment before it.
   void DecodeSegments(size_t worker) {
     AVCodecContext* c = gop_codecs[worker];
     const long n = kGopDecoders;
+    const bool tail = worker == kTailDecoder;
     AVFrame* out = av_frame_alloc();
     std::unique_lock<std::mutex> lock(gop_mu);
-    for (long s = static_cast<long>(worker);; s += n) {
+    for (long s = tail ? tail_from : static_cast<long>(worker); tail || s < tail_from; s += tail ? 1 : n) {
       decoder_cv[worker].wait(lock, [&] { return gop_stop || s < first_segment + n; });
       if (gop_stop) break;
       std::string error;
@@ -813,7 +882,7 @@ struct LumaDecoder::Impl {
         DecodedFrame next = std::move(seg.frames.front());
         seg.frames.pop_front();
         seg.frame_bytes -= next.luma.total();
-        const size_t worker = static_cast<size_t>(first_segment % kGopDecoders);
+        const size_t worker = DecoderOf(first_segment);
         if (decoder_wants_room[worker]) decoder_cv[worker].notify_one();
         lock.unlock();
         if (redecodable && next.after_damage) throw RedecodeRequest();
@@ -913,13 +982,16 @@ struct LumaDecoder::Impl {
            longest_gop * luma_bytes <= static_cast<double>(gop_parallel_bytes);
   }
 
-  // The decoders (kGopDecoders of them `in_segments`), opened with their thread
-  // counts (NVDEC: one; frame threads measured no faster, and each holds
-  // some of the video engine's decode surfaces).
+  // The decoders (kGopDecoders of them `in_segments`, and the tail's where
+  // tail_from says), opened with their thread counts (NVDEC: one; frame
+  // threads measured no faster, and each holds some of the video engine's
+  // decode surfaces; the tail's: all of them).
   bool OpenDecoders(const AVCodec* decoder, bool in_segments, int threads, int num_threads, std::string* reason) {
     AVStream* st = format->streams[stream];
     gop_codecs.push_back(codec);
-    while (in_segments && static_cast<int>(gop_codecs.size()) < kGopDecoders) {
+    const bool with_tail = tail_from != std::numeric_limits<long>::max();
+    const size_t wanted = !in_segments ? 1 : with_tail ? kGopDecoders + 1 : kGopDecoders;
+    while (gop_codecs.size() < wanted) {
       AVCodecContext* c = avcodec_alloc_context3(decoder);
       if (!c) {
         *reason = "cannot set up the decoder";
@@ -932,9 +1004,12 @@ struct LumaDecoder::Impl {
         return false;
       }
     }
-    for (AVCodecContext* c : gop_codecs) {
-      c->thread_count =
-          cuda_device ? 1 : in_segments ? std::max(1, threads / kGopDecoders) : num_threads > 0 ? threads : 0;
+    for (size_t i = 0; i < gop_codecs.size(); ++i) {
+      AVCodecContext* c = gop_codecs[i];
+      c->thread_count = cuda_device                          ? 1
+                        : in_segments && i != kTailDecoder ? std::max(1, threads / kGopDecoders)
+                        : num_threads > 0 || in_segments   ? threads
+                                                           : 0;
       if (avcodec_open2(c, decoder, nullptr) < 0) {
         *reason = "cannot open the decoder";
         return false;
@@ -1005,6 +1080,10 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, const LumaD
       options.num_threads > 0 ? options.num_threads : static_cast<int>(std::thread::hardware_concurrency());
   const int threads = std::min(kMaxDecoderThreads, asked);
   const bool gop = d.GopParallel(path, options, threads);
+  if (gop) {
+    const long tail = detail::FirstTailSegment(PredictedSegmentBytes(d.format->streams[d.stream]));
+    if (tail >= 0) d.tail_from = tail;
+  }
   if (!d.OpenDecoders(decoder, gop, threads, options.num_threads, reason)) return false;
   if (!d.CheckFormatAndAllocate(reason)) return false;
   bool frame_threads = false;
@@ -1091,6 +1170,11 @@ void LumaDecoder::Abort() {
 
 bool LumaDecoder::gop_parallel() const { return gop_; }
 
+bool LumaDecoder::gop_tail() const {
+  std::lock_guard<std::mutex> lock(impl_mu_);
+  return gop_ && impl_ && impl_->tail_from != std::numeric_limits<long>::max();
+}
+
 // Never decoded again (RedecodeOnOneThread): NVDEC's decoder stays.
 bool LumaDecoder::hardware() const {
   std::lock_guard<std::mutex> lock(impl_mu_);
@@ -1117,6 +1201,7 @@ bool LumaDecoder::Open(const std::string&, std::string* reason, const LumaDecode
 bool LumaDecoder::Read(cv::Mat*, double*) { return false; }
 void LumaDecoder::Abort() {}
 bool LumaDecoder::gop_parallel() const { return false; }
+bool LumaDecoder::gop_tail() const { return false; }
 int LumaDecoder::frames_waiting() { return 0; }
 bool LumaDecoder::hardware() const { return false; }
 

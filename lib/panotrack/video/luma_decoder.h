@@ -34,6 +34,7 @@
 #include <mutex>
 #include <opencv2/core.hpp>
 #include <string>
+#include <vector>
 
 namespace pano {
 
@@ -57,8 +58,10 @@ struct LumaDecoderOptions {
   // index shows groups of pictures whose luma planes fit in that many bytes
   // (H.264 or HEVC as MP4 or MOV hold them) is decoded on the CPU two groups
   // at a time, each by its own decoder with half the threads
-  // (gop_parallel()); the frames come out the same, in order, as packed
-  // copies of their luma planes that wait for Read().
+  // (gop_parallel(); the last groups, where two decoders would share them
+  // unevenly, by one with all the threads: gop_tail()); the frames come out
+  // the same, in order, as packed copies of their luma planes that wait for
+  // Read().
   size_t gop_parallel_bytes = 0;
   // NVDEC decodes into the GPU's memory; the luma plane alone comes to the
   // host, into page-locked buffers: the same bytes as the CPU's decoder
@@ -101,6 +104,10 @@ class LumaDecoder {
   bool gop_parallel() const;
   // With gop_parallel(): the frames decoded, in order, waiting for Read().
   int frames_waiting();
+  // With gop_parallel(): the last groups of pictures go to a third decoder
+  // with all the threads, one after another, where the two would share
+  // them unevenly (detail::FirstTailSegment, from the container's index).
+  bool gop_tail() const;
   // Decoding on NVDEC (HardwareDecoding::kCuda, or kAuto where it could).
   bool hardware() const;
 
@@ -127,5 +134,17 @@ bool LumaDecoderAvailable();
 
 // How errors name an input: "standard input" for "-", else the path itself.
 std::string InputName(const std::string& path);
+
+namespace detail {
+
+// GOP mode's decoders, each on a segment of its own.
+constexpr int kGopDecoderCount = 2;
+// Where the segments of a stream (their decoding costs, in order) split
+// unevenly between GOP mode's decoders (an odd count, a short last one),
+// the last of them are better decoded one after another by a decoder with
+// all the threads: the first such segment, or -1 where none is.
+long FirstTailSegment(const std::vector<double>& segment_costs);
+
+}  // namespace detail
 
 }  // namespace pano
