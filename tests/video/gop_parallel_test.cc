@@ -9,6 +9,7 @@
 #include "test_paths.h"
 #include "test_skip.h"
 #include "test_videos.h"
+#include "panotrack/core/error.h"
 #include "panotrack/video/frame_source.h"
 #include "panotrack/video/luma_decoder.h"
 
@@ -178,6 +179,55 @@ TEST_CASE("groups of pictures decoded in parallel fail where one decoder fails",
     CHECK(p.error.find('\n') == std::string::npos);
     CHECK(p.indices == s.indices);
     CHECK(p.error == s.error);
+  }
+}
+
+// Every frame and the error, read straight from a LumaDecoder.
+test::ReadOutcome ReadLuma(const std::string& path, const LumaDecoderOptions& options) {
+  test::ReadOutcome out;
+  try {
+    LumaDecoder decoder;
+    std::string why;
+    if (!decoder.Open(path, &why, options)) throw Error(path + ": " + why);
+    cv::Mat grey;
+    while (decoder.Read(&grey)) out.indices.push_back(test::FrameIndex(grey));
+  } catch (const Error& e) {
+    out.error = e.what();
+  }
+  return out;
+}
+
+TEST_CASE("a file damaged where a group of pictures starts fails the same way on every run, whatever the threads",
+          "[gop_parallel]") {
+  if (!LumaDecoderAvailable()) return test::Skip("built without FFmpeg");
+  if (!test::HaveFfmpegTool()) return test::Skip("no ffmpeg command-line tool");
+  const std::string dir = test::ScratchDir("video_gop_damage");
+  test::MakeVideo(dir + "/a.mp4", kFrames, "-c:v libx264 -pix_fmt yuv420p -g 10 -movflags +faststart");
+  // Seven tenths in: the IDR picture that starts the third segment (frame
+  // 40), where the tail decoder's frame threads take over from the two.
+  const std::string path = dir + "/damaged.mp4";
+  test::ScribbleFile(dir + "/a.mp4", path, 0.7, 300);
+  LumaDecoderOptions reference;
+  reference.num_threads = 2;
+  reference.gop_parallel_bytes = size_t(64) << 20;
+  reference.gop_tail = false;
+  const test::ReadOutcome expected = ReadLuma(path, reference);
+  INFO(expected.error);
+  REQUIRE_FALSE(expected.error.empty());
+  REQUIRE(expected.indices == test::Iota(static_cast<int>(expected.indices.size())));
+  // With the tail (two threads) and with frame threads in every decoder
+  // (four): the frame threads flag damage only now and then, so each run
+  // decodes again without them once damage shows, from the same frame on.
+  for (const int threads : {2, 4}) {
+    LumaDecoderOptions options = reference;
+    options.num_threads = threads;
+    options.gop_tail = true;
+    for (int run = 0; run < 8; ++run) {
+      const test::ReadOutcome got = ReadLuma(path, options);
+      INFO(threads << " threads, run " << run << ": " << got.error);
+      CHECK(got.indices == expected.indices);
+      CHECK(got.error == expected.error);
+    }
   }
 }
 

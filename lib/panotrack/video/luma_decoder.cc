@@ -20,6 +20,7 @@ extern "C" {
 #endif
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cerrno>
 #include <cmath>
@@ -30,6 +31,7 @@ extern "C" {
 #include <limits>
 #include <mutex>
 #include <new>
+#include <numeric>
 #include <thread>
 #include <vector>
 
@@ -53,20 +55,21 @@ long FirstTailSegment(const std::vector<double>& segment_costs) {
   // The frame threads' hand-overs cost CPU: a tail only for a clear gain.
   constexpr double kWorthwhile = 0.95;
   const long n = static_cast<long>(segment_costs.size());
-  // The two decoders' segments end with the longer share; the tail's after them.
+  // The two decoders' shares of the segments before each one, and the rest.
+  std::vector<std::array<double, kGopDecoderCount>> shares(static_cast<size_t>(n) + 1);
+  for (long s = 0; s < n; ++s) {
+    shares[static_cast<size_t>(s) + 1] = shares[static_cast<size_t>(s)];
+    shares[static_cast<size_t>(s) + 1][static_cast<size_t>(s % kGopDecoderCount)] += segment_costs[static_cast<size_t>(s)];
+  }
+  const double total = std::accumulate(segment_costs.begin(), segment_costs.end(), 0.0);
+  // The decoders' segments end with the longer share; the tail's after them.
   auto makespan = [&](long tail_from) {
-    double share[kGopDecoderCount] = {}, tail = 0.0;
-    for (long s = 0; s < n; ++s) {
-      if (s < tail_from)
-        share[s % kGopDecoderCount] += segment_costs[static_cast<size_t>(s)];
-      else
-        tail += segment_costs[static_cast<size_t>(s)];
-    }
-    return *std::max_element(share, share + kGopDecoderCount) + tail / kTailSpeedup;
+    const std::array<double, kGopDecoderCount>& share = shares[static_cast<size_t>(tail_from)];
+    const double before = std::accumulate(share.begin(), share.end(), 0.0);
+    return *std::max_element(share.begin(), share.end()) + (total - before) / kTailSpeedup;
   };
-  const double without = makespan(n);
   long best = -1;
-  double best_span = kWorthwhile * without;
+  double best_span = kWorthwhile * makespan(n);
   for (long from = n - 1; from >= 0; --from) {
     const double span = makespan(from);
     if (span < best_span) {
@@ -164,9 +167,9 @@ bool WrapLuma(AVFrame* decoded, cv::Mat* grey) {
   return true;
 }
 
-// Thrown inside the decoder where a file decoded on several threads
-// reported damage before a frame or an error is handed out: Read() decodes
-// it again on one thread (RedecodeOnOneThread).
+// Thrown inside the decoder where a file decoded on frame threads reported
+// damage before a frame or an error is handed out: Read() decodes it again
+// without them (RedecodeWithoutFrameThreads).
 struct RedecodeRequest {};
 
 // A segment decoded on its own starts at an IDR picture and holds at least
@@ -1010,10 +1013,14 @@ struct LumaDecoder::Impl {
                         : in_segments && i != kTailDecoder ? std::max(1, threads / kGopDecoders)
                         : num_threads > 0 || in_segments   ? threads
                                                            : 0;
-      if (avcodec_open2(c, decoder, nullptr) < 0) {
+      if (avcodec_open2(c, decoder, nullptr) >= 0) continue;
+      if (i != kTailDecoder) {
         *reason = "cannot open the decoder";
         return false;
       }
+      avcodec_free_context(&gop_codecs.back());  // the two decoders take every segment
+      gop_codecs.pop_back();
+      tail_from = std::numeric_limits<long>::max();
     }
     return true;
   }
@@ -1080,7 +1087,7 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, const LumaD
       options.num_threads > 0 ? options.num_threads : static_cast<int>(std::thread::hardware_concurrency());
   const int threads = std::min(kMaxDecoderThreads, asked);
   const bool gop = d.GopParallel(path, options, threads);
-  if (gop) {
+  if (gop && options.gop_tail) {
     const long tail = detail::FirstTailSegment(PredictedSegmentBytes(d.format->streams[d.stream]));
     if (tail >= 0) d.tail_from = tail;
   }
@@ -1099,7 +1106,7 @@ bool LumaDecoder::Read(cv::Mat* grey, double* time_s) {
   try {
     return ReadDecoded(grey, time_s);
   } catch (const RedecodeRequest&) {
-    RedecodeOnOneThread();
+    RedecodeWithoutFrameThreads();
     return ReadDecoded(grey, time_s);
   }
 }
@@ -1107,29 +1114,39 @@ bool LumaDecoder::Read(cv::Mat* grey, double* time_s) {
 // FFmpeg's frame threads decode the same pixels as one thread does, but
 // copy a frame's error flags before its thread has set them, now and then:
 // the frames after the damage would come out as they happen to be flagged.
-// Decoded again on one thread from the start, the frames handed out come
-// again (and are dropped), and the rest, and the error, are one thread's.
-void LumaDecoder::RedecodeOnOneThread() {
+// Decoded again from the start without frame threads (GOP mode: a decoder
+// of one thread per group of pictures and no tail, as with two threads;
+// otherwise one decoder of one thread), the frames handed out come again
+// (and are dropped), and the rest, and the error, are those decoders'.
+void LumaDecoder::RedecodeWithoutFrameThreads() {
   const long handed_out = impl_->frames_out;
-  LumaDecoderOptions one = options_;
-  one.num_threads = 1;
-  one.gop_parallel_bytes = 0;
-  one.hardware = HardwareDecoding::kNone;  // NVDEC's decoders are never decoded again
-  LumaDecoder serial;
+  LumaDecoderOptions again = options_;
+  again.hardware = HardwareDecoding::kNone;  // NVDEC's decoders are never decoded again
+  again.gop_tail = false;
+  again.num_threads = gop_ ? detail::kGopDecoderCount : 1;
+  if (!gop_) again.gop_parallel_bytes = 0;
+  auto serial = std::make_unique<LumaDecoder>();
   std::string why;
-  if (!serial.Open(path_, &why, one))
+  bool opened = serial->Open(path_, &why, again);
+  if (opened && serial->impl_->redecodable) {  // not GOP mode after all: one thread
+    again.num_threads = 1;
+    again.gop_parallel_bytes = 0;
+    serial = std::make_unique<LumaDecoder>();
+    opened = serial->Open(path_, &why, again);
+  }
+  if (!opened)
     throw Error(impl_->name + ": decode error at frame " + std::to_string(handed_out) +
-                ": damaged, and cannot be opened again to decode it on one thread (" + why + ")");
+                ": damaged, and cannot be opened again to decode it without frame threads (" + why + ")");
   {
     std::lock_guard<std::mutex> lock(impl_mu_);
-    std::swap(impl_, serial.impl_);
+    std::swap(impl_, serial->impl_);
     impl_->aborted = aborted_;
   }
-  serial.impl_.reset();  // the threads that decoded until now stop before one thread starts again
+  serial.reset();  // the threads that decoded until now stop before the others start again
   cv::Mat frame;
   double time_s;
   for (long i = 0; i < handed_out; ++i)
-    if (!ReadDecoded(&frame, &time_s)) return;  // aborted (one thread decodes no fewer frames)
+    if (!ReadDecoded(&frame, &time_s)) return;  // aborted (no fewer frames come without frame threads)
 }
 
 bool LumaDecoder::ReadDecoded(cv::Mat* grey, double* time_s) {
@@ -1175,7 +1192,7 @@ bool LumaDecoder::gop_tail() const {
   return gop_ && impl_ && impl_->tail_from != std::numeric_limits<long>::max();
 }
 
-// Never decoded again (RedecodeOnOneThread): NVDEC's decoder stays.
+// Never decoded again (RedecodeWithoutFrameThreads): NVDEC's decoder stays.
 bool LumaDecoder::hardware() const {
   std::lock_guard<std::mutex> lock(impl_mu_);
   return impl_ && impl_->cuda_device && !impl_->cuda_declined;

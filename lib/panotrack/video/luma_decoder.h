@@ -22,12 +22,16 @@
 // (no device or driver: FFmpeg's words; "built without CUDA").
 //
 // A damaged file gives the same frames and the same error every time,
-// whatever the threads: those of one decoding thread. FFmpeg's frame
-// threads decode the same pixels, but flag a damaged frame only now and
-// then; so once a decoder reports damage (logging.h: CountDecoderDamage), a
-// file decoded on several threads is decoded again on one from its start,
-// and goes on from the frames handed out. Streams and standard input, which
-// cannot be read twice, keep their threads.
+// whatever the threads: those of one decoding thread, or in GOP mode (see
+// LumaDecoderOptions::gop_parallel_bytes) of one decoding thread per group
+// of pictures (where the damage is in the IDR picture that starts a group,
+// every frame of the group before it comes out, of which one decoder alone
+// may keep the last back). FFmpeg's frame threads decode the same pixels,
+// but flag a damaged frame only now and then; so once a decoder reports
+// damage (logging.h: CountDecoderDamage), a file decoded on frame threads
+// is decoded again without them from its start, and goes on from the frames
+// handed out. Streams and standard input, which cannot be read twice, keep
+// their threads.
 #pragma once
 
 #include <memory>
@@ -70,6 +74,9 @@ struct LumaDecoderOptions {
   // kAuto are decoded on one CPU thread. NVDEC conceals no errors, so a
   // damaged frame is not told apart as the CPU's decoder tells it.
   HardwareDecoding hardware = HardwareDecoding::kNone;
+  // With gop_parallel(): the last groups of pictures may go to a decoder
+  // with all the threads (gop_tail()); false: the two decoders take them all.
+  bool gop_tail = true;
 };
 
 class LumaDecoder {
@@ -114,9 +121,9 @@ class LumaDecoder {
  private:
   struct Impl;
   bool ReadDecoded(cv::Mat* grey, double* time_s);
-  void RedecodeOnOneThread();
+  void RedecodeWithoutFrameThreads();
 
-  // Replaced by RedecodeOnOneThread() on the reading thread while Abort()
+  // Replaced by RedecodeWithoutFrameThreads() on the reading thread while Abort()
   // or frames_waiting() may come from another: impl_mu_ guards the swap.
   std::unique_ptr<Impl> impl_;
   mutable std::mutex impl_mu_;
