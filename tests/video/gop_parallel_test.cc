@@ -122,6 +122,14 @@ TEST_CASE("the last groups of pictures go to one decoder with all the threads wh
     while (decoder.Read(&grey)) seen.push_back(test::FrameIndex(grey));
     CHECK(seen == test::Iota(frames));
   }
+  // Four threads, two for each decoder: no tail (its plan's speed-up is
+  // that of one thread against two).
+  options.num_threads = 4;
+  LumaDecoder four;
+  std::string why;
+  REQUIRE(four.Open(dir + "/g10_60.mp4", &why, options));
+  CHECK(four.gop_parallel());
+  CHECK_FALSE(four.gop_tail());
 }
 
 TEST_CASE("frames held by the caller stay intact while groups of pictures decode in parallel",
@@ -215,7 +223,7 @@ TEST_CASE("a file damaged where a group of pictures starts fails the same way on
   INFO(expected.error);
   REQUIRE_FALSE(expected.error.empty());
   REQUIRE(expected.indices == test::Iota(static_cast<int>(expected.indices.size())));
-  // With the tail (two threads) and with frame threads in every decoder
+  // With the tail (two threads) and with frame threads in both decoders
   // (four): the frame threads flag damage only now and then, so each run
   // decodes again without them once damage shows, from the same frame on.
   for (const int threads : {2, 4}) {

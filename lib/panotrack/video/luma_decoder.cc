@@ -1087,7 +1087,10 @@ bool LumaDecoder::Open(const std::string& path, std::string* reason, const LumaD
       options.num_threads > 0 ? options.num_threads : static_cast<int>(std::thread::hardware_concurrency());
   const int threads = std::min(kMaxDecoderThreads, asked);
   const bool gop = d.GopParallel(path, options, threads);
-  if (gop && options.gop_tail) {
+  // A tail where each of the two decoders has one thread (two or three in
+  // all): the speed-up its plan counts on is measured there; more frame
+  // threads gain less from each doubling.
+  if (gop && options.gop_tail && threads / kGopDecoders == 1) {
     const long tail = detail::FirstTailSegment(PredictedSegmentBytes(d.format->streams[d.stream]));
     if (tail >= 0) d.tail_from = tail;
   }

@@ -74,8 +74,9 @@ struct LumaDecoderOptions {
   // kAuto are decoded on one CPU thread. NVDEC conceals no errors, so a
   // damaged frame is not told apart as the CPU's decoder tells it.
   HardwareDecoding hardware = HardwareDecoding::kNone;
-  // With gop_parallel(): the last groups of pictures may go to a decoder
-  // with all the threads (gop_tail()); false: the two decoders take them all.
+  // With gop_parallel() and two or three threads (one for each of the two
+  // decoders): the last groups of pictures may go to a decoder with all the
+  // threads (gop_tail()); false: the two decoders take them all.
   bool gop_tail = true;
 };
 
