@@ -1834,6 +1834,22 @@ void Localizer::HoldForConfirmation(const Pose2& pose, int frame, bool jump) {
   reloc_.next_frame = reloc_.failures >= 3 ? BackedOffRelocalizeFrame(frame) : 0;
 }
 
+bool Localizer::VelocityStillKnown() const {
+  // Over a loss the velocity random-walks; once its spread nears the top
+  // speed, nothing of the motion before is left to keep (and a pose far off
+  // would be read as a fast motion there).
+  if (!motion_.initialized()) return false;
+  const Eigen::Matrix2d velocity = motion_.state().covariance.block<2, 2>(3, 3);
+  const double half_top = 0.5 * motion_options_.max_speed;
+  return velocity.selfadjointView<Eigen::Lower>().eigenvalues().maxCoeff() < half_top * half_top;
+}
+
+void Localizer::KeepMotion(MotionModel&& before, int updates, const FrameResult& fr, const TriangulationResult& tri) {
+  motion_ = std::move(before);
+  motion_.Update(MotionMeasurement(fr, tri));
+  track_.motion_updates = updates + 1;
+}
+
 void Localizer::FollowSparseLead(MotionModel&& lead_motion, int lead_updates, const FrameResult& fr,
                                  const TriangulationResult& tri) {
   const PoseMeasurement m = MotionMeasurement(fr, tri);
@@ -2314,10 +2330,14 @@ void Localizer::FinishFrame(const cv::Mat& grey, int frame, double time_s, std::
   if (fr.unconfirmed) {
     reloc_.held_frame = HeldFrame{grey.clone(), fr.row, tri.pose, ReportedCovariance(fr, Observations(fr), tri),
                                   reloc_.sparse_holds > 0};
+    const bool where_predicted = opt_.hold_keeps_motion && VelocityStillKnown() && ModelVouchesFor(fr, tri);
     MotionModel lead_motion = motion_;
     const int lead_updates = track_.motion_updates;
     HoldForConfirmation(tri.pose, frame, BeyondReach(tri.pose, time_s));
-    if (reloc_.sparse_holds > 0) FollowSparseLead(std::move(lead_motion), lead_updates, fr, tri);
+    if (where_predicted)
+      KeepMotion(std::move(lead_motion), lead_updates, fr, tri);
+    else if (reloc_.sparse_holds > 0)
+      FollowSparseLead(std::move(lead_motion), lead_updates, fr, tri);
   } else if (w->was_held && !accepted) {
     // A search's hypothesis that its next frame did not confirm is no
     // start (tracking from it lets a wrong pose be accepted once the survey

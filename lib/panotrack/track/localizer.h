@@ -136,6 +136,12 @@ struct LocalizerOptions {
   // its 99 % gate, on most of what the frame found), though it fits too few
   // of its landmarks to stand on its own before the next frame confirms it.
   bool resume_after_lost_frame = true;
+  // A search's pose held for the next frame to confirm, where the motion
+  // model (the track's before the loss) predicted it within its 99 % gate,
+  // keeps the model's velocity: the robot was not carried off, and the
+  // confirming frame is predicted (and its blur expected) from the motion
+  // rather than searched for from a standstill at any speed and turn.
+  bool hold_keeps_motion = true;
   bool compass = true;            // predict the heading with the visual compass
   double compass_max_rotation = 60.0 * M_PI / 180;  // per frame
   double compass_min_score = 0.5;
@@ -817,6 +823,11 @@ class Localizer {
   // tracking restarts from a relocalised pose that the next frame must
   // confirm (`jump`: one BeyondReach, which its own evidence must carry);
   void HoldForConfirmation(const Pose2& pose, int frame, bool jump);
+  // A held pose where the model predicted it (hold_keeps_motion) while the
+  // loss left the velocity known (its spread within half the top speed):
+  // the model from before the hold (`before`, `updates`) goes on with it.
+  bool VelocityStillKnown() const;
+  void KeepMotion(MotionModel&& before, int updates, const FrameResult& fr, const TriangulationResult& tri);
   // A held sparse lead's frames (SparseLead) feed a motion model from the
   // lead's pose on (`lead_motion`, `lead_updates`: the one before this
   // frame's hold): the frames that follow must agree with the motion they show.
