@@ -584,4 +584,3 @@ TEST_CASE("office, real conditions, frames dropped at a constant rate: the frame
 
 }  // namespace
 }  // namespace pano
-

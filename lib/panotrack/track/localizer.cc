@@ -1852,16 +1852,12 @@ void Localizer::KeepMotion(MotionModel&& before, int updates, const FrameResult&
 
 void Localizer::FollowSparseLead(MotionModel&& lead_motion, int lead_updates, const FrameResult& fr,
                                  const TriangulationResult& tri) {
-  const PoseMeasurement m = MotionMeasurement(fr, tri);
-  if (reloc_.sparse_holds == 1 || !lead_motion.initialized()) {
-    motion_.Reset(MotionClock(fr.row.time_s), tri.pose, m.covariance, motion_options_.max_speed,
-                  motion_options_.max_turn_rate);
-    track_.motion_updates = 1;
-  } else {
-    motion_ = std::move(lead_motion);
-    motion_.Update(m);
-    track_.motion_updates = lead_updates + 1;
-  }
+  // A lead's first frame starts the model; the frames after it go on with it.
+  if (reloc_.sparse_holds > 1 && lead_motion.initialized())
+    return KeepMotion(std::move(lead_motion), lead_updates, fr, tri);
+  motion_.Reset(MotionClock(fr.row.time_s), tri.pose, MotionMeasurement(fr, tri).covariance,
+                motion_options_.max_speed, motion_options_.max_turn_rate);
+  track_.motion_updates = 1;
 }
 
 void Localizer::UpdateBlurEstimate(const FrameResult& fr) {
