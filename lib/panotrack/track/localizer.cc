@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <iterator>
 #include <limits>
 #include <numeric>
 #include <optional>
@@ -120,6 +121,11 @@ constexpr int kStatementCheckMaxGap = 32;
 // the search for a first pose tries where it verified nothing under the one
 // assumed (LocalizerOptions::relocalize_survey_probe).
 constexpr double kSearchProbeFractions[] = {0.005, 0.01, 0.02};
+// The survey error one frame's residuals show scatters about the map's by
+// up to about twice it (measured: 4.2 cm on a map stated and measured to
+// 2 cm); a held pose's confirming frame may show this many times the error
+// the pose was found under (HeldSurveyBound).
+constexpr double kHeldSurveyScatter = 3.0;
 // A pose fits clearly better than another (FitsClearlyBetter) where the
 // other's RMS residual is this many times its own, both fitting at least
 // kFitComparedBearings. Two fits under the same noise differ so much in
@@ -1185,7 +1191,7 @@ double Localizer::ShownSurveySigma() const {
   return used > 1.5 * stated ? errors_.survey.estimated() : std::nan("");
 }
 
-bool Localizer::ProbeSurveyError(const Pose2& pred) {
+bool Localizer::ProbeSurveyError(const Pose2& pred, double widest) {
   // A ladder of survey errors: the levels under which the frame's bearings
   // agree (a map error makes them miss an exact map's narrow tolerance, or
   // its search windows, by a few of its sigmas). Most of what is found must
@@ -1198,7 +1204,8 @@ bool Localizer::ProbeSurveyError(const Pose2& pred) {
   std::vector<std::pair<double, size_t>> agreeing;  // level, inliers
   for (double fraction : {0.0025, 0.005, 0.01, 0.02, opt_.survey.max_fraction}) {
     const double level = fraction * errors_.typical_distance;
-    if (level <= 1.5 * current || (errors_.statement_verified && level > StatementBound())) continue;
+    if (level <= 1.5 * current || level > widest || (errors_.statement_verified && level > StatementBound()))
+      continue;
     reloc_.probe_sigma = level;
     // The walls of that error (corners behind them in view), but the
     // landmarks of the error assumed: a longer list under a wide tolerance
@@ -1281,15 +1288,26 @@ bool Localizer::PartialBeforeSurvey(const FrameResult& fr, const TriangulationRe
   return many_left_out && weak && inliers < opt_.max_landmarks;
 }
 
-bool Localizer::RetrackUnderShownSurvey(FrameResult* fr, TriangulationResult* tri) {
-  // What this frame would teach, learned once only, from the solution reported.
-  const double assumed = MeanSurveySigma();
+double Localizer::SurveyShownBy(const FrameResult& fr, const TriangulationResult& tri,
+                                const SurveyErrorEstimate& from) {
   const LearnedSurvey before{errors_.survey, errors_.bearing_sigma};
-  UpdateBearingNoise(Observations(*fr), *tri);
-  UpdateSurveyEstimate(*fr, *tri);
+  errors_.survey = from;
+  UpdateBearingNoise(Observations(fr), tri);
+  UpdateSurveyEstimate(fr, tri);
   const double shown = errors_.survey.Early();
-  const double level = errors_.statement_verified ? std::min(shown, StatementBound()) : shown;
   RestoreSurvey(before);
+  return shown;
+}
+
+double Localizer::HeldSurveyBound() const {
+  return std::max(kHeldSurveyScatter * LargestSurveySigma(), WidestSearchSurveySigma());
+}
+
+bool Localizer::RetrackUnderShownSurvey(FrameResult* fr, TriangulationResult* tri) {
+  // What this frame would teach, from the solution reported.
+  const double assumed = MeanSurveySigma();
+  const double shown = SurveyShownBy(*fr, *tri, errors_.survey);
+  const double level = errors_.statement_verified ? std::min(shown, StatementBound()) : shown;
   if (!(level > 1.5 * assumed)) return false;
   errors_.survey.Provisional(level);
   UpdateLandmarkBudget();
@@ -1643,6 +1661,10 @@ bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, F
   reloc_.failures = 0;
   AdoptSearchResult({std::move(found), t}, fr, tri);
   return true;
+}
+
+double Localizer::WidestSearchSurveySigma() const {
+  return kSearchProbeFractions[std::size(kSearchProbeFractions) - 1] * errors_.typical_distance;
 }
 
 bool Localizer::RelocalizeUnderProbe(const cv::Mat& grey, bool near_last, FrameResult* fr, TriangulationResult* tri) {
@@ -2198,11 +2220,13 @@ void Localizer::TrackFromPrediction(double time_s, const OdometryIncrement* odom
 // whose bearings agree on a pose (a consensus of many) but not within the
 // survey error assumed teaches it, though it is not reported; where the
 // survey probe finds a wider error, the frame is tracked again under it.
+// A frame tracked from a held pose is tried under no wider error than
+// HeldSurveyBound.
 void Localizer::LearnSurveyFromRejected(FrameWork* w) {
   FrameResult& fr = w->fr;
   TriangulationResult& tri = w->tri;
   if (SurveyEvidence(fr, tri)) UpdateSurveyEstimate(fr, tri);
-  if (!ProbeSurveyError(fr.predicted_pose)) return;
+  if (!ProbeSurveyError(fr.predicted_pose, w->held_survey_bound)) return;
   const Pose2 pred = fr.predicted_pose;
   fr = FrameToMeasure(fr.row, pred);
   TrackPredictions(pred, &fr, &tri);
@@ -2386,10 +2410,24 @@ const cv::Mat& Localizer::BeginFrame(const cv::Mat& frame_image, int frame, doub
 void Localizer::ConfirmHeldPose(const cv::Mat& grey, FrameWork* w) {
   w->was_held = reloc_.held;
   reloc_.held = false;
-  if (w->was_held) w->survey_before_hold = errors_.survey;
+  if (w->was_held) {
+    w->survey_before_hold = errors_.survey;
+    if (opt_.held_survey_bounded) w->held_survey_bound = HeldSurveyBound();
+  }
   if (!w->accepted && !w->sparse_continues && opt_.survey.check && !errors_.survey.confident() &&
       (track_.known_start || track_.ever_tracked))
     LearnSurveyFromRejected(w);
+  // The frame shows nearly the held frame's image: where the held pose was
+  // right, its bearings fit it about as well as under the error it was
+  // found under, and what they teach the survey estimate
+  // (RetrackUnderShownSurvey takes it up) stays within HeldSurveyBound,
+  // unless the estimate was beyond it before. A wrong pose's misfit, taken
+  // for the map's error, confirmed a twin a metre off on residuals of 6 cm
+  // where the map stated 0.5 cm.
+  if (w->accepted && w->was_held && opt_.held_survey_bounded && opt_.survey.check && !errors_.survey.confident() &&
+      w->survey_before_hold->Early() <= w->held_survey_bound &&
+      SurveyShownBy(w->fr, w->tri, errors_.survey) > w->held_survey_bound)
+    w->accepted = false;
   // A search's hypothesis confirmed before the residuals have shown how well
   // the map was measured: within a map error's tolerances (the probe's, or
   // a map stated exact but centimetres off) a wrong pose fits most of what

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -142,6 +143,12 @@ struct LocalizerOptions {
   // confirming frame is predicted (and its blur expected) from the motion
   // rather than searched for from a standstill at any speed and turn.
   bool hold_keeps_motion = true;
+  // A search's pose held for the next frame to confirm is confirmed only
+  // where that frame's bearings fit it under no wider survey error than a
+  // few times the one the pose was found under, or than a room-wide search
+  // verifies one under: the frame shows nearly the held frame's image,
+  // and a wrong pose's misfit would be taken for the map's error.
+  bool held_survey_bounded = true;
   bool compass = true;            // predict the heading with the visual compass
   double compass_max_rotation = 60.0 * M_PI / 180;  // per frame
   double compass_min_score = 0.5;
@@ -547,13 +554,23 @@ class Localizer {
   // A frame that fails before the survey error is known, tried again from
   // `pred` under a ladder of larger survey errors: the smallest under which
   // its bearings agree (a consensus of most found, consistent, agreeing
-  // with the motion) becomes the provisional survey sigma. True if one did.
-  bool ProbeSurveyError(const Pose2& pred);
+  // with the motion) becomes the provisional survey sigma; no level above
+  // `widest` is tried. True if one did.
+  bool ProbeSurveyError(const Pose2& pred, double widest = std::numeric_limits<double>::infinity());
   // An accepted frame before the survey error is known whose own residuals
   // show a clearly larger one than assumed (1.5x): that error becomes the
   // provisional sigma and the frame is tracked again under it around its
   // pose, the new solution taken where it is accepted. True if it was.
   bool RetrackUnderShownSurvey(FrameResult* fr, TriangulationResult* tri);
+  // The survey error the solution's residuals show (SurveyErrorEstimate::
+  // Early) added to the estimate `from`, learned once (without keeping
+  // what it taught).
+  double SurveyShownBy(const FrameResult& fr, const TriangulationResult& tri, const SurveyErrorEstimate& from);
+  // The widest survey error a frame tracked from a held pose confirms it
+  // under: three times the one the pose was found under (one frame's
+  // residuals scatter), or the widest a room-wide search verifies one
+  // under (WidestSearchSurveySigma).
+  double HeldSurveyBound() const;
   // A tracked frame while a provisional survey sigma well above the map's
   // statement holds (learned on earlier frames by a probe or a search):
   // tracked again under the statement alone (a fresh estimate). Where its
@@ -732,6 +749,8 @@ class Localizer {
   // the room-wide search again under the ladder of survey errors of
   // relocalize_survey_probe; true if one verified a pose;
   bool RelocalizeUnderProbe(const cv::Mat& grey, bool near_last, FrameResult* fr, TriangulationResult* tri);
+  // the widest survey error that ladder tries;
+  double WidestSearchSurveySigma() const;
   // the room-wide search after relocalize_after lost frames;
   // `at_once`: the view is not the predicted one (ViewUnlikePrediction).
   // `under_probe`: the pose was verified only under a survey error wider
@@ -873,6 +892,8 @@ class Localizer {
     // The survey estimate before this frame taught or probed it from a held
     // pose: a pose not confirmed leaves no trace in it.
     std::optional<SurveyErrorEstimate> survey_before_hold;
+    // The widest survey error a held pose is confirmed under (HeldSurveyBound).
+    double held_survey_bound = std::numeric_limits<double>::infinity();
     bool after_search = false;  // tracked from a search's pose, the map's error not yet shown
     bool gave_way = false;      // the tracked pose gave way to the room-wide search
     bool refuted = false;       // ... whose choice beside it refuted it (Refutes)
