@@ -1288,10 +1288,8 @@ bool Localizer::PartialBeforeSurvey(const FrameResult& fr, const TriangulationRe
   return many_left_out && weak && inliers < opt_.max_landmarks;
 }
 
-double Localizer::SurveyShownBy(const FrameResult& fr, const TriangulationResult& tri,
-                                const SurveyErrorEstimate& from) {
+double Localizer::SurveyShownBy(const FrameResult& fr, const TriangulationResult& tri) {
   const LearnedSurvey before{errors_.survey, errors_.bearing_sigma};
-  errors_.survey = from;
   UpdateBearingNoise(Observations(fr), tri);
   UpdateSurveyEstimate(fr, tri);
   const double shown = errors_.survey.Early();
@@ -1306,7 +1304,7 @@ double Localizer::HeldSurveyBound() const {
 bool Localizer::RetrackUnderShownSurvey(FrameResult* fr, TriangulationResult* tri) {
   // What this frame would teach, from the solution reported.
   const double assumed = MeanSurveySigma();
-  const double shown = SurveyShownBy(*fr, *tri, errors_.survey);
+  const double shown = SurveyShownBy(*fr, *tri);
   const double level = errors_.statement_verified ? std::min(shown, StatementBound()) : shown;
   if (!(level > 1.5 * assumed)) return false;
   errors_.survey.Provisional(level);
@@ -2426,7 +2424,7 @@ void Localizer::ConfirmHeldPose(const cv::Mat& grey, FrameWork* w) {
   // where the map stated 0.5 cm.
   if (w->accepted && w->was_held && opt_.held_survey_bounded && opt_.survey.check && !errors_.survey.confident() &&
       w->survey_before_hold->Early() <= w->held_survey_bound &&
-      SurveyShownBy(w->fr, w->tri, errors_.survey) > w->held_survey_bound)
+      SurveyShownBy(w->fr, w->tri) > w->held_survey_bound)
     w->accepted = false;
   // A search's hypothesis confirmed before the residuals have shown how well
   // the map was measured: within a map error's tolerances (the probe's, or

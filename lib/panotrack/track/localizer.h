@@ -562,10 +562,10 @@ class Localizer {
   // provisional sigma and the frame is tracked again under it around its
   // pose, the new solution taken where it is accepted. True if it was.
   bool RetrackUnderShownSurvey(FrameResult* fr, TriangulationResult* tri);
-  // The survey error the solution's residuals show (SurveyErrorEstimate::
-  // Early) added to the estimate `from`, learned once (without keeping
-  // what it taught).
-  double SurveyShownBy(const FrameResult& fr, const TriangulationResult& tri, const SurveyErrorEstimate& from);
+  // The survey error the estimate shows (SurveyErrorEstimate::Early) once
+  // the solution's residuals are added, learned once (without keeping what
+  // it taught).
+  double SurveyShownBy(const FrameResult& fr, const TriangulationResult& tri);
   // The widest survey error a frame tracked from a held pose confirms it
   // under: three times the one the pose was found under (one frame's
   // residuals scatter), or the widest a room-wide search verifies one
