@@ -256,6 +256,7 @@ void Localizer::Reset(const Pose2& robot_initial, bool hint) {
   track_.known_start = true;
   track_.start_is_hint = hint;
   track_.ever_tracked = false;
+  track_.start_time.reset();
   motion_ = MotionModel(motion_options_);
   track_.last_dt = 0.0;
   track_.dropped_s = 0.0;
@@ -1127,8 +1128,21 @@ bool Localizer::Consistent(FrameResult* fr, const TriangulationResult& tri) cons
          fr->integrity.within_alert_limit;
 }
 
+bool Localizer::AgreesWithStart(const FrameResult& fr, const TriangulationResult& tri) const {
+  if (!opt_.known_start_bounds_first_pose || track_.ever_tracked || !track_.known_start || track_.start_is_hint ||
+      !track_.start_time)
+    return true;
+  // The position only: a map's error turns the heading that fits best by
+  // more than the pose's heading deviation shows (0.8 degrees on a 2 cm map).
+  const double reach = motion_options_.max_speed * std::max(0.0, track_.time_s - *track_.start_time);
+  const Eigen::Matrix2d s = ReportedCovariance(fr, Observations(fr), tri).topLeftCorner<2, 2>() +
+                            reach * reach * Eigen::Matrix2d::Identity();
+  const Eigen::Vector2d r(tri.pose.x - track_.initial.x, tri.pose.y - track_.initial.y);
+  return r.dot(s.ldlt().solve(r)) <= kGateChiSquare2Dof99;
+}
+
 bool Localizer::AgreesWithMotion(FrameResult* fr, const TriangulationResult& tri) const {
-  if (!motion_.initialized()) return true;
+  if (!motion_.initialized()) return AgreesWithStart(*fr, tri);
   const PoseMeasurement m = MotionMeasurement(*fr, tri);
   fr->innovation = motion_.Innovation(m);
   fr->after_drop = false;
@@ -1176,7 +1190,7 @@ std::optional<MotionModel> Localizer::AfterDroppedFrame() const {
 bool Localizer::SurveyEvidence(const FrameResult& fr, const TriangulationResult& tri) const {
   if (!tri.ok || static_cast<int>(tri.inliers.size()) < opt_.relocalize_min_landmarks + 2 || !Acceptable(fr, tri))
     return false;
-  if (!motion_.initialized()) return true;
+  if (!motion_.initialized()) return AgreesWithStart(fr, tri);
   return motion_.Innovation(MotionMeasurement(fr, tri)) <= opt_.gate_chi2;
 }
 
@@ -2391,6 +2405,7 @@ const cv::Mat& Localizer::BeginFrame(const cv::Mat& frame_image, int frame, doub
   CheckFrame(frame_image, frame);
   track_.frame = frame;
   track_.time_s = time_s;
+  if (!track_.start_time) track_.start_time = time_s;
   reloc_.confirmed_holds.clear();  // the previous frame's, not taken
   if (view_) view_->Resample(frame_image, &view_frame_);
   const cv::Mat& grey = view_ ? view_frame_ : frame_image;

@@ -143,6 +143,12 @@ struct LocalizerOptions {
   // confirming frame is predicted (and its blur expected) from the motion
   // rather than searched for from a standstill at any speed and turn.
   bool hold_keeps_motion = true;
+  // A start given as the robot's pose (Localizer::Reset without `hint`) is
+  // where the first frames were taken: a first position that leaves it by
+  // more than the pose's reported covariance and the motion since allow
+  // (the 99 % gate of two degrees of freedom) is not taken, nor taught the
+  // survey estimate. A hint bounds nothing.
+  bool known_start_bounds_first_pose = true;
   // A search's pose held for the next frame to confirm is confirmed only
   // where that frame's bearings fit it under no wider survey error than a
   // few times the one the pose was found under, or than a room-wide search
@@ -384,7 +390,7 @@ class Localizer {
  public:
   Localizer(const Calibration& calib, const Map& map, std::shared_ptr<const RadiusTable> table,
             const LocalizerOptions& options, std::shared_ptr<PhTableCache> ph_tables = nullptr);
-  // Starts a sequence at a known pose. With `hint` false the pose is a
+  // Starts a sequence at a known pose. With `hint` true the pose is a
   // guess only: tracking starts from it, and the room-wide search takes
   // over at once if the first frame does not confirm it.
   void Reset(const Pose2& initial, bool hint = false);
@@ -628,6 +634,11 @@ class Localizer {
   // The innovation gate against the motion model (fills fr->innovation),
   // or against it a frame interval later (fills fr->after_drop);
   bool AgreesWithMotion(FrameResult* fr, const TriangulationResult& tri) const;
+  // Before the motion model starts: the first position against a start
+  // given as known (known_start_bounds_first_pose), within the 99 % gate
+  // under the reported covariance and the motion model's speed over the
+  // time since the first frame.
+  bool AgreesWithStart(const FrameResult& fr, const TriangulationResult& tri) const;
   // the motion model predicted one frame interval beyond this frame's time,
   // where a frame may have been dropped before it without a gap in the
   // timestamps (a camera or a recorder losing frames at a constant frame
@@ -960,6 +971,7 @@ class Localizer {
     bool known_start = true;     // initial is a pose to track from (not unknown)
     bool start_is_hint = false;  // ... but only a guess
     bool ever_tracked = false;
+    std::optional<double> start_time;  // the first frame's since the start (AgreesWithStart)
     // The last accepted pose and its time (never a held one): where the
     // robot was last known to be, for BeyondReach.
     std::optional<std::pair<Pose2, double>> last_known;

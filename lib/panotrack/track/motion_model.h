@@ -28,6 +28,7 @@ using MotionMatrix = Eigen::Matrix<double, 6, 6>;
 // Squared Mahalanobis distances that a correct measurement exceeds with
 // probability 1 %: chi-square quantiles for gating with Innovation().
 constexpr double kGateChiSquare3Dof99 = 11.345;  // a pose (x, y, theta)
+constexpr double kGateChiSquare2Dof99 = 9.210;   // a position (x, y)
 constexpr double kGateChiSquare1Dof99 = 6.635;   // a heading
 
 // Lengths are in map units. The defaults describe an indoor wheeled robot in
