@@ -1031,8 +1031,23 @@ bool Localizer::Acceptable(const FrameResult& fr, const TriangulationResult& tri
   // inliers.
   const size_t n_chosen = static_cast<size_t>(ChosenLandmarks(fr));
   const size_t n_first = std::max(n_chosen, static_cast<size_t>(SurveyChosenLandmarks(fr)));
+  // Tracked on from a pose the sequence vouches for (tracked, or a start
+  // given as known), an extra found on the pose is one more that fits, not
+  // a sign that the chosen were missed at a wrong pose: images that hide
+  // most of the chosen corners (compressed, blurred) leave the extras to
+  // carry the pose. A search's hypothesis has no such anchor: there every
+  // extra found counts, whatever it fits.
+  const bool anchored = opt_.extras_on_tracked_pose_count_for_it && fr.from_prediction &&
+                        (track_.ever_tracked || (track_.known_start && !track_.start_is_hint));
+  std::vector<int> inlier_ids;
+  if (anchored) {
+    inlier_ids = InlierPredictions(fr, tri);
+    std::sort(inlier_ids.begin(), inlier_ids.end());
+  }
   double n_counted = static_cast<double>(n_chosen);
-  for (size_t i = n_first; i < fr.measurements.size(); ++i) n_counted += fr.measurements[i].found;
+  for (size_t i = n_first; i < fr.measurements.size(); ++i)
+    n_counted += fr.measurements[i].found &&
+                 !(anchored && std::binary_search(inlier_ids.begin(), inlier_ids.end(), static_cast<int>(i)));
   if (tri.rms_bearing > opt_.max_rms_bearing ||
       (n_counted >= 8 && tri.inliers.size() < opt_.min_inlier_fraction * n_counted))
     return false;

@@ -149,6 +149,12 @@ struct LocalizerOptions {
   // (the 99 % gate of two degrees of freedom) is not taken, nor taught the
   // survey estimate. A hint bounds nothing.
   bool known_start_bounds_first_pose = true;
+  // Tracked on from a pose the sequence vouches for (a tracked frame's, or
+  // a start given as the robot's pose), an extra landmark found on the
+  // pose counts only for it and one found off it against it (Acceptable's
+  // min_inlier_fraction). False: every extra found counts against the
+  // pose unless it fits, as for a search's hypotheses.
+  bool extras_on_tracked_pose_count_for_it = true;
   // A search's pose held for the next frame to confirm is confirmed only
   // where that frame's bearings fit it under no wider survey error than a
   // few times the one the pose was found under, or than a room-wide search
