@@ -67,10 +67,10 @@ const test::RenderedCase& Office() {
   return r;
 }
 
-// The office's frames on its map measured to `sigma` (map seed `seed`),
+// `base`'s frames on its map measured to `sigma` (map seed `seed`),
 // stating it; `sigma` 0: the exact map, stating nothing.
-test::RenderedCase OnMap(double sigma, uint64_t seed) {
-  test::RenderedCase r = Office();
+test::RenderedCase OnMap(const test::RenderedCase& base, double sigma, uint64_t seed) {
+  test::RenderedCase r = base;
   if (sigma > 0) {
     r.c.map = PerturbedMap(r.c.map, sigma, seed);
     r.c.map.survey_sigma = sigma;
@@ -78,6 +78,7 @@ test::RenderedCase OnMap(double sigma, uint64_t seed) {
   }
   return r;
 }
+test::RenderedCase OnMap(double sigma, uint64_t seed) { return OnMap(Office(), sigma, seed); }
 
 AccuracySummary Score(const std::vector<PoseRow>& rows) {
   const test::RenderedCase& truth = Office();
@@ -450,10 +451,7 @@ TEST_CASE("office, compressed, 0.5 cm maps stating it, junction, start known: th
   // every one inside its 3-sigma ellipse; before: 24, 12 and 0.
   int tracked_before = 0;
   for (uint64_t seed : {uint64_t{1}, uint64_t{2}, uint64_t{3}}) {
-    test::RenderedCase r = OfficeCompressed();
-    r.c.map = PerturbedMap(r.c.map, 0.5, seed);
-    r.c.map.survey_sigma = 0.5;
-    r.table = test::TableForMapOnce(r.c.calib, r.c.map);
+    const test::RenderedCase r = OnMap(OfficeCompressed(), 0.5, seed);
     LocalizerOptions every_extra;
     every_extra.extras_on_tracked_pose_count_for_it = false;
     const auto [rows, every_rows, a, before, held, every_held] = JunctionAgainst(r, every_extra, true);
@@ -596,10 +594,7 @@ TEST_CASE("office, compressed, a map measured to 2 cm, no start: a tracked pose 
   // residual, 3.7 deviations from it: that pose is taken, and the track
   // goes on from it. Measured: 29 of 30 frames tracked, at most 2.35 cm
   // off; without the refutation frame 16 is reported 7.99 cm off.
-  test::RenderedCase r = OfficeCompressed();
-  r.c.map = PerturbedMap(r.c.map, 2.0, 2);
-  r.c.map.survey_sigma = 2.0;
-  r.table = test::TableForMapOnce(r.c.calib, r.c.map);
+  const test::RenderedCase r = OnMap(OfficeCompressed(), 2.0, 2);
   LocalizerOptions kept;
   kept.relocalize_refutes = false;
   const auto [rows, kept_rows, a, without, held, kept_held] = Against(r, kept, false, TrackingMethod::kVertex);

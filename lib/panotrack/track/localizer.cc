@@ -1022,7 +1022,7 @@ bool Localizer::ChooseAmongTwins(bool either, bool near_last, FrameResult* fr, T
 }
 
 bool Localizer::Acceptable(const FrameResult& fr, const TriangulationResult& tri) const {
-  if (!tri.ok) return false;
+  if (!tri.ok || tri.rms_bearing > opt_.max_rms_bearing) return false;
   // Of the landmarks chosen to track, and of the others (tracked only when
   // too few of those were found) the ones found: an unfound extra is
   // likely hidden or faint, one found off the pose counts against it. The
@@ -1038,20 +1038,14 @@ bool Localizer::Acceptable(const FrameResult& fr, const TriangulationResult& tri
   // carry the pose. A search's hypothesis has no such anchor: there every
   // extra found counts, whatever it fits.
   const bool anchored = opt_.extras_on_tracked_pose_count_for_it && fr.from_prediction &&
-                        (track_.ever_tracked || (track_.known_start && !track_.start_is_hint));
-  std::vector<int> inlier_ids;
-  if (anchored) {
-    inlier_ids = InlierPredictions(fr, tri);
-    std::sort(inlier_ids.begin(), inlier_ids.end());
-  }
-  double n_counted = static_cast<double>(n_chosen);
-  for (size_t i = n_first; i < fr.measurements.size(); ++i)
-    n_counted += fr.measurements[i].found &&
-                 !(anchored && std::binary_search(inlier_ids.begin(), inlier_ids.end(), static_cast<int>(i)));
-  if (tri.rms_bearing > opt_.max_rms_bearing ||
-      (n_counted >= 8 && tri.inliers.size() < opt_.min_inlier_fraction * n_counted))
-    return false;
+                        (track_.ever_tracked || StartGivenAsPose());
   const std::vector<BearingObservation> obs = Observations(fr);
+  std::vector<char> on_pose(fr.measurements.size(), 0);
+  if (anchored)
+    for (int i : tri.inliers) on_pose[static_cast<size_t>(obs[static_cast<size_t>(i)].id)] = 1;
+  double n_counted = static_cast<double>(n_chosen);
+  for (size_t i = n_first; i < fr.measurements.size(); ++i) n_counted += fr.measurements[i].found && !on_pose[i];
+  if (n_counted >= 8 && tri.inliers.size() < opt_.min_inlier_fraction * n_counted) return false;
   std::vector<int> all(obs.size());
   std::iota(all.begin(), all.end(), 0);
   const int used = DistinctBearings(obs, tri.inliers);
@@ -1144,8 +1138,7 @@ bool Localizer::Consistent(FrameResult* fr, const TriangulationResult& tri) cons
 }
 
 bool Localizer::AgreesWithStart(const FrameResult& fr, const TriangulationResult& tri) const {
-  if (!opt_.known_start_bounds_first_pose || track_.ever_tracked || !track_.known_start || track_.start_is_hint ||
-      !track_.start_time)
+  if (!opt_.known_start_bounds_first_pose || track_.ever_tracked || !StartGivenAsPose() || !track_.start_time)
     return true;
   // The position only: a map's error turns the heading that fits best by
   // more than the pose's heading deviation shows (0.8 degrees on a 2 cm map).
@@ -1668,7 +1661,7 @@ bool Localizer::RelocalizeIfLost(const cv::Mat& grey, int frame, bool at_once, F
   // confirm) shows the room in view, and the schedule starts again.
   const bool due = track_.ever_tracked
                        ? opt_.relocalize_after > 0 && (track_.n_lost + 1 >= opt_.relocalize_after || at_once)
-                       : opt_.relocalize_after > 0 || !track_.known_start || track_.start_is_hint;
+                       : opt_.relocalize_after > 0 || !StartGivenAsPose();
   if (!due || frame < reloc_.next_frame) return false;
   FrameResult found;
   TriangulationResult t;

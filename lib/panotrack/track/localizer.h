@@ -645,6 +645,9 @@ class Localizer {
   // under the reported covariance and the motion model's speed over the
   // time since the first frame.
   bool AgreesWithStart(const FrameResult& fr, const TriangulationResult& tri) const;
+  // whether the sequence started at a pose given as the robot's (Reset
+  // without `hint`), not unknown or a guess;
+  bool StartGivenAsPose() const { return track_.known_start && !track_.start_is_hint; }
   // the motion model predicted one frame interval beyond this frame's time,
   // where a frame may have been dropped before it without a gap in the
   // timestamps (a camera or a recorder losing frames at a constant frame
