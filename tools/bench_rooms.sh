@@ -3,20 +3,23 @@
 # worked examples docs/examples/office-map.yaml (4.2 x 3.6 m; a door, a
 # window and boards whose tops image at the mirror's limb),
 # docs/examples/lab-map.yaml (6 x 4 m; four identical windows, a column
-# that hides part of the room) and docs/examples/workshop-map.yaml (7.2 x
-# 4.8 m; a free-standing bench, a pillar), seen by the paper-real sensor
-# along a loop of 300 frames (the office: an ellipse about the middle, 1.4 -
-# 3.3 cm a frame; the lab: a rounded rectangle about the column, 3.6 cm a
-# frame; the workshop: a figure eight, up to 7 cm a frame, with a stop and
-# a slow turn in place), the heading wiggling about the path (25, 15 and 30
-# degrees). Each room is rendered with noise 3 and a 3 x 3 blur ("office",
-# "lab", "workshop") and, with RC=yes, with every factor of real-conditions
-# too ("office-rc", "lab-rc", "workshop-rc": exposure 0.5, auto-exposure
-# 0.2, texture 0.1, 2 people, 3 covered and 3 dropped frames, noise 4).
+# that hides part of the room), docs/examples/workshop-map.yaml (7.2 x
+# 4.8 m; a free-standing bench, a pillar) and docs/examples/studio-map.yaml
+# (7.5 x 5 m; a low sofa standing free, most landmarks metres away), seen
+# by the paper-real sensor along a loop of 300 frames (the office: an
+# ellipse about the middle, 1.4 - 3.3 cm a frame; the lab: a rounded
+# rectangle about the column, 3.6 cm a frame; the workshop: a figure
+# eight, up to 7 cm a frame, with a stop and a slow turn in place; the
+# studio: a wavy ellipse that passes 20 cm from the sofa, up to 5 cm a
+# frame), the heading wiggling about the path (25, 15, 30 and 40 degrees).
+# Each room is rendered with noise 3 and a 3 x 3 blur ("office", "lab",
+# "workshop", "studio") and, with RC=yes, with every factor of
+# real-conditions too ("office-rc" ...: exposure 0.5, auto-exposure 0.2,
+# texture 0.1, 2 people, 3 covered and 3 dropped frames, noise 4).
 # Then tools/bench_maps.sh runs on them (its SIGMAS, SEEDS, STATED, METHODS
 # and START apply) and prints its table.
 # Usage: tools/bench_rooms.sh [BUILD_DIR] [WORK_DIR]
-#   RC=yes|no (no)  ROOMS="office lab workshop"
+#   RC=yes|no (no)  ROOMS="office lab workshop studio"
 set -euo pipefail
 build=${1:-build}
 work=${2:-$(mktemp -d)}
@@ -26,7 +29,7 @@ bin="$build/bin"
 [ -x "$bin/panosim" ] || { echo "bench_rooms.sh: $bin/panosim not found (build first)" >&2; exit 1; }
 python=/usr/bin/python3
 [ -x "$python" ] || python=python3
-rooms=${ROOMS:-"office lab workshop"}
+rooms=${ROOMS:-"office lab workshop studio"}
 rc=${RC:-no}
 [[ $rc == yes || $rc == no ]] || { echo "bench_rooms.sh: RC must be yes or no" >&2; exit 1; }
 
@@ -61,6 +64,9 @@ u = u / (u[-1] + v[-1]) * 2 * np.pi
 x, y = 370 + 230 * np.sin(u), 240 + 110 * np.sin(2 * u)
 th = np.unwrap(np.arctan2(220 * np.cos(2 * u), 230 * np.cos(u))) + np.radians(30) * np.sin(0.19 * k)
 write("workshop", x, y, th + np.radians(25) * np.clip((k - 135) / 30.0, 0, 1))
+# A wavy ellipse through the studio, passing 20 cm south of the sofa.
+x, y = 360 + 180 * np.cos(t) + 30 * np.sin(3 * t), 200 + 110 * np.sin(t)
+write("studio", x, y, np.unwrap(np.arctan2(np.gradient(y), np.gradient(x))) + np.radians(40) * np.sin(0.07 * k))
 PY
 
 presets=""

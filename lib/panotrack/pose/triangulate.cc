@@ -106,6 +106,7 @@ bool RefineOnBearings(const std::vector<BearingObservation>& obs, const std::vec
     Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
     Eigen::Vector3d g = Eigen::Vector3d::Zero();
     Eigen::Matrix3d H_plain = Eigen::Matrix3d::Zero();
+    double weighted_d2 = 0.0, weights = 0.0;
     for (int i : use) {
       const BearingObservation& o = obs[i];
       const double dx = o.landmark.x() - pose->x, dy = o.landmark.y() - pose->y;
@@ -120,10 +121,17 @@ bool RefineOnBearings(const std::vector<BearingObservation>& obs, const std::vec
       H += w * J * J.transpose();
       H_plain += o.weight * J * J.transpose();
       g += w * J * r;
+      weighted_d2 += o.weight * r2;
+      weights += o.weight;
     }
     // Normalise the position rows by a typical landmark distance so the
-    // eigenvalue test does not depend on the units.
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(H_plain);
+    // eigenvalue test does not depend on the units: unscaled, a position
+    // row is the heading's over the distance, and a room measured in
+    // centimetres with landmarks metres away looked degenerate however
+    // well spread its bearings were.
+    const double typical = std::sqrt(weighted_d2 / weights);
+    const Eigen::Vector3d scale(typical, typical, 1.0);
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(scale.asDiagonal() * H_plain * scale.asDiagonal());
     const double lmax = es.eigenvalues().maxCoeff();
     *min_eig = lmax > 0 ? es.eigenvalues().minCoeff() / lmax : 0.0;
     if (!(*min_eig > opt.degenerate_eigen)) return false;

@@ -58,8 +58,9 @@ struct TriangulationOptions {
   // when too few landmarks are left to estimate it from the residuals.
   double bearing_sigma = 0.05 * M_PI / 180;
   // Degenerate when the smallest eigenvalue of the normalised normal matrix
-  // is below this (all bearing lines nearly parallel: landmarks on one line
-  // through the camera).
+  // (its position rows scaled by the landmarks' typical distance: the same
+  // verdict in any unit), over its largest, is below this (all bearing
+  // lines nearly parallel: landmarks on one line through the camera).
   double degenerate_eigen = 1e-6;
   void Check() const;
 };
