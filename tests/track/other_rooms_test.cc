@@ -274,7 +274,8 @@ TEST_CASE("office under real conditions, no start: a sparse image's lead is take
   // lead, and reports it once the frames after it have tracked from it
   // with as strong a fit and along the motion they show; the frames held
   // on the lead are reported then too. Measured: 30 of 30 frames tracked,
-  // max 0.90 cm; without sparse leads none.
+  // max 0.90 cm; without sparse leads 4 (none while the searches backed
+  // off after three failures).
   const test::RenderedCase& r = OfficeRealConditions();
   LocalizerOptions never;
   never.relocalize_sparse_frames = 0;
@@ -284,7 +285,7 @@ TEST_CASE("office under real conditions, no start: a sparse image's lead is take
   for (size_t i = 0; i < rows.size(); ++i) held_reported += held[i] && rows[i].status == PoseStatus::kOk;
   CHECK(held_reported >= 2);
   CHECK(a.tracked >= 29);
-  CHECK(without.tracked <= 2);
+  CHECK(without.tracked <= 5);
   CHECK(a.outliers == 0);
   CHECK(a.max <= 1.0);
   CHECK(test::InsideThreeSigma(rows, r.truth) == 1.0);
@@ -458,7 +459,8 @@ TEST_CASE("office, compressed, 0.5 cm maps stating it, junction, start known: th
   // they were missed chosen ones, every frame was refused. Measured (map
   // seeds 1 - 3): 29 - 30 of 30 frames tracked, at most 1.97 cm off (0.97
   // before the pose solver's geometry test was unit-free), every one
-  // inside its 3-sigma ellipse; before: 24, 12 and 0.
+  // inside its 3-sigma ellipse; before: 24, 12 and 0 (54 in all since the
+  // searches after a refused start run on every frame).
   int tracked_before = 0;
   for (uint64_t seed : {uint64_t{1}, uint64_t{2}, uint64_t{3}}) {
     const test::RenderedCase r = OnMap(OfficeCompressed(), 0.5, seed);
@@ -471,7 +473,7 @@ TEST_CASE("office, compressed, 0.5 cm maps stating it, junction, start known: th
     CHECK(test::InsideThreeSigma(rows, r.truth) == 1.0);
     tracked_before += before.tracked;
   }
-  CHECK(tracked_before <= 40);
+  CHECK(tracked_before <= 56);
 }
 
 TEST_CASE("office, shutter open the whole frame, compressed, no start: search hypotheses tracked again from what they found",
@@ -482,11 +484,19 @@ TEST_CASE("office, shutter open the whole frame, compressed, no start: search hy
   // nearer, and tracked again from there finds enough. Measured: 26 of
   // 30 frames tracked, every one inside its 3-sigma ellipse, at most 3.54
   // cm off (one frame beyond five times the median: 1.98 cm before the
-  // pose solver's geometry test was unit-free); without: 6 of 30.
+  // pose solver's geometry test was unit-free); without: 6 of 30. The
+  // searches back off after three failures here, as they did: searching
+  // on every frame until the first pose finds a lead on frame 3, in the
+  // loop's fastest turn, whose third frame is then lost, and 10 frames
+  // are tracked with or without the passes (the shutter-open runs of
+  // tools/bench_rooms.sh gain 725 frames from it: BENCHMARKS.md).
   const test::RenderedCase& r = OfficeCompressedShutterOpen();
-  LocalizerOptions never;
+  LocalizerOptions backing_off;
+  backing_off.relocalize_eager_searches = 0;
+  LocalizerOptions never = backing_off;
   never.relocalize_retrack_passes = 0;
-  const auto [rows, never_rows, a, without, held, never_held] = JunctionAgainst(r, never, false);
+  const auto [rows, never_rows, a, without, held, never_held] =
+      Against(r, never, false, TrackingMethod::kJunction, backing_off);
   INFO("tracked again: " << FormatAccuracy(a, "cm") << "; not: " << FormatAccuracy(without, "cm"));
   CHECK(a.tracked >= 25);
   CHECK(without.tracked <= 7);
@@ -521,10 +531,11 @@ TEST_CASE("office, real conditions, frames covered: the search's pose after one 
   // the pose there on half of its landmarks, too few to report before the
   // next frame confirms it, but where the model predicted it. Measured (a
   // start given, frames 6, 12, 21 and 24 covered): every frame after a
-  // cover tracked, 26 of 30 in all, at most 0.90 cm off; without, 11 of 30
+  // cover tracked, 26 of 30 in all, at most 0.90 cm off; without, 16 of 30
   // (the held pose's motion not kept either: that alone tracks them too),
-  // three of the four frames after a cover lost (all four before the pose
-  // solver's geometry test was unit-free).
+  // two of the four frames after a cover lost (all four before the pose
+  // solver's geometry test was unit-free, three before the searches after
+  // an unconfirmed pose ran on every frame).
   const std::vector<int> covered{6, 12, 21, 24};
   LocalizerOptions without_resuming;
   without_resuming.resume_after_lost_frame = false;
@@ -537,9 +548,9 @@ TEST_CASE("office, real conditions, frames covered: the search's pose after one 
     CHECK(rows[static_cast<size_t>(k + 1)].status == PoseStatus::kOk);
     lost_without += without_rows[static_cast<size_t>(k + 1)].status == PoseStatus::kLost;
   }
-  CHECK(lost_without >= 3);
+  CHECK(lost_without >= 2);
   CHECK(a.tracked >= 25);
-  CHECK(without.tracked <= 11);
+  CHECK(without.tracked <= 17);
   CHECK(a.outliers == 0);
   CHECK(a.max <= 1.0);
   CHECK(test::InsideThreeSigma(rows, OfficeRealConditions().truth) == 1.0);
@@ -700,6 +711,34 @@ TEST_CASE("studio, exact map: frames whose landmarks stand metres away are not t
   CHECK(a.outliers == 0);
   CHECK(a.max <= 0.5);
   CHECK(test::InsideThreeSigma(rows, r.truth) == 1.0);
+}
+
+TEST_CASE("office under real conditions, 0.5 cm maps stating it, no start: the search runs on every frame until the first pose",
+          "[other_rooms]") {
+  // Map seeds 2 and 3, junction method. The searches on the first frames
+  // verify nothing, and after three failures they waited 2, 4, 8 frames
+  // in turn: the first poses came on frames 25 and 24, though a search on
+  // frames 13 and 6 finds them. Before the first pose there is nothing
+  // else to report: the search runs on every frame (for 50 failed
+  // searches). Measured: 17 and 24 of 30 frames tracked, at most 0.85 cm
+  // off, every one inside its 3-sigma ellipse; backing off after three
+  // failures: 5 and 6 of 30.
+  LocalizerOptions backs_off;
+  backs_off.relocalize_eager_searches = 0;
+  int tracked = 0, tracked_backing_off = 0;
+  for (uint64_t seed : {uint64_t{2}, uint64_t{3}}) {
+    const test::RenderedCase r = OnMap(OfficeRealConditions(), 0.5, seed);
+    const auto [rows, off_rows, a, off, held, off_held] = JunctionAgainst(r, backs_off, false);
+    INFO("seed " << seed << ": " << FormatAccuracy(a, "cm") << "; backing off after three failures: " << FormatAccuracy(off, "cm"));
+    CHECK(a.tracked >= off.tracked + 10);
+    CHECK(a.outliers == 0);
+    CHECK(a.max <= 1.0);
+    CHECK(test::InsideThreeSigma(rows, r.truth) == 1.0);
+    tracked += a.tracked;
+    tracked_backing_off += off.tracked;
+  }
+  CHECK(tracked >= 40);
+  CHECK(tracked_backing_off <= 12);
 }
 
 }  // namespace

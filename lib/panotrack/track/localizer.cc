@@ -60,6 +60,7 @@ void LocalizerOptions::Check() const {
   if (!(relocalize_unseen_fraction >= 0 && relocalize_unseen_fraction <= 1))
     throw Error("localiser: relocalize_unseen_fraction: expected 0..1");
   if (relocalize_max_interval < 1) throw Error("localiser: relocalize_max_interval: expected >= 1");
+  if (relocalize_eager_searches < 0) throw Error("localiser: relocalize_eager_searches: expected >= 0");
   if (!(gate_chi2 > 0) || !(gate_heading_sigma > 0) || !(gate_position_fraction > 0))
     throw Error("localiser: gate_chi2, gate_heading_sigma and gate_position_fraction: expected > 0");
   if (!(min_quality >= 0.0 && min_quality < 1.0)) throw Error("localiser: min_quality: expected 0..1");
@@ -1734,6 +1735,8 @@ double Localizer::ChosenLandmarks(const FrameResult& fr) const {
 }
 
 int Localizer::BackedOffRelocalizeFrame(int frame) const {
+  // No pose to track from: every frame is a chance (relocalize_eager_searches).
+  if (!track_.ever_tracked && reloc_.failures <= opt_.relocalize_eager_searches) return frame + 1;
   return frame + std::min(opt_.relocalize_max_interval, 1 << std::clamp(reloc_.failures - 2, 0, 16));
 }
 

@@ -199,6 +199,14 @@ struct LocalizerOptions {
   // frames (at most this many): a long loss costs a bounded share of the
   // frames, a short one is searched on every frame.
   int relocalize_max_interval = 8;
+  // While no pose is tracked from (before the first, or after a search's
+  // pose the next frame did not confirm) the search runs on every frame,
+  // for up to this many failed searches in a row, and backs off as above
+  // only after them: there is no pose to report until one is found, and a
+  // view one search misses is often found on the next frame (a loss of a
+  // few frames, not of the 2, 4, 8 ... that waiting costs). 0: back off
+  // after three failures, as after a loss while tracking.
+  int relocalize_eager_searches = 50;
   int relocalize_min_landmarks = 6;
   // A search's hypothesis lies up to a grid step off (a tenth of a metre
   // in a room of four), where a tracker's windows find a few of its
