@@ -2,7 +2,8 @@
 // docs/examples/office-map.yaml (4.2 x 3.6 m; a door, windows and boards
 // whose tops image within a few pixels of the mirror's limb) seen by the
 // paper-real sensor along a loop with the heading wiggling up to 9 degrees
-// a frame, on the exact map and on maps measured to 2 cm; and the studio of
+// a frame, on the exact map and on maps measured to 2 cm; the lab of
+// docs/examples/lab-map.yaml under real conditions; and the studio of
 // docs/examples/studio-map.yaml, whose landmarks stand metres away.
 #include <catch2/catch.hpp>
 
@@ -15,6 +16,7 @@
 #include <utility>
 #include <vector>
 
+#include <Eigen/Core>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -40,6 +42,40 @@ Pose2 OfficeLoopPose(int i) {
   const double wiggle = 25.0 * M_PI / 180.0 * std::sin(0.37 * i);
   return Pose2{200.0 + 120.0 * std::cos(t), 150.0 + 70.0 * std::sin(t),
                std::atan2(70.0 * std::cos(t), -120.0 * std::sin(t)) + wiggle};
+}
+
+// The lab's loop (docs/examples/lab-map.yaml): a rounded rectangle about
+// its column (a superellipse of exponent 0.5, 190 x 120 cm about (300,
+// 200)) at constant speed, 300 frames for a turn, the heading along the
+// path plus 15 degrees of wiggle (sin(0.23 frame)).
+Pose2 LabLoopPose(int i) {
+  static const std::vector<Pose2> loop = [] {
+    constexpr int kSamples = 20000, kLoop = 300;
+    std::vector<Eigen::Vector2d> curve(kSamples + 1);
+    std::vector<double> along(kSamples + 1, 0.0);
+    const auto root = [](double v) { return std::copysign(std::sqrt(std::abs(v)), v); };
+    for (int k = 0; k <= kSamples; ++k) {
+      const double t = 2.0 * M_PI * k / kSamples;
+      curve[k] = Eigen::Vector2d(300.0 + 190.0 * root(std::cos(t)), 200.0 + 120.0 * root(std::sin(t)));
+      if (k > 0) along[k] = along[k - 1] + (curve[k] - curve[k - 1]).norm();
+    }
+    std::vector<Eigen::Vector2d> points;
+    for (int k = 0; k < kLoop; ++k) {
+      const double u = along.back() * k / kLoop;
+      const size_t j = static_cast<size_t>(std::upper_bound(along.begin(), along.end(), u) - along.begin());
+      const double f = (u - along[j - 1]) / (along[j] - along[j - 1]);
+      points.push_back(curve[j - 1] + f * (curve[j] - curve[j - 1]));
+    }
+    std::vector<Pose2> poses;
+    for (int k = 0; k < kLoop; ++k) {
+      const Eigen::Vector2d tangent =
+          points[static_cast<size_t>((k + 1) % kLoop)] - points[static_cast<size_t>((k + kLoop - 1) % kLoop)];
+      poses.push_back(Pose2{points[k].x(), points[k].y(),
+                            std::atan2(tangent.y(), tangent.x()) + 15.0 * M_PI / 180.0 * std::sin(0.23 * k)});
+    }
+    return poses;
+  }();
+  return loop[static_cast<size_t>(i % static_cast<int>(loop.size()))];
 }
 
 constexpr int kFrames = 30;
@@ -175,16 +211,18 @@ TEST_CASE("office, a map measured to 2 cm that says so: the first frame keeps it
   CHECK(a.tracked == kFrames);
 }
 
-// The loop's first kFrames under real conditions: a shutter open for
+// The first kFrames of a loop through the room of `map_file` (`pose_at(i)`:
+// frame i's pose) under real conditions: a shutter open for
 // `exposure` of the frame interval, an exposure that drifts, textured
 // walls, two people walking (panosim's real-conditions factors, without
 // covered or dropped frames), with noise `noise_sigma`; each frame
 // compressed as a JPEG of `jpeg_quality` (0: not).
-test::RenderedCase RenderOfficeUnderRealConditions(double noise_sigma, int jpeg_quality, double exposure = 0.5) {
+test::RenderedCase RenderUnderRealConditions(const std::string& map_file, Pose2 (*pose_at)(int), double noise_sigma,
+                                             int jpeg_quality, double exposure) {
   test::RenderedCase c;
   c.c.name = "custom";
   c.c.calib = ReadCalibration(test::SourcePath("calib/paper-real.yaml"));
-  c.c.map = ReadMap(test::SourcePath("docs/examples/office-map.yaml"));
+  c.c.map = ReadMap(test::SourcePath(map_file));
   c.c.fps = 10.0;
   c.c.options.noise_sigma = noise_sigma;
   c.c.options.blur = true;
@@ -192,7 +230,7 @@ test::RenderedCase RenderOfficeUnderRealConditions(double noise_sigma, int jpeg_
   c.c.options.auto_exposure = 0.2;
   c.c.options.texture = 0.1;
   c.c.options.people = 2;
-  for (int i = 0; i < kFrames; ++i) c.c.poses.push_back(OfficeLoopPose(i));
+  for (int i = 0; i < kFrames; ++i) c.c.poses.push_back(pose_at(i));
   const SequenceRenderer renderer(c.c);
   for (int i = 0; i < kFrames; ++i) {
     cv::Mat frame = renderer.RenderFrame(i);
@@ -209,6 +247,11 @@ test::RenderedCase RenderOfficeUnderRealConditions(double noise_sigma, int jpeg_
   }
   c.table = test::TableForMapOnce(c.c.calib, c.c.map);
   return c;
+}
+
+// The office's loop so.
+test::RenderedCase RenderOfficeUnderRealConditions(double noise_sigma, int jpeg_quality, double exposure = 0.5) {
+  return RenderUnderRealConditions("docs/examples/office-map.yaml", OfficeLoopPose, noise_sigma, jpeg_quality, exposure);
 }
 
 // With the noise of the loop above (no video codec smooths it).
@@ -722,7 +765,7 @@ TEST_CASE("office under real conditions, 0.5 cm maps stating it, no start: the s
   // else to report: the search runs on every frame (for 50 failed
   // searches). Measured: 17 and 24 of 30 frames tracked, at most 0.85 cm
   // off, every one inside its 3-sigma ellipse; backing off after three
-  // failures: 5 and 6 of 30.
+  // failures: 10 and 6 of 30 (5 and 6 verifying 20 hypotheses a search).
   LocalizerOptions backs_off;
   backs_off.relocalize_eager_searches = 0;
   int tracked = 0, tracked_backing_off = 0;
@@ -730,7 +773,7 @@ TEST_CASE("office under real conditions, 0.5 cm maps stating it, no start: the s
     const test::RenderedCase r = OnMap(OfficeRealConditions(), 0.5, seed);
     const auto [rows, off_rows, a, off, held, off_held] = JunctionAgainst(r, backs_off, false);
     INFO("seed " << seed << ": " << FormatAccuracy(a, "cm") << "; backing off after three failures: " << FormatAccuracy(off, "cm"));
-    CHECK(a.tracked >= off.tracked + 10);
+    CHECK(a.tracked >= off.tracked + 5);
     CHECK(a.outliers == 0);
     CHECK(a.max <= 1.0);
     CHECK(test::InsideThreeSigma(rows, r.truth) == 1.0);
@@ -738,8 +781,62 @@ TEST_CASE("office under real conditions, 0.5 cm maps stating it, no start: the s
     tracked_backing_off += off.tracked;
   }
   CHECK(tracked >= 40);
-  CHECK(tracked_backing_off <= 12);
+  CHECK(tracked_backing_off <= 17);
 }
 
+// The lab's first kFrames under the real conditions above (noise 3, not
+// compressed).
+const test::RenderedCase& LabRealConditions() {
+  static const test::RenderedCase r =
+      RenderUnderRealConditions("docs/examples/lab-map.yaml", LabLoopPose, 3.0, 0, 0.5);
+  return r;
+}
+
+TEST_CASE("lab under real conditions, exact map, no start: a held pose found with either polarity is verified so again",
+          "[other_rooms]") {
+  // Vertex method. People stand about the robot's first position: on frame
+  // 0 the map's polarities track 14 of the 32 corners chosen at the true
+  // pose, too few for a searched pose, and with either polarity 17, which
+  // the search holds. Frame 1 confirms it; the held frame is then tracked
+  // again to be reported, and with the map's polarities alone it fell
+  // short of the support it was found with and was lost. Verified again
+  // with either polarity, as found: measured 30 of 30 frames tracked, frame
+  // 0 0.69 cm off; with the map's alone 29 (frame 0 lost).
+  const test::RenderedCase& r = LabRealConditions();
+  LocalizerOptions map_polarities;
+  map_polarities.held_polarity_as_found = false;
+  const auto [rows, off_rows, a, off, held, off_held] = Against(r, map_polarities, false, TrackingMethod::kVertex);
+  INFO("as found: " << FormatAccuracy(a, "cm") << "; with the map's polarities: " << FormatAccuracy(off, "cm"));
+  CHECK(rows.front().status == PoseStatus::kOk);
+  CHECK(off_rows.front().status == PoseStatus::kLost);
+  CHECK(held.front());
+  CHECK(a.tracked == 30);
+  CHECK(off.tracked == 29);
+  CHECK(a.outliers == 0);
+  CHECK(a.max <= 1.0);
+  CHECK(test::InsideThreeSigma(rows, r.truth) == 1.0);
+}
+
+TEST_CASE("office under real conditions, a 0.5 cm map stating it, no start: the search verifies more hypotheses before the first pose",
+          "[other_rooms]") {
+  // Map seed 1, vertex method. A person hides part of the first frames'
+  // view, which lowers the true place's rank among the room-wide search's
+  // hypotheses (in the office's video of tools/bench_rooms.sh it ranked
+  // 21st - 30th on frames 0 and 1). Before the first pose the search
+  // verifies 30, not the 20 it verifies while tracking. Measured: 30 of 30
+  // frames tracked, at most 1.05 cm off; with 20: 28 (frames 0 and 1
+  // lost).
+  const test::RenderedCase r = OnMap(OfficeRealConditions(), 0.5, 1);
+  LocalizerOptions twenty;
+  twenty.relocalize_untracked_hypotheses = twenty.relocalize.hypotheses;
+  const auto [rows, off_rows, a, off, held, off_held] = Against(r, twenty, false, TrackingMethod::kVertex);
+  INFO("30 hypotheses: " << FormatAccuracy(a, "cm") << "; 20: " << FormatAccuracy(off, "cm"));
+  CHECK(rows.front().status == PoseStatus::kOk);
+  CHECK(a.tracked == 30);
+  CHECK(off.tracked <= 28);
+  CHECK(a.outliers == 0);
+  CHECK(a.max <= 1.3);
+  CHECK(test::InsideThreeSigma(rows, r.truth) == 1.0);
+}
 }  // namespace
 }  // namespace pano

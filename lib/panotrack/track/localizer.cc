@@ -61,6 +61,7 @@ void LocalizerOptions::Check() const {
     throw Error("localiser: relocalize_unseen_fraction: expected 0..1");
   if (relocalize_max_interval < 1) throw Error("localiser: relocalize_max_interval: expected >= 1");
   if (relocalize_eager_searches < 0) throw Error("localiser: relocalize_eager_searches: expected >= 0");
+  if (relocalize_untracked_hypotheses < 0) throw Error("localiser: relocalize_untracked_hypotheses: expected >= 0");
   if (!(gate_chi2 > 0) || !(gate_heading_sigma > 0) || !(gate_position_fraction > 0))
     throw Error("localiser: gate_chi2, gate_heading_sigma and gate_position_fraction: expected > 0");
   if (!(min_quality >= 0.0 && min_quality < 1.0)) throw Error("localiser: min_quality: expected 0..1");
@@ -149,9 +150,11 @@ int FoundLandmarks(const FrameResult& fr) {
   return found;
 }
 
-// What Measure wrote into `from` (the landmarks measured, and the partners
-// with the flag that asked for them), moved into `to`.
+// What Measure wrote into `from` (the landmarks measured, the polarities
+// they were measured with, and the partners with the flag that asked for
+// them), moved into `to`.
 void TakeMeasurements(FrameResult* from, FrameResult* to) {
+  to->either_polarity = from->either_polarity;
   to->predicted = std::move(from->predicted);
   to->measurements = std::move(from->measurements);
   to->with_partners = from->with_partners;
@@ -809,7 +812,8 @@ bool Localizer::Relocalize(const cv::Mat& grey, bool near_last, FrameResult* fr,
     };
     relocalization_index_ = shared_index_ ? shared_index_->Get(build) : build();
   }
-  const std::vector<PoseHypothesis> hyps = relocalization_index_->Hypotheses(grey, SearchThreadCount(opt_));
+  const int count = track_.ever_tracked ? 0 : opt_.relocalize_untracked_hypotheses;
+  const std::vector<PoseHypothesis> hyps = relocalization_index_->Hypotheses(grey, SearchThreadCount(opt_), count);
   reloc_.sparse_candidates.clear();
   reloc_.any_verified = reloc_.sparse_lead = false;
   // With the map's polarities, then (while the images have not confirmed
@@ -2112,7 +2116,8 @@ std::optional<FrameResult> Localizer::ReportConfirmedHold(const HeldFrame& held)
   const auto supported = [&](const FrameResult& f, const TriangulationResult& t) {
     return EnoughForRelocalized(f, t) || (held.sparse && SparselySupported(f, t));
   };
-  if (!TrackFrom(held.pose, opt_.search_px, &fr, &tri) || !Consistent(&fr, tri) || !supported(fr, tri))
+  if (!TrackFrom(held.pose, opt_.search_px, &fr, &tri, opt_.held_polarity_as_found && held.either) ||
+      !Consistent(&fr, tri) || !supported(fr, tri))
     return std::nullopt;
   // Where the survey error it was found under is in doubt (a search's wide
   // tolerance on a blurred frame) and the frame that confirmed it agrees
@@ -2372,7 +2377,7 @@ void Localizer::FinishFrame(const cv::Mat& grey, int frame, double time_s, std::
   reloc_.sparse_holds = w->sparse_lead ? 1 : w->sparse_continues ? reloc_.sparse_holds + 1 : 0;
   if (fr.unconfirmed) {
     reloc_.held_frame = HeldFrame{grey.clone(), fr.row, tri.pose, ReportedCovariance(fr, Observations(fr), tri),
-                                  reloc_.sparse_holds > 0};
+                                  reloc_.sparse_holds > 0, fr.either_polarity};
     const bool where_predicted = opt_.hold_keeps_motion && VelocityStillKnown() && ModelVouchesFor(fr, tri);
     MotionModel lead_motion = motion_;
     const int lead_updates = track_.motion_updates;

@@ -143,6 +143,11 @@ struct LocalizerOptions {
   // confirming frame is predicted (and its blur expected) from the motion
   // rather than searched for from a standstill at any speed and turn.
   bool hold_keeps_motion = true;
+  // A held frame, once confirmed, is verified again as the search found it:
+  // with either polarity where the map's found too little there (tracked
+  // again with the map's alone, it would fall short of the support it was
+  // found with).
+  bool held_polarity_as_found = true;
   // A start given as the robot's pose (Localizer::Reset without `hint`) is
   // where the first frames were taken: a first position that leaves it by
   // more than the pose's reported covariance and the motion since allow
@@ -207,6 +212,11 @@ struct LocalizerOptions {
   // few frames, not of the 2, 4, 8 ... that waiting costs). 0: back off
   // after three failures, as after a loss while tracking.
   int relocalize_eager_searches = 50;
+  // While no pose is tracked from, the search verifies this many of its
+  // best hypotheses (0: relocalize.hypotheses, as after a loss while
+  // tracking): with nothing else to do, a frame can afford more, and a
+  // partly hidden view ranks the true place just below the usual number.
+  int relocalize_untracked_hypotheses = 30;
   int relocalize_min_landmarks = 6;
   // A search's hypothesis lies up to a grid step off (a tenth of a metre
   // in a room of four), where a tracker's windows find a few of its
@@ -895,6 +905,7 @@ class Localizer {
     Pose2 pose;
     Eigen::Matrix3d covariance;
     bool sparse = false;
+    bool either = false;  // found with either polarity (FrameResult::either_polarity)
   };
   // Whether the frame confirming a held one found a pose the robot can
   // have reached from the held pose: no farther than max_speed for the

@@ -236,7 +236,8 @@ std::vector<float> RelocalizationIndex::RadialEdgeHistogram(const cv::Mat& grey)
   return out;
 }
 
-std::vector<PoseHypothesis> RelocalizationIndex::Hypotheses(const cv::Mat& grey, int num_threads) const {
+std::vector<PoseHypothesis> RelocalizationIndex::Hypotheses(const cv::Mat& grey, int num_threads, int count) const {
+  if (count <= 0) count = opt_.hypotheses;
   std::vector<float> hist = RadialEdgeHistogram(grey);
   if (opt_.support_cap > 0)
     for (float& h : hist) h = static_cast<float>(std::min<double>(h, opt_.support_cap) / opt_.support_cap);
@@ -258,7 +259,7 @@ std::vector<PoseHypothesis> RelocalizationIndex::Hypotheses(const cv::Mat& grey,
           std::abs(WrapAngle(h.pose.theta - o.pose.theta)) < 20 * M_PI / 180)
         distinct = false;
     if (distinct) out.push_back(h);
-    if (static_cast<int>(out.size()) >= opt_.hypotheses) break;
+    if (static_cast<int>(out.size()) >= count) break;
   }
   return out;
 }

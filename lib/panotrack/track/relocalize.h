@@ -75,8 +75,9 @@ class RelocalizationIndex {
   // maximum of 1, over options.heading_bins bins.
   std::vector<float> RadialEdgeHistogram(const cv::Mat& grey) const;
 
-  // The best distinct hypotheses, strongest first.
-  std::vector<PoseHypothesis> Hypotheses(const cv::Mat& grey, int num_threads = 0) const;
+  // The best distinct hypotheses, strongest first: `count` of them (0:
+  // options.hypotheses).
+  std::vector<PoseHypothesis> Hypotheses(const cv::Mat& grey, int num_threads = 0, int count = 0) const;
 
  private:
   struct Pixel {
