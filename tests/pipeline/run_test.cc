@@ -116,11 +116,13 @@ TEST_CASE("nothing tracked: the run fails and suggests what to check", "[not_tra
 
 TEST_CASE("a first pose held for the next frame to confirm: its row comes once confirmed, ok, in order",
           "[held_frame]") {
-  // The small case on a map measured to 2 cm (seed 1, stated), no start:
+  // The small case on a map measured to 2 cm (seed 9, stated), no start:
   // the room-wide search's pose of frame 0 fits too few of the landmarks
   // chosen to track to be reported at once, and frame 1 confirms it.
   // Measured: frame 0 lost before the held frame was reported once
-  // confirmed; now ok, 0.21 cm off (0.28 of its standard deviations).
+  // confirmed; now ok, 0.34 cm off (0.39 of its standard deviations). (On
+  // map seed 1 the search, verifying 30 hypotheses before a first pose,
+  // finds frame 0 at once.)
   const test::SmallCase& c = test::GetSmallCase();
   const std::string dir = Scratch("pipeline_held_frame");
   fs::create_directories(dir + "/nostart/frames");  // no case.yaml beside it or above: no start pose
@@ -129,7 +131,7 @@ TEST_CASE("a first pose held for the next frame to confirm: its row comes once c
     std::snprintf(name, sizeof name, "/frame_%04d.png", i);
     fs::create_symlink(c.frames + name, dir + "/nostart/frames" + name);
   }
-  Map measured = PerturbedMap(ReadMap(c.map), 2.0, 1);
+  Map measured = PerturbedMap(ReadMap(c.map), 2.0, 9);
   measured.survey_sigma = 2.0;
   WriteMap(dir + "/map.yaml", measured);
   PanolocOptions o = OneInput(dir + "/nostart/frames", dir + "/est.csv");
