@@ -536,6 +536,31 @@ TEST_CASE("visual compass and relocalisation read frames with padded rows", "[co
   CHECK(index.RadialEdgeHistogram(padded) == hist);
 }
 
+TEST_CASE("relocalisation: asked for more hypotheses, the search returns the usual ones first", "[relocalize]") {
+  // The localiser verifies more of them before a first pose: the ranking
+  // does not change, the list only goes on.
+  const SequenceCase c = MakePreset("paper-synthetic");
+  const Scene scene = Scene::FromMap(c.map, true);
+  const Renderer renderer(c.calib.sensor, scene, c.map.sensor_height, c.options);
+  const cv::Mat frame = renderer.Render(c.poses[10]);
+  const RadiusTable table = RadiusTable::Build(c.calib.sensor, RangesForMap(c.map, c.calib.sensor));
+  const RelocalizeOptions options;
+  const RelocalizationIndex index(c.calib.sensor, table, c.map, scene, LandmarksFromMap(c.map),
+                                  PredictionOptions(), options);
+  const std::vector<PoseHypothesis> usual = index.Hypotheses(frame);
+  const std::vector<PoseHypothesis> more = index.Hypotheses(frame, 0, 30);
+  REQUIRE(usual.size() == static_cast<size_t>(options.hypotheses));
+  REQUIRE(more.size() == 30);
+  for (size_t i = 0; i < usual.size(); ++i) {
+    CHECK(more[i].pose.x == usual[i].pose.x);
+    CHECK(more[i].pose.y == usual[i].pose.y);
+    CHECK(more[i].pose.theta == usual[i].pose.theta);
+    CHECK(more[i].score == usual[i].score);
+  }
+  for (size_t i = 1; i < more.size(); ++i) CHECK(more[i].score <= more[i - 1].score);
+  CHECK(index.Hypotheses(frame, 0, 5).size() == 5);
+}
+
 TEST_CASE("relocalisation: a robot started at a wrong pose finds itself", "[relocalize]") {
   const test::RenderedCase r = test::RenderPreset("paper-synthetic", 6, 30);
   Pose2 wrong = r.c.poses[30];
