@@ -249,7 +249,7 @@ test::RenderedCase RenderUnderRealConditions(const std::string& map_file, Pose2 
   return c;
 }
 
-// The office's loop so.
+// The office's loop under those conditions.
 test::RenderedCase RenderOfficeUnderRealConditions(double noise_sigma, int jpeg_quality, double exposure = 0.5) {
   return RenderUnderRealConditions("docs/examples/office-map.yaml", OfficeLoopPose, noise_sigma, jpeg_quality, exposure);
 }
