@@ -1218,7 +1218,7 @@ double Localizer::ShownSurveySigma() const {
   return used > 1.5 * stated ? errors_.survey.estimated() : std::nan("");
 }
 
-bool Localizer::ProbeSurveyError(const Pose2& pred, double widest) {
+bool Localizer::ProbeSurveyError(const Pose2& pred, double widest, Pose2* found) {
   // A ladder of survey errors: the levels under which the frame's bearings
   // agree (a map error makes them miss an exact map's narrow tolerance, or
   // its search windows, by a few of its sigmas). Most of what is found must
@@ -1228,12 +1228,21 @@ bool Localizer::ProbeSurveyError(const Pose2& pred, double widest) {
   // agrees on a pose off by it (a start centimetres off that later frames
   // keep), above it no more agree, only wrong ones fit more easily.
   const double current = LargestSurveySigma();
-  std::vector<std::pair<double, size_t>> agreeing;  // level, inliers
+  struct Level {
+    double sigma;
+    size_t inliers = 0;  // 0: its bearings did not agree
+    Pose2 from;          // ... tracked from there
+  };
+  std::vector<Level> levels;
   for (double fraction : {0.0025, 0.005, 0.01, 0.02, opt_.survey.max_fraction}) {
     const double level = fraction * errors_.typical_distance;
     if (level <= 1.5 * current || level > widest || (errors_.statement_verified && level > StatementBound()))
       continue;
-    reloc_.probe_sigma = level;
+    levels.push_back({level, 0, pred});
+  }
+  // The frame tracked from `from` under `level`: its inliers where they agree.
+  const auto agreeing_under = [&](Level* level, const Pose2& from) -> Pose2 {
+    reloc_.probe_sigma = level->sigma;
     // The walls of that error (corners behind them in view), but the
     // landmarks of the error assumed: a longer list under a wide tolerance
     // lets a wrong pose gather the evidence of a right one.
@@ -1241,22 +1250,40 @@ bool Localizer::ProbeSurveyError(const Pose2& pred, double widest) {
     FrameResult fr;
     fr.predicted_pose = pred;
     TriangulationResult tri;
-    TrackPredictions(pred, &fr, &tri);
+    TrackPredictions(from, &fr, &tri);
     RefineAroundSolution(&fr, &tri);
     const size_t n_found = static_cast<size_t>(FoundLandmarks(fr));
     const bool agree = SurveyEvidence(fr, tri) && Consistent(&fr, tri) && 3 * tri.inliers.size() >= 2 * n_found;
-    if (agree) agreeing.emplace_back(level, tri.inliers.size());
+    if (agree && tri.inliers.size() > level->inliers) {
+      level->inliers = tri.inliers.size();
+      level->from = from;
+    }
+    return tri.pose;
+  };
+  std::vector<Pose2> solved;
+  for (Level& level : levels) solved.push_back(agreeing_under(&level, pred));
+  // A prediction off by more than the narrow levels' windows reach (a
+  // dropped frame, a sudden turn) agrees only under a wide one, whose
+  // tolerance lets wrong edges in: the narrower levels are tried again from
+  // the best supported consensus, and where as many agree there, the map's
+  // error is no larger than theirs.
+  const auto fewer = [](const Level& a, const Level& b) { return a.inliers < b.inliers; };
+  const auto best = std::max_element(levels.begin(), levels.end(), fewer);
+  if (opt_.survey.probe_from_consensus && best != levels.end() && best->inliers > 0) {
+    const Pose2 consensus = solved[static_cast<size_t>(best - levels.begin())];
+    for (auto level = levels.begin(); level != best; ++level) agreeing_under(&*level, consensus);
   }
   reloc_.probe_sigma = 0.0;
-  size_t most = 0;
-  for (const auto& [level, inliers] : agreeing) most = std::max(most, inliers);
-  for (const auto& [level, inliers] : agreeing)
-    if (static_cast<double>(inliers) >= kProbeSaturation * static_cast<double>(most)) {
-      errors_.survey.Provisional(level);
+  const auto most_agreeing = std::max_element(levels.begin(), levels.end(), fewer);
+  const size_t most = most_agreeing == levels.end() ? 0 : most_agreeing->inliers;
+  for (const Level& level : levels)
+    if (level.inliers > 0 && static_cast<double>(level.inliers) >= kProbeSaturation * static_cast<double>(most)) {
+      errors_.survey.Provisional(level.sigma);
+      if (found) *found = level.from;
       break;
     }
   UpdateLandmarkBudget();
-  return !agreeing.empty();
+  return most > 0;
 }
 
 Eigen::Matrix3d Localizer::ReportedCovariance(const FrameResult& fr, const std::vector<BearingObservation>& obs,
@@ -1402,7 +1429,7 @@ bool Localizer::AgreesUnderStatement(const FrameResult& fr, const TriangulationR
   return true;
 }
 
-bool Localizer::RetrackUnderStatedSurvey(FrameResult* fr, TriangulationResult* tri) {
+bool Localizer::RetrackUnderStatedSurvey(FrameResult* fr, TriangulationResult* tri, const LearnedSurvey& at_begin) {
   errors_.statement_supports_hold = false;
   if (track_.frame < errors_.next_statement_check || !StatementInDoubt()) return false;
   const LearnedSurvey learned = AssumeStatementOnly();
@@ -1422,6 +1449,23 @@ bool Localizer::RetrackUnderStatedSurvey(FrameResult* fr, TriangulationResult* t
     errors_.statement_agreements = 0;
     errors_.statement_check_gap = 1;
     errors_.statement_verified = true;
+    *fr = std::move(again);
+    *tri = solved;
+    return true;
+  }
+  // Clearly more bearings agreeing under the narrower tolerance, on a pose
+  // apart: the wider one let a wrong edge pull this frame's pose off the
+  // consensus (a map off by more than it states leaves a subset agreeing
+  // under the statement, not more), and its residuals taught the estimate
+  // an error the map does not have.
+  const bool outvoted = opt_.survey.statement_outvotes && shares && !agrees &&
+                        ClearlyBetterSupported(static_cast<int>(solved.inliers.size()),
+                                               static_cast<int>(tri->inliers.size())) &&
+                        AgreesWithMotion(&again, solved);
+  if (outvoted) {
+    RestoreSurvey(at_begin);
+    errors_.statement_agreements = 0;
+    errors_.next_statement_check = track_.frame + 1;
     *fr = std::move(again);
     *tri = solved;
     return true;
@@ -2254,10 +2298,11 @@ void Localizer::LearnSurveyFromRejected(FrameWork* w) {
   FrameResult& fr = w->fr;
   TriangulationResult& tri = w->tri;
   if (SurveyEvidence(fr, tri)) UpdateSurveyEstimate(fr, tri);
-  if (!ProbeSurveyError(fr.predicted_pose, w->held_survey_bound)) return;
+  Pose2 found;
+  if (!ProbeSurveyError(fr.predicted_pose, w->held_survey_bound, &found)) return;
   const Pose2 pred = fr.predicted_pose;
   fr = FrameToMeasure(fr.row, pred);
-  TrackPredictions(pred, &fr, &tri);
+  TrackPredictions(found, &fr, &tri);
   RefineAroundSolution(&fr, &tri);
   w->accepted = Acceptable(fr, tri) && Consistent(&fr, tri) && AgreesWithMotion(&fr, tri) && ConfirmsJump(fr, tri);
   // A held pose is confirmed under the wider error only from within the
@@ -2344,7 +2389,7 @@ void Localizer::FinishFrame(const cv::Mat& grey, int frame, double time_s, std::
   // A relocalised pose has its own evidence: its verification. (A frame
   // tracked from a held one is tried under the statement too: that frame
   // is reported under what this one leaves.)
-  if (accepted && !fr.relocalized && !w->sparse_continues) RetrackUnderStatedSurvey(&fr, &tri);
+  if (accepted && !fr.relocalized && !w->sparse_continues) RetrackUnderStatedSurvey(&fr, &tri, *w->survey_at_begin);
   if (accepted && !fr.relocalized && opt_.survey.check && !errors_.survey.confident())
     RetrackUnderShownSurvey(&fr, &tri);
   fr.triangulation = tri;
@@ -2433,6 +2478,7 @@ const cv::Mat& Localizer::BeginFrame(const cv::Mat& frame_image, int frame, doub
   if (opt_.compass) w->signature = compass_.Signature(grey);
   heading_.compass_heading.reset();
   w->model_pred = track_.last;
+  w->survey_at_begin = LearnedSurvey{errors_.survey, errors_.bearing_sigma};
   return grey;
 }
 

@@ -585,8 +585,10 @@ class Localizer {
   // `pred` under a ladder of larger survey errors: the smallest under which
   // its bearings agree (a consensus of most found, consistent, agreeing
   // with the motion) becomes the provisional survey sigma; no level above
-  // `widest` is tried. True if one did.
-  bool ProbeSurveyError(const Pose2& pred, double widest = std::numeric_limits<double>::infinity());
+  // `widest` is tried. True if one did; `found`: the pose that level was
+  // tracked from (the frame is tracked again from there).
+  bool ProbeSurveyError(const Pose2& pred, double widest = std::numeric_limits<double>::infinity(),
+                        Pose2* found = nullptr);
   // An accepted frame before the survey error is known whose own residuals
   // show a clearly larger one than assumed (1.5x): that error becomes the
   // provisional sigma and the frame is tracked again under it around its
@@ -601,22 +603,25 @@ class Localizer {
   // residuals scatter), or the widest a room-wide search verifies one
   // under (WidestSearchSurveySigma).
   double HeldSurveyBound() const;
+  // The survey and bearing-noise estimates as learned (put aside for the
+  // map's statement alone, a fresh estimate, and put back).
+  struct LearnedSurvey {
+    SurveyErrorEstimate survey;
+    double bearing_sigma;
+  };
   // A tracked frame while a provisional survey sigma well above the map's
   // statement holds (learned on earlier frames by a probe or a search):
   // tracked again under the statement alone (a fresh estimate). Where its
   // bearings agree there as well, the wider error was those frames'
   // images', not the map's: the estimate starts again from the statement
-  // and the frame takes that solution. True if it did.
-  bool RetrackUnderStatedSurvey(FrameResult* fr, TriangulationResult* tri);
+  // and the frame takes that solution. True if it did. Where clearly more
+  // agree there on a pose apart (SurveyErrorOptions::statement_outvotes),
+  // the frame takes that solution too, and the estimates go back to
+  // `at_begin`, as they were before the frame.
+  bool RetrackUnderStatedSurvey(FrameResult* fr, TriangulationResult* tri, const LearnedSurvey& at_begin);
   // Whether a provisional survey sigma beyond StatementBound holds (and
   // the statement is to be tried again).
   bool StatementInDoubt() const;
-  // The survey and bearing-noise estimates put aside for the map's
-  // statement alone (a fresh estimate), and put back.
-  struct LearnedSurvey {
-    SurveyErrorEstimate survey;
-    double bearing_sigma;
-  };
   LearnedSurvey AssumeStatementOnly();
   void RestoreSurvey(const LearnedSurvey& learned);
   // `fr`, solved as `tri`, measured again under the survey error now
@@ -931,6 +936,8 @@ class Localizer {
     // The survey estimate before this frame taught or probed it from a held
     // pose: a pose not confirmed leaves no trace in it.
     std::optional<SurveyErrorEstimate> survey_before_hold;
+    // The survey estimate and bearing noise before this frame taught them.
+    std::optional<LearnedSurvey> survey_at_begin;
     // The widest survey error a held pose is confirmed under (HeldSurveyBound).
     double held_survey_bound = std::numeric_limits<double>::infinity();
     bool after_search = false;  // tracked from a search's pose, the map's error not yet shown

@@ -52,6 +52,19 @@ struct SurveyErrorOptions {
   // a frame that does not agree teaches no survey error that large again.
   // Off: what the first frames showed stays until the residuals forget it.
   bool recheck_statement = true;
+  // ... and where a frame's bearings agree under the statement on clearly
+  // more landmarks than under the error learned, on a pose apart from that
+  // one, the statement's pose is the frame's (a tolerance that wide let a
+  // wrong edge pull the pose off what most bearings agree on), and what the
+  // frame taught the estimate is forgotten. Off: the learned error's pose
+  // stays.
+  bool statement_outvotes = true;
+  // The survey probe (a frame that failed before the error is known, tried
+  // under a ladder of wider errors from its prediction) tries the levels
+  // below the best supported one again from that level's pose: a
+  // prediction off by more than the narrow levels' windows reach agrees
+  // only under a wide level otherwise. Off: from the prediction alone.
+  bool probe_from_consensus = true;
   // ... where that error is also above this fraction of the typical
   // landmark distance (1.5 %: 3 cm at 2 m, beyond a careless tape survey;
   // the probe's two widest levels).
