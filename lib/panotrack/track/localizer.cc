@@ -1232,13 +1232,14 @@ bool Localizer::ProbeSurveyError(const Pose2& pred, double widest, Pose2* found)
     double sigma;
     size_t inliers = 0;  // 0: its bearings did not agree
     Pose2 from;          // ... tracked from there
+    Pose2 solved;        // its solution from the prediction
   };
   std::vector<Level> levels;
   for (double fraction : {0.0025, 0.005, 0.01, 0.02, opt_.survey.max_fraction}) {
     const double level = fraction * errors_.typical_distance;
     if (level <= 1.5 * current || level > widest || (errors_.statement_verified && level > StatementBound()))
       continue;
-    levels.push_back({level, 0, pred});
+    levels.push_back({level, 0, pred, pred});
   }
   // The frame tracked from `from` under `level`: its inliers where they agree.
   const auto agreeing_under = [&](Level* level, const Pose2& from) -> Pose2 {
@@ -1260,8 +1261,7 @@ bool Localizer::ProbeSurveyError(const Pose2& pred, double widest, Pose2* found)
     }
     return tri.pose;
   };
-  std::vector<Pose2> solved;
-  for (Level& level : levels) solved.push_back(agreeing_under(&level, pred));
+  for (Level& level : levels) level.solved = agreeing_under(&level, pred);
   // A prediction off by more than the narrow levels' windows reach (a
   // dropped frame, a sudden turn) agrees only under a wide one, whose
   // tolerance lets wrong edges in: the narrower levels are tried again from
@@ -1270,8 +1270,7 @@ bool Localizer::ProbeSurveyError(const Pose2& pred, double widest, Pose2* found)
   const auto fewer = [](const Level& a, const Level& b) { return a.inliers < b.inliers; };
   const auto best = std::max_element(levels.begin(), levels.end(), fewer);
   if (opt_.survey.probe_from_consensus && best != levels.end() && best->inliers > 0) {
-    const Pose2 consensus = solved[static_cast<size_t>(best - levels.begin())];
-    for (auto level = levels.begin(); level != best; ++level) agreeing_under(&*level, consensus);
+    for (auto level = levels.begin(); level != best; ++level) agreeing_under(&*level, best->solved);
   }
   reloc_.probe_sigma = 0.0;
   const auto most_agreeing = std::max_element(levels.begin(), levels.end(), fewer);
@@ -2389,7 +2388,7 @@ void Localizer::FinishFrame(const cv::Mat& grey, int frame, double time_s, std::
   // A relocalised pose has its own evidence: its verification. (A frame
   // tracked from a held one is tried under the statement too: that frame
   // is reported under what this one leaves.)
-  if (accepted && !fr.relocalized && !w->sparse_continues) RetrackUnderStatedSurvey(&fr, &tri, *w->survey_at_begin);
+  if (accepted && !fr.relocalized && !w->sparse_continues) RetrackUnderStatedSurvey(&fr, &tri, w->survey_at_begin);
   if (accepted && !fr.relocalized && opt_.survey.check && !errors_.survey.confident())
     RetrackUnderShownSurvey(&fr, &tri);
   fr.triangulation = tri;

@@ -937,7 +937,7 @@ class Localizer {
     // pose: a pose not confirmed leaves no trace in it.
     std::optional<SurveyErrorEstimate> survey_before_hold;
     // The survey estimate and bearing noise before this frame taught them.
-    std::optional<LearnedSurvey> survey_at_begin;
+    LearnedSurvey survey_at_begin{};
     // The widest survey error a held pose is confirmed under (HeldSurveyBound).
     double held_survey_bound = std::numeric_limits<double>::infinity();
     bool after_search = false;  // tracked from a search's pose, the map's error not yet shown
