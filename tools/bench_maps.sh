@@ -12,6 +12,8 @@
 # their reported 3-sigma position ellipse (std_x, std_y columns).
 # START=no: no start pose (the case.yaml's initial pose is not given; the
 # first frame is found by the room-wide search).
+# WRONG_LIST=FILE: each wrong frame is appended to FILE as a CSV line
+# (csv, frame, error, Mahalanobis distance, landmarks).
 # Usage: tools/bench_maps.sh [BUILD_DIR] [WORK_DIR]
 #   PRESETS="paper-real fast-turns" SIGMAS="0.5 1 2" SEEDS="1 2 3" STATED="yes no" METHODS="junction vertex"
 #   START=yes|no
@@ -99,7 +101,7 @@ corners = []
 for r in truth.get("rectangles", []):
     corners += [r["from"], r["to"]]
 corners = np.array(corners, float)
-shows, ok, err, dist, inside = 0, 0, [], [], []
+shows, ok, err, dist, inside, maha, frames = 0, 0, [], [], [], [], []
 for r in rows:
     f = int(r["frame"])
     g = gt.get(f)
@@ -118,12 +120,19 @@ for r in rows:
     dist.append(np.mean(np.hypot(corners[:, 0] - gx, corners[:, 1] - gy)))
     sx, sy = float(r.get("std_x") or "nan"), float(r.get("std_y") or "nan")
     inside.append((ex / sx) ** 2 + (ey / sy) ** 2 <= 9 if sx > 0 and sy > 0 else False)
+    maha.append(np.hypot(ex / sx, ey / sy) if sx > 0 and sy > 0 else float("nan"))
+    frames.append((f, int(r["n_landmarks"])))
 err = np.array(err)
 med = np.median(err) if len(err) else 0
 # Also wrong whatever the median: a pose in another place of the room (a
 # run that tracked the room's twin throughout has a median as large).
 dist = np.array(dist)
-wrong = int(np.sum(((err > 0.01 * dist) & (err > 5 * med)) | (err > 0.1 * dist))) if len(err) else 0
+is_wrong = ((err > 0.01 * dist) & (err > 5 * med)) | (err > 0.1 * dist) if len(err) else np.zeros(0, bool)
+wrong = int(np.sum(is_wrong))
+if __import__("os").environ.get("WRONG_LIST"):
+    with open(__import__("os").environ["WRONG_LIST"], "a") as out:
+        for k in np.flatnonzero(is_wrong):
+            out.write(f"{path},{frames[k][0]},{err[k]:.3f},{maha[k]:.2f},{frames[k][1]}\n")
 rms = np.sqrt(np.mean(err ** 2)) if len(err) else float("nan")
 mx = err.max() if len(err) else float("nan")
 fin = 100.0 * np.mean(inside) if inside else float("nan")
