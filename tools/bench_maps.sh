@@ -80,11 +80,11 @@ PY
           "$bin/panoloc" "$video" --calib "$work/$p/calib.yaml" --map "$map" --method "$m" \
             -o "$csv" --force -q ${PANOLOC_FLAGS:-} || true
           "$python" - "$work/$p" "$csv" "$p" "$m" "$s" "$st" "$seed" <<'PY'
-import sys, csv, yaml, numpy as np
+import os, sys, csv, yaml, numpy as np
 folder, path, preset, method, sigma, stated, seed = sys.argv[1:8]
 gt = {int(r["frame"]): r for r in csv.DictReader(open(folder + "/gt.csv"))}
 rows = list(csv.DictReader(open(path)))
-case = yaml.safe_load(open(folder + "/case.yaml")) if __import__("os").path.exists(folder + "/case.yaml") else {}
+case = yaml.safe_load(open(folder + "/case.yaml")) if os.path.exists(folder + "/case.yaml") else {}
 def find(node, key):
     if isinstance(node, dict):
         if key in node:
@@ -96,12 +96,12 @@ def find(node, key):
     return None
 covered = set(find(case, "covered_frames") or [])
 fps = float(case.get("fps", 10.0))
-truth = yaml.safe_load(open(folder + ("/map_true.yaml" if __import__("os").path.exists(folder + "/map_true.yaml") else "/map.yaml")))
+truth = yaml.safe_load(open(folder + ("/map_true.yaml" if os.path.exists(folder + "/map_true.yaml") else "/map.yaml")))
 corners = []
 for r in truth.get("rectangles", []):
     corners += [r["from"], r["to"]]
 corners = np.array(corners, float)
-shows, ok, err, dist, inside, maha, frames = 0, 0, [], [], [], [], []
+shows, ok, err, dist, maha, frames = 0, 0, [], [], [], []
 for r in rows:
     f = int(r["frame"])
     g = gt.get(f)
@@ -119,7 +119,7 @@ for r in rows:
     err.append(np.hypot(ex, ey))
     dist.append(np.mean(np.hypot(corners[:, 0] - gx, corners[:, 1] - gy)))
     sx, sy = float(r.get("std_x") or "nan"), float(r.get("std_y") or "nan")
-    inside.append((ex / sx) ** 2 + (ey / sy) ** 2 <= 9 if sx > 0 and sy > 0 else False)
+    # Distance in standard deviations (NaN without a covariance: outside).
     maha.append(np.hypot(ex / sx, ey / sy) if sx > 0 and sy > 0 else float("nan"))
     frames.append((f, int(r["n_landmarks"])))
 err = np.array(err)
@@ -129,13 +129,13 @@ med = np.median(err) if len(err) else 0
 dist = np.array(dist)
 is_wrong = ((err > 0.01 * dist) & (err > 5 * med)) | (err > 0.1 * dist) if len(err) else np.zeros(0, bool)
 wrong = int(np.sum(is_wrong))
-if __import__("os").environ.get("WRONG_LIST"):
-    with open(__import__("os").environ["WRONG_LIST"], "a") as out:
+if os.environ.get("WRONG_LIST"):
+    with open(os.environ["WRONG_LIST"], "a") as out:
         for k in np.flatnonzero(is_wrong):
             out.write(f"{path},{frames[k][0]},{err[k]:.3f},{maha[k]:.2f},{frames[k][1]}\n")
 rms = np.sqrt(np.mean(err ** 2)) if len(err) else float("nan")
 mx = err.max() if len(err) else float("nan")
-fin = 100.0 * np.mean(inside) if inside else float("nan")
+fin = 100.0 * np.mean(np.array(maha) <= 3) if maha else float("nan")
 print(f"| {preset} | {method} | {sigma} | {stated} | {seed} | {100.0 * ok / max(1, shows):.1f} % ({ok}/{shows}) | "
       f"{rms:.3f} | {mx:.3f} | {wrong} | {fin:.1f} % |", flush=True)
 PY

@@ -86,13 +86,12 @@ totals = collections.OrderedDict()
 for key in a:
     if key not in b:
         continue
-    t = totals.setdefault(key[0], [0] * 8)
+    t = totals.setdefault(key[0], [0] * 9)
     x, y = a[key], b[key]
-    for i, v in enumerate((1, x[0], y[0], x[1], x[2], y[2], x[3], y[3])):
+    for i, v in enumerate((1, x[0], y[0], x[1], x[2], y[2], x[3], y[3], x != y)):
         t[i] += v
-    t.append(x != y)
 for preset, t in totals.items():
-    print(f"| {preset} | {t[0]} | {t[1]} | {t[2]} | {t[3]} | {t[4]} | {t[5]} | {t[6]} | {t[7]} | {sum(t[8:])} |")
+    print("| " + " | ".join([preset] + [str(v) for v in t]) + " |")
 wa, wb = wrong("a"), wrong("b")
 for name, only, other in (("A", wa, wb), ("B", wb, wa)):
     for (csv, frame), (err, maha, n) in sorted(only.items()):
