@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -123,23 +124,35 @@ TEST_CASE("leverages: a bearing's share of its own error that the fit absorbs", 
   }
 }
 
+// No Huber down-weighting, no bearing dropped: the plain weighted least squares.
+TriangulationOptions PlainLeastSquares() {
+  TriangulationOptions o;
+  o.huber = 1.0;
+  o.outlier_threshold = 1.0;
+  return o;
+}
+
+// kLandmarks seen from `truth`, weighted 1, 1.5 and 2 in turn; the last
+// landmark seen at two corners of one edge (one bearing, its weight shared).
+std::vector<BearingObservation> WeightedWithAnEdge(const Pose2& truth) {
+  std::vector<BearingObservation> obs = Observe(truth, kLandmarks);
+  for (size_t i = 0; i < obs.size(); ++i) obs[i].weight = 1.0 + 0.5 * static_cast<double>(i % 3);
+  BearingObservation twin = obs.back();
+  obs.back().weight = twin.weight = 0.5;
+  obs.back().group = twin.group = static_cast<int>(obs.size()) - 1;
+  obs.push_back(twin);
+  return obs;
+}
+
 TEST_CASE("standardized residuals: unit spread under the noise model, the pulling bearing stands out",
           "[leverage]") {
   PANO_SEEDED_RNG(7);
   const Pose2 truth{95, 110, 0.8};
   const double sigma = 0.1 * M_PI / 180;
-  TriangulationOptions exact;
-  exact.huber = 1.0;
-  exact.outlier_threshold = 1.0;
+  const TriangulationOptions exact = PlainLeastSquares();
   std::normal_distribution<double> unit(0.0, 1.0);
-  // Weighted bearings, the last two the corners of one edge (one bearing,
-  // its weight shared): a bearing of weight w has noise sigma / sqrt(w).
-  std::vector<BearingObservation> base = Observe(truth, kLandmarks);
-  for (size_t i = 0; i < base.size(); ++i) base[i].weight = 1.0 + 0.5 * static_cast<double>(i % 3);
-  BearingObservation twin = base.back();
-  base.back().weight = twin.weight = 0.5;
-  base.back().group = twin.group = static_cast<int>(base.size()) - 1;
-  base.push_back(twin);
+  // A bearing of weight w has noise sigma / sqrt(w).
+  const std::vector<BearingObservation> base = WeightedWithAnEdge(truth);
   double sum2 = 0.0;
   int count = 0;
   const int trials = 1000;
@@ -177,6 +190,57 @@ TEST_CASE("standardized residuals: unit spread under the noise model, the pullin
     CHECK(largest == bad);
     CHECK(std::abs(w[bad]) > 3.29);
   }
+}
+
+TEST_CASE("solution separation: the largest shift of leaving one bearing out, as the solver finds it",
+          "[separation]") {
+  PANO_SEEDED_RNG(11);
+  const Pose2 truth{95, 110, 0.8};
+  const double sigma = 0.1 * M_PI / 180;
+  const TriangulationOptions exact = PlainLeastSquares();
+  std::normal_distribution<double> unit(0.0, 1.0);
+  const std::vector<BearingObservation> base = WeightedWithAnEdge(truth);
+  // Each group left out and the pose solved again from the full one.
+  const auto solved_shift = [&](const std::vector<BearingObservation>& obs, const TriangulationResult& fit) {
+    double largest = 0.0;
+    for (int left_out : fit.inliers) {
+      if (BearingGroup(obs, left_out) != left_out) continue;  // a group's first member stands for it
+      std::vector<BearingObservation> rest;
+      for (int i : fit.inliers)
+        if (BearingGroup(obs, i) != left_out) rest.push_back(obs[static_cast<size_t>(i)]);
+      const TriangulationResult refit = Triangulate(rest, fit.pose, exact);
+      REQUIRE(refit.ok);
+      largest = std::max(largest, std::hypot(refit.pose.x - fit.pose.x, refit.pose.y - fit.pose.y));
+    }
+    return largest;
+  };
+  for (int t = 0; t < 20; ++t) {
+    std::vector<BearingObservation> obs = base;
+    for (BearingObservation& o : obs) o.bearing += sigma / std::sqrt(o.weight) * unit(rng);
+    const TriangulationResult fit = Triangulate(obs, truth, exact);
+    REQUIRE(fit.ok);
+    const double separation = SolutionSeparation(obs, fit);
+    // One Gauss-Newton step from a pose that fits to noise is the solve.
+    CHECK(separation == Approx(solved_shift(obs, fit)).epsilon(0.01));
+    CHECK(separation > 0.0);
+  }
+  // Five bearings, one of them 1 degree off: the pose is pulled, and the
+  // separation is at least that pull (leaving the wrong one out undoes it;
+  // leaving a good one out may move the pose farther).
+  std::vector<BearingObservation> five(base.begin(), base.begin() + 5);
+  five[2].bearing += 1.0 * M_PI / 180;
+  const TriangulationResult pulled = Triangulate(five, truth, exact);
+  REQUIRE(pulled.ok);
+  REQUIRE(pulled.inliers.size() == 5);
+  const double pull = std::hypot(pulled.pose.x - truth.x, pulled.pose.y - truth.y);
+  CHECK(pull > 0.5);
+  CHECK(SolutionSeparation(five, pulled) > 0.95 * pull);
+  CHECK(SolutionSeparation(five, pulled) == Approx(solved_shift(five, pulled)).epsilon(0.1));
+  // Three distinct bearings: leaving one out leaves no pose.
+  std::vector<BearingObservation> three(base.begin(), base.begin() + 3);
+  const TriangulationResult exactly = Triangulate(three, truth, exact);
+  REQUIRE(exactly.ok);
+  CHECK(std::isinf(SolutionSeparation(three, exactly)));
 }
 
 TEST_CASE("degenerate geometry: landmarks on one line through the camera", "[degenerate]") {

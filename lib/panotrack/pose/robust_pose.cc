@@ -86,6 +86,36 @@ std::vector<double> StandardizedResiduals(const std::vector<BearingObservation>&
   return out;
 }
 
+double SolutionSeparation(const std::vector<BearingObservation>& obs, const TriangulationResult& tri) {
+  // Per group: its normal matrix and gradient (w J^T r) at tri.pose.
+  struct Group {
+    Eigen::Matrix3d info = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d gradient = Eigen::Vector3d::Zero();
+  };
+  std::map<int, Group> groups;
+  Group all;
+  for (int i : tri.inliers) {
+    const BearingObservation& o = obs[static_cast<size_t>(i)];
+    Eigen::Vector3d j;
+    const double r = BearingResidual(o, tri.pose, &j);
+    Group& g = groups[BearingGroup(obs, i)];
+    g.info += o.weight * j * j.transpose();
+    g.gradient += o.weight * r * j;
+    all.info += o.weight * j * j.transpose();
+    all.gradient += o.weight * r * j;
+  }
+  if (groups.size() < 4) return std::numeric_limits<double>::infinity();
+  double largest = 0.0;
+  for (const auto& [id, g] : groups) {
+    const Eigen::Matrix3d info = all.info - g.info;
+    const Eigen::FullPivLU<Eigen::Matrix3d> lu(info);
+    if (!lu.isInvertible()) return std::numeric_limits<double>::infinity();
+    const Eigen::Vector3d step = -lu.solve(all.gradient - g.gradient);
+    largest = std::max(largest, step.head<2>().norm());
+  }
+  return largest;
+}
+
 // ---------------------------------------------------------------------------
 // Robust consensus loop.
 

@@ -89,6 +89,15 @@ std::vector<double> BearingLeverages(const std::vector<BearingObservation>& obs,
 std::vector<double> StandardizedResiduals(const std::vector<BearingObservation>& obs, const TriangulationResult& tri,
                                           double sigma, double max_leverage = 0.95);
 
+// Solution separation: the largest shift of the position (map units) when
+// one distinct bearing (a group, or a bearing of its own) of tri.inliers is
+// left out, each subset's pose one Gauss-Newton step from tri.pose (weighted,
+// Huber's down-weighting not in it). One wrong bearing among a few pulls the
+// full pose by about the shift its removal undoes, however well the rest
+// absorbs its residual. Infinite where a subset's pose is not determined
+// (fewer than three distinct bearings left, or a degenerate geometry).
+double SolutionSeparation(const std::vector<BearingObservation>& obs, const TriangulationResult& tri);
+
 // ---------------------------------------------------------------------------
 // Robust consensus loop.
 

@@ -2078,8 +2078,12 @@ void Localizer::UpdateSurveyEstimate(const FrameResult& fr, const TriangulationR
 void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, bool accepted, int n_found) {
   PoseRow* row = &fr->row;
   if (accepted) {
+    const bool without_velocity = WithoutVelocity(*fr);
     const std::vector<BearingObservation> obs = Observations(*fr);
     FillReportedRow(fr, obs, tri);
+    // Not reported where one bearing could have pulled it beyond the alert
+    // limit; the track goes on from it as from any accepted pose.
+    if (without_velocity && !SeparationWithinAlertLimit(*fr, tri)) WithholdReport(fr);
     const PoseMeasurement m = MeasurementOf(tri, obs, opt_.gate_position_fraction, opt_.gate_heading_sigma);
     if (!motion_.initialized()) {
       motion_.Reset(MotionClock(row->time_s), tri.pose, m.covariance, motion_options_.max_speed,
@@ -2174,11 +2178,13 @@ std::optional<FrameResult> Localizer::ReportConfirmedHold(const HeldFrame& held)
     double apart = 0.0;
     const bool agrees = AgreesUnderStatement(fr, tri, &again, &solved, &apart) && apart <= kStatementHoldApart &&
                         supported(again, solved);
-    if (agrees) FinishHeldReport(&again, solved);
+    const bool reported = agrees && SeparationWithinAlertLimit(again, solved);
+    if (reported) FinishHeldReport(&again, solved);
     RestoreSurvey(learned);
-    if (!agrees) return std::nullopt;
+    if (!reported) return std::nullopt;
     return again;
   }
+  if (!SeparationWithinAlertLimit(fr, tri)) return std::nullopt;
   FinishHeldReport(&fr, tri);
   return fr;
 }
@@ -2188,6 +2194,46 @@ void Localizer::FinishHeldReport(FrameResult* fr, const TriangulationResult& tri
   fr->triangulation = tri;
   FillReportedRow(fr, Observations(*fr), tri);
   if (view_) fr->row.pose = view_->RobotPose(fr->row.pose);
+}
+
+bool Localizer::WithoutVelocity(const FrameResult& fr) const {
+  return !motion_.initialized() || fr.relocalized || fr.innovation > opt_.gate_chi2 || track_.motion_updates < 2 ||
+         !VelocityStillKnown();
+}
+
+bool Localizer::SeparationWithinAlertLimit(const FrameResult& fr, const TriangulationResult& tri) const {
+  if (!opt_.separation_without_velocity || !(opt_.alert_fraction > 0.0 || opt_.alert_limit > 0.0)) return true;
+  FrameResult checked = fr;
+  Consistent(&checked, tri);
+  const IntegrityReport& in = checked.integrity;
+  return in.protection_level + SolutionSeparation(Observations(checked, IntegritySigma()), tri) <=
+         std::min(in.alert_limit, StatedAlertLimit(checked, tri));
+}
+
+double Localizer::StatedAlertLimit(const FrameResult& fr, const TriangulationResult& tri) const {
+  // Not a survey probe's provisional level, nor the error this frame's own
+  // residuals show: one wrong corner among a few bearings widens both by
+  // as much as it pulls the pose.
+  if (opt_.alert_limit > 0.0 || errors_.survey.confident()) return std::numeric_limits<double>::infinity();
+  const std::vector<BearingObservation> obs = Observations(fr);
+  double stated = 0.0, distance = 0.0;
+  for (int i : tri.inliers) {
+    const BearingObservation& o = obs[static_cast<size_t>(i)];
+    const double sigma = std::isnan(opt_.survey_sigma)
+                             ? fr.predicted[static_cast<size_t>(o.id)].landmark->survey_sigma
+                             : opt_.survey_sigma;
+    if (!(sigma > 0.0)) return std::numeric_limits<double>::infinity();
+    stated += sigma;
+    distance += (o.landmark - Eigen::Vector2d(tri.pose.x, tri.pose.y)).norm();
+  }
+  const double n = static_cast<double>(std::max<size_t>(1, tri.inliers.size()));
+  return opt_.alert_fraction * distance / n + opt_.protection_sigmas * opt_.alert_survey_factor * stated / n;
+}
+
+void Localizer::WithholdReport(FrameResult* fr) const {
+  fr->row.status = PoseStatus::kLost;
+  fr->row.extra.assign(4, std::nan(""));
+  fr->covariance.setZero();
 }
 
 bool Localizer::BeyondAlertLimitOnly(FrameResult* fr, const TriangulationResult& tri) const {

@@ -166,6 +166,16 @@ struct LocalizerOptions {
   // verifies one under: the frame shows nearly the held frame's image,
   // and a wrong pose's misfit would be taken for the map's error.
   bool held_survey_bounded = true;
+  // A pose without a velocity to check it against (a search's held frame,
+  // the frame confirming it, the first frames after a start or a loss) is
+  // reported only where its protection level plus its solution separation
+  // (the largest shift of the position when one distinct bearing is left
+  // out, SolutionSeparation) is within the alert limit, and within the one
+  // the map's stated survey error gives until the residuals have shown the
+  // map's error: on five to seven bearings one wrong corner pulls the pose
+  // centimetres while the rest absorb its residual, and widens the error
+  // its residuals show. Tracking goes on from the pose either way.
+  bool separation_without_velocity = true;
   bool compass = true;            // predict the heading with the visual compass
   double compass_max_rotation = 60.0 * M_PI / 180;  // per frame
   double compass_min_score = 0.5;
@@ -755,6 +765,20 @@ class Localizer {
   // of enough quality, agreeing with the motion, its error bound wider
   // than the accuracy asked for (a weak geometry on a measured map).
   bool BeyondAlertLimitOnly(FrameResult* fr, const TriangulationResult& tri) const;
+  // Whether an accepted frame's pose has no velocity to check it against
+  // (before the motion model takes it): the model not started or started
+  // again by it, one update only, or its velocity lost over a loss.
+  bool WithoutVelocity(const FrameResult& fr) const;
+  // Whether the pose's protection level plus its solution separation is
+  // within its alert limit and StatedAlertLimit (always, where no alert
+  // limit is asked for or separation_without_velocity is off).
+  bool SeparationWithinAlertLimit(const FrameResult& fr, const TriangulationResult& tri) const;
+  // The alert limit under the survey error the map states for the pose's
+  // inliers (infinite where it states none for one of them, the survey
+  // estimate is confident, or the limit is a length the user gave).
+  double StatedAlertLimit(const FrameResult& fr, const TriangulationResult& tri) const;
+  // An accepted frame's row made a lost one: the pose is not reported.
+  void WithholdReport(FrameResult* fr) const;
   // The steps of Process:
   void CheckFrame(const cv::Mat& grey, int frame) const;
   // the motion model's prediction for time t (started at the first frame);
