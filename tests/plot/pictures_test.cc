@@ -226,8 +226,13 @@ TEST_CASE("lost reason: the first test the frame failed, with its numbers", "[lo
   fr.integrity.within_alert_limit = true;
   fr.innovation = 35.2;
   CHECK(LostReason(fr) == "motion gate: innovation 35.2 > 21.1, too few inliers to override");
-  fr.unconfirmed = true;
   fr.triangulation.inliers = {0, 1, 2, 3, 4};
+  fr.withheld = true;
+  CHECK(LostReason(fr) ==
+        "no velocity to check it, and one bearing left out could move it beyond the alert limit (5 inliers; "
+        "tracked on from it)");
+  fr.withheld = false;
+  fr.unconfirmed = true;
   CHECK(LostReason(fr) == "relocalised pose held for the next frame to confirm (5 inliers)");
   FrameResult none;
   none.row.status = PoseStatus::kLost;

@@ -511,6 +511,7 @@ TEST_CASE("office, shutter open the whole frame, compressed, start known: the fi
   CHECK(without.max >= 20.0);
   CHECK(test::InsideThreeSigma(unbounded_rows, r.truth) < 1.0);
   CHECK(separated_rows.front().status != PoseStatus::kOk);
+  CHECK(separated.tracked == 23);
   CHECK(separated.max <= 8.5);
   CHECK(test::InsideThreeSigma(separated_rows, r.truth) == 1.0);
 }
@@ -915,6 +916,7 @@ TEST_CASE("office under real conditions, a 0.5 cm map stating it, no start: the 
   const auto [rows, off_rows, a, off, held, off_held] = Against(r, twenty, false, TrackingMethod::kVertex);
   INFO("30 hypotheses: " << FormatAccuracy(a, "cm") << "; 20: " << FormatAccuracy(off, "cm"));
   CHECK(held.front());
+  CHECK(rows.front().status == PoseStatus::kLost);
   CHECK(rows[1].status == PoseStatus::kOk);
   CHECK(off_rows[1].status != PoseStatus::kOk);
   CHECK(a.tracked == 29);

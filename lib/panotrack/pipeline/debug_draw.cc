@@ -47,6 +47,10 @@ std::string LostReason(const FrameResult& fr, const LocalizerOptions& opt) {
   if (fr.unconfirmed)
     return Printf("relocalised pose held for the next frame to confirm (%d inliers)",
                   static_cast<int>(tri.inliers.size()));
+  if (fr.withheld)
+    return Printf("no velocity to check it, and one bearing left out could move it beyond the alert limit "
+                  "(%d inliers; tracked on from it)",
+                  static_cast<int>(tri.inliers.size()));
   if (fr.predicted.empty()) return "no landmark predicted (no pose to track from, or none in view)";
   if (!tri.ok) return (tri.failure.empty() ? std::string("no pose") : tri.failure) + "; " + FoundSummary(fr);
   const double deg = 180 / M_PI;

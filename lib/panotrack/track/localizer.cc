@@ -2231,6 +2231,7 @@ double Localizer::StatedAlertLimit(const FrameResult& fr, const TriangulationRes
 }
 
 void Localizer::WithholdReport(FrameResult* fr) const {
+  fr->withheld = true;
   fr->row.status = PoseStatus::kLost;
   fr->row.extra.assign(4, std::nan(""));
   fr->covariance.setZero();

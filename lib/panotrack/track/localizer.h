@@ -354,6 +354,10 @@ struct FrameResult {
   bool coarse_to_fine = false;  // tracked azimuths first, then in full around their pose
   bool refined = false;         // measured again around the solved pose (windows or blur off)
   bool unconfirmed = false;     // ... found, but held back for the next frame to confirm
+  // Accepted and tracked from, its row withheld: a pose without a velocity
+  // that one bearing left out could move beyond the alert limit
+  // (LocalizerOptions::separation_without_velocity).
+  bool withheld = false;
   double innovation = -1.0;     // squared Mahalanobis distance from the prediction (-1: none)
   bool after_drop = false;      // the pose agrees with the motion only a frame interval later (AfterDroppedFrame)
   IntegrityReport integrity;    // of the reported pose
