@@ -537,8 +537,11 @@ bool Localizer::PairsWanted() const {
 }
 
 double Localizer::SurveySigma(const Landmark& l) const {
-  return std::max(errors_.survey.Sigma(std::isnan(opt_.survey_sigma) ? l.survey_sigma : opt_.survey_sigma),
-                  reloc_.probe_sigma);
+  return std::max(errors_.survey.Sigma(StatedSurveySigma(l)), reloc_.probe_sigma);
+}
+
+double Localizer::StatedSurveySigma(const Landmark& l) const {
+  return std::isnan(opt_.survey_sigma) ? l.survey_sigma : opt_.survey_sigma;
 }
 
 double Localizer::MeanSurveySigma() const {
@@ -1299,7 +1302,7 @@ Eigen::Matrix3d Localizer::ReportedCovariance(const FrameResult& fr, const std::
     // The corner's reported survey sigma (its statement as SurveySigma
     // takes it, with the estimate's margin where only the estimate
     // decides), never below the one weighed by.
-    const double statement = std::isnan(opt_.survey_sigma) ? l.survey_sigma : opt_.survey_sigma;
+    const double statement = StatedSurveySigma(l);
     const double survey = std::max(SurveySigma(l), errors_.survey.ReportedSigma(statement));
     // The weight without its spread (Observations), over the full variance.
     const double weight = o.weight * o.spread * o.spread;
@@ -2206,22 +2209,20 @@ bool Localizer::SeparationWithinAlertLimit(const FrameResult& fr, const Triangul
   FrameResult checked = fr;
   Consistent(&checked, tri);
   const IntegrityReport& in = checked.integrity;
-  return in.protection_level + SolutionSeparation(Observations(checked, IntegritySigma()), tri) <=
-         std::min(in.alert_limit, StatedAlertLimit(checked, tri));
+  const std::vector<BearingObservation> obs = Observations(checked, IntegritySigma());
+  return in.protection_level + SolutionSeparation(obs, tri) <= std::min(in.alert_limit, StatedAlertLimit(fr, obs, tri));
 }
 
-double Localizer::StatedAlertLimit(const FrameResult& fr, const TriangulationResult& tri) const {
+double Localizer::StatedAlertLimit(const FrameResult& fr, const std::vector<BearingObservation>& obs,
+                                   const TriangulationResult& tri) const {
   // Not a survey probe's provisional level, nor the error this frame's own
   // residuals show: one wrong corner among a few bearings widens both by
   // as much as it pulls the pose.
   if (opt_.alert_limit > 0.0 || errors_.survey.confident()) return std::numeric_limits<double>::infinity();
-  const std::vector<BearingObservation> obs = Observations(fr);
   double stated = 0.0, distance = 0.0;
   for (int i : tri.inliers) {
     const BearingObservation& o = obs[static_cast<size_t>(i)];
-    const double sigma = std::isnan(opt_.survey_sigma)
-                             ? fr.predicted[static_cast<size_t>(o.id)].landmark->survey_sigma
-                             : opt_.survey_sigma;
+    const double sigma = StatedSurveySigma(*fr.predicted[static_cast<size_t>(o.id)].landmark);
     if (!(sigma > 0.0)) return std::numeric_limits<double>::infinity();
     stated += sigma;
     distance += (o.landmark - Eigen::Vector2d(tri.pose.x, tri.pose.y)).norm();

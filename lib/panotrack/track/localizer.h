@@ -574,6 +574,9 @@ class Localizer {
   // The survey sigma of a landmark's corner now (map units), and the mean
   // over the map's landmarks.
   double SurveySigma(const Landmark& l) const;
+  // The survey error stated for `l`: the option's, else the map's for it
+  // (NaN: none stated).
+  double StatedSurveySigma(const Landmark& l) const;
   double MeanSurveySigma() const;
   double LargestSurveySigma() const;
   // Landmarks to track per frame (0: all): max_landmarks, or more where
@@ -780,7 +783,8 @@ class Localizer {
   // The alert limit under the survey error the map states for the pose's
   // inliers (infinite where it states none for one of them, the survey
   // estimate is confident, or the limit is a length the user gave).
-  double StatedAlertLimit(const FrameResult& fr, const TriangulationResult& tri) const;
+  double StatedAlertLimit(const FrameResult& fr, const std::vector<BearingObservation>& obs,
+                          const TriangulationResult& tri) const;
   // An accepted frame's row made a lost one: the pose is not reported.
   void WithholdReport(FrameResult* fr) const;
   // The steps of Process:
