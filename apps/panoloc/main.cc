@@ -201,6 +201,11 @@ void AddTrackingOptions(CLI::App* app, CommandLine* c) {
       ->check(CLI::NonNegativeNumber)
       ->default_str("the map's")
       ->group(kTracking);
+  app->add_flag("--frame-poses-only{false}", c->o.localizer.report_fused_with_motion,
+               "Report each frame's pose from its own image alone; by default a pose tracked with a known "
+               "velocity is reported fused with the motion's prediction for its frame, each weighed by its "
+               "covariance")
+      ->group(kTracking);
 }
 
 void AddRunOptions(CLI::App* app, CommandLine* c) {

@@ -5,7 +5,11 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
+#include <Eigen/LU>
 #include <cmath>
+#include <limits>
+#include <optional>
+#include <random>
 
 #include "panotrack/core/angles.h"
 #include "panotrack/core/error.h"
@@ -269,6 +273,61 @@ TEST_CASE("motion model: gating rejects a 70 cm jump under a tight covariance", 
   CHECK(model.pose().x == Approx(1.005).epsilon(1e-12));
   CHECK(std::abs(model.pose().theta) == Approx(M_PI).epsilon(1e-12));
   CHECK(model.step().pose_measured);
+}
+
+TEST_CASE("motion model: a pose fused with a state equals the information-weighted mean", "[motion_model]") {
+  // The Kalman update of the pose alone against its information form:
+  // (R^-1 + P^-1)^-1 (R^-1 z + P^-1 x), on random covariances and poses.
+  PANO_SEEDED_RNG(23);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  const auto random_covariance = [&] {
+    Eigen::Matrix3d a;
+    for (int k = 0; k < 9; ++k) a(k / 3, k % 3) = normal(rng);
+    return Eigen::Matrix3d(a * a.transpose() + 0.1 * Eigen::Matrix3d::Identity());
+  };
+  for (int draw = 0; draw < 20; ++draw) {
+    PoseMeasurement measured;
+    measured.covariance = random_covariance();
+    measured.pose = {normal(rng), normal(rng), 0.3 * normal(rng)};
+    MotionState state;
+    state.covariance.topLeftCorner<3, 3>() = random_covariance();
+    state.mean.head<3>() << measured.pose.x + 0.5 * normal(rng), measured.pose.y + 0.5 * normal(rng),
+        measured.pose.theta + 0.1 * normal(rng);
+    const std::optional<PoseMeasurement> fused = FuseWithState(measured, state, 1e9);
+    REQUIRE(fused);
+    const Eigen::Matrix3d r_inv = measured.covariance.inverse();
+    const Eigen::Matrix3d p_inv = state.pose_covariance().inverse();
+    const Eigen::Matrix3d expected_cov = (r_inv + p_inv).inverse();
+    const Eigen::Vector3d z(measured.pose.x, measured.pose.y, measured.pose.theta);
+    const Eigen::Vector3d expected = expected_cov * (r_inv * z + p_inv * state.mean.head<3>());
+    const double tol = 1e3 * std::numeric_limits<double>::epsilon();
+    CHECK((Eigen::Vector3d(fused->pose.x, fused->pose.y, fused->pose.theta) - expected).norm() < tol);
+    CHECK((fused->covariance - expected_cov).norm() < tol);
+  }
+}
+
+TEST_CASE("motion model: fusing a pose wraps the heading and gates a disagreement", "[motion_model]") {
+  PoseMeasurement measured;
+  measured.pose = {0.0, 0.0, M_PI - 0.01};
+  measured.covariance = Eigen::Matrix3d::Identity() * 0.01;
+  MotionState state;
+  state.mean.head<3>() << 0.0, 0.0, -M_PI + 0.01;
+  state.covariance.topLeftCorner<3, 3>() = Eigen::Matrix3d::Identity() * 0.01;
+  // Equal weights: halfway across the wrap, at pi.
+  const std::optional<PoseMeasurement> fused = FuseWithState(measured, state, kGateChiSquare3Dof99);
+  REQUIRE(fused);
+  CHECK(std::abs(WrapAngle(fused->pose.theta - M_PI)) < 1e-12);
+  CHECK(fused->covariance(2, 2) == Approx(0.005));
+  // A state 0.5 away in x under 0.1 + 0.1 standard deviations: a squared
+  // distance of 12.5, beyond the 99 % gate of three degrees of freedom (11.3).
+  state.mean(0) = 0.5;
+  CHECK_FALSE(FuseWithState(measured, state, kGateChiSquare3Dof99));
+  state.mean(0) = 0.45;  // 10.1: within it
+  CHECK(FuseWithState(measured, state, kGateChiSquare3Dof99));
+  // A singular sum of covariances fuses nothing.
+  measured.covariance.setZero();
+  state.covariance.setZero();
+  CHECK_FALSE(FuseWithState(measured, state, kGateChiSquare3Dof99));
 }
 
 TEST_CASE("motion model: a dropped frame widens the prediction exactly as two steps do", "[motion_model]") {

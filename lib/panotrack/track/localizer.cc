@@ -100,6 +100,11 @@ namespace {
 // The image noise a reported covariance holds, in units of the recent
 // noise (ReportedCovariance).
 constexpr double kReportedNoiseMargin = 1.5;
+// A pose is reported fused with the motion model's prediction at its own
+// covariance only after this many updates in a row whose time was not in
+// doubt (FuseReportWithMotion): the velocity after a frame that may follow
+// a dropped one is off for a frame or two.
+constexpr int kSteadyUpdatesBeforeFusing = 2;
 // The survey-error probe's choice: the smallest level whose bearings agree
 // with at least this fraction of the inliers of the level most agree under.
 constexpr double kProbeSaturation = 0.9;
@@ -285,6 +290,7 @@ void Localizer::Reset(const Pose2& robot_initial, bool hint) {
   errors_.residual_frame.assign(landmarks_.size(), -2);
   UpdateLandmarkBudget();
   track_.motion_updates = 0;
+  track_.steady_updates = 0;
   track_.frame_pose = initial;
   ForgetCompassHistory();
   shades_.polarity.assign(landmarks_.size(), LandmarkPolarity{});
@@ -1918,6 +1924,7 @@ void Localizer::HoldForConfirmation(const Pose2& pose, int frame, bool jump) {
   track_.ever_tracked = false;
   motion_ = MotionModel(motion_options_);
   track_.motion_updates = 0;
+  track_.steady_updates = 0;
   track_.n_good = 0;
   track_.n_lost = 0;  // the confirming frame searches as narrowly as a tracked one
   // The compass starts its record again but keeps the held frame's
@@ -1943,6 +1950,7 @@ void Localizer::KeepMotion(MotionModel&& before, int updates, const FrameResult&
   motion_ = std::move(before);
   motion_.Update(MotionMeasurement(fr, tri));
   track_.motion_updates = updates + 1;
+  track_.steady_updates = 0;
 }
 
 void Localizer::FollowSparseLead(MotionModel&& lead_motion, int lead_updates, const FrameResult& fr,
@@ -1953,6 +1961,7 @@ void Localizer::FollowSparseLead(MotionModel&& lead_motion, int lead_updates, co
   motion_.Reset(MotionClock(fr.row.time_s), tri.pose, MotionMeasurement(fr, tri).covariance,
                 motion_options_.max_speed, motion_options_.max_turn_rate);
   track_.motion_updates = 1;
+  track_.steady_updates = 0;
 }
 
 void Localizer::UpdateBlurEstimate(const FrameResult& fr) {
@@ -2078,8 +2087,26 @@ void Localizer::UpdateSurveyEstimate(const FrameResult& fr, const TriangulationR
   UpdateLandmarkBudget();
 }
 
+namespace {
+
+// The measured pose's step toward a motion state, heading wrapped.
+Eigen::Vector3d TowardState(const Pose2& measured, const MotionState& state) {
+  return {state.mean(0) - measured.x, state.mean(1) - measured.y, WrapAngle(state.mean(2) - measured.theta)};
+}
+
+// Squared Mahalanobis distance between a pose of covariance `measured` and
+// a motion state's pose.
+double PoseInnovation(const Pose2& pose, const Eigen::Matrix3d& measured, const MotionState& state) {
+  const Eigen::Vector3d d = TowardState(pose, state);
+  return d.dot((measured + state.pose_covariance()).ldlt().solve(d));
+}
+
+}  // namespace
+
 void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, bool accepted, int n_found) {
   PoseRow* row = &fr->row;
+  const int steady = track_.steady_updates;
+  track_.steady_updates = 0;
   if (accepted) {
     const bool without_velocity = WithoutVelocity(*fr);
     const std::vector<BearingObservation> obs = Observations(*fr);
@@ -2102,8 +2129,17 @@ void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, b
         motion_ = *AfterDroppedFrame();
         track_.dropped_s += track_.last_dt;
       }
+      const MotionState prior = motion_.state();
+      std::optional<MotionState> one_frame_later;
+      if (const std::optional<MotionModel> later = AfterDroppedFrame()) one_frame_later = later->state();
       motion_.Update(m);
       ++track_.motion_updates;
+      // A frame whose time is in doubt (it may follow a dropped frame)
+      // leaves the velocity in doubt for the next frames too.
+      const bool on_time = FitsItsOwnTime(*fr, tri, prior, one_frame_later);
+      if (!without_velocity && !fr->withheld)
+        FuseReportWithMotion(fr, prior, one_frame_later, on_time && steady >= kSteadyUpdatesBeforeFusing);
+      track_.steady_updates = on_time ? steady + 1 : 0;
     }
     track_.frame_pose = tri.pose;
     track_.motion_stepped = true;
@@ -2141,6 +2177,34 @@ void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, b
   track_.frame_pose = fr->predicted_pose;
   track_.n_good = 0;
   ++track_.n_lost;
+}
+
+bool Localizer::FitsItsOwnTime(const FrameResult& fr, const TriangulationResult& tri, const MotionState& prior,
+                               const std::optional<MotionState>& one_frame_later) const {
+  if (fr.after_drop) return false;
+  if (!one_frame_later) return true;
+  const Eigen::Matrix3d measured = MotionMeasurement(fr, tri).covariance;
+  return PoseInnovation(tri.pose, measured, prior) <= PoseInnovation(tri.pose, measured, *one_frame_later);
+}
+
+void Localizer::FuseReportWithMotion(FrameResult* fr, const MotionState& prior,
+                                     const std::optional<MotionState>& one_frame_later, bool time_settled) const {
+  if (!opt_.report_fused_with_motion) return;
+  // Where the frame's time, or the velocity after one in doubt, may be a
+  // frame interval off, the prediction is no better than that step along it.
+  MotionState widened = prior;
+  if (!time_settled && one_frame_later) {
+    const Eigen::Vector3d slip = TowardState(prior.pose(), *one_frame_later);
+    widened.covariance.topLeftCorner<3, 3>() += slip * slip.transpose();
+  }
+  PoseMeasurement measured;
+  measured.pose = fr->row.pose;
+  measured.covariance = fr->covariance;
+  const std::optional<PoseMeasurement> fused = FuseWithState(measured, widened, kGateChiSquare3Dof99);
+  if (!fused) return;
+  fr->row.pose = fused->pose;
+  fr->covariance = fused->covariance;
+  for (int k = 0; k < 3; ++k) fr->row.extra[static_cast<size_t>(k)] = std::sqrt(std::max(0.0, fr->covariance(k, k)));
 }
 
 void Localizer::FillReportedRow(FrameResult* fr, const std::vector<BearingObservation>& obs,

@@ -176,6 +176,15 @@ struct LocalizerOptions {
   // centimetres while the rest absorb its residual, and widens the error
   // its residuals show. Tracking goes on from the pose either way.
   bool separation_without_velocity = true;
+  // A pose tracked with a known velocity is reported fused with the motion
+  // model's prediction for its frame, each weighed by its covariance (the
+  // reported covariance is the fused one): a blurred frame's few bearings
+  // are weighed against the motion the frames before it showed. Only where
+  // the two agree; where the frame's time is in doubt, and for two frames
+  // after (a dropped frame puts the prediction a step behind), the
+  // prediction counts no better than that step. Tracking itself goes on
+  // from the frame's own pose.
+  bool report_fused_with_motion = true;
   bool compass = true;            // predict the heading with the visual compass
   double compass_max_rotation = 60.0 * M_PI / 180;  // per frame
   double compass_min_score = 0.5;
@@ -933,6 +942,18 @@ class Localizer {
   // and integrity quality (`obs`: the frame's Observations).
   void FillReportedRow(FrameResult* fr, const std::vector<BearingObservation>& obs,
                        const TriangulationResult& tri) const;
+  // Whether a tracked frame's pose fits the motion model's prediction
+  // for its time (`prior`) at least as well as the one a frame interval
+  // later (`one_frame_later`, where a dropped frame is possible): else its
+  // time, and the velocity after it, are in doubt.
+  bool FitsItsOwnTime(const FrameResult& fr, const TriangulationResult& tri, const MotionState& prior,
+                      const std::optional<MotionState>& one_frame_later) const;
+  // The reported pose and covariance fused with the motion model's
+  // prediction for the frame (LocalizerOptions::report_fused_with_motion),
+  // where the two agree under their covariances. Unless `time_settled`,
+  // the prediction's spread holds the step to `one_frame_later` too.
+  void FuseReportWithMotion(FrameResult* fr, const MotionState& prior, const std::optional<MotionState>& one_frame_later,
+                            bool time_settled) const;
   // A frame held for confirmation: its image (as tracked), row, pose and
   // the pose's covariance as it would be reported; whether it was held as a
   // sparse lead's frame (confirmed on a sparse lead's support).
@@ -1052,6 +1073,7 @@ class Localizer {
     double dropped_s = 0.0;
     int frame_intervals = 1;  // since the previous frame (2 once the frame is taken to follow a dropped one)
     int motion_updates = 0;       // poses fused since the motion model (re)started
+    int steady_updates = 0;       // ... of them, the last in a row whose time was not in doubt (FitsItsOwnTime)
     bool motion_stepped = false;  // the motion model took a step at this frame
     int frame = -1;               // the frame being processed
     double time_s = 0.0;          // ... and its time

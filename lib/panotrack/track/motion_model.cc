@@ -2,6 +2,7 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
+#include <Eigen/LU>
 #include <cmath>
 #include <string>
 
@@ -9,6 +10,21 @@
 #include "panotrack/core/error.h"
 
 namespace pano {
+
+std::optional<PoseMeasurement> FuseWithState(const PoseMeasurement& measured, const MotionState& state, double gate) {
+  const Pose2& z = measured.pose;
+  const Eigen::Vector3d toward(state.mean(0) - z.x, state.mean(1) - z.y, WrapAngle(state.mean(2) - z.theta));
+  const Eigen::FullPivLU<Eigen::Matrix3d> spread(measured.covariance + state.pose_covariance());
+  if (!spread.isInvertible()) return std::nullopt;
+  if (!(toward.dot(spread.solve(toward)) <= gate)) return std::nullopt;
+  const Eigen::Matrix3d gain = measured.covariance * spread.inverse();
+  const Eigen::Vector3d step = gain * toward;
+  PoseMeasurement fused;
+  fused.pose = Pose2{z.x + step(0), z.y + step(1), WrapAngle(z.theta + step(2))};
+  const Eigen::Matrix3d covariance = measured.covariance - gain * measured.covariance;
+  fused.covariance = 0.5 * (covariance + covariance.transpose());
+  return fused;
+}
 
 namespace {
 

@@ -14,6 +14,7 @@
 
 #include <Eigen/Core>
 #include <deque>
+#include <optional>
 #include <vector>
 
 #include "panotrack/pose/odometry_increment.h"
@@ -91,6 +92,13 @@ struct MotionStep {
   bool pose_measured = false;
   bool heading_measured = false;
 };
+
+// A measured pose fused with a motion state's pose, each weighed by its
+// covariance (the heading difference wrapped): the Kalman update of the
+// pose alone. None where the two disagree: their difference's squared
+// Mahalanobis distance under the sum of the covariances exceeds `gate`
+// (e.g. kGateChiSquare3Dof99), or that sum is singular.
+std::optional<PoseMeasurement> FuseWithState(const PoseMeasurement& measured, const MotionState& state, double gate);
 
 // The process models and their Jacobians with respect to the state.
 // Constant velocity over dt.
