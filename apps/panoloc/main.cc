@@ -201,7 +201,7 @@ void AddTrackingOptions(CLI::App* app, CommandLine* c) {
       ->check(CLI::NonNegativeNumber)
       ->default_str("the map's")
       ->group(kTracking);
-  app->add_flag("--frame-poses-only{false}", c->o.localizer.report_fused_with_motion,
+  app->add_flag_callback("--frame-poses-only", [c] { c->o.localizer.report_fused_with_motion = false; },
                "Report each frame's pose from its own image alone; by default a pose tracked with a known "
                "velocity is reported fused with the motion's prediction for its frame, each weighed by its "
                "covariance")
