@@ -267,6 +267,9 @@ TEST_CASE("motion model: gating rejects a 70 cm jump under a tight covariance", 
   CHECK(model.Innovation(near) == Approx(2.5).epsilon(1e-9));
   CHECK(model.Innovation(near) < kGateChiSquare3Dof99);
   CHECK(model.HeadingInnovation(-M_PI + 0.01, 0.01) == Approx(0.02 * 0.02 / 2e-4).epsilon(1e-9));
+  // The free function on the model's state gives the model's own distance.
+  CHECK(PoseInnovation(near.pose, near.covariance, model.state()) == Approx(model.Innovation(near)).epsilon(1e-12));
+  CHECK(PoseInnovation(jump.pose, jump.covariance, model.state()) == Approx(2450.0).epsilon(1e-12));
   // Innovation does not change the state; Update does.
   CHECK(model.pose().x == 1.0);
   model.Update(near);
@@ -324,6 +327,9 @@ TEST_CASE("motion model: fusing a pose wraps the heading and gates a disagreemen
   CHECK_FALSE(FuseWithState(measured, state, kGateChiSquare3Dof99));
   state.mean(0) = 0.45;  // 10.1: within it
   CHECK(FuseWithState(measured, state, kGateChiSquare3Dof99));
+  // The same distance, the heading's step taken across the wrap (0.02).
+  CHECK(StepTowardState(measured.pose, state)(2) == Approx(0.02));
+  CHECK(PoseInnovation(measured.pose, measured.covariance, state) == Approx(0.45 * 0.45 / 0.02 + 0.02 * 0.02 / 0.02));
   // A singular sum of covariances fuses nothing.
   measured.covariance.setZero();
   state.covariance.setZero();

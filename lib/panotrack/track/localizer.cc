@@ -2087,22 +2087,6 @@ void Localizer::UpdateSurveyEstimate(const FrameResult& fr, const TriangulationR
   UpdateLandmarkBudget();
 }
 
-namespace {
-
-// The measured pose's step toward a motion state, heading wrapped.
-Eigen::Vector3d TowardState(const Pose2& measured, const MotionState& state) {
-  return {state.mean(0) - measured.x, state.mean(1) - measured.y, WrapAngle(state.mean(2) - measured.theta)};
-}
-
-// Squared Mahalanobis distance between a pose of covariance `measured` and
-// a motion state's pose.
-double PoseInnovation(const Pose2& pose, const Eigen::Matrix3d& measured, const MotionState& state) {
-  const Eigen::Vector3d d = TowardState(pose, state);
-  return d.dot((measured + state.pose_covariance()).ldlt().solve(d));
-}
-
-}  // namespace
-
 void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, bool accepted, int n_found) {
   PoseRow* row = &fr->row;
   const int steady = track_.steady_updates;
@@ -2194,7 +2178,7 @@ void Localizer::FuseReportWithMotion(FrameResult* fr, const MotionState& prior,
   // frame interval off, the prediction is no better than that step along it.
   MotionState widened = prior;
   if (!time_settled && one_frame_later) {
-    const Eigen::Vector3d slip = TowardState(prior.pose(), *one_frame_later);
+    const Eigen::Vector3d slip = StepTowardState(prior.pose(), *one_frame_later);
     widened.covariance.topLeftCorner<3, 3>() += slip * slip.transpose();
   }
   PoseMeasurement measured;

@@ -11,9 +11,18 @@
 
 namespace pano {
 
+Eigen::Vector3d StepTowardState(const Pose2& pose, const MotionState& state) {
+  return {state.mean(0) - pose.x, state.mean(1) - pose.y, WrapAngle(state.mean(2) - pose.theta)};
+}
+
+double PoseInnovation(const Pose2& pose, const Eigen::Matrix3d& covariance, const MotionState& state) {
+  const Eigen::Vector3d d = StepTowardState(pose, state);
+  return d.dot((covariance + state.pose_covariance()).ldlt().solve(d));
+}
+
 std::optional<PoseMeasurement> FuseWithState(const PoseMeasurement& measured, const MotionState& state, double gate) {
   const Pose2& z = measured.pose;
-  const Eigen::Vector3d toward(state.mean(0) - z.x, state.mean(1) - z.y, WrapAngle(state.mean(2) - z.theta));
+  const Eigen::Vector3d toward = StepTowardState(z, state);
   const Eigen::FullPivLU<Eigen::Matrix3d> spread(measured.covariance + state.pose_covariance());
   if (!spread.isInvertible()) return std::nullopt;
   if (!(toward.dot(spread.solve(toward)) <= gate)) return std::nullopt;

@@ -93,6 +93,14 @@ struct MotionStep {
   bool heading_measured = false;
 };
 
+// The step from a pose to a motion state's pose, the heading difference
+// wrapped to (-pi, pi].
+Eigen::Vector3d StepTowardState(const Pose2& pose, const MotionState& state);
+
+// The squared Mahalanobis distance between a pose of covariance
+// `covariance` and a motion state's pose (under the sum of the two).
+double PoseInnovation(const Pose2& pose, const Eigen::Matrix3d& covariance, const MotionState& state);
+
 // A measured pose fused with a motion state's pose, each weighed by its
 // covariance (the heading difference wrapped): the Kalman update of the
 // pose alone. None where the two disagree: their difference's squared
