@@ -9,7 +9,12 @@
 # tracked (of those that show the room), position RMS, the frames reported
 # ok further off than 1 % of the mean landmark distance and 5x the median
 # error, or than 10 % of it ("wrong"), and the fraction of ok frames inside
-# their reported 3-sigma position ellipse (std_x, std_y columns).
+# their reported 3-sigma position ellipse (std_x, std_y columns). "limit" is
+# what the map itself allows: the position RMS of poses solved by least
+# squares on the map as measured from noise-free bearings to every
+# rectangle's vertical edges, seen from each true pose (each bearing weighed
+# by its distance squared, as a survey error's effect on it falls with
+# distance); "x limit" is RMS / limit.
 # START=no: no start pose (the case.yaml's initial pose is not given; the
 # first frame is found by the room-wide search).
 # WRONG_LIST=FILE: each wrong frame is appended to FILE as a CSV line
@@ -35,8 +40,8 @@ start=${START:-yes}
 python=/usr/bin/python3
 [ -x "$python" ] || python=python3
 
-echo "| preset | method | map sigma | stated | seed | tracked | RMS | max | wrong | inside 3 sigma |"
-echo "|---|---|---:|---|---:|---:|---:|---:|---:|---:|"
+echo "| preset | method | map sigma | stated | seed | tracked | RMS | limit | x limit | max | wrong | inside 3 sigma |"
+echo "|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|"
 for p in $presets; do
   [[ -f $work/$p/video.mp4 ]] || "$bin/panosim" sequence --preset "$p" -o "$work/$p" --force --quiet
   video="$work/$p/video.mp4"
@@ -79,9 +84,9 @@ PY
           csv="$work/$p/$m-s$s-$seed-$st-start-$start.csv"
           "$bin/panoloc" "$video" --calib "$work/$p/calib.yaml" --map "$map" --method "$m" \
             -o "$csv" --force -q ${PANOLOC_FLAGS:-} || true
-          "$python" - "$work/$p" "$csv" "$p" "$m" "$s" "$st" "$seed" <<'PY'
+          "$python" - "$work/$p" "$csv" "$p" "$m" "$s" "$st" "$seed" "$map" <<'PY'
 import os, sys, csv, yaml, numpy as np
-folder, path, preset, method, sigma, stated, seed = sys.argv[1:8]
+folder, path, preset, method, sigma, stated, seed, measured_map = sys.argv[1:9]
 gt = {int(r["frame"]): r for r in csv.DictReader(open(folder + "/gt.csv"))}
 rows = list(csv.DictReader(open(path)))
 case = yaml.safe_load(open(folder + "/case.yaml")) if os.path.exists(folder + "/case.yaml") else {}
@@ -101,6 +106,25 @@ corners = []
 for r in truth.get("rectangles", []):
     corners += [r["from"], r["to"]]
 corners = np.array(corners, float)
+measured = np.array([p for r in yaml.safe_load(open(measured_map)).get("rectangles", []) for p in (r["from"], r["to"])], float)
+def wrap(a):
+    return (a + np.pi) % (2 * np.pi) - np.pi
+def ideal_error(x, y, theta):
+    """Position error of the pose solved on the measured map from the true, noise-free bearings of every edge."""
+    d = corners - (x, y)
+    azimuth = np.arctan2(d[:, 1], d[:, 0]) - theta
+    pose = np.array([x, y, theta])
+    for _ in range(20):  # Gauss-Newton from the true pose
+        v = measured - pose[:2]
+        r2 = np.sum(v * v, axis=1)
+        residual = wrap(np.arctan2(v[:, 1], v[:, 0]) - pose[2] - azimuth)
+        jac = np.c_[v[:, 1] / r2, -v[:, 0] / r2, -np.ones(len(r2))]
+        step = np.linalg.solve(jac.T @ (r2[:, None] * jac), -jac.T @ (r2 * residual))
+        pose += step
+        if np.abs(step).max() < 1e-12:
+            break
+    return np.hypot(pose[0] - x, pose[1] - y)
+ideal = []
 shows, ok, err, dist, maha, frames = 0, 0, [], [], [], []
 for r in rows:
     f = int(r["frame"])
@@ -111,6 +135,7 @@ for r in rows:
     if round(float(g["time_s"]) * fps) in covered:
         continue
     shows += 1
+    ideal.append(ideal_error(float(g["x"]), float(g["y"]), float(g["theta_rad"])))
     if r["status"] != "ok":
         continue
     ok += 1
@@ -136,8 +161,10 @@ if os.environ.get("WRONG_LIST"):
 rms = np.sqrt(np.mean(err ** 2)) if len(err) else float("nan")
 mx = err.max() if len(err) else float("nan")
 fin = 100.0 * np.mean(np.array(maha) <= 3) if maha else float("nan")
+limit = np.sqrt(np.mean(np.square(ideal))) if ideal else float("nan")
+times = f"{rms / limit:.2f}" if limit > 0 else "-"
 print(f"| {preset} | {method} | {sigma} | {stated} | {seed} | {100.0 * ok / max(1, shows):.1f} % ({ok}/{shows}) | "
-      f"{rms:.3f} | {mx:.3f} | {wrong} | {fin:.1f} % |", flush=True)
+      f"{rms:.3f} | {limit:.3f} | {times} | {mx:.3f} | {wrong} | {fin:.1f} % |", flush=True)
 PY
         done
       done
