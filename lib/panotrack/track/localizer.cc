@@ -2118,12 +2118,14 @@ void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, b
       if (const std::optional<MotionModel> later = AfterDroppedFrame()) one_frame_later = later->state();
       motion_.Update(m);
       ++track_.motion_updates;
-      // A frame whose time is in doubt (it may follow a dropped frame)
-      // leaves the velocity in doubt for the next frames too.
-      const bool on_time = FitsItsOwnTime(*fr, tri, prior, one_frame_later);
-      if (!without_velocity && !fr->withheld)
-        FuseReportWithMotion(fr, prior, one_frame_later, on_time && steady >= kSteadyUpdatesBeforeFusing);
-      track_.steady_updates = on_time ? steady + 1 : 0;
+      if (opt_.report_fused_with_motion) {
+        // A frame whose time is in doubt (it may follow a dropped frame)
+        // leaves the velocity in doubt for the next frames too.
+        const bool on_time = FitsItsOwnTime(*fr, tri.pose, m.covariance, prior, one_frame_later);
+        if (!without_velocity && !fr->withheld)
+          FuseReportWithMotion(fr, prior, one_frame_later, on_time && steady >= kSteadyUpdatesBeforeFusing);
+        track_.steady_updates = on_time ? steady + 1 : 0;
+      }
     }
     track_.frame_pose = tri.pose;
     track_.motion_stepped = true;
@@ -2163,17 +2165,15 @@ void Localizer::RecordOutcome(FrameResult* fr, const TriangulationResult& tri, b
   ++track_.n_lost;
 }
 
-bool Localizer::FitsItsOwnTime(const FrameResult& fr, const TriangulationResult& tri, const MotionState& prior,
-                               const std::optional<MotionState>& one_frame_later) const {
+bool Localizer::FitsItsOwnTime(const FrameResult& fr, const Pose2& pose, const Eigen::Matrix3d& covariance,
+                               const MotionState& prior, const std::optional<MotionState>& one_frame_later) const {
   if (fr.after_drop) return false;
   if (!one_frame_later) return true;
-  const Eigen::Matrix3d measured = MotionMeasurement(fr, tri).covariance;
-  return PoseInnovation(tri.pose, measured, prior) <= PoseInnovation(tri.pose, measured, *one_frame_later);
+  return PoseInnovation(pose, covariance, prior) <= PoseInnovation(pose, covariance, *one_frame_later);
 }
 
 void Localizer::FuseReportWithMotion(FrameResult* fr, const MotionState& prior,
                                      const std::optional<MotionState>& one_frame_later, bool time_settled) const {
-  if (!opt_.report_fused_with_motion) return;
   // Where the frame's time, or the velocity after one in doubt, may be a
   // frame interval off, the prediction is no better than that step along it.
   MotionState widened = prior;

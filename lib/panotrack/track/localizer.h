@@ -942,14 +942,15 @@ class Localizer {
   // and integrity quality (`obs`: the frame's Observations).
   void FillReportedRow(FrameResult* fr, const std::vector<BearingObservation>& obs,
                        const TriangulationResult& tri) const;
-  // Whether a tracked frame's pose fits the motion model's prediction
-  // for its time (`prior`) at least as well as the one a frame interval
-  // later (`one_frame_later`, where a dropped frame is possible): else its
-  // time, and the velocity after it, are in doubt.
-  bool FitsItsOwnTime(const FrameResult& fr, const TriangulationResult& tri, const MotionState& prior,
-                      const std::optional<MotionState>& one_frame_later) const;
+  // Whether a tracked frame's pose (of the motion model's measurement
+  // `covariance`) fits the prediction for its time (`prior`) at least as
+  // well as the one a frame interval later (`one_frame_later`, where a
+  // dropped frame is possible): else its time, and the velocity after it,
+  // are in doubt.
+  bool FitsItsOwnTime(const FrameResult& fr, const Pose2& pose, const Eigen::Matrix3d& covariance,
+                      const MotionState& prior, const std::optional<MotionState>& one_frame_later) const;
   // The reported pose and covariance fused with the motion model's
-  // prediction for the frame (LocalizerOptions::report_fused_with_motion),
+  // prediction for the frame (with LocalizerOptions::report_fused_with_motion),
   // where the two agree under their covariances. Unless `time_settled`,
   // the prediction's spread holds the step to `one_frame_later` too.
   void FuseReportWithMotion(FrameResult* fr, const MotionState& prior, const std::optional<MotionState>& one_frame_later,
@@ -1073,7 +1074,7 @@ class Localizer {
     double dropped_s = 0.0;
     int frame_intervals = 1;  // since the previous frame (2 once the frame is taken to follow a dropped one)
     int motion_updates = 0;       // poses fused since the motion model (re)started
-    int steady_updates = 0;       // ... of them, the last in a row whose time was not in doubt (FitsItsOwnTime)
+    int steady_updates = 0;       // ... of them, the last in a row whose time was not in doubt (FitsItsOwnTime; counted while fusing reports)
     bool motion_stepped = false;  // the motion model took a step at this frame
     int frame = -1;               // the frame being processed
     double time_s = 0.0;          // ... and its time
